@@ -1,0 +1,29 @@
+"""graphpose: where a calibrated camera is, relative to a planar checkerboard target.
+
+Data flows one way: image -> cross-junctions (:mod:`graphpose.junctions`, refined by
+:mod:`graphpose.saddle`) -> pose by Gauss-Newton (:mod:`graphpose.gauss_newton`) and by a
+GTSAM factor graph (:mod:`graphpose.graph`) -> result. Conventions are stated once, in
+:mod:`graphpose.camera`.
+"""
+
+from .board import Board
+from .camera import (
+    C_from_rpy,
+    K_from_params,
+    T_from_params,
+    check_K,
+    check_transform,
+    params_from_T,
+    project,
+    rpy_from_C,
+)
+from .errors import (
+    BoardNotFoundError,
+    ConvergenceError,
+    GraphposeError,
+    InputError,
+    SaddleError,
+)
+from .io import as_grey, load_cases, read_image
+
+# Modules below register their public names here as they land.

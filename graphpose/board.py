@@ -1,0 +1,109 @@
+"""The checkerboard target: its grid of inner cross-junctions and their target-frame points.
+
+The target frame is stated in :mod:`graphpose.camera`. Junction ``j = cols * r + c``
+(row-major from the upper left) lies at ``(square_m * c, square_m * r, 0)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InputError
+
+
+@dataclass(frozen=True)
+class Board:
+    """A planar checkerboard described by its inner cross-junctions.
+
+    Parameters
+    ----------
+    cols : int
+        Junctions along a row (the target's x axis); 8 by default.
+    rows : int
+        Junctions along a column (the target's y axis); 6 by default.
+    square_m : float
+        Side of one square in metres; 0.0635 by default.
+    """
+
+    cols: int = 8
+    rows: int = 6
+    square_m: float = 0.0635
+
+    def __post_init__(self):
+        for name in ("cols", "rows"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, np.integer)) or value < 2:
+                raise InputError(f"Board {name} must be an integer >= 2, got {value!r}")
+        if not np.isfinite(self.square_m) or self.square_m <= 0:
+            raise InputError(f"Board square_m must be a positive number of metres, got {self.square_m!r}")
+
+    @property
+    def n(self) -> int:
+        """Number of junctions, ``cols * rows``."""
+        return self.cols * self.rows
+
+    def world_points(self) -> np.ndarray:
+        """Junction positions in the target frame.
+
+        Returns
+        -------
+        Wpts : (3, n) ndarray of float64
+            Metres, row-major from the upper-left junction; z = 0.
+        """
+        r, c = np.divmod(np.arange(self.n), self.cols)
+        return np.vstack([c * self.square_m, r * self.square_m, np.zeros(self.n)])
+
+    def grid_indices(self) -> np.ndarray:
+        """Column and row index of every junction, shape (2, n) int, row-major."""
+        r, c = np.divmod(np.arange(self.n), self.cols)
+        return np.vstack([c, r])
+
+    @classmethod
+    def parse(cls, text: str) -> "Board":
+        """Read a board from ``"COLSxROWSxSQUARE_M"``, e.g. ``"8x6x0.0635"``."""
+        parts = str(text).lower().split("x")
+        try:
+            if len(parts) != 3:
+                raise ValueError
+            return cls(int(parts[0]), int(parts[1]), float(parts[2]))
+        except ValueError:
+            raise InputError(
+                f"board must look like COLSxROWSxSQUARE_M (e.g. 8x6x0.0635), got {text!r}"
+            ) from None
+
+    @classmethod
+    def from_world_points(cls, Wpts) -> "Board":
+        """Recover the board from its junction points.
+
+        Parameters
+        ----------
+        Wpts : (3, n) array_like
+            Metres; must be a full grid ``(s * c, s * r, 0)`` in row-major order, as made
+            by :meth:`world_points`.
+
+        Raises
+        ------
+        InputError
+            If the points are not such a grid.
+        """
+        W = np.asarray(Wpts, dtype=float)
+        if W.ndim != 2 or W.shape[0] != 3 or W.shape[1] < 4:
+            raise InputError(f"Wpts must have shape (3, n) with n >= 4, got {W.shape}")
+        if not np.all(np.isfinite(W)):
+            raise InputError("Wpts contains NaN or infinite values")
+        steps = np.diff(W[0])
+        square = float(np.max(steps)) if steps.size else 0.0
+        if square <= 0:
+            raise InputError("Wpts is not a row-major grid: x never increases")
+        cols = int(np.argmax(steps < -square / 2) + 1) if np.any(steps < -square / 2) else W.shape[1]
+        rows = W.shape[1] // cols
+        if cols < 2 or rows < 2 or cols * rows != W.shape[1]:
+            raise InputError(f"Wpts with {W.shape[1]} points is not a full row-major grid")
+        board = cls(cols, rows, square)
+        if not np.allclose(W, board.world_points(), atol=1e-6 * max(1.0, square)):
+            raise InputError(
+                "Wpts is not a row-major grid (s*c, s*r, 0) starting at the upper-left junction"
+            )
+        return board
