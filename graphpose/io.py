@@ -3,7 +3,8 @@
 A case file is the JSON format of ``../shared/data/rob501/cases.json``: ``K`` (3 x 3),
 optional ``square_m`` and ``grid`` (``{"cols": 8, "rows": 6}``), and ``cases``, each with
 ``image`` (a path relative to the file), ``bounds`` (2 x 4 polygon) and optionally
-``guess_T_WC``, ``ref_junctions`` (2 x n) and ``ref_T_WC``.
+``guess_T_WC``, ``ref_junctions`` (2 x n) and ``ref_T_WC`` (estimates from elsewhere), and
+``true_T_WC`` and ``true_junctions`` (exact, for images made by :mod:`graphpose.render`).
 """
 
 from __future__ import annotations
@@ -91,6 +92,8 @@ class Case:
     guess_T_WC: np.ndarray | None = None
     ref_junctions: np.ndarray | None = None
     ref_T_WC: np.ndarray | None = None
+    true_T_WC: np.ndarray | None = None
+    true_junctions: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -143,4 +146,6 @@ def _case(entry: dict, folder: Path) -> Case:
         guess_T_WC=optional("guess_T_WC", lambda T: check_transform(T, "guess_T_WC")),
         ref_junctions=optional("ref_junctions", lambda P: P),
         ref_T_WC=optional("ref_T_WC", lambda T: T),
+        true_T_WC=optional("true_T_WC", lambda T: check_transform(T, "true_T_WC")),
+        true_junctions=optional("true_junctions", lambda P: P),
     )
