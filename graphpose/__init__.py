@@ -27,3 +27,4 @@ from .errors import (
 from .io import as_grey, load_cases, read_image
 
 # Modules below register their public names here as they land.
+from .saddle import SaddleFit, fit_saddles, saddle_point
