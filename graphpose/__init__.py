@@ -28,3 +28,5 @@ from .io import as_grey, load_cases, read_image
 
 # Modules below register their public names here as they land.
 from .saddle import SaddleFit, fit_saddles, saddle_point
+from .gauss_newton import GNResult, find_jacobian, gauss_newton, pose_estimate_nls
+from .homography import pose_from_homography
