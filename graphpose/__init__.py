@@ -30,3 +30,4 @@ from .io import as_grey, load_cases, read_image
 from .saddle import SaddleFit, fit_saddles, saddle_point
 from .gauss_newton import GNResult, find_jacobian, gauss_newton, pose_estimate_nls
 from .homography import pose_from_homography
+from .junctions import Junctions, cross_junctions, extract_junctions, refine_junctions

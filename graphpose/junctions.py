@@ -1,0 +1,615 @@
+"""Cross-junctions of the checkerboard, to sub-pixel accuracy, in row-major order.
+
+Two stages.
+
+Coarse localisation
+    The bounding polygon's homography resamples the board into a small canonical image
+    (about 12 px per square, whatever the perspective). There a saddle response, the
+    negative determinant of the Hessian at a scale of a fifth of a square, is high at
+    cross-junctions, about four times lower at the L-corners of the outer squares and near
+    zero along edges. Its local maxima are the candidates. A lattice is grown from the
+    candidate nearest the polygon's centre (predict the four neighbours of every found
+    node through a homography fitted to the nodes so far, take the nearest candidate within
+    0.3 squares), which ignores clutter that is off the lattice. Of the lattice's
+    ``cols x rows`` windows the one whose nodes look most like cross-junctions (a ChESS-like
+    ring test that L-corners fail) is the board; it must be nearly complete and fit a
+    homography closely, or :class:`~graphpose.errors.BoardNotFoundError` is raised.
+Refinement
+    Every junction is refined by the saddle fit of :mod:`graphpose.saddle` on a Gaussian-
+    smoothed patch, whose window is a smooth disc of radius a fraction of the local square
+    (so no other edge enters it), re-centred on the estimate until it stops moving. Around
+    the true junction of a blurred checkerboard such a window is point-symmetric, which
+    makes the fitted saddle unbiased whatever the perspective. The fit is weighted by the
+    squared gradient over the distance from the centre, which concentrates it on the two
+    edges (where the position information is) and brings its noise close to the Cramer-Rao
+    bound; see ``/work/notes/junctions.md`` for the measurements behind the settings.
+
+Coordinates follow :mod:`graphpose.camera`: ``(u, v)`` pixels, 0-based, 2 x N arrays.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from .board import Board
+from .camera import as_points
+from .errors import BoardNotFoundError, InputError
+from .io import as_grey
+from .saddle import fit_saddles
+
+#: Canonical image: pixels per square if the polygon hugged the outer squares' corners.
+_CANON_SQUARE = 12.0
+#: Hessian scale of the saddle response, canonical pixels.
+_CANON_SIGMA = 2.4
+#: Default refinement window radius, as a fraction of the local square side.
+WINDOW_FRACTION = 0.5
+#: Gaussian pre-smoothing of refinement patches, pixels.
+SMOOTH_SIGMA = 1.0
+#: Largest refinement window radius, pixels (beyond it the fit gains little and costs time).
+MAX_RADIUS = 14.0
+#: A junction whose refined position is farther than this from the grid homography's
+#: prediction (fraction of the local square, or 1.5 px if more) is not trusted.
+_GRID_TOLERANCE = 0.08
+
+
+@dataclass(frozen=True)
+class Junctions:
+    """Cross-junctions found in one image.
+
+    Attributes
+    ----------
+    points : (2, n) ndarray of float64
+        Junction positions (u, v), pixels, row-major from the upper-left junction.
+    trusted : (n,) ndarray of bool
+        True where the saddle fit converged to a saddle inside its window, the window lies
+        inside the image, a ring around the point looks like a cross-junction, and the point
+        agrees with the homography fitted to the trusted junctions. Untrusted points are still the
+        best estimate available (refined, or predicted by the grid where refinement failed);
+        a pose should use the trusted ones.
+    residual : (n,) ndarray of float64
+        RMS residual of the saddle quadric over its window, in grey units of the image
+        scaled to [0, 1] (as :func:`graphpose.io.as_grey`); NaN where the fit failed.
+    square_px : (n,) ndarray of float64
+        Local square side at each junction, pixels (the smaller height of the parallelogram
+        spanned by the grid steps there).
+    homography : (3, 3) ndarray of float64
+        Grid-to-image homography fitted to the trusted junctions: grid ``(c, r, 1)`` maps to
+        ``(u, v, 1)`` up to scale.
+    """
+
+    points: np.ndarray
+    trusted: np.ndarray
+    residual: np.ndarray
+    square_px: np.ndarray
+    homography: np.ndarray
+
+
+# ---------------------------------------------------------------------------- public API
+
+
+def cross_junctions(I, bpoly, Wpts) -> np.ndarray:
+    """Cross-junctions of a checkerboard image, row-major from the upper left.
+
+    Parameters
+    ----------
+    I : (H, W) or (H, W, 3|4) array_like
+        The image; colour and 16-bit images are converted by :func:`graphpose.io.as_grey`.
+    bpoly : (2, 4) array_like
+        Bounding polygon of the board, pixels, clockwise from the upper left; its first
+        vertex is the one nearest the upper-left junction and its first edge runs along a
+        row of the board. It may be loose: a few pixels outside the sheet or inside its
+        white margin.
+    Wpts : (3, n) array_like
+        The junctions' target-frame points, metres, a full row-major grid as made by
+        :meth:`graphpose.board.Board.world_points` (only their grid layout is used).
+
+    Returns
+    -------
+    Ipts : (2, n) ndarray of float64
+        Junction positions (u, v), pixels, in the order of ``Wpts``.
+
+    Raises
+    ------
+    InputError
+        If the image, polygon or ``Wpts`` is malformed (see :func:`extract_junctions`).
+    BoardNotFoundError
+        If the grid of junctions cannot be found inside the polygon.
+    """
+    return extract_junctions(I, bpoly, Board.from_world_points(Wpts)).points
+
+
+def extract_junctions(I, bpoly, board: Board = Board(), *, window: float = WINDOW_FRACTION,
+                      smooth_sigma: float = SMOOTH_SIGMA) -> Junctions:
+    """Find and refine all cross-junctions of a checkerboard inside a bounding polygon.
+
+    Parameters
+    ----------
+    I : (H, W) or (H, W, 3|4) array_like
+        The image (uint8, uint16, bool or float; colour converted to grey).
+    bpoly : (2, 4) array_like
+        Bounding polygon, pixels, as in :func:`cross_junctions`.
+    board : Board
+        The target's junction grid (``cols`` along the polygon's first edge).
+    window : float
+        Refinement window radius as a fraction of the local square side, in (0, 0.7].
+    smooth_sigma : float
+        Gaussian smoothing of refinement patches, pixels (>= 0).
+
+    Returns
+    -------
+    Junctions
+        Points (2, n) row-major, trust mask, fit residuals, local square sizes and the
+        grid-to-image homography.
+
+    Raises
+    ------
+    InputError
+        If the image is empty, not 2-D grey or colour, or holds NaN; if ``bpoly`` is not a
+        finite 2 x 4 array, is degenerate, not convex, counter-clockwise, or lies off the
+        image; if ``window`` or ``smooth_sigma`` is out of range.
+    BoardNotFoundError
+        If no ``cols x rows`` grid of cross-junctions is found inside the polygon, or fewer
+        than half of the junctions can be refined and trusted.
+
+    Examples
+    --------
+    >>> from graphpose import read_image, load_cases, extract_junctions
+    >>> cases = load_cases("../shared/data/rob501/cases.json")        # doctest: +SKIP
+    >>> case = cases.cases[0]                                          # doctest: +SKIP
+    >>> J = extract_junctions(read_image(case.image), case.bounds)     # doctest: +SKIP
+    >>> J.points.shape, J.trusted.all()                                # doctest: +SKIP
+    ((2, 48), True)
+    """
+    image = as_grey(I)
+    poly = _check_polygon(bpoly, image.shape)
+    if not 0 < window <= 0.7:
+        raise InputError(f"window must be a fraction of the square in (0, 0.7], got {window!r}")
+    if not np.isfinite(smooth_sigma) or smooth_sigma < 0:
+        raise InputError(f"smooth_sigma must be >= 0 pixels, got {smooth_sigma!r}")
+    H_grid = _locate_grid(image, poly, board)
+    grid = board.grid_indices().astype(float)
+    coarse = _apply(H_grid, grid)
+    square = _square_sides(H_grid, grid)
+    radius = np.minimum(window * square, MAX_RADIUS)
+    points, ok, residual = _refine(image, coarse, radius, smooth_sigma)
+    return _judge(points, ok, residual, square, coarse, grid, board)
+
+
+def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGMA):
+    """Refine predicted junction positions with the re-centred saddle fit.
+
+    The same refinement :func:`extract_junctions` applies after finding the grid; the tracker
+    uses it on positions predicted from the previous frame.
+
+    Parameters
+    ----------
+    I : (H, W) or (H, W, 3|4) array_like
+        The image (converted as by :func:`graphpose.io.as_grey`).
+    points : (2, m) array_like
+        Predicted positions (u, v), pixels; each should be within about a third of the
+        window radius of its junction.
+    half_width : float or (m,) array_like
+        Window radius per point, pixels, >= 2: about half the local square side, so that no
+        other edge of the board enters the window.
+    smooth_sigma : float
+        Gaussian smoothing of the patches, pixels (>= 0).
+
+    Returns
+    -------
+    points : (2, m) ndarray of float64
+        Refined positions; where the fit failed, the input position.
+    trusted : (m,) ndarray of bool
+        True where the fit converged to a saddle inside its window, the window lies in the
+        image, and a ring around the point looks like a cross-junction (point-symmetric,
+        four alternating sectors).
+    residual : (m,) ndarray of float64
+        RMS fit residual, grey units of the image scaled to [0, 1]; NaN where it failed.
+
+    Raises
+    ------
+    InputError
+        If the image or points are malformed, or ``half_width`` is not >= 2 (scalar or one
+        per point).
+    """
+    image = as_grey(I)
+    P = as_points(points, 2, "points")
+    radius = np.broadcast_to(np.asarray(half_width, dtype=float), P.shape[1:]) \
+        if np.ndim(half_width) in (0, 1) and np.size(half_width) in (1, P.shape[1]) else None
+    if radius is None or not np.all(np.isfinite(radius)) or np.any(radius < 2):
+        raise InputError(f"half_width must be >= 2 px, a scalar or one per point ({P.shape[1]}), "
+                         f"got {np.asarray(half_width)!r}")
+    if not np.isfinite(smooth_sigma) or smooth_sigma < 0:
+        raise InputError(f"smooth_sigma must be >= 0 pixels, got {smooth_sigma!r}")
+    return _refine(image, P, radius.astype(float), smooth_sigma)
+
+
+# ------------------------------------------------------------------------------ checks
+
+
+def _check_polygon(bpoly, shape) -> np.ndarray:
+    poly = np.asarray(bpoly, dtype=float)
+    if poly.shape != (2, 4):
+        raise InputError(f"bpoly must have shape (2, 4) (u and v of 4 vertices), got {poly.shape}")
+    if not np.all(np.isfinite(poly)):
+        raise InputError("bpoly contains NaN or infinite values")
+    height, width = shape
+    slack = 0.05 * np.hypot(height, width)
+    outside = (poly[0] < -slack) | (poly[0] > width - 1 + slack) | (poly[1] < -slack) | (poly[1] > height - 1 + slack)
+    if np.any(outside):
+        raise InputError(
+            f"bpoly vertices {np.flatnonzero(outside).tolist()} lie off the {width} x {height} image "
+            f"(more than {slack:.0f} px outside): {poly.round(1).tolist()}"
+        )
+    edges = np.roll(poly, -1, axis=1) - poly
+    turns = edges[0] * np.roll(edges[1], -1) - edges[1] * np.roll(edges[0], -1)
+    area = 0.5 * np.sum(poly[0] * np.roll(poly[1], -1) - np.roll(poly[0], -1) * poly[1])
+    if abs(area) < 100.0:
+        raise InputError(f"bpoly is degenerate (area {abs(area):.1f} px^2): {poly.round(1).tolist()}")
+    if area < 0:
+        raise InputError("bpoly must run clockwise (in the image, v down) from the upper-left vertex")
+    if np.any(turns <= 0):
+        raise InputError(f"bpoly must be a convex quadrilateral, got {poly.round(1).tolist()}")
+    return poly
+
+
+# ------------------------------------------------------------------ coarse localisation
+
+
+def _locate_grid(image: np.ndarray, poly: np.ndarray, board: Board) -> np.ndarray:
+    """Homography grid (c, r) -> image (u, v) of the board's junctions."""
+    cols, rows = board.cols, board.rows
+    width, height = (cols + 2) * _CANON_SQUARE, (rows + 2) * _CANON_SQUARE
+    corners = np.array([[0.0, width, width, 0.0], [0.0, 0.0, height, height]])
+    H_img = _homography(corners, poly)
+    canon = _rectify(image, H_img, int(width) + 1, int(height) + 1, poly)
+    response = _saddle_response(canon)
+    cand, strength = _peaks(response)
+    if cand.shape[1] < board.n // 2:
+        raise BoardNotFoundError(
+            f"found {cand.shape[1]} junction-like points inside the polygon, need a "
+            f"{cols} x {rows} grid; is the board inside bpoly?"
+        )
+    nodes = _grow_lattice(cand, strength, (width / 2, height / 2))
+    H_canon = _choose_window(nodes, cand, canon, board)
+    return H_img @ H_canon
+
+
+def _rectify(image, H_img, width: int, height: int, poly) -> np.ndarray:
+    """The polygon resampled to a canonical image, box-averaged to limit aliasing."""
+    edge = np.max(np.hypot(*(np.roll(poly, -1, axis=1) - poly)))
+    factor = int(np.clip(np.ceil(edge / max(width, height) / 1.5), 1, 4))
+    step = 1.0 / factor
+    offsets = (np.arange(factor) + 0.5) * step - 0.5
+    ys = (np.arange(height)[:, None] + offsets[None, :]).ravel()
+    xs = (np.arange(width)[:, None] + offsets[None, :]).ravel()
+    X, Y = np.meshgrid(xs, ys)
+    uv = _apply(H_img, np.vstack([X.ravel(), Y.ravel()]))
+    samples = ndimage.map_coordinates(image, uv[::-1], order=1, mode="nearest")
+    return samples.reshape(height, factor, width, factor).mean(axis=(1, 3))
+
+
+def _saddle_response(canon: np.ndarray) -> np.ndarray:
+    """Negative Hessian determinant: positive at saddles, ~0 on edges, < 0 at blobs."""
+    s = _CANON_SIGMA
+    Ixx = ndimage.gaussian_filter(canon, s, order=(0, 2))
+    Iyy = ndimage.gaussian_filter(canon, s, order=(2, 0))
+    Ixy = ndimage.gaussian_filter(canon, s, order=(1, 1))
+    return Ixy * Ixy - Ixx * Iyy
+
+
+def _peaks(response: np.ndarray):
+    """Local maxima of the response: points (2, N) canonical (x, y) and strengths (N,)."""
+    local = ndimage.maximum_filter(response, size=5, mode="constant", cval=np.inf)
+    ys, xs = np.nonzero((response >= local) & (response > 0))
+    values = response[ys, xs]
+    if values.size == 0:
+        return np.zeros((2, 0)), values
+    # Relative to a typical strong peak rather than the strongest, which may be clutter.
+    top = np.sort(values)[::-1]
+    typical = top[min(len(top) - 1, 10)]
+    keep = values > 0.05 * typical
+    pts = np.vstack([xs[keep], ys[keep]]).astype(float)
+    return _subpixel_peaks(response, pts), values[keep]
+
+
+def _subpixel_peaks(response, pts):
+    """Parabolic sub-pixel interpolation of peak positions (both axes)."""
+    x, y = pts.astype(int)
+    h, w = response.shape
+    xm, xp = np.clip(x - 1, 0, w - 1), np.clip(x + 1, 0, w - 1)
+    ym, yp = np.clip(y - 1, 0, h - 1), np.clip(y + 1, 0, h - 1)
+    c = response[y, x]
+    dx = response[y, xp] - response[y, xm]
+    dxx = response[y, xp] - 2 * c + response[y, xm]
+    dy = response[yp, x] - response[ym, x]
+    dyy = response[yp, x] - 2 * c + response[ym, x]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ox = np.where(dxx < 0, -0.5 * dx / dxx, 0.0)
+        oy = np.where(dyy < 0, -0.5 * dy / dyy, 0.0)
+    return pts + np.vstack([np.clip(ox, -0.5, 0.5), np.clip(oy, -0.5, 0.5)])
+
+
+def _grow_lattice(cand: np.ndarray, strength: np.ndarray, centre) -> dict:
+    """Integer lattice coordinates {(i, j): candidate index} grown from a central seed."""
+    tree = cKDTree(cand.T)
+    step = _lattice_steps(cand, tree)
+    strong = strength >= 0.25 * np.median(np.sort(strength)[::-1][: max(4, len(strength) // 3)])
+    dist = np.hypot(cand[0] - centre[0], cand[1] - centre[1])
+    seed = int(np.argmin(np.where(strong, dist, np.inf)))
+    nodes = {(0, 0): seed}
+    used = {seed}
+    for _ in range(200):
+        model = _lattice_model(nodes, cand, step)
+        frontier = {(i + di, j + dj) for (i, j) in nodes for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1))}
+        frontier -= nodes.keys()
+        if not frontier:
+            break
+        keys = sorted(frontier)
+        pred = _apply(model, np.array(keys, dtype=float).T)
+        tol = 0.3 * min(np.hypot(*step[0]), np.hypot(*step[1]))
+        dist, idx = tree.query(pred.T, distance_upper_bound=tol)
+        added = False
+        for key, d, k in zip(keys, dist, idx):
+            if np.isfinite(d) and k not in used:
+                nodes[key] = int(k)
+                used.add(int(k))
+                added = True
+        if not added:
+            break
+    return nodes
+
+
+def _lattice_steps(cand: np.ndarray, tree: cKDTree) -> np.ndarray:
+    """Typical lattice step vectors along canonical x and y, rows of (2, 2)."""
+    _, idx = tree.query(cand.T, k=min(5, cand.shape[1]))
+    vec = (cand.T[idx[:, 1:]] - cand.T[:, None, :]).reshape(-1, 2)
+    horizontal = vec[np.abs(vec[:, 0]) > 2 * np.abs(vec[:, 1])]
+    vertical = vec[np.abs(vec[:, 1]) > 2 * np.abs(vec[:, 0])]
+    sx = np.median(np.abs(horizontal[:, 0])) if len(horizontal) else _CANON_SQUARE
+    sy = np.median(np.abs(vertical[:, 1])) if len(vertical) else _CANON_SQUARE
+    return np.array([[sx, 0.0], [0.0, sy]])
+
+
+def _lattice_model(nodes: dict, cand: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """Homography lattice (i, j) -> canonical (x, y) from the nodes found so far."""
+    keys = np.array(list(nodes.keys()), dtype=float).T
+    pts = cand[:, list(nodes.values())]
+    if len(np.unique(keys[0])) >= 3 and len(np.unique(keys[1])) >= 3:
+        return _homography(keys, pts)
+    origin = cand[:, nodes[(0, 0)]]
+    return np.array([[step[0, 0], step[1, 0], origin[0]], [step[0, 1], step[1, 1], origin[1]], [0, 0, 1.0]])
+
+
+def _choose_window(nodes: dict, cand: np.ndarray, canon: np.ndarray, board: Board) -> np.ndarray:
+    """Homography grid (c, r) -> canonical of the cols x rows window of cross-junctions."""
+    cols, rows = board.cols, board.rows
+    keys = np.array(list(nodes.keys()))
+    pts = cand[:, list(nodes.values())]
+    i0, j0 = keys.min(axis=0)
+    i1, j1 = keys.max(axis=0)
+    if i1 - i0 + 1 < cols or j1 - j0 + 1 < rows:
+        raise BoardNotFoundError(
+            f"found a {i1 - i0 + 1} x {j1 - j0 + 1} grid of junctions inside the polygon, "
+            f"need {cols} x {rows}; does bpoly enclose the whole board, first edge along a row?"
+        )
+    spacing = np.median(np.hypot(*np.diff(pts, axis=1))) if pts.shape[1] > 1 else _CANON_SQUARE
+    score = np.maximum(_chess_score(canon, pts, 0.3 * _CANON_SQUARE), 0.0)
+    best, best_score = None, -1.0
+    for a in range(i0, i1 - cols + 2):
+        for b in range(j0, j1 - rows + 2):
+            inside = (keys[:, 0] >= a) & (keys[:, 0] < a + cols) & (keys[:, 1] >= b) & (keys[:, 1] < b + rows)
+            if score[inside].sum() > best_score:
+                best, best_score = (a, b, inside), score[inside].sum()
+    a, b, inside = best
+    grid = (keys[inside] - [a, b]).T.astype(float)
+    found = int(inside.sum())
+    crosses = int(np.sum(score[inside] > 0))
+    if found < 0.8 * board.n or crosses < 0.8 * board.n:
+        raise BoardNotFoundError(
+            f"only {found} of {board.n} grid junctions found ({crosses} look like cross-junctions)"
+        )
+    H = _homography(grid, pts[:, inside])
+    err = np.hypot(*(_apply(H, grid) - pts[:, inside]))
+    if np.sqrt(np.mean(err**2)) > 0.15 * spacing:
+        raise BoardNotFoundError(
+            f"the junction candidates do not form a planar grid (RMS {np.sqrt(np.mean(err**2)):.1f} "
+            f"canonical px off a homography, square {spacing:.1f})"
+        )
+    return H
+
+
+def _chess_score(canon: np.ndarray, pts: np.ndarray, radius: float) -> np.ndarray:
+    """ChESS-like ring test: > 0 at cross-junctions, <= 0 at L-corners and edges.
+
+    Opposite ring samples agree at a cross-junction (point symmetry) and quarter-turns
+    disagree; an L-corner breaks the first, an edge the second.
+    """
+    angles = np.arange(16) * (np.pi / 8)
+    x = pts[0][:, None] + radius * np.cos(angles)
+    y = pts[1][:, None] + radius * np.sin(angles)
+    ring = ndimage.map_coordinates(canon, [y.ravel(), x.ravel()], order=1, mode="nearest").reshape(x.shape)
+    return _ring_sum(ring) - _ring_diff(ring)
+
+
+# ------------------------------------------------------------------------- refinement
+
+
+def _refine(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: float,
+            max_iter: int = 12, tol: float = 1e-3):
+    """Re-centred, gradient-weighted saddle fits: (points (2, m), ok (m,), residual (m,))."""
+    current = points.astype(float).copy()
+    converged = np.zeros(current.shape[1], dtype=bool)
+    valid = np.zeros(current.shape[1], dtype=bool)
+    residual = np.full(current.shape[1], np.nan)
+    slack = 2
+    half = int(np.ceil(radius.max())) + slack
+    done = 0
+    while done < max_iter:
+        base = np.rint(current).astype(int)
+        patches, grad2, inside = _patches(image, base, half, sigma, radius)
+        offs = np.arange(-half, half + 1, dtype=float)
+        while done < max_iter:
+            done += 1
+            local = current - base
+            weights, taper = _weights(offs, local, radius, grad2)
+            fit = fit_saddles(patches, weights)
+            new = base + fit.points - half
+            step = np.hypot(*(new - current))
+            ok = fit.valid & (step < radius)
+            residual = np.where(ok, _taper_rms(patches, fit.coeffs, taper, half), np.nan)
+            current = np.where(ok, new, current)
+            valid = ok
+            converged = ok & (step < tol)
+            if np.all(converged | ~ok):
+                done = max_iter
+            elif np.any(np.abs(current - base) > slack - 0.5):
+                break
+    crosses = _looks_like_cross(patches, current - base + half, 0.6 * radius)
+    trusted = valid & converged & inside & crosses
+    return current, trusted, residual
+
+
+def _patches(image, base, half, sigma, radius):
+    """Smoothed patches (m, 2h+1, 2h+1), squared gradients and an in-image mask (m,)."""
+    height, width = image.shape
+    margin = int(np.ceil(3 * sigma)) + 1
+    offs = np.arange(-half - margin, half + margin + 1)
+    rows = base[1][:, None] + offs
+    cols = base[0][:, None] + offs
+    inside = (base[0] - radius >= 0) & (base[0] + radius <= width - 1) & \
+        (base[1] - radius >= 0) & (base[1] + radius <= height - 1)
+    raw = image[np.clip(rows, 0, height - 1)[:, :, None], np.clip(cols, 0, width - 1)[:, None, :]]
+    G = _smoother(len(offs), margin - 1, sigma)
+    smooth = G @ raw @ G.T
+    gx = 0.5 * (smooth[:, 1:-1, 2:] - smooth[:, 1:-1, :-2])
+    gy = 0.5 * (smooth[:, 2:, 1:-1] - smooth[:, :-2, 1:-1])
+    return smooth[:, 1:-1, 1:-1], gx * gx + gy * gy, inside
+
+
+def _smoother(n_in: int, cut: int, sigma: float) -> np.ndarray:
+    """Gaussian smoothing as a matrix, dropping ``cut`` samples at each end."""
+    x = np.arange(n_in, dtype=float)
+    if sigma == 0:
+        G = np.eye(n_in)
+    else:
+        G = np.exp(-0.5 * ((x[:, None] - x[None, :]) / sigma) ** 2)
+        G /= G.sum(axis=1, keepdims=True)
+    return G[cut:n_in - cut]
+
+
+def _weights(offs, local, radius, grad2):
+    """Fit weights (m, h, w) and the taper (m, h, w) centred on each sub-pixel estimate.
+
+    The squared gradient picks out the two edges; dividing by the distance from the centre
+    makes every stretch of edge count alike (the odd terms of the quadric grow with it);
+    a smooth taper keeps the window point-symmetric about the estimate on the pixel grid.
+    """
+    dx = offs[None, None, :] - local[0][:, None, None]
+    dy = offs[None, :, None] - local[1][:, None, None]
+    r = np.sqrt(dx * dx + dy * dy)
+    t = np.clip(r / radius[:, None, None], 0.0, 1.0)
+    taper = (1.0 - t * t) ** 2
+    return taper * grad2 / np.maximum(r, 1.0), taper
+
+
+def _taper_rms(patches, coeffs, taper, half):
+    """RMS of the quadric's residual over the taper, per patch."""
+    m, h, w = patches.shape
+    v, u = np.mgrid[0:h, 0:w].astype(float)
+    a, b, g, d, e, z = (c[:, None, None] for c in coeffs)
+    model = a * u * u + b * u * v + g * v * v + d * u + e * v + z
+    res = patches - model
+    return np.sqrt(np.sum(taper * res * res, axis=(1, 2)) / np.sum(taper, axis=(1, 2)))
+
+
+def _looks_like_cross(patches, centre, radius):
+    """Ring test on the smoothed patches: point-symmetric, with four alternating sectors.
+
+    The ChESS "sum" response (opposite samples against the quarter-turned pair) must be
+    at least twice its "diff" response (opposite samples against each other), which noise,
+    edges and L-corners fail.
+    """
+    m = patches.shape[0]
+    angles = np.arange(16) * (np.pi / 8)
+    x = centre[0][:, None] + radius[:, None] * np.cos(angles)
+    y = centre[1][:, None] + radius[:, None] * np.sin(angles)
+    k = np.repeat(np.arange(m), 16)
+    ring = ndimage.map_coordinates(patches, [k, y.ravel(), x.ravel()], order=1, mode="nearest").reshape(m, 16)
+    return _ring_sum(ring) > 2.0 * _ring_diff(ring)
+
+
+def _ring_sum(ring):
+    return np.abs(ring[:, 0:4] + ring[:, 8:12] - ring[:, 4:8] - ring[:, 12:16]).sum(axis=1)
+
+
+def _ring_diff(ring):
+    return np.abs(ring[:, 0:8] - ring[:, 8:16]).sum(axis=1)
+
+
+# --------------------------------------------------------------------------- verdict
+
+
+def _judge(points, ok, residual, square, coarse, grid, board) -> Junctions:
+    """Fit the grid homography to the refined points and decide what to trust."""
+    if ok.sum() < max(4, board.n // 2):
+        raise BoardNotFoundError(
+            f"only {int(ok.sum())} of {board.n} junctions could be refined to a saddle"
+        )
+    trusted = ok.copy()
+    for _ in range(3):
+        H = _homography(grid[:, trusted], points[:, trusted])
+        err = np.hypot(*(_apply(H, grid) - points))
+        limit = np.maximum(_GRID_TOLERANCE * square, 1.5)
+        trusted = ok & (err < limit)
+        if trusted.sum() < max(4, board.n // 2):
+            raise BoardNotFoundError(
+                f"only {int(trusted.sum())} of {board.n} refined junctions agree with a planar grid"
+            )
+    H = _homography(grid[:, trusted], points[:, trusted])
+    # Where the fit failed, the grid's prediction is the best estimate left; it stays untrusted.
+    best = np.where(ok, points, _apply(H, grid))
+    return Junctions(best, trusted, np.where(ok, residual, np.nan), square, H)
+
+
+def _square_sides(H: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    """Smaller height of the parallelogram spanned by the local grid steps, pixels."""
+    du = _apply(H, grid + [[0.5], [0.0]]) - _apply(H, grid - [[0.5], [0.0]])
+    dv = _apply(H, grid + [[0.0], [0.5]]) - _apply(H, grid - [[0.0], [0.5]])
+    area = np.abs(du[0] * dv[1] - du[1] * dv[0])
+    return area / np.maximum(np.hypot(*du), np.hypot(*dv))
+
+
+# ------------------------------------------------------------------------ homographies
+
+
+def _homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """Least-squares homography (normalised DLT) mapping src (2, N) to dst (2, N)."""
+    Ts, Td = _normaliser(src), _normaliser(dst)
+    s = Ts[:2, :2] @ src + Ts[:2, 2:]
+    d = Td[:2, :2] @ dst + Td[:2, 2:]
+    n = src.shape[1]
+    A = np.zeros((2 * n, 9))
+    A[0::2, 0:2], A[0::2, 2] = s.T, 1.0
+    A[0::2, 6:8] = -d[0][:, None] * s.T
+    A[0::2, 8] = -d[0]
+    A[1::2, 3:5], A[1::2, 5] = s.T, 1.0
+    A[1::2, 6:8] = -d[1][:, None] * s.T
+    A[1::2, 8] = -d[1]
+    H = np.linalg.svd(A)[2][-1].reshape(3, 3)
+    H = np.linalg.solve(Td, H @ Ts)
+    return H / H[2, 2]
+
+
+def _normaliser(P: np.ndarray) -> np.ndarray:
+    c = P.mean(axis=1)
+    scale = np.sqrt(2.0) / max(np.mean(np.hypot(*(P - c[:, None]))), 1e-12)
+    return np.array([[scale, 0, -scale * c[0]], [0, scale, -scale * c[1]], [0, 0, 1.0]])
+
+
+def _apply(H: np.ndarray, P: np.ndarray) -> np.ndarray:
+    q = H[:, :2] @ P + H[:, 2:]
+    return q[:2] / q[2]
