@@ -149,3 +149,205 @@ def _case(entry: dict, folder: Path) -> Case:
         true_T_WC=optional("true_T_WC", lambda T: check_transform(T, "true_T_WC")),
         true_junctions=optional("true_junctions", lambda P: P),
     )
+
+
+# --- Writing results: whole files or nothing -------------------------------------------
+
+
+def atomic_write(path, data) -> None:
+    """Write ``data`` to ``path`` whole or not at all.
+
+    The bytes go to a temporary file in the same folder, which then replaces ``path`` in one
+    :func:`os.replace`, so a reader never sees half a file and an interrupted write leaves the
+    old file (or none) behind.
+
+    Parameters
+    ----------
+    path : str or Path
+        Destination file; its folder must exist.
+    data : bytes or str
+        Contents; ``str`` is encoded as UTF-8.
+
+    Raises
+    ------
+    InputError
+        If the folder is missing or the file cannot be written (the message names the path).
+    """
+    import os
+    import secrets
+
+    path = Path(path)
+    if isinstance(data, str):
+        data = data.encode("utf-8")
+    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
+    try:
+        # os.open with mode 0o666 lets the umask set the final permissions, as open() would.
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise InputError(f"cannot write {path}: {exc.strerror or exc}") from None
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def encode_png(rgb) -> bytes:
+    """Encode an 8-bit image as PNG bytes (no dependency beyond zlib).
+
+    Parameters
+    ----------
+    rgb : (H, W) or (H, W, 3) array_like of uint8
+        Grey or RGB pixels.
+
+    Raises
+    ------
+    InputError
+        If the array is not uint8 of one of those shapes, or is empty.
+    """
+    import struct
+    import zlib
+
+    A = np.asarray(rgb)
+    if A.dtype != np.uint8 or A.ndim not in (2, 3) or (A.ndim == 3 and A.shape[2] != 3) or A.size == 0:
+        raise InputError(f"rgb must be a non-empty uint8 (H, W) or (H, W, 3) array, got {A.dtype} {A.shape}")
+    height, width = A.shape[:2]
+    colour_type = 2 if A.ndim == 3 else 0
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    # Filter type 0 (none) on every row: a zero byte in front of each row's pixels.
+    rows = np.ascontiguousarray(A).reshape(height, -1)
+    raw = np.hstack([np.zeros((height, 1), np.uint8), rows]).tobytes()
+    header = struct.pack(">IIBBBBB", width, height, 8, colour_type, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
+            + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
+
+
+def write_png(path, rgb) -> None:
+    """Write an 8-bit grey or RGB image as a PNG file, atomically (see :func:`atomic_write`).
+
+    Raises
+    ------
+    InputError
+        As :func:`encode_png` and :func:`atomic_write`.
+    """
+    atomic_write(path, encode_png(rgb))
+
+
+def to_jsonable(value):
+    """Turn arrays, numpy scalars, tuples and dicts of them into plain JSON values.
+
+    Non-finite floats become ``None`` (JSON has no NaN); arrays become nested lists.
+    """
+    if isinstance(value, dict):
+        return {str(k): to_jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [to_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return to_jsonable(value.tolist())
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if np.isfinite(value) else None
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def write_json(path, value) -> None:
+    """Write ``value`` (see :func:`to_jsonable`) as indented JSON, atomically.
+
+    Raises
+    ------
+    InputError
+        As :func:`atomic_write`.
+    """
+    atomic_write(path, json.dumps(to_jsonable(value), indent=1, allow_nan=False) + "\n")
+
+
+def result_record(image, estimate=None, error=None) -> dict:
+    """One image's result as a JSON-ready dict (the ``--json`` format of the command line).
+
+    Parameters
+    ----------
+    image : str or Path
+        The image, as the user named it.
+    estimate : PoseEstimate or None
+        The pose (see :func:`graphpose.pipeline.estimate_pose`); None when the image failed.
+    error : str or None
+        Why the image failed, or None.
+
+    Returns
+    -------
+    record : dict
+        Keys ``image``, ``converged``, ``iterations``, ``T_WC`` (4 x 4), ``xyz_m`` (3),
+        ``rpy_deg`` (3, roll pitch yaw), ``sigma_xyz_mm`` (3), ``sigma_rpy_deg`` (3),
+        ``reprojection_rms_px``, ``junctions`` (2 x n pixels, null where a junction was not
+        measured), ``trusted`` (n booleans), ``cross_check`` (``translation_m``,
+        ``rotation_deg``, ``agree``) and ``error``. Without an estimate every key but
+        ``image``, ``converged`` (false) and ``error`` is null.
+    """
+    from .camera import params_from_T
+
+    record = {"image": str(image), "converged": False, "iterations": None, "T_WC": None,
+              "xyz_m": None, "rpy_deg": None, "sigma_xyz_mm": None, "sigma_rpy_deg": None,
+              "reprojection_rms_px": None, "junctions": None, "trusted": None,
+              "cross_check": None, "error": error}
+    if estimate is None:
+        return record
+    params = params_from_T(estimate.T_WC)
+    check = estimate.cross_check
+    record.update(
+        converged=bool(estimate.converged),
+        iterations=int(estimate.iterations),
+        T_WC=np.asarray(estimate.T_WC),
+        xyz_m=params[:3],
+        rpy_deg=np.degrees(params[3:]),
+        sigma_xyz_mm=1000.0 * np.asarray(estimate.sigma_xyz_m),
+        sigma_rpy_deg=np.degrees(estimate.sigma_rpy_rad),
+        reprojection_rms_px=float(estimate.reprojection_rms_px),
+        junctions=np.asarray(estimate.junctions.points),
+        trusted=np.asarray(estimate.junctions.trusted, dtype=bool),
+        cross_check={"translation_m": float(check.translation_m),
+                     "rotation_deg": float(check.rotation_deg), "agree": bool(check.agree)},
+    )
+    return to_jsonable(record)
+
+
+def load_pose(path) -> np.ndarray:
+    """Read a pose file: a JSON 4 x 4 matrix, as a nested list or as ``{"T_WC": [...]}``.
+
+    Returns
+    -------
+    T_WC : (4, 4) ndarray of float64
+        Validated by :func:`graphpose.camera.check_transform`.
+
+    Raises
+    ------
+    InputError
+        If the file is missing, not JSON, or not a rigid 4 x 4 transform.
+    """
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise InputError(f"pose file not found: {path}") from None
+    except (OSError, ValueError) as exc:
+        raise InputError(f"cannot read pose file {path}: {exc}") from None
+    if isinstance(doc, dict):
+        if "T_WC" not in doc:
+            raise InputError(f"pose file {path} is an object without the key T_WC")
+        doc = doc["T_WC"]
+    try:
+        T = np.asarray(doc, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"pose file {path} must hold a 4 x 4 matrix of numbers") from None
+    return check_transform(T, f"pose in {path.name}")

@@ -1,0 +1,117 @@
+"""The ``graphpose`` command line: argument parsing and error handling in one place.
+
+Each subcommand is a module ``graphpose/cli/<name>.py`` with ``add_parser(subparsers)``,
+which adds its parser and stores ``run`` as the parser's ``func`` default, and
+``run(args) -> int``, which turns typed arguments into library calls and returns the exit
+code. :data:`SUBCOMMANDS` lists them. ``graphpose`` with no argument at all runs
+``graphpose estimate`` on the bundled example.
+
+Exit codes: 0 success; 1 an estimate failed (no board found, no convergence); 2 bad usage or
+input (malformed option, missing or unreadable file); 130 interrupted. Errors that graphpose
+raises on purpose (:class:`graphpose.errors.GraphposeError`) and argument errors become one
+line on stderr; anything else is a bug and keeps its traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from ..errors import GraphposeError, InputError
+
+#: Subcommand modules under graphpose/cli/, in the order ``--help`` lists them.
+SUBCOMMANDS = ("estimate",)
+
+#: Exit codes.
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+PROG = "graphpose"
+
+
+class UsageError(InputError):
+    """A command-line argument is missing or malformed (exit code 2)."""
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """An argparse parser that raises :class:`UsageError` instead of printing usage and exiting."""
+
+    def error(self, message):
+        raise UsageError(f"{message} (see '{self.prog} --help')")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The top-level parser with every subcommand of :data:`SUBCOMMANDS` added."""
+    from .. import __doc__ as package_doc
+
+    parser = ArgumentParser(
+        prog=PROG,
+        description=package_doc.splitlines()[0]
+        + " With no argument, runs 'graphpose estimate' on the bundled example.",
+        epilog="Exit codes: 0 success, 1 an estimate failed, 2 bad usage or input. "
+        "Run 'graphpose COMMAND --help' for a command's options.",
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    subparsers = parser.add_subparsers(title="commands", dest="command", metavar="COMMAND", required=True)
+    for name in SUBCOMMANDS:
+        importlib.import_module(f"{__name__}.{name}").add_parser(subparsers)
+    return parser
+
+
+def main(argv=None) -> int:
+    """Run the command line; returns the exit code (see the module docstring).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Arguments without the program name; ``sys.argv[1:]`` by default.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv:
+        argv = ["estimate"]
+    try:
+        parser = build_parser()
+        try:
+            args, extra = parser.parse_known_args(argv)
+        except SystemExit as done:  # --help and --version print and exit 0
+            return int(done.code or 0)
+        if extra:
+            raise UsageError(f"unrecognized arguments: {' '.join(extra)} (see '{PROG} {args.command} --help')")
+        return int(args.func(args))
+    except GraphposeError as exc:
+        print_error(exc, prog=_prog(exc, argv))
+        return exit_code(exc)
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+def exit_code(exc: GraphposeError) -> int:
+    """2 for bad usage or input (:class:`InputError`), 1 for an estimate that failed."""
+    return EXIT_USAGE if isinstance(exc, InputError) else EXIT_FAILED
+
+
+def error_line(exc: BaseException, context: str = "") -> str:
+    """The one-line message for ``exc``, prefixed by ``context`` (an image name) when given."""
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return f"{context}: {text}" if context else text
+
+
+def print_error(exc: BaseException, context: str = "", prog: str = PROG) -> None:
+    """Write ``prog: error: [context: ]message`` as one line on stderr."""
+    print(f"{prog}: error: {error_line(exc, context)}", file=sys.stderr, flush=True)
+
+
+def _prog(exc, argv) -> str:
+    if isinstance(exc, UsageError) and argv and argv[0] in SUBCOMMANDS:
+        return f"{PROG} {argv[0]}"
+    return PROG
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("graphpose")
+    except PackageNotFoundError:
+        return "unknown"

@@ -1,0 +1,338 @@
+"""``graphpose estimate``: the camera pose from one image, a case file, or the bundled example.
+
+Turns the arguments into typed values (bounds (2, 4), K (3, 3), :class:`Board`, a guess
+(4, 4)), calls :func:`graphpose.pipeline.estimate_pose` once per image, and writes a report
+on stdout, optionally ``--json`` results and ``--overlay`` pictures. An image that fails in
+a batch is reported on stderr and in its JSON entry, and the others go on; the exit code is
+then the worst of the images' codes (see :mod:`graphpose.cli`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import sys
+import textwrap
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..board import Board
+from ..camera import K_from_params, params_from_T
+from ..errors import GraphposeError, InputError
+from . import EXIT_OK, UsageError, exit_code, print_error
+
+#: The project's camera (the ROB501 sample set's): fx, fy, cx, cy in pixels.
+DEFAULT_K = (564.9, 564.3, 337.3, 226.5)
+
+#: The bundled example, a case file beside the package (made by graphpose.render).
+DEFAULT_CASES = Path(__file__).resolve().parents[2] / "data" / "cases.json"
+
+_EXAMPLES = """\
+examples:
+  graphpose estimate                                  # the bundled example (data/cases.json)
+  graphpose estimate board.png --bounds 166,254,455,136,541,347,259,477
+  graphpose estimate board.png --bounds 166,254,455,136,541,347,259,477 \\
+      --K 564.9,564.3,337.3,226.5 --board 8x6x0.0635 --guess pose.json
+  graphpose estimate --cases cases.json --json out.json --overlay overlays/
+
+--bounds lists the polygon's corners (u, v) in pixels, (u, v) = (column, row) from 0,
+clockwise from the corner nearest the board's upper-left junction. POSE.json holds a 4 x 4
+T_WC (camera pose in the target frame) as a nested list or as {"T_WC": [...]}.
+A value starting with '-' needs '=', e.g. --bounds=-3,10,...
+exit codes: 0 success, 1 an estimate failed (no board found, no convergence),
+2 bad usage or input."""
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``estimate`` subcommand to ``subparsers``; its ``func`` default is :func:`run`."""
+    fx, fy, cx, cy = DEFAULT_K
+    board = Board()
+    p = subparsers.add_parser(
+        "estimate",
+        help="camera pose from checkerboard images (default: the bundled example)",
+        description=textwrap.fill(
+            "Estimate the camera pose T_WC relative to a checkerboard, with 1-sigma uncertainties. "
+            "Give one IMAGE with --bounds, or --cases CASES.json; with neither, runs the bundled "
+            "example data/cases.json.", 88),
+        epilog=_EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("image", nargs="?", type=Path, metavar="IMAGE", help="an image of the board (any format scikit-image reads; colour is made grey)")
+    p.add_argument("--bounds", type=parse_bounds, metavar="U1,V1,U2,V2,U3,V3,U4,V4",
+                   help="the board's bounding polygon in IMAGE, pixels (needed with IMAGE)")
+    p.add_argument("--K", dest="K", type=parse_K, metavar="FX,FY,CX,CY",
+                   help=f"camera intrinsics in pixels, images undistorted (default: the project's "
+                   f"camera, {fx},{fy},{cx},{cy}; with --cases, the file's K)")
+    p.add_argument("--board", type=parse_board, metavar="COLSxROWSxSQUARE_M",
+                   help=f"inner junctions per row and column, square side in metres (default: the "
+                   f"project's target, {board.cols}x{board.rows}x{board.square_m}; with --cases, the file's)")
+    p.add_argument("--guess", type=Path, metavar="POSE.json",
+                   help="initial pose for IMAGE (default: the linear homography initialiser)")
+    p.add_argument("--cases", type=Path, metavar="CASES.json",
+                   help="many images: a case file (K, and per case image path relative to the file, "
+                   "bounds, optional guess_T_WC)")
+    p.add_argument("--no-guess", action="store_true",
+                   help="ignore the case file's guesses and use the linear initialiser")
+    p.add_argument("--robust", action="store_true", help="down-weight outlying junctions (robust loss)")
+    p.add_argument("--json", metavar="OUT.json",
+                   help="write the results as JSON, a list with one object per image ('-': stdout, no report)")
+    p.add_argument("--overlay", metavar="OUT.png|FOLDER",
+                   help="draw junctions, reprojection, axes and pose on the image; a folder "
+                   "(created if absent) holds one IMAGE_NAME.overlay.png per image")
+    p.add_argument("-q", "--quiet", action="store_true", help="no report on stdout (errors still on stderr)")
+    p.set_defaults(func=run)
+    return p
+
+
+# --- typed values ----------------------------------------------------------------------
+
+
+def parse_bounds(text: str) -> np.ndarray:
+    """``"u1,v1,...,u4,v4"`` -> (2, 4) polygon in pixels (row 0 = u); ArgumentTypeError if malformed."""
+    values = _numbers(text, (8,), "bounds", "U1,V1,U2,V2,U3,V3,U4,V4")
+    return values.reshape(4, 2).T.copy()
+
+
+def parse_K(text: str) -> np.ndarray:
+    """``"fx,fy,cx,cy"`` (or with a fifth value, the skew) -> (3, 3) K; ArgumentTypeError if malformed."""
+    values = _numbers(text, (4, 5), "K", "FX,FY,CX,CY")
+    try:
+        return K_from_params(*values)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def parse_board(text: str) -> Board:
+    """``"COLSxROWSxSQUARE_M"`` -> :class:`Board`; ArgumentTypeError if malformed."""
+    try:
+        return Board.parse(text)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _numbers(text, counts, name, form) -> np.ndarray:
+    parts = [p for p in re.split(r"[,;\s]+", text.strip()) if p]
+    try:
+        values = np.array([float(p) for p in parts])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{name} must be comma-separated numbers {form}, got {text!r}") from None
+    if values.size not in counts:
+        raise argparse.ArgumentTypeError(f"{name} needs {' or '.join(map(str, counts))} numbers ({form}), "
+                                         f"got {values.size} in {text!r}")
+    if not np.all(np.isfinite(values)):
+        raise argparse.ArgumentTypeError(f"{name} must be finite numbers, got {text!r}")
+    return values
+
+
+# --- the run -----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Job:
+    """One image to estimate: its name for people and for JSON, bounds (2, 4), guess (4, 4) or None."""
+
+    name: str
+    path: Path
+    bounds: np.ndarray
+    guess: np.ndarray | None = None
+    true_T_WC: np.ndarray | None = None
+    ref_T_WC: np.ndarray | None = None
+
+
+def run(args) -> int:
+    """Run ``graphpose estimate`` with parsed ``args``; returns the exit code."""
+    jobs, K, board = _jobs(args)
+    overlays = _overlay_paths(args.overlay, jobs)
+    if args.json not in (None, "-"):
+        _check_folder(Path(args.json), "--json")
+    # Imported after the arguments are checked: a usage error needs no GTSAM.
+    from ..draw import draw_overlay
+    from ..io import read_image, result_record, write_json, write_png
+    from ..pipeline import estimate_pose
+
+    report = not (args.quiet or args.json == "-")
+    progress = Progress(len(jobs), sys.stderr)
+    records, codes = [], []
+    for i, job in enumerate(jobs):
+        progress.show(i, job.name)
+        estimate, error, code = None, None, EXIT_OK
+        try:
+            image = read_image(job.path)
+            estimate = estimate_pose(image, job.bounds, K, board, guess=job.guess, robust=args.robust)
+            if not estimate.converged:
+                raise _NotConverged(f"the pose did not converge ({estimate.iterations} iterations)")
+        except GraphposeError as exc:
+            progress.clear()
+            print_error(exc, "" if str(job.path) in str(exc) else job.name)
+            error, code = " ".join(str(exc).split()), exit_code(exc)
+        record = result_record(str(job.path), estimate, error)
+        record["vs_truth"] = _difference(estimate, job.true_T_WC)
+        record["vs_reference"] = _difference(estimate, job.ref_T_WC)
+        records.append(record)
+        codes.append(code)
+        if estimate is not None:
+            if report:
+                progress.clear()
+                print(format_report(job.name, estimate, record), flush=True)
+            if overlays:
+                picture = draw_overlay(image, estimate, K, board, bounds=job.bounds, label=Path(job.name).name)
+                overlays[i].parent.mkdir(exist_ok=True)
+                write_png(overlays[i], picture)
+    progress.clear()
+    if report and len(jobs) > 1:
+        failed = sum(c != EXIT_OK for c in codes)
+        print(f"{len(jobs)} images: {len(jobs) - failed} estimated, {failed} failed")
+    if args.json == "-":
+        import json
+
+        from ..io import to_jsonable
+
+        print(json.dumps(to_jsonable(records), indent=1, allow_nan=False))
+    elif args.json is not None:
+        write_json(args.json, records)
+    return max(codes)
+
+
+class _NotConverged(GraphposeError):
+    """The estimator returned a pose that did not converge (exit code 1)."""
+
+
+def _jobs(args):
+    """The images to estimate, K (3, 3) and the board, from IMAGE, --cases or the bundled example."""
+    from ..io import load_cases, load_pose
+
+    if args.image is not None and args.cases is not None:
+        raise UsageError("give either IMAGE or --cases, not both")
+    if args.image is not None:
+        if args.bounds is None:
+            raise UsageError("IMAGE needs --bounds U1,V1,U2,V2,U3,V3,U4,V4 (the board's polygon in pixels)")
+        if args.no_guess and args.guess is not None:
+            raise UsageError("--guess and --no-guess contradict each other")
+        guess = load_pose(args.guess) if args.guess is not None else None
+        K = args.K if args.K is not None else K_from_params(*DEFAULT_K)
+        board = args.board if args.board is not None else Board()
+        return [Job(str(args.image), args.image, args.bounds, guess)], K, board
+    if args.bounds is not None:
+        raise UsageError("--bounds goes with IMAGE; a case file gives each image its bounds")
+    if args.guess is not None:
+        raise UsageError("--guess goes with IMAGE; a case file gives each image its guess_T_WC")
+    path = args.cases if args.cases is not None else DEFAULT_CASES
+    if args.cases is None and not path.is_file():
+        raise InputError(f"the bundled example {path} is missing; give IMAGE --bounds ... or --cases CASES.json")
+    cases = load_cases(path)
+    if not cases.cases:
+        raise InputError(f"case file {path} has no cases")
+    jobs = [Job(_display(c.image), c.image, c.bounds, None if args.no_guess else c.guess_T_WC,
+                c.true_T_WC, c.ref_T_WC) for c in cases.cases]
+    K = args.K if args.K is not None else cases.K
+    board = args.board if args.board is not None else cases.board
+    return jobs, K, board
+
+
+def _display(path: Path) -> str:
+    """``path`` relative to the working folder when it lies below it, else absolute."""
+    try:
+        return str(path.relative_to(Path.cwd()))
+    except ValueError:
+        return str(path)
+
+
+def _check_folder(path: Path, option: str) -> None:
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise InputError(f"{option}: folder {folder} does not exist")
+
+
+def _overlay_paths(overlay, jobs) -> list | None:
+    """Where each job's overlay goes: OUT.png for one image, FOLDER/NAME.overlay.png for many."""
+    if overlay is None:
+        return None
+    path = Path(overlay)
+    folder = path.is_dir() or overlay.endswith(("/", os.sep)) or (len(jobs) > 1 and not path.suffix)
+    if not folder:
+        if len(jobs) > 1:
+            raise UsageError(f"--overlay: {len(jobs)} images need a folder, got the file name {overlay}")
+        if path.suffix.lower() != ".png":
+            raise UsageError(f"--overlay: the picture is PNG, so the name must end in .png, got {overlay}")
+        _check_folder(path, "--overlay")
+        return [path]
+    _check_folder(path.resolve(), "--overlay")
+    names, seen = [], {}
+    for job in jobs:
+        stem = Path(job.path).stem
+        seen[stem] = seen.get(stem, 0) + 1
+        names.append(path / (f"{stem}.overlay.png" if seen[stem] == 1 else f"{stem}-{seen[stem]}.overlay.png"))
+    return names
+
+
+def _difference(estimate, T_ref) -> dict | None:
+    """Translation (mm) and rotation angle (deg) between the estimate and a known pose, or None."""
+    if estimate is None or T_ref is None:
+        return None
+    T, R = np.asarray(estimate.T_WC), np.asarray(T_ref, dtype=float)
+    cos = np.clip((np.trace(R[:3, :3].T @ T[:3, :3]) - 1.0) / 2.0, -1.0, 1.0)
+    return {"translation_mm": float(1000.0 * np.linalg.norm(T[:3, 3] - R[:3, 3])),
+            "rotation_deg": float(np.degrees(np.arccos(cos)))}
+
+
+# --- the report ----------------------------------------------------------------------------
+
+
+def format_report(name: str, estimate, record: dict) -> str:
+    """The readable report of one image's estimate (several lines, no trailing newline)."""
+    T = np.asarray(estimate.T_WC)
+    x, y, z, *rpy = params_from_T(T)
+    sx, sy, sz = 1000.0 * np.asarray(estimate.sigma_xyz_m)
+    sr, sp, sw = np.degrees(estimate.sigma_rpy_rad)
+    roll, pitch, yaw = np.degrees(rpy)
+    trusted = np.asarray(estimate.junctions.trusted, dtype=bool)
+    check = estimate.cross_check
+    state = "converged" if estimate.converged else "NOT converged"
+    rows = [f"{name}  ({state}, {estimate.iterations} iterations)"]
+    for i, row in enumerate(T):
+        rows.append(("  T_WC  " if i == 0 else "        ") + "[" + " ".join(f"{v:9.5f}" for v in row) + " ]")
+    rows += [
+        f"  {'':16}{'x':>10}{'y':>10}{'z':>10}",
+        f"  {'position (m)':16}{x:10.4f}{y:10.4f}{z:10.4f}",
+        f"  {'1-sigma (mm)':16}{sx:10.2f}{sy:10.2f}{sz:10.2f}",
+        f"  {'':16}{'roll':>10}{'pitch':>10}{'yaw':>10}",
+        f"  {'angles (deg)':16}{roll:10.3f}{pitch:10.3f}{yaw:10.3f}",
+        f"  {'1-sigma (deg)':16}{sr:10.3f}{sp:10.3f}{sw:10.3f}",
+        f"  {'reprojection':16}{estimate.reprojection_rms_px:.3f} px RMS over {trusted.size} junctions, "
+        f"{int(trusted.sum())} trusted",
+        f"  {'GN vs GTSAM':16}{1000.0 * check.translation_m:.3f} mm, {check.rotation_deg:.4f} deg: "
+        + ("agree" if check.agree else "DISAGREE"),
+    ]
+    for key, label in (("vs_truth", "error vs truth"), ("vs_reference", "vs reference")):
+        if record.get(key):
+            rows.append(f"  {label:16}{record[key]['translation_mm']:.2f} mm, {record[key]['rotation_deg']:.3f} deg")
+    return "\n".join(rows) + "\n"
+
+
+class Progress:
+    """A one-line progress bar on a terminal ``stream``; silent for one image or a non-terminal."""
+
+    def __init__(self, total: int, stream, width: int = 24):
+        self.total, self.stream, self.width = total, stream, width
+        self.enabled = total > 1 and hasattr(stream, "isatty") and stream.isatty()
+        self._shown = 0
+
+    def show(self, done: int, name: str) -> None:
+        """Draw the bar with ``done`` of ``total`` finished, now working on ``name``."""
+        if not self.enabled:
+            return
+        filled = self.width * done // self.total
+        line = f"[{'#' * filled}{'.' * (self.width - filled)}] {done}/{self.total} {name}"[:78]
+        self.stream.write("\r" + line.ljust(self._shown))
+        self.stream.flush()
+        self._shown = len(line)
+
+    def clear(self) -> None:
+        """Erase the bar (before other output, and at the end)."""
+        if self.enabled and self._shown:
+            self.stream.write("\r" + " " * self._shown + "\r")
+            self.stream.flush()
+            self._shown = 0
