@@ -31,3 +31,4 @@ from .saddle import SaddleFit, fit_saddles, saddle_point
 from .gauss_newton import GNResult, find_jacobian, gauss_newton, pose_estimate_nls
 from .homography import pose_from_homography
 from .junctions import Junctions, cross_junctions, extract_junctions, refine_junctions
+from .graph import GraphResult, graph_pose

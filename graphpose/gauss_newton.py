@@ -59,8 +59,9 @@ class GNResult:
     residual_rms_px : float
         RMS of the used residuals over both coordinates, pixels.
     sigma_px : float
-        Pixel noise estimated from the residuals, ``sqrt(sum r^2 / (2m - 6))`` over the m used
-        points (with a Huber kernel, the weighted sum).
+        Pixel noise behind ``cov``: ``pixel_sigma`` if given, else estimated from the residuals
+        as ``sqrt(sum r^2 / (2m - 6))`` over the m used points (with a Huber kernel, the
+        weighted sum).
     cov : (6, 6) ndarray
         ``sigma_px^2 (J^T W J)^-1`` at the solution, in (x, y, z, roll, pitch, yaw) units
         m and rad; NaN when the normal matrix is singular.
@@ -241,7 +242,7 @@ def check_correspondences(K, Ipts, Wpts, mask=None):
     return K, Ipts, Wpts, mask
 
 
-def gauss_newton(K, T_guess, Ipts, Wpts, *, mask=None, huber_px=None,
+def gauss_newton(K, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel_sigma=None,
                  max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL) -> GNResult:
     """Refine a camera pose by damped Gauss-Newton on the reprojection error.
 
@@ -260,6 +261,8 @@ def gauss_newton(K, T_guess, Ipts, Wpts, *, mask=None, huber_px=None,
     huber_px : float, optional
         If given, a Huber kernel on each point's 2-D reprojection error with this threshold
         in pixels (iteratively reweighted); plain least squares otherwise.
+    pixel_sigma : float, optional
+        Known pixel noise for the covariance; estimated from the residuals when None.
     max_iterations : int
         Iteration cap.
     tol : float
@@ -275,13 +278,15 @@ def gauss_newton(K, T_guess, Ipts, Wpts, *, mask=None, huber_px=None,
     ------
     InputError
         On malformed input (see :func:`check_correspondences`), a malformed guess, a
-        non-positive ``huber_px``, or a used point behind the camera at the guess.
+        non-positive ``huber_px`` or ``pixel_sigma``, or a used point behind the camera at
+        the guess.
     """
     K, Ipts, Wpts, mask = check_correspondences(K, Ipts, Wpts, mask)
     T_guess = check_transform(T_guess, "T_guess")
-    if huber_px is not None and not (np.isfinite(huber_px) and huber_px > 0):
-        raise InputError(f"huber_px must be a positive number of pixels, got {huber_px!r}")
-    return _solve(K, params_from_T(T_guess), Ipts, Wpts, mask, huber_px, max_iterations, tol)
+    for name, value in (("huber_px", huber_px), ("pixel_sigma", pixel_sigma)):
+        if value is not None and not (np.isfinite(value) and value > 0):
+            raise InputError(f"{name} must be a positive number of pixels, got {value!r}")
+    return _solve(K, params_from_T(T_guess), Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
 
 
 def _weights(r, huber_px):
@@ -305,7 +310,7 @@ def _residual(K, p, I, W, jacobian):
     return (I - uv).T.ravel(), z, J
 
 
-def _solve(K, p, Ipts, Wpts, mask, huber_px, max_iterations, tol) -> GNResult:
+def _solve(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol) -> GNResult:
     I, W = Ipts[:, mask], Wpts[:, mask]
     r, depth, J = _residual(K, p, I, W, True)
     _check_in_front(depth, "the guess")
@@ -339,10 +344,10 @@ def _solve(K, p, Ipts, Wpts, mask, huber_px, max_iterations, tol) -> GNResult:
             if lam > _LAMBDA_MAX:
                 message = "damped steps cannot lower the cost"
                 break
-    return _result(K, p, Ipts, Wpts, mask, huber_px, J, r, converged, it, message)
+    return _result(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, J, r, converged, it, message)
 
 
-def _result(K, p, Ipts, Wpts, mask, huber_px, J, r, converged, it, message) -> GNResult:
+def _result(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, J, r, converged, it, message) -> GNResult:
     T = T_from_params(p)
     params = params_from_T(T)  # angles back into their principal ranges
     if np.max(np.abs(params - p)) > 1e-9:
@@ -354,7 +359,7 @@ def _result(K, p, Ipts, Wpts, mask, huber_px, J, r, converged, it, message) -> G
     w = _weights(r, huber_px)
     Jw = J if w is None else J * w[:, None]
     chi2 = float(r @ r) if w is None else float(r @ (w * r))
-    sigma = np.sqrt(chi2 / (2 * m - 6)) if m > 3 else np.nan
+    sigma = np.sqrt(chi2 / (2 * m - 6)) if pixel_sigma is None else float(pixel_sigma)
     try:
         cov = sigma**2 * np.linalg.inv(Jw.T @ J)
     except np.linalg.LinAlgError:
