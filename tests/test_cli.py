@@ -1,0 +1,341 @@
+"""The command line as a user runs it (subprocesses), and the files it writes.
+
+Every subprocess pays Python's and GTSAM's start-up (about a second), so the runs are few and
+each checks several things.
+"""
+
+import io
+import json
+import re
+import struct
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from conftest import REAL_DIR, REPO
+
+from graphpose import InputError, T_from_params, load_cases
+from graphpose.cli import main
+from graphpose.cli.estimate import Progress, parse_bounds, parse_K
+from graphpose.io import atomic_write, encode_png, load_pose, result_record, write_json
+
+BUNDLED = REPO / "data" / "cases.json"
+KEYS = {"image", "converged", "T_WC", "xyz_m", "rpy_deg", "sigma_xyz_mm", "sigma_rpy_deg",
+        "reprojection_rms_px", "junctions", "trusted", "cross_check", "error"}
+
+
+def graphpose(*args, cwd=None):
+    """Run ``python -m graphpose ARGS``; returns the CompletedProcess (text, captured)."""
+    return subprocess.run([sys.executable, "-m", "graphpose", *map(str, args)], cwd=cwd,
+                          capture_output=True, text=True, timeout=300)
+
+
+def pose_error(T, T_ref):
+    """Translation (m) and rotation angle (deg) between two poses."""
+    T, R = np.asarray(T, float), np.asarray(T_ref, float)
+    cos = np.clip((np.trace(R[:3, :3].T @ T[:3, :3]) - 1) / 2, -1, 1)
+    return np.linalg.norm(T[:3, 3] - R[:3, 3]), np.degrees(np.arccos(cos))
+
+
+def png_size(path):
+    """(width, height) from a PNG file's header; fails unless the file is a PNG."""
+    data = Path(path).read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and data[12:16] == b"IHDR"
+    return struct.unpack(">II", data[16:24])
+
+
+def one_error_line(result, code, *fragments):
+    assert result.returncode == code, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert "Traceback" not in result.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], lines[0]
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def bundled():
+    if not BUNDLED.is_file():
+        pytest.fail(f"the bundled example {BUNDLED} is missing")
+    return load_cases(BUNDLED)
+
+
+@pytest.fixture(scope="module")
+def blank_png(tmp_path_factory):
+    """A plain grey 640 x 480 PNG: a readable image with no board in it."""
+    path = tmp_path_factory.mktemp("blank") / "blank.png"
+    path.write_bytes(encode_png(np.full((480, 640), 128, np.uint8)))
+    return path
+
+
+# --- the default run ------------------------------------------------------------------------
+
+
+def test_script_without_arguments_runs_the_bundled_example(bundled):
+    result = subprocess.run([sys.executable, str(REPO / "scripts" / "estimate.py")], cwd=REPO,
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    out = result.stdout
+    for case in bundled.cases:
+        assert case.image.name in out
+    for label in ("T_WC", "position (m)", "1-sigma (mm)", "angles (deg)", "1-sigma (deg)",
+                  "px RMS", "GN vs GTSAM", "converged"):
+        assert out.count(label) >= len(bundled.cases), label
+    assert "NOT converged" not in out and "DISAGREE" not in out
+    assert f"{len(bundled.cases)} images: {len(bundled.cases)} estimated, 0 failed" in out
+    # The synthetic images know their true pose: the printed error against it is small.
+    errors = re.findall(r"error vs truth\s+([\d.]+) mm, ([\d.]+) deg", out)
+    assert len(errors) == len(bundled.cases)
+    for mm, deg in errors:
+        assert float(mm) < 10.0 and float(deg) < 0.5
+
+
+def test_module_json_and_overlay_folder(bundled, tmp_path):
+    out_json, folder = tmp_path / "out.json", tmp_path / "overlays"
+    result = graphpose("estimate", "--cases", BUNDLED, "--json", out_json, "--overlay", f"{folder}/", "-q")
+    assert result.returncode == 0, result.stderr
+    assert result.stdout == "" and result.stderr == ""
+    records = json.loads(out_json.read_text())
+    assert len(records) == len(bundled.cases)
+    for record, case in zip(records, bundled.cases):
+        assert KEYS <= set(record)
+        assert record["image"] == str(case.image) and record["error"] is None and record["converged"]
+        T = np.array(record["T_WC"])
+        assert T.shape == (4, 4)
+        metres, degrees = pose_error(T, case.true_T_WC)
+        assert metres < 0.01 and degrees < 0.5
+        np.testing.assert_allclose(record["xyz_m"], T[:3, 3])
+        assert len(record["rpy_deg"]) == 3 and len(record["sigma_xyz_mm"]) == 3
+        assert all(s > 0 for s in record["sigma_xyz_mm"] + record["sigma_rpy_deg"])
+        n = len(record["trusted"])
+        assert np.array(record["junctions"]).shape == (2, n) and n == bundled.board.n
+        assert all(isinstance(t, bool) for t in record["trusted"])
+        assert set(record["cross_check"]) == {"translation_m", "rotation_deg", "agree"}
+        assert record["vs_truth"]["translation_mm"] == pytest.approx(1000 * metres, abs=1e-6)
+        assert png_size(folder / f"{case.image.stem}.overlay.png") == (640, 480)
+    assert not list(tmp_path.glob(".*.tmp")) and not list(folder.glob(".*.tmp"))
+
+
+def test_real_cases_target_01_matches_its_reference(tmp_path):
+    cases_file = REAL_DIR / "cases.json"
+    if not cases_file.is_file():
+        pytest.skip(f"real data folder {REAL_DIR} is absent")
+    result = graphpose("estimate", "--cases", cases_file, "--json", tmp_path / "real.json", "-q")
+    assert result.returncode == 0, result.stderr
+    records = json.loads((tmp_path / "real.json").read_text())
+    cases = load_cases(cases_file).cases
+    assert len(records) == 6 and all(r["converged"] and r["error"] is None for r in records)
+    first = next(r for r in records if r["image"].endswith("target_01.png"))
+    metres, degrees = pose_error(first["T_WC"], cases[0].ref_T_WC)
+    assert metres < 0.01 and degrees < 0.5
+    assert first["vs_reference"]["translation_mm"] == pytest.approx(1000 * metres, abs=1e-6)
+
+
+def test_one_image_with_options_guess_overlay_and_json(bundled, tmp_path):
+    case = bundled.cases[0]
+    guess = tmp_path / "guess.json"
+    guess.write_text(json.dumps({"T_WC": case.guess_T_WC.tolist()}))
+    bounds = ",".join(f"{u:g},{v:g}" for u, v in case.bounds.T)
+    K = bundled.K
+    overlay, out_json = tmp_path / "pose.png", tmp_path / "pose.json"
+    result = graphpose("estimate", case.image, "--bounds", bounds,
+                       "--K", f"{K[0, 0]},{K[1, 1]},{K[0, 2]},{K[1, 2]}", "--board", "8x6x0.0635",
+                       "--guess", guess, "--overlay", overlay, "--json", out_json)
+    assert result.returncode == 0, result.stderr
+    assert f"{case.image}  (converged" in result.stdout
+    (record,) = json.loads(out_json.read_text())
+    assert record["image"] == str(case.image)
+    metres, degrees = pose_error(record["T_WC"], case.true_T_WC)
+    assert metres < 0.01 and degrees < 0.5
+    assert png_size(overlay) == (640, 480)
+
+
+def test_json_to_stdout(bundled):
+    case = bundled.cases[1]
+    bounds = ",".join(f"{u:g},{v:g}" for u, v in case.bounds.T)
+    result = graphpose("estimate", case.image, "--bounds", bounds, "--json", "-")
+    assert result.returncode == 0, result.stderr
+    (record,) = json.loads(result.stdout)
+    assert KEYS <= set(record) and record["converged"]
+
+
+# --- errors: one line on stderr and the exit code -----------------------------------------
+
+
+BOUNDS = "100,100,540,100,540,380,100,380"
+
+
+@pytest.mark.parametrize("args, fragments", [
+    (["estimate", "img.png", "--bounds", "1,2,3"], ["--bounds", "8 numbers", "'1,2,3'"]),
+    (["estimate", "img.png", "--bounds", "1,2,3,4,5,6,7,x"], ["--bounds", "numbers"]),
+    (["estimate", "img.png", "--bounds", BOUNDS, "--K", "500,500,320"], ["--K", "4 or 5 numbers"]),
+    (["estimate", "img.png", "--bounds", BOUNDS, "--K=-500,500,320,240"], ["--K", "focal lengths"]),
+    (["estimate", "img.png", "--bounds", BOUNDS, "--board", "8x6"], ["--board", "COLSxROWSxSQUARE_M"]),
+    (["estimate", "img.png"], ["IMAGE needs --bounds"]),
+    (["estimate", "--cases", "c.json", "--bounds", BOUNDS], ["--bounds goes with IMAGE"]),
+    (["estimate", "--frobnicate"], ["unrecognized arguments: --frobnicate"]),
+    (["estimate", "img.png", "--bounds", BOUNDS, "--overlay", "out.jpg"], ["--overlay", ".png"]),
+    (["nonsense"], ["invalid choice"]),
+])
+def test_usage_errors_in_process(args, fragments, capsys):
+    # Argument errors never reach the pipeline, so the same main() runs in this process.
+    assert main(args) == 2
+    line = capsys.readouterr().err.strip()
+    assert "\n" not in line and line.startswith("graphpose")
+    for fragment in fragments:
+        assert fragment in line, line
+
+
+def test_malformed_board_as_a_user_sees_it():
+    one_error_line(graphpose("estimate", "img.png", "--bounds", BOUNDS, "--board", "8by6"),
+                   2, "graphpose estimate: error: argument --board", "'8by6'")
+
+
+def test_missing_and_unreadable_image_and_guess(tmp_path):
+    one_error_line(graphpose("estimate", tmp_path / "nope.png", "--bounds", BOUNDS),
+                   2, "not found", "nope.png")
+    junk = tmp_path / "junk.png"
+    junk.write_bytes(b"this is not a png")
+    one_error_line(graphpose("estimate", junk, "--bounds", BOUNDS), 2, "cannot read", "junk.png")
+    bad_guess = tmp_path / "guess.json"
+    bad_guess.write_text("[[1, 0], [0, 1]]")
+    one_error_line(graphpose("estimate", junk, "--bounds", BOUNDS, "--guess", bad_guess),
+                   2, "guess.json", "(4, 4)")
+
+
+def test_no_board_found_exits_1(blank_png, tmp_path):
+    out_json = tmp_path / "out.json"
+    line = one_error_line(graphpose("estimate", blank_png, "--bounds", BOUNDS, "--json", out_json,
+                                    "--overlay", tmp_path / "o.png"), 1)
+    assert "blank.png" in line
+    (record,) = json.loads(out_json.read_text())
+    assert record["error"] and not record["converged"] and record["T_WC"] is None
+    assert not (tmp_path / "o.png").exists()  # no picture of a pose that does not exist
+
+
+def test_batch_goes_on_past_a_bad_image(bundled, blank_png, tmp_path):
+    good = bundled.cases[2]
+    doc = {"K": bundled.K.tolist(), "cases": [
+        {"image": str(good.image), "bounds": good.bounds.tolist()},
+        {"image": "missing.png", "bounds": good.bounds.tolist()},
+        {"image": str(blank_png), "bounds": good.bounds.tolist()},
+    ]}
+    cases_file = tmp_path / "cases.json"
+    cases_file.write_text(json.dumps(doc))
+    result = graphpose("estimate", "--cases", cases_file, "--json", tmp_path / "out.json",
+                       "--overlay", tmp_path / "pictures")
+    assert result.returncode == 2  # the worst: a missing file is bad input
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 2 and "missing.png" in lines[0] and "blank.png" in lines[1]
+    assert "3 images: 1 estimated, 2 failed" in result.stdout
+    records = json.loads((tmp_path / "out.json").read_text())
+    assert [r["error"] is None for r in records] == [True, False, False]
+    assert records[0]["converged"] and "not found" in records[1]["error"]
+    assert [p.name for p in (tmp_path / "pictures").iterdir()] == [f"{good.image.stem}.overlay.png"]
+
+
+# --- pieces, in process ----------------------------------------------------------------------
+
+
+def test_no_arguments_means_estimate_on_the_bundled_example(monkeypatch):
+    import graphpose.cli.estimate as estimate
+
+    seen = []
+    monkeypatch.setattr(estimate, "run", lambda args: seen.append(args) or 0)
+    assert main([]) == 0
+    (args,) = seen
+    assert args.command == "estimate" and args.image is None and args.cases is None
+    assert estimate.DEFAULT_CASES == BUNDLED
+
+
+def test_help_names_the_defaults(capsys):
+    assert main(["estimate", "--help"]) == 0
+    text = capsys.readouterr().out
+    assert "564.9,564.3,337.3,226.5" in text and "8x6x0.0635" in text and "project's" in text
+
+
+def test_typed_values():
+    np.testing.assert_array_equal(parse_bounds("1,2, 3,4,5,6,7,8"), [[1, 3, 5, 7], [2, 4, 6, 8]])
+    np.testing.assert_array_equal(parse_K("500,510,320,240"),
+                                  [[500, 0, 320], [0, 510, 240], [0, 0, 1]])
+
+
+def test_progress_bar_only_on_a_terminal():
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    stream = Terminal()
+    bar = Progress(4, stream, width=8)
+    bar.show(2, "b.png")
+    assert stream.getvalue() == "\r[####....] 2/4 b.png"
+    bar.clear()
+    assert stream.getvalue().endswith("\r" + " " * 20 + "\r")
+    quiet = io.StringIO()
+    Progress(4, quiet).show(1, "a.png")
+    Progress(1, Terminal()).show(0, "a.png")
+    assert quiet.getvalue() == ""
+
+
+def test_atomic_write_leaves_old_file_or_nothing(tmp_path):
+    target = tmp_path / "out.json"
+    write_json(target, {"a": np.array([1.0, np.nan]), "b": np.bool_(True)})
+    assert json.loads(target.read_text()) == {"a": [1.0, None], "b": True}
+    (tmp_path / "dir").mkdir()
+    with pytest.raises(InputError, match="cannot write"):
+        atomic_write(tmp_path / "dir", b"x")  # replacing a folder fails
+    with pytest.raises(InputError, match="cannot write"):
+        atomic_write(tmp_path / "nowhere" / "out.json", b"x")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dir", "out.json"]
+
+
+def test_png_round_trip(tmp_path):
+    from skimage.io import imread
+
+    rgb = np.random.default_rng(3).integers(0, 256, (5, 7, 3), dtype=np.uint8)
+    path = tmp_path / "x.png"
+    path.write_bytes(encode_png(rgb))
+    np.testing.assert_array_equal(imread(path), rgb)
+    assert png_size(path) == (7, 5)
+    with pytest.raises(InputError, match="uint8"):
+        encode_png(rgb.astype(float))
+
+
+def test_load_pose_forms(tmp_path):
+    T = T_from_params([0.1, 0.2, -1.0, 0.1, -0.2, 0.3])
+    plain, wrapped = tmp_path / "plain.json", tmp_path / "wrapped.json"
+    plain.write_text(json.dumps(T.tolist()))
+    wrapped.write_text(json.dumps({"T_WC": T.tolist()}))
+    np.testing.assert_allclose(load_pose(plain), T)
+    np.testing.assert_allclose(load_pose(wrapped), T)
+    for text, message in [('{"pose": 1}', "without the key T_WC"), ("[[1, 2]", "cannot read"),
+                          ('[["a"]]', "4 x 4"), (json.dumps((2 * T).tolist()), "not a rotation")]:
+        plain.write_text(text)
+        with pytest.raises(InputError, match=message):
+            load_pose(plain)
+    with pytest.raises(InputError, match="not found"):
+        load_pose(tmp_path / "none.json")
+
+
+def test_result_record_of_a_failure_and_of_an_estimate():
+    record = result_record("a.png", None, "no board")
+    assert KEYS <= set(record) and record["error"] == "no board" and record["T_WC"] is None
+    T = T_from_params([0.1, 0.2, -1.0, 0.0, 0.0, np.pi / 2])
+    estimate = SimpleNamespace(
+        T_WC=T, converged=True, iterations=4, sigma_xyz_m=np.array([1e-3, 2e-3, 3e-3]),
+        sigma_rpy_rad=np.radians([0.1, 0.2, 0.3]), reprojection_rms_px=0.2,
+        junctions=SimpleNamespace(points=np.array([[1.0, np.nan], [2.0, np.nan]]),
+                                  trusted=np.array([True, False])),
+        cross_check=SimpleNamespace(translation_m=1e-6, rotation_deg=1e-4, agree=np.True_))
+    record = result_record("a.png", estimate)
+    json.dumps(record, allow_nan=False)
+    np.testing.assert_allclose(record["xyz_m"], [0.1, 0.2, -1.0])
+    np.testing.assert_allclose(record["rpy_deg"], [0.0, 0.0, 90.0], atol=1e-12)
+    np.testing.assert_allclose(record["sigma_xyz_mm"], [1, 2, 3])
+    np.testing.assert_allclose(record["sigma_rpy_deg"], [0.1, 0.2, 0.3])
+    assert record["junctions"] == [[1.0, None], [2.0, None]] and record["trusted"] == [True, False]
+    assert record["cross_check"]["agree"] is True and record["error"] is None
