@@ -32,3 +32,4 @@ from .gauss_newton import GNResult, find_jacobian, gauss_newton, pose_estimate_n
 from .homography import pose_from_homography
 from .junctions import Junctions, cross_junctions, extract_junctions, refine_junctions
 from .graph import GraphResult, graph_pose
+from .pipeline import CrossCheck, PoseEstimate, estimate_pose, estimate_pose_from_points
