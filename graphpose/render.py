@@ -300,6 +300,10 @@ def random_pose(
     roll_max = np.deg2rad(_check_number("max_roll_deg", max_roll_deg, 0.0))
     if tilt_max >= np.pi / 2:
         raise InputError(f"max_tilt_deg must be below 90, got {max_tilt_deg!r}")
+    _check_number("margin", margin, 0.0)
+    _check_number("border_px", border_px)
+    if not isinstance(max_tries, (int, np.integer)) or max_tries < 1:
+        raise InputError(f"max_tries must be an integer >= 1, got {max_tries!r}")
     rng = np.random.default_rng(rng)
     sheet = _sheet_world(board, margin)
     centre_W = np.array([(board.cols - 1) / 2, (board.rows - 1) / 2, 0.0]) * board.square_m
