@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 from skimage import draw
+from skimage.measure import points_in_poly
 
 from .board import Board
 from .camera import check_K, params_from_T, project, to_camera
@@ -41,7 +42,8 @@ def draw_overlay(image, estimate, K, board: Board = Board(), *, bounds=None, lab
         The image the estimate came from (any dtype :func:`graphpose.io.as_grey` takes).
     estimate : PoseEstimate
         Result of :func:`graphpose.pipeline.estimate_pose`; uses ``T_WC``,
-        ``junctions.points`` / ``junctions.trusted``, ``reprojection_rms_px`` and ``converged``.
+        ``junctions.points`` / ``junctions.trusted``, ``reprojection_rms_px``, ``converged``
+        and ``cross_check.agree``.
     K : (3, 3) array_like
         Intrinsics, pixels.
     board : Board
@@ -92,7 +94,9 @@ def draw_overlay(image, estimate, K, board: Board = Board(), *, bounds=None, lab
     tips = _draw_axes(canvas, K, T, 2.0 * board.square_m, size)
 
     avoid = np.hstack([p for p in (points, model, tips) if p.size] or [np.zeros((2, 0))])
-    _text_box(canvas, _pose_lines(estimate, T, trusted, label), avoid, scale=max(1, int(round(min(canvas.shape[:2]) / 240.0))))
+    sheet = None if bounds is None else np.asarray(bounds, dtype=float)
+    scale = max(1, int(round(min(canvas.shape[:2]) / 240.0)))
+    _text_box(canvas, _pose_lines(estimate, T, trusted, label), avoid, sheet, scale)
     return np.clip(np.round(canvas), 0, 255).astype(np.uint8)
 
 
@@ -130,7 +134,12 @@ def _pose_lines(estimate, T, trusted, label) -> list:
     x, y, z = (round(float(c), 4) + 0.0 for c in (x, y, z))
     roll, pitch, yaw = (round(float(a), 2) + 0.0 for a in np.degrees([roll, pitch, yaw]))
     white = COLOURS["text"]
-    status = ("converged", COLOURS["good"]) if estimate.converged else ("NOT converged", COLOURS["bad"])
+    if not estimate.converged:
+        status = ("NOT converged", COLOURS["bad"])
+    elif not estimate.cross_check.agree:
+        status = ("GN/GTSAM disagree", COLOURS["bad"])
+    else:
+        status = ("converged", COLOURS["good"])
     head = [(f"{label}  ", white)] if label else []
     return [
         head + [status],
@@ -141,12 +150,16 @@ def _pose_lines(estimate, T, trusted, label) -> list:
         [("o", COLOURS["trusted"]), (" trusted  ", white), ("x", COLOURS["untrusted"]),
          (" untrusted  ", white), ("+", COLOURS["reprojected"]), (" model", white)],
         [("axes ", white), ("x", COLOURS["x"]), (" ", white), ("y", COLOURS["y"]), (" ", white),
-         ("z", COLOURS["z"]), (" (z into board)", white)],
+         ("z", COLOURS["z"]), (" (z: into the board)", white)],
     ]
 
 
-def _text_box(canvas, lines, avoid, scale) -> None:
-    """Write ``lines`` on a dark box in the image corner that covers fewest ``avoid`` points."""
+def _text_box(canvas, lines, avoid, sheet, scale) -> None:
+    """Write ``lines`` on a dark box in the image corner that hides the least of the board.
+
+    The corner covering the fewest ``avoid`` points (2, m) wins; ties go to the one covering
+    the least of the ``sheet`` polygon (2, k) when given, then to the upper left.
+    """
     pad, step = 4 * scale, (HEIGHT + 2) * scale
     w = max(sum(len(t) for t, _ in line) for line in lines) * (WIDTH + 1) * scale + 2 * pad
     h = len(lines) * step + 2 * pad
@@ -156,7 +169,12 @@ def _text_box(canvas, lines, avoid, scale) -> None:
     def covered(corner):
         u0, v0 = corner
         u, v = avoid
-        return int(np.sum((u > u0 - 10) & (u < u0 + w + 10) & (v > v0 - 10) & (v < v0 + h + 10)))
+        points = int(np.sum((u > u0 - 10) & (u < u0 + w + 10) & (v > v0 - 10) & (v < v0 + h + 10)))
+        if sheet is None:
+            return points, 0
+        gu, gv = np.meshgrid(np.arange(u0, u0 + w, 8.0), np.arange(v0, v0 + h, 8.0))
+        inside = points_in_poly(np.column_stack([gu.ravel(), gv.ravel()]), sheet.T)
+        return points, int(inside.sum())
 
     u0, v0 = min(corners, key=covered)
     u0, v0 = max(u0, 0), max(v0, 0)

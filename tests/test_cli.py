@@ -217,6 +217,26 @@ def test_no_board_found_exits_1(blank_png, tmp_path):
     assert not (tmp_path / "o.png").exists()  # no picture of a pose that does not exist
 
 
+def test_no_convergence_exits_1(bundled, tmp_path):
+    # A guess 0.4 m and about 150 degrees off: Gauss-Newton runs into its iteration cap and
+    # GTSAM lands elsewhere, so the estimate is unreliable and must say so.
+    case = bundled.cases[0]
+    guess = tmp_path / "wild.json"
+    guess.write_text(json.dumps(T_from_params([0.8772, 0.0529, -1.5562, 0.9138, -0.5396, 2.2721]).tolist()))
+    bounds = ",".join(f"{u:g},{v:g}" for u, v in case.bounds.T)
+    out_json = tmp_path / "out.json"
+    result = graphpose("estimate", case.image, "--bounds", bounds, "--guess", guess, "--json", out_json,
+                       "--overlay", tmp_path / "o.png")
+    if result.returncode == 0:
+        pytest.skip("the estimator recovered from this guess; nothing to report")
+    one_error_line(result, 1, case.image.name, "no reliable pose")
+    assert result.stdout == ""  # an unreliable pose is not reported as a result
+    (record,) = json.loads(out_json.read_text())
+    assert record["error"] and "no reliable pose" in record["error"]
+    assert not (record["converged"] and record["cross_check"]["agree"])
+    assert png_size(tmp_path / "o.png") == (640, 480)  # the picture shows what went wrong
+
+
 def test_batch_goes_on_past_a_bad_image(bundled, blank_png, tmp_path):
     good = bundled.cases[2]
     doc = {"K": bundled.K.tolist(), "cases": [

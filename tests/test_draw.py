@@ -17,7 +17,8 @@ T_WC = T_from_params([0.075, 0.05, -0.8, 0.0, 0.0, 0.0])
 def _estimate(trusted):
     points = project(K, T_WC, BOARD.world_points())
     junctions = SimpleNamespace(points=points, trusted=np.asarray(trusted, bool))
-    return SimpleNamespace(T_WC=T_WC, junctions=junctions, reprojection_rms_px=0.25, converged=True)
+    return SimpleNamespace(T_WC=T_WC, junctions=junctions, reprojection_rms_px=0.25, converged=True,
+                           cross_check=SimpleNamespace(agree=True))
 
 
 def _close(pixel, colour, tol=40):
@@ -96,6 +97,15 @@ def test_not_converged_and_bounds_and_missing_points():
     assert _close(out[240, 540], COLOURS["bounds"], tol=60)
     red = np.all(np.abs(out[:150, :400].astype(int) - COLOURS["bad"]) <= 40, axis=2)
     assert red.sum() > 50  # "NOT converged" in red
+
+
+def test_cross_check_failure_is_written_in_red():
+    estimate = _estimate(np.ones(BOARD.n, bool))
+    estimate.cross_check.agree = False
+    out = draw_overlay(np.full((480, 640), 0.5), estimate, K, BOARD)
+    red = np.all(np.abs(out[:150, :400].astype(int) - COLOURS["bad"]) <= 40, axis=2)
+    good = np.all(np.abs(out[:150, :400].astype(int) - COLOURS["good"]) <= 40, axis=2)
+    assert red.sum() > 50 and good.sum() == 0
 
 
 def test_camera_behind_the_board_draws_no_projection():

@@ -162,8 +162,8 @@ def run(args) -> int:
         try:
             image = read_image(job.path)
             estimate = estimate_pose(image, job.bounds, K, board, guess=job.guess, robust=args.robust)
-            if not estimate.converged:
-                raise _NotConverged(f"the pose did not converge ({estimate.iterations} iterations)")
+            if not estimate.ok:
+                raise _NotConverged(f"no reliable pose: {estimate.message}")
         except GraphposeError as exc:
             progress.clear()
             print_error(exc, "" if str(job.path) in str(exc) else job.name)
@@ -174,7 +174,8 @@ def run(args) -> int:
         records.append(record)
         codes.append(code)
         if estimate is not None:
-            if report:
+            # An unreliable pose goes to JSON and the overlay (to see why), not into the report.
+            if report and code == EXIT_OK:
                 progress.clear()
                 print(format_report(job.name, estimate, record), flush=True)
             if overlays:
@@ -197,7 +198,7 @@ def run(args) -> int:
 
 
 class _NotConverged(GraphposeError):
-    """The estimator returned a pose that did not converge (exit code 1)."""
+    """The pose did not converge or failed the GN-GTSAM cross-check (exit code 1)."""
 
 
 def _jobs(args):
@@ -270,12 +271,12 @@ def _overlay_paths(overlay, jobs) -> list | None:
 
 def _difference(estimate, T_ref) -> dict | None:
     """Translation (mm) and rotation angle (deg) between the estimate and a known pose, or None."""
+    from ..pipeline import pose_difference
+
     if estimate is None or T_ref is None:
         return None
-    T, R = np.asarray(estimate.T_WC), np.asarray(T_ref, dtype=float)
-    cos = np.clip((np.trace(R[:3, :3].T @ T[:3, :3]) - 1.0) / 2.0, -1.0, 1.0)
-    return {"translation_mm": float(1000.0 * np.linalg.norm(T[:3, 3] - R[:3, 3])),
-            "rotation_deg": float(np.degrees(np.arccos(cos)))}
+    metres, degrees = pose_difference(estimate.T_WC, T_ref)
+    return {"translation_mm": 1000.0 * metres, "rotation_deg": degrees}
 
 
 # --- the report ----------------------------------------------------------------------------
@@ -303,7 +304,7 @@ def format_report(name: str, estimate, record: dict) -> str:
         f"  {'1-sigma (deg)':16}{sr:10.3f}{sp:10.3f}{sw:10.3f}",
         f"  {'reprojection':16}{estimate.reprojection_rms_px:.3f} px RMS over {trusted.size} junctions, "
         f"{int(trusted.sum())} trusted",
-        f"  {'GN vs GTSAM':16}{1000.0 * check.translation_m:.3f} mm, {check.rotation_deg:.4f} deg: "
+        f"  {'GN vs GTSAM':16}{1000.0 * check.translation_m:.2g} mm, {check.rotation_deg:.2g} deg apart: "
         + ("agree" if check.agree else "DISAGREE"),
     ]
     for key, label in (("vs_truth", "error vs truth"), ("vs_reference", "vs reference")):
