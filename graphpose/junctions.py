@@ -39,7 +39,7 @@ from .board import Board
 from .camera import as_points
 from .errors import BoardNotFoundError, InputError
 from .io import as_grey
-from .saddle import fit_saddles
+from .saddle import fit_quadrics as _fit
 
 #: Canonical image: pixels per square if the polygon hugged the outer squares' corners.
 _CANON_SQUARE = 12.0
@@ -48,7 +48,7 @@ _CANON_SIGMA = 2.4
 #: Default refinement window radius, as a fraction of the local square side.
 WINDOW_FRACTION = 0.5
 #: Gaussian pre-smoothing of refinement patches, pixels.
-SMOOTH_SIGMA = 1.0
+SMOOTH_SIGMA = 0.5
 #: Largest refinement window radius, pixels (beyond it the fit gains little and costs time).
 MAX_RADIUS = 14.0
 #: A junction whose refined position is farther than this from the grid homography's
@@ -265,7 +265,7 @@ def _locate_grid(image: np.ndarray, poly: np.ndarray, board: Board) -> np.ndarra
     width, height = (cols + 2) * _CANON_SQUARE, (rows + 2) * _CANON_SQUARE
     corners = np.array([[0.0, width, width, 0.0], [0.0, 0.0, height, height]])
     H_img = _homography(corners, poly)
-    canon = _rectify(image, H_img, int(width) + 1, int(height) + 1, poly)
+    canon = _rectify(image, H_img, int(width) + 1, int(height) + 1)
     response = _saddle_response(canon)
     cand, strength = _peaks(response)
     if cand.shape[1] < board.n // 2:
@@ -273,32 +273,49 @@ def _locate_grid(image: np.ndarray, poly: np.ndarray, board: Board) -> np.ndarra
             f"found {cand.shape[1]} junction-like points inside the polygon, need a "
             f"{cols} x {rows} grid; is the board inside bpoly?"
         )
-    nodes = _grow_lattice(cand, strength, (width / 2, height / 2))
+    nodes = _grow_lattice(cand, strength, (width / 2, height / 2), np.array([cols + 3, rows + 3]))
     H_canon = _choose_window(nodes, cand, canon, board)
     return H_img @ H_canon
 
 
-def _rectify(image, H_img, width: int, height: int, poly) -> np.ndarray:
-    """The polygon resampled to a canonical image, box-averaged to limit aliasing."""
-    edge = np.max(np.hypot(*(np.roll(poly, -1, axis=1) - poly)))
-    factor = int(np.clip(np.ceil(edge / max(width, height) / 1.5), 1, 4))
-    step = 1.0 / factor
-    offsets = (np.arange(factor) + 0.5) * step - 0.5
-    ys = (np.arange(height)[:, None] + offsets[None, :]).ravel()
-    xs = (np.arange(width)[:, None] + offsets[None, :]).ravel()
-    X, Y = np.meshgrid(xs, ys)
-    uv = _apply(H_img, np.vstack([X.ravel(), Y.ravel()]))
-    samples = ndimage.map_coordinates(image, uv[::-1], order=1, mode="nearest")
-    return samples.reshape(height, factor, width, factor).mean(axis=(1, 3))
+def _rectify(image, H_img, width: int, height: int) -> np.ndarray:
+    """The polygon resampled (bilinear) to a canonical ``height x width`` image.
+
+    No anti-aliasing: the saddle response smooths over a fifth of a square anyway, and the
+    refinement, not this image, decides the final positions.
+    """
+    y, x = np.mgrid[0:height, 0:width]
+    uv = _apply(H_img, np.vstack([x.ravel(), y.ravel()]).astype(float))
+    return _bilinear(image, uv).reshape(height, width)
+
+
+def _bilinear(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Bilinear samples of the image at (2, N) points, clamped to its border."""
+    h, w = image.shape
+    u = np.clip(uv[0], 0.0, w - 1.000001)
+    v = np.clip(uv[1], 0.0, h - 1.000001)
+    u0 = u.astype(np.intp)
+    v0 = v.astype(np.intp)
+    fu, fv = u - u0, v - v0
+    flat = image.ravel()
+    k = v0 * w + u0
+    top = flat[k] * (1 - fu) + flat[k + 1] * fu
+    bottom = flat[k + w] * (1 - fu) + flat[k + w + 1] * fu
+    return top * (1 - fv) + bottom * fv
 
 
 def _saddle_response(canon: np.ndarray) -> np.ndarray:
-    """Negative Hessian determinant: positive at saddles, ~0 on edges, < 0 at blobs."""
-    s = _CANON_SIGMA
-    Ixx = ndimage.gaussian_filter(canon, s, order=(0, 2))
-    Iyy = ndimage.gaussian_filter(canon, s, order=(2, 0))
-    Ixy = ndimage.gaussian_filter(canon, s, order=(1, 1))
-    return Ixy * Ixy - Ixx * Iyy
+    """Negative Hessian determinant: positive at saddles, ~0 on edges, < 0 at blobs.
+
+    One Gaussian smoothing, then central second differences (zero on the border).
+    """
+    S = ndimage.gaussian_filter(canon, _CANON_SIGMA, truncate=3.0)
+    out = np.zeros_like(S)
+    Ixx = S[1:-1, 2:] - 2 * S[1:-1, 1:-1] + S[1:-1, :-2]
+    Iyy = S[2:, 1:-1] - 2 * S[1:-1, 1:-1] + S[:-2, 1:-1]
+    Ixy = 0.25 * (S[2:, 2:] - S[2:, :-2] - S[:-2, 2:] + S[:-2, :-2])
+    out[1:-1, 1:-1] = Ixy * Ixy - Ixx * Iyy
+    return out
 
 
 def _peaks(response: np.ndarray):
@@ -333,31 +350,38 @@ def _subpixel_peaks(response, pts):
     return pts + np.vstack([np.clip(ox, -0.5, 0.5), np.clip(oy, -0.5, 0.5)])
 
 
-def _grow_lattice(cand: np.ndarray, strength: np.ndarray, centre) -> dict:
-    """Integer lattice coordinates {(i, j): candidate index} grown from a central seed."""
+def _grow_lattice(cand: np.ndarray, strength: np.ndarray, centre, max_extent) -> dict:
+    """Integer lattice coordinates {(i, j): candidate index} grown from a central seed.
+
+    Each round predicts every node of the found nodes' bounding box grown by one, through
+    a homography fitted to the nodes so far (an affine guess from the typical steps at
+    first), and takes the nearest unused candidate within 0.3 squares of each.
+    """
     tree = cKDTree(cand.T)
     step = _lattice_steps(cand, tree)
     strong = strength >= 0.25 * np.median(np.sort(strength)[::-1][: max(4, len(strength) // 3)])
     dist = np.hypot(cand[0] - centre[0], cand[1] - centre[1])
     seed = int(np.argmin(np.where(strong, dist, np.inf)))
     nodes = {(0, 0): seed}
-    used = {seed}
-    for _ in range(200):
-        model = _lattice_model(nodes, cand, step)
-        frontier = {(i + di, j + dj) for (i, j) in nodes for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1))}
-        frontier -= nodes.keys()
-        if not frontier:
+    tol = 0.3 * min(step[0, 0], step[1, 1])
+    for _ in range(max(max_extent) + 2):
+        keys = np.array(list(nodes.keys()))
+        grow = 1 if len(nodes) < 9 else 2
+        lo = np.maximum(keys.min(axis=0) - grow, keys.max(axis=0) - max_extent + 1)
+        hi = np.minimum(keys.max(axis=0) + grow, keys.min(axis=0) + max_extent - 1)
+        jj, ii = np.mgrid[lo[1]:hi[1] + 1, lo[0]:hi[0] + 1]
+        todo = [(i, j) for i, j in zip(ii.ravel().tolist(), jj.ravel().tolist()) if (i, j) not in nodes]
+        if not todo:
             break
-        keys = sorted(frontier)
-        pred = _apply(model, np.array(keys, dtype=float).T)
-        tol = 0.3 * min(np.hypot(*step[0]), np.hypot(*step[1]))
+        pred = _apply(_lattice_model(nodes, cand, step), np.array(todo, dtype=float).T)
         dist, idx = tree.query(pred.T, distance_upper_bound=tol)
-        added = False
-        for key, d, k in zip(keys, dist, idx):
-            if np.isfinite(d) and k not in used:
-                nodes[key] = int(k)
-                used.add(int(k))
-                added = True
+        used = set(nodes.values())
+        added = 0
+        for key, d, k in zip(todo, dist, idx.tolist()):
+            if d < tol and k not in used:
+                nodes[key] = k
+                used.add(k)
+                added += 1
         if not added:
             break
     return nodes
@@ -439,7 +463,7 @@ def _chess_score(canon: np.ndarray, pts: np.ndarray, radius: float) -> np.ndarra
 
 
 def _refine(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: float,
-            max_iter: int = 12, tol: float = 1e-3):
+            max_iter: int = 8, tol: float = 0.005):
     """Re-centred, gradient-weighted saddle fits: (points (2, m), ok (m,), residual (m,))."""
     current = points.astype(float).copy()
     converged = np.zeros(current.shape[1], dtype=bool)
@@ -456,11 +480,10 @@ def _refine(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: fl
             done += 1
             local = current - base
             weights, taper = _weights(offs, local, radius, grad2)
-            fit = fit_saddles(patches, weights)
-            new = base + fit.points - half
+            points, saddle, within, coeffs = _fit(patches, weights)
+            new = base + points - half
             step = np.hypot(*(new - current))
-            ok = fit.valid & (step < radius)
-            residual = np.where(ok, _taper_rms(patches, fit.coeffs, taper, half), np.nan)
+            ok = saddle & within & (step < radius)
             current = np.where(ok, new, current)
             valid = ok
             converged = ok & (step < tol)
@@ -468,6 +491,7 @@ def _refine(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: fl
                 done = max_iter
             elif np.any(np.abs(current - base) > slack - 0.5):
                 break
+    residual = np.where(valid, _taper_rms(patches, coeffs, taper), np.nan)
     crosses = _looks_like_cross(patches, current - base + half, 0.6 * radius)
     trusted = valid & converged & inside & crosses
     return current, trusted, residual
@@ -483,47 +507,42 @@ def _patches(image, base, half, sigma, radius):
     inside = (base[0] - radius >= 0) & (base[0] + radius <= width - 1) & \
         (base[1] - radius >= 0) & (base[1] + radius <= height - 1)
     raw = image[np.clip(rows, 0, height - 1)[:, :, None], np.clip(cols, 0, width - 1)[:, None, :]]
-    G = _smoother(len(offs), margin - 1, sigma)
-    smooth = G @ raw @ G.T
+    cut = slice(margin - 1, len(offs) - margin + 1)
+    smooth = ndimage.gaussian_filter(raw, (0, sigma, sigma), truncate=4.0)[:, cut, cut] if sigma > 0 \
+        else raw[:, cut, cut]
     gx = 0.5 * (smooth[:, 1:-1, 2:] - smooth[:, 1:-1, :-2])
     gy = 0.5 * (smooth[:, 2:, 1:-1] - smooth[:, :-2, 1:-1])
     return smooth[:, 1:-1, 1:-1], gx * gx + gy * gy, inside
 
 
-def _smoother(n_in: int, cut: int, sigma: float) -> np.ndarray:
-    """Gaussian smoothing as a matrix, dropping ``cut`` samples at each end."""
-    x = np.arange(n_in, dtype=float)
-    if sigma == 0:
-        G = np.eye(n_in)
-    else:
-        G = np.exp(-0.5 * ((x[:, None] - x[None, :]) / sigma) ** 2)
-        G /= G.sum(axis=1, keepdims=True)
-    return G[cut:n_in - cut]
-
-
 def _weights(offs, local, radius, grad2):
     """Fit weights (m, h, w) and the taper (m, h, w) centred on each sub-pixel estimate.
 
-    The squared gradient picks out the two edges; dividing by the distance from the centre
-    makes every stretch of edge count alike (the odd terms of the quadric grow with it);
-    a smooth taper keeps the window point-symmetric about the estimate on the pixel grid.
+    The squared gradient picks out the two edges, where the position information is; the
+    division by the squared distance from the centre favours the inner stretch of each edge
+    (on the real images the outer stretch fits worse: 0.069 vs 0.070-0.072 px reprojection
+    RMS on target 01, 0.106 vs 0.116-0.130 on target 02, at a small cost on synthetic
+    images, 0.040 vs 0.037 px at noise 6); a smooth taper keeps the window point-symmetric
+    about the estimate on the pixel grid.
     """
-    dx = offs[None, None, :] - local[0][:, None, None]
-    dy = offs[None, :, None] - local[1][:, None, None]
-    r = np.sqrt(dx * dx + dy * dy)
-    t = np.clip(r / radius[:, None, None], 0.0, 1.0)
-    taper = (1.0 - t * t) ** 2
-    return taper * grad2 / np.maximum(r, 1.0), taper
+    inv_r2 = 1.0 / (radius * radius)
+    dx2 = (offs[None, :] - local[0][:, None]) ** 2
+    dy2 = (offs[None, :] - local[1][:, None]) ** 2
+    r2 = dy2[:, :, None] + dx2[:, None, :]
+    taper = np.maximum(1.0 - r2 * inv_r2[:, None, None], 0.0)
+    taper *= taper
+    return taper * grad2 / np.maximum(r2, 1.0), taper
 
 
-def _taper_rms(patches, coeffs, taper, half):
-    """RMS of the quadric's residual over the taper, per patch."""
+def _taper_rms(patches, coeffs, taper):
+    """RMS of the quadric's residual over the taper, per patch (coefficients in patch coordinates)."""
     m, h, w = patches.shape
-    v, u = np.mgrid[0:h, 0:w].astype(float)
-    a, b, g, d, e, z = (c[:, None, None] for c in coeffs)
-    model = a * u * u + b * u * v + g * v * v + d * u + e * v + z
-    res = patches - model
-    return np.sqrt(np.sum(taper * res * res, axis=(1, 2)) / np.sum(taper, axis=(1, 2)))
+    v, u = np.mgrid[0:h, 0:w]
+    A = np.column_stack([u.ravel() ** 2, u.ravel() * v.ravel(), v.ravel() ** 2, u.ravel(), v.ravel(),
+                         np.ones(h * w)]).astype(float)
+    res = patches.reshape(m, -1) - (A @ coeffs).T
+    t = taper.reshape(m, -1)
+    return np.sqrt(np.sum(t * res * res, axis=1) / np.sum(t, axis=1))
 
 
 def _looks_like_cross(patches, centre, radius):
@@ -589,25 +608,32 @@ def _square_sides(H: np.ndarray, grid: np.ndarray) -> np.ndarray:
 def _homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     """Least-squares homography (normalised DLT) mapping src (2, N) to dst (2, N)."""
     Ts, Td = _normaliser(src), _normaliser(dst)
-    s = Ts[:2, :2] @ src + Ts[:2, 2:]
-    d = Td[:2, :2] @ dst + Td[:2, 2:]
+    s = (src - Ts[1]) * Ts[0]
+    d = (dst - Td[1]) * Td[0]
     n = src.shape[1]
     A = np.zeros((2 * n, 9))
-    A[0::2, 0:2], A[0::2, 2] = s.T, 1.0
+    A[0::2, 0:2] = s.T
+    A[0::2, 2] = 1.0
     A[0::2, 6:8] = -d[0][:, None] * s.T
     A[0::2, 8] = -d[0]
-    A[1::2, 3:5], A[1::2, 5] = s.T, 1.0
+    A[1::2, 3:5] = s.T
+    A[1::2, 5] = 1.0
     A[1::2, 6:8] = -d[1][:, None] * s.T
     A[1::2, 8] = -d[1]
-    H = np.linalg.svd(A)[2][-1].reshape(3, 3)
-    H = np.linalg.solve(Td, H @ Ts)
+    # The null vector of A via the 9 x 9 normal matrix: far cheaper than A's full SVD.
+    Hn = np.linalg.eigh(A.T @ A)[1][:, 0].reshape(3, 3)
+    S = np.array([[Ts[0], 0.0, -Ts[0] * Ts[1][0, 0]], [0.0, Ts[0], -Ts[0] * Ts[1][1, 0]], [0, 0, 1.0]])
+    D = np.array([[1.0 / Td[0], 0.0, Td[1][0, 0]], [0.0, 1.0 / Td[0], Td[1][1, 0]], [0, 0, 1.0]])
+    H = D @ Hn @ S
     return H / H[2, 2]
 
 
-def _normaliser(P: np.ndarray) -> np.ndarray:
-    c = P.mean(axis=1)
-    scale = np.sqrt(2.0) / max(np.mean(np.hypot(*(P - c[:, None]))), 1e-12)
-    return np.array([[scale, 0, -scale * c[0]], [0, scale, -scale * c[1]], [0, 0, 1.0]])
+def _normaliser(P: np.ndarray):
+    """Scale and centre (2, 1) that bring P's mean distance from its centroid to sqrt(2)."""
+    c = P.sum(axis=1, keepdims=True) / P.shape[1]
+    d = P - c
+    spread = np.sqrt(d[0] * d[0] + d[1] * d[1]).sum() / P.shape[1]
+    return np.sqrt(2.0) / max(spread, 1e-12), c
 
 
 def _apply(H: np.ndarray, P: np.ndarray) -> np.ndarray:

@@ -143,29 +143,46 @@ def fit_saddles(patches, weights=None) -> SaddleFit:
 def _fit(P: np.ndarray, weights):
     """Points, saddle mask, inside mask, coefficients (patch coordinates) and RMS."""
     m, h, w = P.shape
-    A = _design(h, w)
+    y = P.reshape(m, h * w)
+    points, saddle, inside, coeffs = fit_quadrics(P, weights)
+    res = y - (_design(h, w) @ _centre(coeffs, (w - 1) / 2.0, (h - 1) / 2.0)).T
+    W = np.ones_like(y) if weights is None else weights.reshape(m, h * w)
+    residual = np.sqrt(np.sum(W * res * res, axis=1) / np.maximum(W.sum(axis=1), 1e-300))
+    return points, saddle, inside, coeffs, residual
+
+
+def fit_quadrics(P: np.ndarray, weights):
+    """Unchecked core of :func:`fit_saddles` for trusted callers (no residual).
+
+    Returns points (2, m), saddle mask (m,), inside mask (m,) and coefficients (6, m) in
+    patch coordinates.
+    """
+    m, h, w = P.shape
     y = P.reshape(m, h * w)
     if weights is None:
         coeffs = _pinv(h, w) @ y.T
-        res = y - (A @ coeffs).T
-        residual = np.sqrt(np.mean(res * res, axis=1))
     else:
-        coeffs, residual = _weighted(A, weights.reshape(m, h * w), y)
+        coeffs = _weighted(h, w, weights.reshape(m, h * w), y)
     points, saddle, inside = _stationary(coeffs, h, w, _curvature_floor(y, h, w))
-    return points, saddle, inside, _uncentre(coeffs, (w - 1) / 2.0, (h - 1) / 2.0), residual
+    return points, saddle, inside, _uncentre(coeffs, (w - 1) / 2.0, (h - 1) / 2.0)
 
 
-def _weighted(A: np.ndarray, W: np.ndarray, y: np.ndarray):
+def _weighted(h: int, w: int, W: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Per-patch weighted least squares through batched 6 x 6 normal equations."""
-    outer = (A[:, :, None] * A[:, None, :]).reshape(A.shape[0], 36)
-    N = (W @ outer).reshape(-1, 6, 6)
-    rhs = (W * y) @ A
+    N = (W @ _outer(h, w)).reshape(-1, 6, 6)
+    rhs = (W * y) @ _design(h, w)
     # A tiny ridge keeps all-zero-weight patches solvable; they come out invalid anyway.
     N += np.eye(6) * (1e-12 * np.trace(N, axis1=1, axis2=2)[:, None, None] + 1e-300)
-    coeffs = np.linalg.solve(N, rhs[:, :, None])[:, :, 0].T
-    res = y - (A @ coeffs).T
-    wsum = np.maximum(W.sum(axis=1), 1e-300)
-    return coeffs, np.sqrt(np.sum(W * res * res, axis=1) / wsum)
+    return np.linalg.solve(N, rhs[:, :, None])[:, :, 0].T
+
+
+@lru_cache(maxsize=32)
+def _outer(h: int, w: int) -> np.ndarray:
+    """Row-wise outer products of the design matrix, (h*w, 36): N = W @ this."""
+    A = _design(h, w)
+    O = (A[:, :, None] * A[:, None, :]).reshape(A.shape[0], 36)
+    O.setflags(write=False)
+    return O
 
 
 def _curvature_floor(y: np.ndarray, h: int, w: int) -> np.ndarray:
@@ -198,6 +215,11 @@ def _stationary(coeffs: np.ndarray, h: int, w: int, floor: np.ndarray):
     with np.errstate(invalid="ignore"):
         inside = (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1)
     return np.vstack([u, v]), finite & (-det > floor), inside
+
+
+def _centre(c: np.ndarray, cx: float, cy: float) -> np.ndarray:
+    """Inverse of :func:`_uncentre`."""
+    return _uncentre(c, -cx, -cy)
 
 
 def _uncentre(c: np.ndarray, cx: float, cy: float) -> np.ndarray:
