@@ -96,7 +96,9 @@ def homography_dlt(src, dst) -> np.ndarray:
     A[0::2, 6:9] = -b[0, :, None] * ah
     A[1::2, 3:6] = ah
     A[1::2, 6:9] = -b[1, :, None] * ah
-    _, s, Vt = np.linalg.svd(A)
+    # Thin SVD: the full U (2n x 2n) is unused and slow; with 4 points A is 8 x 9 and the
+    # null vector needs the full Vt.
+    _, s, Vt = np.linalg.svd(A, full_matrices=A.shape[0] < 9)
     if s.size < 8 or s[7] < _RANK_TOL * s[0]:
         raise InputError("the points do not determine a homography (collinear or repeated points)")
     Hn = Vt[-1].reshape(3, 3)
