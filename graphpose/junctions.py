@@ -50,7 +50,7 @@ WINDOW_FRACTION = 0.5
 #: Gaussian pre-smoothing of refinement patches, pixels.
 SMOOTH_SIGMA = 0.5
 #: Largest refinement window radius, pixels (beyond it the fit gains little and costs time).
-MAX_RADIUS = 14.0
+MAX_RADIUS = 12.0
 #: A junction whose refined position is farther than this from the grid homography's
 #: prediction (fraction of the local square, or 1.5 px if more) is not trusted.
 _GRID_TOLERANCE = 0.08
@@ -164,7 +164,7 @@ def extract_junctions(I, bpoly, board: Board = Board(), *, window: float = WINDO
     >>> J.points.shape, J.trusted.all()                                # doctest: +SKIP
     ((2, 48), True)
     """
-    image = as_grey(I)
+    image = _grey(I)
     poly = _check_polygon(bpoly, image.shape)
     if not 0 < window <= 0.7:
         raise InputError(f"window must be a fraction of the square in (0, 0.7], got {window!r}")
@@ -201,7 +201,7 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
     Returns
     -------
     points : (2, m) ndarray of float64
-        Refined positions; where the fit failed, the input position.
+        Refined positions; where the fit failed, its last good estimate (or the input).
     trusted : (m,) ndarray of bool
         True where the fit converged to a saddle inside its window, the window lies in the
         image, and a ring around the point looks like a cross-junction (point-symmetric,
@@ -215,7 +215,7 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
         If the image or points are malformed, or ``half_width`` is not >= 2 (scalar or one
         per point).
     """
-    image = as_grey(I)
+    image = _grey(I)
     P = as_points(points, 2, "points")
     radius = np.broadcast_to(np.asarray(half_width, dtype=float), P.shape[1:]) \
         if np.ndim(half_width) in (0, 1) and np.size(half_width) in (1, P.shape[1]) else None
@@ -228,6 +228,13 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
 
 
 # ------------------------------------------------------------------------------ checks
+
+
+def _grey(I) -> np.ndarray:
+    """As :func:`graphpose.io.as_grey`, with a one-pass shortcut for 8-bit grey images."""
+    if isinstance(I, np.ndarray) and I.dtype == np.uint8 and I.ndim == 2 and I.size:
+        return I * (1.0 / 255.0)
+    return as_grey(I)
 
 
 def _check_polygon(bpoly, shape) -> np.ndarray:
@@ -463,56 +470,79 @@ def _chess_score(canon: np.ndarray, pts: np.ndarray, radius: float) -> np.ndarra
 
 
 def _refine(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: float,
-            max_iter: int = 8, tol: float = 0.005):
-    """Re-centred, gradient-weighted saddle fits: (points (2, m), ok (m,), residual (m,))."""
+            max_iter: int = 8, tol: float = 0.02):
+    """Re-centred, gradient-weighted saddle fits: (points (2, m), trusted (m,), residual (m,)).
+
+    Each round refits only the junctions still moving; a junction that drifts off its
+    patch's centre gets a new patch.
+    """
+    m = points.shape[1]
     current = points.astype(float).copy()
-    converged = np.zeros(current.shape[1], dtype=bool)
-    valid = np.zeros(current.shape[1], dtype=bool)
-    residual = np.full(current.shape[1], np.nan)
     slack = 2
     half = int(np.ceil(radius.max())) + slack
-    done = 0
-    while done < max_iter:
-        base = np.rint(current).astype(int)
-        patches, grad2, inside = _patches(image, base, half, sigma, radius)
-        offs = np.arange(-half, half + 1, dtype=float)
-        while done < max_iter:
-            done += 1
-            local = current - base
-            weights, taper = _weights(offs, local, radius, grad2)
-            points, saddle, within, coeffs = _fit(patches, weights)
-            new = base + points - half
-            step = np.hypot(*(new - current))
-            ok = saddle & within & (step < radius)
-            current = np.where(ok, new, current)
-            valid = ok
-            converged = ok & (step < tol)
-            if np.all(converged | ~ok):
-                done = max_iter
-            elif np.any(np.abs(current - base) > slack - 0.5):
-                break
-    residual = np.where(valid, _taper_rms(patches, coeffs, taper), np.nan)
+    offs = np.arange(-half, half + 1, dtype=float)
+    base = np.rint(current).astype(int)
+    patches, grad2, inside = _patches(image, base, half, sigma, radius)
+    coeffs = np.full((6, m), np.nan)
+    state = np.zeros(m, dtype=int)  # 0 moving, 1 converged, 2 failed
+    for _ in range(max_iter):
+        act = np.flatnonzero(state == 0)
+        if act.size == 0:
+            break
+        drift = act[np.any(np.abs(current[:, act] - base[:, act]) > slack - 0.5, axis=0)]
+        if drift.size:
+            base[:, drift] = np.rint(current[:, drift])
+            patches[drift], grad2[drift], inside[drift] = _patches(image, base[:, drift], half, sigma, radius[drift])
+        weights, _ = _weights(offs, current[:, act] - base[:, act], radius[act], grad2[act])
+        pts, saddle, within, coeffs[:, act] = _fit(patches[act], weights)
+        new = base[:, act] + pts - half
+        step = np.hypot(*(new - current[:, act]))
+        ok = saddle & within & (step < radius[act])
+        current[:, act[ok]] = new[:, ok]
+        state[act[~ok]] = 2
+        state[act[ok & (step < tol)]] = 1
+    fitted = state != 2
+    taper = _weights(offs, current - base, radius, grad2)[1]
+    residual = np.where(fitted, _taper_rms(patches, coeffs, taper), np.nan)
     crosses = _looks_like_cross(patches, current - base + half, 0.6 * radius)
-    trusted = valid & converged & inside & crosses
-    return current, trusted, residual
+    return current, (state == 1) & inside & crosses, residual
 
 
 def _patches(image, base, half, sigma, radius):
     """Smoothed patches (m, 2h+1, 2h+1), squared gradients and an in-image mask (m,)."""
     height, width = image.shape
-    margin = int(np.ceil(3 * sigma)) + 1
+    kernel = _gaussian_kernel(sigma)
+    margin = len(kernel) // 2 + 1
     offs = np.arange(-half - margin, half + margin + 1)
-    rows = base[1][:, None] + offs
-    cols = base[0][:, None] + offs
+    rows = np.clip(base[1][:, None] + offs, 0, height - 1)
+    cols = np.clip(base[0][:, None] + offs, 0, width - 1)
     inside = (base[0] - radius >= 0) & (base[0] + radius <= width - 1) & \
         (base[1] - radius >= 0) & (base[1] + radius <= height - 1)
-    raw = image[np.clip(rows, 0, height - 1)[:, :, None], np.clip(cols, 0, width - 1)[:, None, :]]
-    cut = slice(margin - 1, len(offs) - margin + 1)
-    smooth = ndimage.gaussian_filter(raw, (0, sigma, sigma), truncate=4.0)[:, cut, cut] if sigma > 0 \
-        else raw[:, cut, cut]
+    raw = image.ravel()[(rows * width)[:, :, None] + cols[:, None, :]]
+    smooth = _convolve(_convolve(raw, kernel, 1), kernel, 2)
     gx = 0.5 * (smooth[:, 1:-1, 2:] - smooth[:, 1:-1, :-2])
     gy = 0.5 * (smooth[:, 2:, 1:-1] - smooth[:, :-2, 1:-1])
     return smooth[:, 1:-1, 1:-1], gx * gx + gy * gy, inside
+
+
+def _gaussian_kernel(sigma: float) -> np.ndarray:
+    """Normalised Gaussian taps out to 4 sigma (a single 1 for sigma = 0)."""
+    if sigma == 0:
+        return np.ones(1)
+    t = int(np.ceil(4.0 * sigma))
+    k = np.exp(-0.5 * (np.arange(-t, t + 1) / sigma) ** 2)
+    return k / k.sum()
+
+
+def _convolve(a: np.ndarray, kernel: np.ndarray, axis: int) -> np.ndarray:
+    """'Valid' correlation with a short symmetric kernel along one axis (shrinks it)."""
+    n = a.shape[axis] - len(kernel) + 1
+    index = [slice(None)] * a.ndim
+    out = 0.0
+    for j, k in enumerate(kernel):
+        index[axis] = slice(j, j + n)
+        out = out + k * a[tuple(index)]
+    return out
 
 
 def _weights(offs, local, radius, grad2):
