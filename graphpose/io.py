@@ -262,15 +262,41 @@ def to_jsonable(value):
     return value
 
 
+def dumps_json(value) -> str:
+    """``value`` (see :func:`to_jsonable`) as indented JSON text, one matrix row per line.
+
+    Objects and lists of objects are indented by one space per level; a list of numbers is
+    written on one line and a matrix (list of such lists) with one row per line, so a 4 x 4
+    pose reads as four lines. Ends with a newline.
+    """
+    return _dumps(to_jsonable(value), 0) + "\n"
+
+
+def _dumps(v, level: int) -> str:
+    flat = lambda x: json.dumps(x, allow_nan=False)  # noqa: E731
+    is_row = lambda x: isinstance(x, list) and not any(isinstance(e, (list, dict)) for e in x)  # noqa: E731
+    pad, inner = " " * level, " " * (level + 1)
+    if isinstance(v, dict):
+        if not v:
+            return "{}"
+        items = [f"{inner}{flat(k)}: {_dumps(x, level + 1)}" for k, x in v.items()]
+        return "{\n" + ",\n".join(items) + "\n" + pad + "}"
+    if not isinstance(v, list) or is_row(v):
+        return flat(v)
+    if all(is_row(row) for row in v):
+        return "[" + (",\n" + inner).join(flat(row) for row in v) + "]"
+    return "[\n" + ",\n".join(inner + _dumps(x, level + 1) for x in v) + "\n" + pad + "]"
+
+
 def write_json(path, value) -> None:
-    """Write ``value`` (see :func:`to_jsonable`) as indented JSON, atomically.
+    """Write ``value`` (see :func:`to_jsonable`) as JSON (:func:`dumps_json`), atomically.
 
     Raises
     ------
     InputError
         As :func:`atomic_write`.
     """
-    atomic_write(path, json.dumps(to_jsonable(value), indent=1, allow_nan=False) + "\n")
+    atomic_write(path, dumps_json(value))
 
 
 def result_record(image, estimate=None, error=None) -> dict:

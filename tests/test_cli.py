@@ -20,7 +20,7 @@ from conftest import REAL_DIR, REPO
 from graphpose import InputError, T_from_params, load_cases
 from graphpose.cli import main
 from graphpose.cli.estimate import Progress, parse_bounds, parse_K
-from graphpose.io import atomic_write, encode_png, load_pose, result_record, write_json
+from graphpose.io import atomic_write, dumps_json, encode_png, load_pose, result_record, write_json
 
 BUNDLED = REPO / "data" / "cases.json"
 KEYS = {"image", "converged", "T_WC", "xyz_m", "rpy_deg", "sigma_xyz_mm", "sigma_rpy_deg",
@@ -311,6 +311,15 @@ def test_atomic_write_leaves_old_file_or_nothing(tmp_path):
     with pytest.raises(InputError, match="cannot write"):
         atomic_write(tmp_path / "nowhere" / "out.json", b"x")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["dir", "out.json"]
+
+
+def test_json_text_round_trip_with_one_matrix_row_per_line():
+    value = [{"name": "a b", "T": np.eye(4), "empty": {}, "none": [], "nested": [{"x": [1, 2]}, "s"],
+              "ok": np.bool_(False), "nan": float("nan")}]
+    text = dumps_json(value)
+    assert json.loads(text) == [{"name": "a b", "T": np.eye(4).tolist(), "empty": {}, "none": [],
+                                 "nested": [{"x": [1, 2]}, "s"], "ok": False, "nan": None}]
+    assert '"T": [[1.0, 0.0, 0.0, 0.0],\n' in text and text.count("[0.0, 0.0, 0.0, 1.0]") == 1
 
 
 def test_png_round_trip(tmp_path):

@@ -150,14 +150,14 @@ def run(args) -> int:
         _check_folder(Path(args.json), "--json")
     # Imported after the arguments are checked: a usage error needs no GTSAM.
     from ..draw import draw_overlay
-    from ..io import read_image, result_record, write_json, write_png
+    from ..io import dumps_json, read_image, result_record, write_json, write_png
     from ..pipeline import estimate_pose
 
     report = not (args.quiet or args.json == "-")
     progress = Progress(len(jobs), sys.stderr)
     records, codes = [], []
     for i, job in enumerate(jobs):
-        progress.show(i, job.name)
+        progress.show(i, Path(job.name).name)
         estimate, error, code = None, None, EXIT_OK
         try:
             image = read_image(job.path)
@@ -187,11 +187,7 @@ def run(args) -> int:
         failed = sum(c != EXIT_OK for c in codes)
         print(f"{len(jobs)} images: {len(jobs) - failed} estimated, {failed} failed")
     if args.json == "-":
-        import json
-
-        from ..io import to_jsonable
-
-        print(json.dumps(to_jsonable(records), indent=1, allow_nan=False))
+        sys.stdout.write(dumps_json(records))
     elif args.json is not None:
         write_json(args.json, records)
     return max(codes)
