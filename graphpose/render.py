@@ -30,8 +30,11 @@ How it is computed
    the fine grid is the symmetric ``1/S``-px cell (no position bias; S = 2 and S = 8 give
    junction positions that agree to well under 0.002 px, see ``tests/test_render.py``).
    With ``blur_sigma == 0`` the image is the exact pixel area at S = 1.
-3. Only the sheet's bounding box (plus the kernel's reach) is rasterised; the rest of the
-   image is background times illumination.
+3. Speed: only the sheet's bounding box (plus the kernel's reach) is treated; the rest of
+   the image is background times illumination. The coverage is kept sparse (one entry per
+   edge piece and cell crossed, plus one per piece to be summed up its column), the blur
+   along u is applied to those entries directly, and only then are columns summed and the
+   blur along v applied, on an array S times smaller than the fine grid.
 
 Ground truth: the junctions are ``camera.project(K, T_WC, board.world_points())``.
 """
@@ -545,16 +548,30 @@ def polygon_coverage(polygons, size) -> np.ndarray:
 
 
 def _coverage(polys, h: int, w: int, weights=None) -> np.ndarray:
-    """Covered area of each unit cell ``[i, i+1] x [j, j+1]`` (array entry [j, i]).
+    """Covered area of each unit cell ``[i, i+1] x [j, j+1]`` (array entry [j, i]), (h, w).
 
     With ``weights`` (one per polygon) the result is the weighted sum of the coverages.
+    """
+    (full_row, full_col, full_w), (row, col, part_w) = _coverage_entries(polys, h, w, weights)
+    area = np.bincount(full_row * w + full_col, full_w, h * w).reshape(h, w)
+    _sum_upwards(area)
+    area += np.bincount(row * w + col, part_w, h * w).reshape(h, w)
+    return area
+
+
+def _coverage_entries(polys, h: int, w: int, weights=None):
+    """Sparse form of :func:`_coverage`: ``(full, partial)`` triplets ``(row, col, value)``.
+
+    The coverage is ``sum_upwards(full) + partial``, where ``sum_upwards`` adds each
+    entry into every cell of its column at or above its row.
 
     Green's theorem with ``F = 1[i <= x <= i+1] clamp(y - j, 0, 1)`` (so dF/dy is the
     cell's indicator) gives ``area(P ∩ cell) = -∮_P F dx`` for a positively oriented P.
     Each edge is cut at integer x; on a piece of width ``dx`` the integrand's mean is the
-    mean of ``clamp`` of a linear function, in closed form. Cells the piece passes
-    entirely below (``y >= j + 1``) get the full ``dx``: those are accumulated once per
-    piece and spread upwards by a cumulative sum; cells it passes above get nothing.
+    mean of ``clamp`` of a linear function, in closed form (the partial entries). Cells the
+    piece passes entirely below (``y >= j + 1``) get the full ``dx``: one full entry per
+    piece, spread upwards later; cells it passes above get nothing. Cells outside the grid
+    are dropped, which clips the polygons to it exactly.
     """
     edges, gains = [], []
     for P, gain in zip(polys, np.ones(len(polys)) if weights is None else weights):
@@ -583,23 +600,28 @@ def _coverage(polys, h: int, w: int, weights=None) -> np.ndarray:
     k0 = np.floor(lo).astype(np.int64)
     k1 = np.ceil(hi).astype(np.int64) - 1
 
-    # Pieces entirely below rows j < k0: one entry at row min(k0 - 1, h - 1), summed upwards
-    # (a row loop: numpy's cumsum along axis 0 is several times slower).
+    # Full entries: rows j < k0, recorded at row min(k0 - 1, h - 1).
     full_row = np.minimum(k0 - 1, h - 1)
     ok = full_row >= 0
-    area = np.bincount(full_row[ok] * w + col[ok], weight[ok], h * w).reshape(h, w)
-    for j in range(h - 2, -1, -1):
-        np.add(area[j], area[j + 1], out=area[j])
+    full = full_row[ok], col[ok], weight[ok]
 
-    # Rows k0..k1 that the piece crosses: the mean of clamp(y - k, 0, 1) along it.
+    # Partial entries: rows k0..k1 that the piece crosses, the mean of clamp(y - k, 0, 1).
     r_lo = np.maximum(k0, 0)
     r_hi = np.minimum(k1, h - 1)
     n_rows = np.maximum(r_hi - r_lo + 1, 0)
     piece = np.repeat(np.arange(col.size), n_rows)
     row = r_lo[piece] + np.arange(piece.size) - np.repeat(np.cumsum(n_rows) - n_rows, n_rows)
     mean = _mean_clamp(lo[piece] - row, hi[piece] - row)
-    area += np.bincount(row * w + col[piece], weight[piece] * mean, h * w).reshape(h, w)
-    return area
+    return full, (row, col[piece], weight[piece] * mean)
+
+
+def _sum_upwards(a: np.ndarray) -> None:
+    """In place, ``a[j] = sum(a[j:])`` along axis 0.
+
+    A row loop: numpy's cumsum along axis 0 is several times slower on large arrays.
+    """
+    for j in range(a.shape[0] - 2, -1, -1):
+        np.add(a[j], a[j + 1], out=a[j])
 
 
 def _mean_clamp(t0: np.ndarray, t1: np.ndarray) -> np.ndarray:
@@ -668,10 +690,23 @@ def _add_board(image, K, T_WC, board, margin, sigma, S, light, background, white
     h, w = (v1 - v0) * S, (u1 - u0) * S
     polys = [fine(sheet)] + [fine(project(K, T_WC, Q)) for Q in squares]
     gains = [white - background] + [black - white] * len(squares)
-    departure = _coverage(polys, h, w, gains)
-    centres = (np.arange(w) + 0.5) / S + u0 - 0.5, (np.arange(h) + 0.5) / S + v0 - 0.5
-    departure *= light(centres[0][None, :], centres[1][:, None])
-    blurred = _blur_integrate(departure, sigma, S, reach)
+    full, partial = _coverage_entries(polys, h, w, gains)
+    # The fine image is light * coverage. Its x-pass (blur and integration along u, down to
+    # pixel columns) is applied to the sparse entries directly; full entries still have to
+    # be summed upwards, which commutes with the x-pass for the u-part of the light,
+    # c + a u, while its v-part, b v, is constant along each row and applied afterwards.
+    k = _kernel(sigma, S, reach)
+    u_fine = lambda col: (col + 0.5) / S + u0 - 0.5  # noqa: E731
+    v_fine = (np.arange(h) + 0.5) / S + v0 - 0.5
+    row, col, value = full
+    rows, vertical = _x_pass(row, col, [value * (light.c + light.a * u_fine(col)), value], k, S, h, u1 - u0)
+    _sum_upwards(rows)
+    if light.b != 0:
+        _sum_upwards(vertical)
+        rows += (light.b * v_fine)[:, None] * vertical
+    row, col, value = partial
+    rows += _x_pass(row, col, [value * light(u_fine(col), v_fine[row])], k, S, h, u1 - u0)[0]
+    blurred = sum(correlate1d(rows[b::S, :], k[:, b], axis=0, mode="constant") for b in range(S))
     cu0, cv0 = max(u0, 0), max(v0, 0)
     cu1, cv1 = min(u1, width), min(v1, height)
     image[cv0:cv1, cu0:cu1] += blurred[cv0 - v0 : cv1 - v0, cu0 - u0 : cu1 - u0]
@@ -694,11 +729,30 @@ def _kernel(sigma: float, S: int, reach: int) -> np.ndarray:
     return (H(1 - c) - H(-c)) - (H(1 - e) - H(-e))
 
 
+def _x_pass(row, col, values, k, S: int, h: int, w: int) -> list:
+    """Blur and integrate along u a sparse fine image given as entries, giving (h, w) arrays.
+
+    Entry ``(row, col, value)`` sits in fine column ``col = p * S + b``; pixel column
+    ``p - a`` receives ``value * k[a + reach, b]`` for ``a = -reach..reach``. ``values`` is
+    a list of value arrays sharing the positions; one output per value array.
+    """
+    reach = (k.shape[0] - 1) // 2
+    p, b = np.divmod(col, S)
+    wide = w + 2 * reach  # room for the kernel's reach beyond either side, cut off below
+    index = (row * wide + p + 2 * reach)[:, None] - np.arange(2 * reach + 1)
+    kernel = k.T[b]
+    return [
+        np.bincount(index.ravel(), (kernel * v[:, None]).ravel(), h * wide).reshape(h, wide)[:, reach : reach + w]
+        for v in values
+    ]
+
+
 def _blur_integrate(fine: np.ndarray, sigma: float, S: int, reach: int) -> np.ndarray:
-    """Blur a fine image (h*S, w*S) and integrate it over pixels, giving (h, w)."""
+    """Blur a dense fine image (h*S, w*S) and integrate it over pixels, giving (h, w).
+
+    The dense twin of the sparse path in :func:`_add_board`, kept for tests.
+    """
     k = _kernel(sigma, S, reach)
-    if S == 1 and sigma == 0:
-        return fine
     rows = sum(correlate1d(fine[:, b::S], k[:, b], axis=1, mode="constant") for b in range(S))
     return sum(correlate1d(rows[b::S, :], k[:, b], axis=0, mode="constant") for b in range(S))
 
