@@ -15,6 +15,10 @@ from graphpose.errors import InputError
 from graphpose.render import (
     Rendering,
     _black_squares_world,
+    _blur_integrate,
+    _coverage,
+    _Light,
+    _sheet_world,
     image_gradients,
     junction_information,
     loose_polygon,
@@ -98,6 +102,30 @@ def test_blur_free_fronto_parallel_edge_values():
     assert I[60, 80] == pytest.approx(40.0, abs=1e-9)
     # Sheet edge: the left margin ends at u = 100.3 - 1.5 * 40 = 40.3.
     assert I[100, 40] == pytest.approx(0.8 * 60.0 + 0.2 * 200.0, abs=1e-9)
+
+
+def test_sparse_blur_equals_dense_fine_grid_reference():
+    # The renderer blurs sparse coverage entries and moves the light's v-part past a column
+    # sum; here the same image is made the plain way: dense fine grid over the whole image
+    # (plus the kernel's reach), times the light, blurred and integrated per pixel.
+    board, size, S, sigma = Board(3, 3), (200, 160), 3, 0.8
+    K = K_from_params(564.9, 564.3, 100.0, 80.0)
+    T = random_pose(np.random.default_rng(8), K, board, size, distance=(1.3, 1.6))
+    levels = dict(background=50.0, white=210.0, black=30.0)
+    light = _Light(*size, 0.3, np.deg2rad(60.0))
+    reach = int(np.ceil(5.0 * sigma)) + 1
+    origin = np.array([[-reach - 0.5], [-reach - 0.5]])
+    polys = [(project(K, T, Q) - origin) * S for Q in [_sheet_world(board, 0.5), *_black_squares_world(board)]]
+    gains = [160.0] + [-180.0] * (len(polys) - 1)
+    h, w = (size[1] + 2 * reach) * S, (size[0] + 2 * reach) * S
+    u = (np.arange(w) + 0.5) / S - reach - 0.5
+    v = (np.arange(h) + 0.5) / S - reach - 0.5
+    fine = _coverage(polys, h, w, gains) * light(u[None, :], v[:, None])
+    blurred = _blur_integrate(fine, sigma, S, reach)[reach:-reach, reach:-reach]
+    U, V = np.meshgrid(np.arange(size[0]), np.arange(size[1]))
+    expected = 50.0 * light(U, V) + blurred
+    I = render_ideal(K, T, board, size, blur_sigma=sigma, supersample=S, gradient=0.3, light_angle_deg=60.0, **levels)
+    assert np.abs(I - expected).max() < 1e-9
 
 
 # ------------------------------------------------------------------ exact truth
