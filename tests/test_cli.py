@@ -180,6 +180,12 @@ BOUNDS = "100,100,540,100,540,380,100,380"
     (["estimate", "--frobnicate"], ["unrecognized arguments: --frobnicate"]),
     (["estimate", "img.png", "--bounds", BOUNDS, "--overlay", "out.jpg"], ["--overlay", ".png"]),
     (["nonsense"], ["invalid choice"]),
+    (["estimate", "img.png", "--cases", "c.json"], ["either IMAGE or --cases"]),
+    (["estimate", "img.png", "--bounds", BOUNDS, "--guess", "g.json", "--no-guess"], ["contradict"]),
+    (["estimate", "--cases", str(BUNDLED), "--guess", "g.json"], ["--guess goes with IMAGE"]),
+    (["estimate", "--cases", str(BUNDLED), "--overlay", "many.png"], ["need a folder", "many.png"]),
+    (["estimate", "--cases", str(BUNDLED), "--json", "no/such/folder/out.json"], ["--json", "does not exist"]),
+    (["estimate", "--cases", "no/such/cases.json"], ["case file not found"]),
 ])
 def test_usage_errors_in_process(args, fragments, capsys):
     # Argument errors never reach the pipeline, so the same main() runs in this process.
