@@ -741,10 +741,8 @@ def _x_pass(row, col, values, k, S: int, h: int, w: int) -> list:
     wide = w + 2 * reach  # room for the kernel's reach beyond either side, cut off below
     index = (row * wide + p + 2 * reach)[:, None] - np.arange(2 * reach + 1)
     kernel = k.T[b]
-    return [
-        np.bincount(index.ravel(), (kernel * v[:, None]).ravel(), h * wide).reshape(h, wide)[:, reach : reach + w]
-        for v in values
-    ]
+    sums = (np.bincount(index.ravel(), (kernel * v[:, None]).ravel(), h * wide) for v in values)
+    return [a.reshape(h, wide)[:, reach : reach + w] for a in sums]
 
 
 def _blur_integrate(fine: np.ndarray, sigma: float, S: int, reach: int) -> np.ndarray:
