@@ -54,6 +54,9 @@ MAX_RADIUS = 12.0
 #: A junction whose refined position is farther than this from the grid homography's
 #: prediction (fraction of the local square, or 1.5 px if more) is not trusted.
 _GRID_TOLERANCE = 0.08
+#: A junction whose fit residual exceeds this multiple of the board's median is not trusted
+#: (the six real images stay within 0.85-1.14 of their medians).
+_RESIDUAL_RATIO = 1.5
 
 
 @dataclass(frozen=True)
@@ -66,13 +69,15 @@ class Junctions:
         Junction positions (u, v), pixels, row-major from the upper-left junction.
     trusted : (n,) ndarray of bool
         True where the saddle fit converged to a saddle inside its window, the window lies
-        inside the image, a ring around the point looks like a cross-junction, and the point
-        agrees with the homography fitted to the trusted junctions. Untrusted points are still the
+        inside the image, a ring around the point looks like a cross-junction, its fit
+        residual is at most 1.5 times the board's median, and the point agrees with the
+        homography fitted to the trusted junctions (within 8 % of the square or 1.5 px). Untrusted points are still the
         best estimate available (refined, or predicted by the grid where refinement failed);
         a pose should use the trusted ones.
     residual : (n,) ndarray of float64
-        RMS residual of the saddle quadric over its window, in grey units of the image
-        scaled to [0, 1] (as :func:`graphpose.io.as_grey`); NaN where the fit failed.
+        RMS residual of the saddle quadric under its fit weights (which sit on the two
+        edges near the junction), in grey units of the image scaled to [0, 1] (as
+        :func:`graphpose.io.as_grey`); NaN where the fit failed.
     square_px : (n,) ndarray of float64
         Local square side at each junction, pixels (the smaller height of the parallelogram
         spanned by the grid steps there).
@@ -207,7 +212,8 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
         image, and a ring around the point looks like a cross-junction (point-symmetric,
         four alternating sectors).
     residual : (m,) ndarray of float64
-        RMS fit residual, grey units of the image scaled to [0, 1]; NaN where it failed.
+        RMS residual of the weighted saddle fit, grey units of the image scaled to [0, 1];
+        NaN where it failed.
 
     Raises
     ------
@@ -502,8 +508,8 @@ def _refine(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: fl
         state[act[~ok]] = 2
         state[act[ok & (step < tol)]] = 1
     fitted = state != 2
-    taper = _weights(offs, current - base, radius, grad2)[1]
-    residual = np.where(fitted, _taper_rms(patches, coeffs, taper), np.nan)
+    weights = _weights(offs, current - base, radius, grad2)[0]
+    residual = np.where(fitted, _weighted_rms(patches, coeffs, weights), np.nan)
     crosses = _looks_like_cross(patches, current - base + half, 0.6 * radius)
     return current, (state == 1) & inside & crosses, residual
 
@@ -564,15 +570,15 @@ def _weights(offs, local, radius, grad2):
     return taper * grad2 / np.maximum(r2, 1.0), taper
 
 
-def _taper_rms(patches, coeffs, taper):
-    """RMS of the quadric's residual over the taper, per patch (coefficients in patch coordinates)."""
+def _weighted_rms(patches, coeffs, weights):
+    """RMS of the quadric's residual under the fit weights, per patch (patch coordinates)."""
     m, h, w = patches.shape
     v, u = np.mgrid[0:h, 0:w]
     A = np.column_stack([u.ravel() ** 2, u.ravel() * v.ravel(), v.ravel() ** 2, u.ravel(), v.ravel(),
                          np.ones(h * w)]).astype(float)
     res = patches.reshape(m, -1) - (A @ coeffs).T
-    t = taper.reshape(m, -1)
-    return np.sqrt(np.sum(t * res * res, axis=1) / np.sum(t, axis=1))
+    w = weights.reshape(m, -1)
+    return np.sqrt(np.sum(w * res * res, axis=1) / np.maximum(np.sum(w, axis=1), 1e-300))
 
 
 def _looks_like_cross(patches, centre, radius):
@@ -608,6 +614,9 @@ def _judge(points, ok, residual, square, coarse, grid, board) -> Junctions:
         raise BoardNotFoundError(
             f"only {int(ok.sum())} of {board.n} junctions could be refined to a saddle"
         )
+    # On a clean board every junction's fit residual is within ~15 % of the median;
+    # a partly covered or smudged junction fits worse.
+    ok = ok & (residual <= _RESIDUAL_RATIO * np.median(residual[ok]))
     trusted = ok.copy()
     for _ in range(3):
         H = _homography(grid[:, trusted], points[:, trusted])
