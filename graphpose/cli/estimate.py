@@ -145,43 +145,19 @@ class Job:
 def run(args) -> int:
     """Run ``graphpose estimate`` with parsed ``args``; returns the exit code."""
     jobs, K, board = _jobs(args)
-    overlays = _overlay_paths(args.overlay, jobs)
+    overlays = _overlay_paths(args.overlay, jobs) or [None] * len(jobs)
     if args.json not in (None, "-"):
         _check_folder(Path(args.json), "--json")
-    # Imported after the arguments are checked: a usage error needs no GTSAM.
-    from ..draw import draw_overlay
-    from ..io import dumps_json, read_image, result_record, write_json, write_png
-    from ..pipeline import estimate_pose
+    from ..io import dumps_json, write_json
 
     report = not (args.quiet or args.json == "-")
     progress = Progress(len(jobs), sys.stderr)
     records, codes = [], []
-    for i, job in enumerate(jobs):
+    for i, (job, overlay) in enumerate(zip(jobs, overlays)):
         progress.show(i, Path(job.name).name)
-        estimate, error, code = None, None, EXIT_OK
-        try:
-            image = read_image(job.path)
-            estimate = estimate_pose(image, job.bounds, K, board, guess=job.guess, robust=args.robust)
-            if not estimate.ok:
-                raise _NotConverged(f"no reliable pose: {estimate.message}")
-        except GraphposeError as exc:
-            progress.clear()
-            print_error(exc, "" if str(job.path) in str(exc) else job.name)
-            error, code = " ".join(str(exc).split()), exit_code(exc)
-        record = result_record(str(job.path), estimate, error)
-        record["vs_truth"] = _difference(estimate, job.true_T_WC)
-        record["vs_reference"] = _difference(estimate, job.ref_T_WC)
+        record, code = _run_one(job, K, board, args.robust, overlay, report, progress)
         records.append(record)
         codes.append(code)
-        if estimate is not None:
-            # An unreliable pose goes to JSON and the overlay (to see why), not into the report.
-            if report and code == EXIT_OK:
-                progress.clear()
-                print(format_report(job.name, estimate, record), flush=True)
-            if overlays:
-                picture = draw_overlay(image, estimate, K, board, bounds=job.bounds, label=Path(job.name).name)
-                overlays[i].parent.mkdir(exist_ok=True)
-                write_png(overlays[i], picture)
     progress.clear()
     if report and len(jobs) > 1:
         failed = sum(c != EXIT_OK for c in codes)
@@ -191,6 +167,38 @@ def run(args) -> int:
     elif args.json is not None:
         write_json(args.json, records)
     return max(codes)
+
+
+def _run_one(job, K, board, robust, overlay, report, progress):
+    """Estimate one image, report it and draw it; returns its JSON record and exit code."""
+    # Imported here, after the arguments are checked: a usage error needs no GTSAM.
+    from ..draw import draw_overlay
+    from ..io import read_image, result_record, write_png
+    from ..pipeline import estimate_pose
+
+    estimate, error, code = None, None, EXIT_OK
+    try:
+        image = read_image(job.path)
+        estimate = estimate_pose(image, job.bounds, K, board, guess=job.guess, robust=robust)
+        if not estimate.ok:
+            raise _NotConverged(f"no reliable pose: {estimate.message}")
+    except GraphposeError as exc:
+        progress.clear()
+        print_error(exc, "" if str(job.path) in str(exc) else job.name)
+        error, code = " ".join(str(exc).split()), exit_code(exc)
+    record = result_record(str(job.path), estimate, error)
+    record["vs_truth"] = _difference(estimate, job.true_T_WC)
+    record["vs_reference"] = _difference(estimate, job.ref_T_WC)
+    if estimate is None:
+        return record, code
+    # An unreliable pose goes to JSON and the overlay (to see why), not into the report.
+    if report and code == EXIT_OK:
+        progress.clear()
+        print(format_report(job.name, estimate, record), flush=True)
+    if overlay is not None:
+        overlay.parent.mkdir(exist_ok=True)
+        write_png(overlay, draw_overlay(image, estimate, K, board, bounds=job.bounds, label=Path(job.name).name))
+    return record, code
 
 
 class _NotConverged(GraphposeError):
