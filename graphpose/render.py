@@ -139,7 +139,10 @@ def render_ideal(
         Direction in which the illumination increases, degrees from +u towards +v.
     supersample : int
         Fine cells per pixel along each axis used under blur (ignored, i.e. 1, when
-        ``blur_sigma == 0``, where the exact pixel area needs no fine grid).
+        ``blur_sigma == 0``, where the exact pixel area needs no fine grid). Junction
+        positions are within ~0.0005 px of the continuous model when
+        ``supersample * blur_sigma >= 4`` (0.002 px at 2, 0.006 px at 1.2); the default
+        4 suits ``blur_sigma`` near 1, sharper blurs want more.
     background, white, black : float
         Grey levels (0..255 scale) of the background, the sheet and the squares under
         unit illumination.
