@@ -278,6 +278,19 @@ def test_no_arguments_means_estimate_on_the_bundled_example(monkeypatch):
     assert estimate.DEFAULT_CASES == BUNDLED
 
 
+def test_every_subcommand_follows_the_protocol():
+    import importlib
+
+    from graphpose.cli import SUBCOMMANDS, build_parser
+
+    parser = build_parser()
+    for name in SUBCOMMANDS:
+        module = importlib.import_module(f"graphpose.cli.{name}")
+        assert callable(module.add_parser) and callable(module.run)
+        assert main([name, "--help"]) == 0
+    assert parser.parse_args(["estimate"]).command == "estimate"
+
+
 def test_help_names_the_defaults(capsys):
     assert main(["estimate", "--help"]) == 0
     text = capsys.readouterr().out

@@ -1,10 +1,10 @@
 """The ``graphpose`` command line: argument parsing and error handling in one place.
 
 Each subcommand is a module ``graphpose/cli/<name>.py`` with ``add_parser(subparsers)``,
-which adds its parser and stores ``run`` as the parser's ``func`` default, and
-``run(args) -> int``, which turns typed arguments into library calls and returns the exit
-code. :data:`SUBCOMMANDS` lists them. ``graphpose`` with no argument at all runs
-``graphpose estimate`` on the bundled example.
+which adds a parser called ``<name>`` (``subparsers.add_parser("<name>", ...)``), and
+``run(args) -> int``, which turns the typed arguments into library calls and returns the
+exit code. :data:`SUBCOMMANDS` lists them; :func:`main` calls the chosen module's ``run``.
+``graphpose`` with no argument at all runs ``graphpose estimate`` on the bundled example.
 
 Exit codes: 0 success; 1 an estimate failed (no board found, no convergence); 2 bad usage or
 input (malformed option, missing or unreadable file); 130 interrupted. Errors that graphpose
@@ -78,7 +78,7 @@ def main(argv=None) -> int:
             return int(done.code or 0)
         if extra:
             raise UsageError(f"unrecognized arguments: {' '.join(extra)} (see '{PROG} {args.command} --help')")
-        return int(args.func(args))
+        return int(importlib.import_module(f"{__name__}.{args.command}").run(args))
     except GraphposeError as exc:
         print_error(exc, prog=_prog(exc, argv))
         return exit_code(exc)

@@ -47,7 +47,7 @@ exit codes: 0 success, 1 an estimate failed (no board found, no convergence),
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Add the ``estimate`` subcommand to ``subparsers``; its ``func`` default is :func:`run`."""
+    """Add the ``estimate`` subcommand's parser to ``subparsers`` (an argparse subparsers action)."""
     fx, fy, cx, cy = DEFAULT_K
     board = Board()
     p = subparsers.add_parser(
@@ -83,7 +83,6 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="draw junctions, reprojection, axes and pose on the image; a folder "
                    "(created if absent) holds one IMAGE_NAME.overlay.png per image")
     p.add_argument("-q", "--quiet", action="store_true", help="no report on stdout (errors still on stderr)")
-    p.set_defaults(func=run)
     return p
 
 
