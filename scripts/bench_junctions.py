@@ -1,0 +1,174 @@
+#!/usr/bin/env python
+"""Junction benchmark: graphpose beside OpenCV on the same images, every figure measured here.
+
+Run through ``python scripts/bench.py junctions [--quick]`` or directly. OpenCV (the peer)
+is imported here only.
+
+Sections
+--------
+1. Real images (../shared/data/rob501): RMS reprojection residual of a pinhole pose
+   (graphpose.gauss_newton.pose_estimate_nls with the known K, from the case guess) fitted to
+   our 48 junctions, beside the same for OpenCV ``findChessboardCornersSB`` with
+   ``CALIB_CB_ACCURACY`` (its corners matched to ours by nearest neighbour).
+2. Synthetic images (graphpose.render, random poses like the real ones, loose polygons,
+   half of them inside the white margin): RMS junction error against the exact truth for
+   ours, ``cornerSubPix`` (11 x 11, started from our coarse grid), ``findChessboardCornersSB``
+   (CALIB_CB_ACCURACY; on the images where it finds the board) and the Cramer-Rao bound
+   ``sqrt(mean_j trace(inv FIM_j))`` from the noise-free render's derivatives, both for the
+   square window containing our refinement disc (half-width 12 px; the disc is smaller, so
+   this bound is optimistic for us) and for 11 x 11 (cornerSubPix's window).
+3. Speed: median wall time of ``extract_junctions`` (image in memory, polygon given) and of
+   ``findChessboardCornersSB`` on the six real images, and their ratio.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+DATA = REPO.parent / "shared" / "data" / "rob501"
+#: The real camera; synthetic images use it too.
+K_REAL = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
+SETTINGS = ((2.0, 1.0), (6.0, 2.0))  # (noise sigma in grey levels, blur sigma in px)
+
+
+def _median_time(fn, repeats):
+    fn()  # warm up caches and lazy imports
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return float(np.median(times))
+
+
+def _opencv_sb(cv2, image8, board):
+    """findChessboardCornersSB corners as (2, n), or None when it fails."""
+    # ACCURACY alone: the setting behind the issue's figures (adding NORMALIZE_IMAGE is
+    # worse on these images and misses target 02).
+    found, corners = cv2.findChessboardCornersSB(image8, (board.cols, board.rows), flags=cv2.CALIB_CB_ACCURACY)
+    return corners.reshape(-1, 2).T.astype(float) if found else None
+
+
+def _match(points, reference):
+    """Columns of ``points`` reordered to the nearest column of ``reference``, or None."""
+    d = np.hypot(reference[0][:, None] - points[0][None, :], reference[1][:, None] - points[1][None, :])
+    order = np.argmin(d, axis=1)
+    if len(set(order.tolist())) != points.shape[1] or d[np.arange(len(order)), order].max() > 3.0:
+        return None
+    return points[:, order]
+
+
+def _pose_rms(K, guess, points, board):
+    from graphpose.camera import project
+    from graphpose.gauss_newton import pose_estimate_nls
+
+    W = board.world_points()
+    T = pose_estimate_nls(K, guess, points, W)
+    return float(np.sqrt(np.mean(np.sum((project(K, T, W) - points) ** 2, axis=0))))
+
+
+def real_images(cv2):
+    from graphpose import extract_junctions, load_cases, read_image
+
+    cases = load_cases(DATA / "cases.json")
+    print("### Real images: RMS reprojection residual of a pinhole pose fitted to the junctions (px)\n")
+    print("| image | ours | OpenCV SB (ACCURACY) | ours / OpenCV | trusted |")
+    print("|---|---|---|---|---|")
+    for case in cases.cases:
+        image = read_image(case.image)
+        image8 = np.rint(image * 255).astype(np.uint8)
+        J = extract_junctions(image8, case.bounds, cases.board)
+        ours = _pose_rms(cases.K, case.guess_T_WC, J.points, cases.board)
+        sb = _opencv_sb(cv2, image8, cases.board)
+        sb = None if sb is None else _match(sb, J.points)
+        theirs = float("nan") if sb is None else _pose_rms(cases.K, case.guess_T_WC, sb, cases.board)
+        print(f"| {case.image.name} | {ours:.3f} | {theirs:.3f} | {ours / theirs:.2f} | "
+              f"{int(J.trusted.sum())}/{cases.board.n} |")
+    print()
+
+
+def synthetic(cv2, count):
+    from graphpose import Board, extract_junctions
+    from graphpose.junctions import MAX_RADIUS, _locate_grid, _apply, _grey
+    from graphpose.render import junction_information, loose_polygon, random_pose, render
+
+    board = Board()
+    half = int(np.ceil(MAX_RADIUS))
+    print(f"### Synthetic images: RMS junction error against the truth (px), {count} images per setting\n")
+    print("| noise, blur | ours | cornerSubPix 11x11 | SB (found/all) | ours on SB's images | "
+          f"CRB {2 * half + 1}x{2 * half + 1} | CRB 11x11 | ours / cornerSubPix | ours / SB | "
+          f"ours / CRB {2 * half + 1}x{2 * half + 1} |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4)
+    for noise, blur in SETTINGS:
+        rng = np.random.default_rng(2024)
+        ours, subpix, sb, ours_sb, crb, crb11 = [], [], [], [], [], []
+        for k in range(count):
+            T = random_pose(rng, K_REAL, board)
+            R = render(K_REAL, T, board, noise_sigma=noise, blur_sigma=blur, rng=rng)
+            poly = loose_polygon(R, rng, inset=bool(k % 2))
+            J = extract_junctions(R.image, poly, board)
+            err = np.sum((J.points - R.junctions) ** 2, axis=0)
+            ours.append(err)
+            coarse = _apply(_locate_grid(_grey(R.image), poly, board), board.grid_indices().astype(float))
+            refined = cv2.cornerSubPix(R.image, coarse.T.astype(np.float32).reshape(-1, 1, 2).copy(),
+                                       (5, 5), (-1, -1), criteria)
+            subpix.append(np.sum((refined.reshape(-1, 2).T - R.junctions) ** 2, axis=0))
+            corners = _opencv_sb(cv2, R.image, board)
+            corners = None if corners is None else _match(corners, R.junctions)
+            if corners is not None:
+                sb.append(np.sum((corners - R.junctions) ** 2, axis=0))
+                ours_sb.append(err)
+            # Quantisation adds 1/12 grey level^2 of noise to every pixel.
+            sigma = np.sqrt(noise**2 + 1.0 / 12.0)
+            for out, hw in ((crb, half), (crb11, 5)):
+                fim = junction_information(K_REAL, T, board, half_width=hw, noise_sigma=sigma, blur_sigma=blur)
+                out.append(np.trace(np.linalg.inv(fim), axis1=1, axis2=2))
+
+        def rms(errs):
+            return float(np.sqrt(np.mean(np.concatenate(errs)))) if errs else float("nan")
+
+        o, c, s, os_, b, b11 = rms(ours), rms(subpix), rms(sb), rms(ours_sb), rms(crb), rms(crb11)
+        print(f"| {noise:g}, {blur:g} | {o:.4f} | {c:.4f} | {s:.4f} ({len(sb)}/{count}) | {os_:.4f} | "
+              f"{b:.4f} | {b11:.4f} | {o / c:.2f} | {os_ / s:.2f} | {o / b:.2f} |")
+    print()
+
+
+def speed(cv2, repeats):
+    from graphpose import extract_junctions, load_cases, read_image
+
+    cases = load_cases(DATA / "cases.json")
+    ours, theirs = [], []
+    for case in cases.cases:
+        image8 = np.rint(read_image(case.image) * 255).astype(np.uint8)
+        ours.append(_median_time(lambda: extract_junctions(image8, case.bounds, cases.board), repeats))
+        theirs.append(_median_time(lambda: _opencv_sb(cv2, image8, cases.board), max(3, repeats // 10)))
+    o, t = 1000 * np.median(ours), 1000 * np.median(theirs)
+    print("### Speed: one 640 x 480 image in memory, polygon given (median ms over the six real images)\n")
+    print("| extract_junctions | findChessboardCornersSB | ratio (OpenCV / ours) |")
+    print("|---|---|---|")
+    print(f"| {o:.1f} | {t:.1f} | {t / o:.1f} |")
+    print("\nPer image (ms, ours / OpenCV): " + ", ".join(
+        f"{1000 * a:.1f}/{1000 * b:.0f}" for a, b in zip(ours, theirs)))
+    print()
+
+
+def main(quick: bool = False) -> None:
+    import cv2
+
+    if (DATA / "cases.json").is_file():
+        real_images(cv2)
+    else:
+        print(f"(real images absent: {DATA})\n")
+    synthetic(cv2, 8 if quick else 50)
+    if (DATA / "cases.json").is_file():
+        speed(cv2, 20 if quick else 100)
+
+
+if __name__ == "__main__":
+    main(quick="--quick" in sys.argv[1:])
