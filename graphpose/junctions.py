@@ -20,9 +20,10 @@ Refinement
     (so no other edge enters it), re-centred on the estimate until it stops moving. Around
     the true junction of a blurred checkerboard such a window is point-symmetric, which
     makes the fitted saddle unbiased whatever the perspective. The fit is weighted by the
-    squared gradient over the distance from the centre, which concentrates it on the two
-    edges (where the position information is) and brings its noise close to the Cramer-Rao
-    bound; see ``/work/notes/junctions.md`` for the measurements behind the settings.
+    squared gradient over the squared distance from the centre, which concentrates it on
+    the two edges (where the position information is) and brings its noise within a factor
+    ~1.7 of the Cramer-Rao bound; the settings come from measurements on the real and
+    synthetic images (see the README section on cross-junctions).
 
 Coordinates follow :mod:`graphpose.camera`: ``(u, v)`` pixels, 0-based, 2 x N arrays.
 """
@@ -71,9 +72,9 @@ class Junctions:
         True where the saddle fit converged to a saddle inside its window, the window lies
         inside the image, a ring around the point looks like a cross-junction, its fit
         residual is at most 1.5 times the board's median, and the point agrees with the
-        homography fitted to the trusted junctions (within 8 % of the square or 1.5 px). Untrusted points are still the
-        best estimate available (refined, or predicted by the grid where refinement failed);
-        a pose should use the trusted ones.
+        homography fitted to the trusted junctions (within 8 % of the square or 1.5 px).
+        Untrusted points are still the best estimate available (refined, or predicted by
+        the grid where refinement failed); a pose should use the trusted ones.
     residual : (n,) ndarray of float64
         RMS residual of the saddle quadric under its fit weights (which sit on the two
         edges near the junction), in grey units of the image scaled to [0, 1] (as
@@ -489,7 +490,7 @@ def _refine(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: fl
     offs = np.arange(-half, half + 1, dtype=float)
     base = np.rint(current).astype(int)
     patches, grad2, inside = _patches(image, base, half, sigma, radius)
-    coeffs = np.full((6, m), np.nan)
+    residual = np.full(m, np.nan)
     state = np.zeros(m, dtype=int)  # 0 moving, 1 converged, 2 failed
     for _ in range(max_iter):
         act = np.flatnonzero(state == 0)
@@ -499,8 +500,8 @@ def _refine(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: fl
         if drift.size:
             base[:, drift] = np.rint(current[:, drift])
             patches[drift], grad2[drift], inside[drift] = _patches(image, base[:, drift], half, sigma, radius[drift])
-        weights, _ = _weights(offs, current[:, act] - base[:, act], radius[act], grad2[act])
-        pts, saddle, within, coeffs[:, act] = _fit(patches[act], weights)
+        weights = _weights(offs, current[:, act] - base[:, act], radius[act], grad2[act])
+        pts, saddle, within, _, residual[act] = _fit(patches[act], weights)
         new = base[:, act] + pts - half
         step = np.hypot(*(new - current[:, act]))
         ok = saddle & within & (step < radius[act])
@@ -508,8 +509,7 @@ def _refine(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: fl
         state[act[~ok]] = 2
         state[act[ok & (step < tol)]] = 1
     fitted = state != 2
-    weights = _weights(offs, current - base, radius, grad2)[0]
-    residual = np.where(fitted, _weighted_rms(patches, coeffs, weights), np.nan)
+    residual[~fitted] = np.nan
     crosses = _looks_like_cross(patches, current - base + half, 0.6 * radius)
     return current, (state == 1) & inside & crosses, residual
 
@@ -524,11 +524,13 @@ def _patches(image, base, half, sigma, radius):
     cols = np.clip(base[0][:, None] + offs, 0, width - 1)
     inside = (base[0] - radius >= 0) & (base[0] + radius <= width - 1) & \
         (base[1] - radius >= 0) & (base[1] + radius <= height - 1)
-    raw = image.ravel()[(rows * width)[:, :, None] + cols[:, None, :]]
-    smooth = _convolve(_convolve(raw, kernel, 1), kernel, 2)
+    # Single precision for the pixel work (half the memory traffic); the fit itself, in
+    # saddle.fit_quadrics, accumulates in double.
+    raw = image.ravel()[(rows * width)[:, :, None] + cols[:, None, :]].astype(np.float32)
+    smooth = _convolve(_convolve(raw, kernel.astype(np.float32), 1), kernel.astype(np.float32), 2)
     gx = 0.5 * (smooth[:, 1:-1, 2:] - smooth[:, 1:-1, :-2])
     gy = 0.5 * (smooth[:, 2:, 1:-1] - smooth[:, :-2, 1:-1])
-    return smooth[:, 1:-1, 1:-1], gx * gx + gy * gy, inside
+    return smooth[:, 1:-1, 1:-1].astype(float), gx * gx + gy * gy, inside
 
 
 def _gaussian_kernel(sigma: float) -> np.ndarray:
@@ -552,7 +554,7 @@ def _convolve(a: np.ndarray, kernel: np.ndarray, axis: int) -> np.ndarray:
 
 
 def _weights(offs, local, radius, grad2):
-    """Fit weights (m, h, w) and the taper (m, h, w) centred on each sub-pixel estimate.
+    """Fit weights (m, h, w) centred on each sub-pixel estimate.
 
     The squared gradient picks out the two edges, where the position information is; the
     division by the squared distance from the centre favours the inner stretch of each edge
@@ -561,24 +563,13 @@ def _weights(offs, local, radius, grad2):
     images, 0.040 vs 0.037 px at noise 6); a smooth taper keeps the window point-symmetric
     about the estimate on the pixel grid.
     """
-    inv_r2 = 1.0 / (radius * radius)
-    dx2 = (offs[None, :] - local[0][:, None]) ** 2
-    dy2 = (offs[None, :] - local[1][:, None]) ** 2
+    inv_r2 = (1.0 / (radius * radius)).astype(np.float32)
+    dx2 = ((offs[None, :] - local[0][:, None]) ** 2).astype(np.float32)
+    dy2 = ((offs[None, :] - local[1][:, None]) ** 2).astype(np.float32)
     r2 = dy2[:, :, None] + dx2[:, None, :]
     taper = np.maximum(1.0 - r2 * inv_r2[:, None, None], 0.0)
     taper *= taper
-    return taper * grad2 / np.maximum(r2, 1.0), taper
-
-
-def _weighted_rms(patches, coeffs, weights):
-    """RMS of the quadric's residual under the fit weights, per patch (patch coordinates)."""
-    m, h, w = patches.shape
-    v, u = np.mgrid[0:h, 0:w]
-    A = np.column_stack([u.ravel() ** 2, u.ravel() * v.ravel(), v.ravel() ** 2, u.ravel(), v.ravel(),
-                         np.ones(h * w)]).astype(float)
-    res = patches.reshape(m, -1) - (A @ coeffs).T
-    w = weights.reshape(m, -1)
-    return np.sqrt(np.sum(w * res * res, axis=1) / np.maximum(np.sum(w, axis=1), 1e-300))
+    return (taper * grad2 / np.maximum(r2, np.float32(1.0))).astype(float)
 
 
 def _looks_like_cross(patches, centre, radius):

@@ -88,7 +88,7 @@ def saddle_point(I) -> np.ndarray:
         raise InputError(f"I must be a 2-D patch of at least 3 x 3 pixels, got shape {P.shape}")
     if not np.all(np.isfinite(P)):
         raise InputError("I contains NaN or infinite values")
-    points, saddle, inside, coeffs, _ = _fit(P[None], None)
+    points, saddle, inside, coeffs, _ = fit_quadrics(P[None], None)
     if not saddle[0]:
         a, b, g = coeffs[:3, 0]
         raise SaddleError(
@@ -136,44 +136,42 @@ def fit_saddles(patches, weights=None) -> SaddleFit:
         if weights.shape not in (P.shape, P.shape[1:]):
             raise InputError(f"weights must have shape {P.shape} or {P.shape[1:]}, got {weights.shape}")
         weights = np.broadcast_to(weights, P.shape)
-    points, saddle, inside, coeffs, residual = _fit(P, weights)
+    points, saddle, inside, coeffs, residual = fit_quadrics(P, weights)
     return SaddleFit(points, saddle & inside, residual, coeffs)
 
 
-def _fit(P: np.ndarray, weights):
-    """Points, saddle mask, inside mask, coefficients (patch coordinates) and RMS."""
-    m, h, w = P.shape
-    y = P.reshape(m, h * w)
-    points, saddle, inside, coeffs = fit_quadrics(P, weights)
-    res = y - (_design(h, w) @ _centre(coeffs, (w - 1) / 2.0, (h - 1) / 2.0)).T
-    W = np.ones_like(y) if weights is None else weights.reshape(m, h * w)
-    residual = np.sqrt(np.sum(W * res * res, axis=1) / np.maximum(W.sum(axis=1), 1e-300))
-    return points, saddle, inside, coeffs, residual
-
-
 def fit_quadrics(P: np.ndarray, weights):
-    """Unchecked core of :func:`fit_saddles` for trusted callers (no residual).
+    """Unchecked core of :func:`fit_saddles` for trusted callers.
 
-    Returns points (2, m), saddle mask (m,), inside mask (m,) and coefficients (6, m) in
-    patch coordinates.
+    Returns points (2, m), saddle mask (m,), inside mask (m,), coefficients (6, m) in
+    patch coordinates and the (weighted) RMS residual (m,).
     """
     m, h, w = P.shape
     y = P.reshape(m, h * w)
     if weights is None:
         coeffs = _pinv(h, w) @ y.T
+        res = y - (_design(h, w) @ coeffs).T
+        rms = np.sqrt(np.mean(res * res, axis=1))
     else:
-        coeffs = _weighted(h, w, weights.reshape(m, h * w), y)
+        coeffs, rms = _weighted(h, w, weights.reshape(m, h * w), y)
     points, saddle, inside = _stationary(coeffs, h, w, _curvature_floor(y, h, w))
-    return points, saddle, inside, _uncentre(coeffs, (w - 1) / 2.0, (h - 1) / 2.0)
+    return points, saddle, inside, _uncentre(coeffs, (w - 1) / 2.0, (h - 1) / 2.0), rms
 
 
-def _weighted(h: int, w: int, W: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Per-patch weighted least squares through batched 6 x 6 normal equations."""
+def _weighted(h: int, w: int, W: np.ndarray, y: np.ndarray):
+    """Per-patch weighted least squares through batched 6 x 6 normal equations.
+
+    Returns the coefficients (6, m), centred coordinates, and the weighted RMS residual
+    (m,), from ``sum W r^2 = sum W y^2 - c . A^T W y`` at the solution.
+    """
     N = (W @ _outer(h, w)).reshape(-1, 6, 6)
-    rhs = (W * y) @ _design(h, w)
+    Wy = W * y
+    rhs = Wy @ _design(h, w)
     # A tiny ridge keeps all-zero-weight patches solvable; they come out invalid anyway.
     N += np.eye(6) * (1e-12 * np.trace(N, axis1=1, axis2=2)[:, None, None] + 1e-300)
-    return np.linalg.solve(N, rhs[:, :, None])[:, :, 0].T
+    coeffs = np.linalg.solve(N, rhs[:, :, None])[:, :, 0]
+    rss = np.maximum(np.sum(Wy * y, axis=1) - np.sum(coeffs * rhs, axis=1), 0.0)
+    return coeffs.T, np.sqrt(rss / np.maximum(W.sum(axis=1), 1e-300))
 
 
 @lru_cache(maxsize=32)
@@ -215,11 +213,6 @@ def _stationary(coeffs: np.ndarray, h: int, w: int, floor: np.ndarray):
     with np.errstate(invalid="ignore"):
         inside = (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1)
     return np.vstack([u, v]), finite & (-det > floor), inside
-
-
-def _centre(c: np.ndarray, cx: float, cy: float) -> np.ndarray:
-    """Inverse of :func:`_uncentre`."""
-    return _uncentre(c, -cx, -cy)
 
 
 def _uncentre(c: np.ndarray, cx: float, cy: float) -> np.ndarray:
