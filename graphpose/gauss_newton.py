@@ -33,6 +33,8 @@ MAX_ITERATIONS = 100
 STEP_TOL = 1e-9
 #: Convergence also when the promised decrease is below this fraction of the cost (rounding).
 _COST_RTOL = 1e-12
+#: Undamped steps taken below the cost's rounding noise before stopping anyway.
+_MAX_POLISH_STEPS = 5
 #: The damping factor above which a stuck search gives up.
 _LAMBDA_MAX = 1e10
 #: Smallest camera-frame depth (metres) a point may have during the iterations.
@@ -50,8 +52,9 @@ class GNResult:
     params : (6,) ndarray
         The same pose as ``(x, y, z, roll, pitch, yaw)``, metres and radians.
     converged : bool
-        True when, before the iteration cap, the undamped step fell below the tolerance or
-        the decrease it promised fell below the cost's rounding noise (1e-12 relative).
+        True when, before the iteration cap, the undamped step fell below the tolerance (or
+        stayed above it for several steps whose promised decrease was below the cost's
+        rounding noise).
     iterations : int
         Steps tried (accepted or rejected).
     residuals : (2, n) ndarray
@@ -315,7 +318,7 @@ def _solve(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol) -
     r, depth, J = _residual(K, p, I, W, True)
     _check_in_front(depth, "the guess")
     cost = _cost(r, huber_px)
-    lam, converged, message, it = 0.0, False, "iteration cap reached", 0
+    lam, converged, message, it, polish_steps = 0.0, False, "iteration cap reached", 0, 0
     while it < max_iterations:
         it += 1
         w = _weights(r, huber_px)
@@ -327,16 +330,24 @@ def _solve(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol) -
         except np.linalg.LinAlgError:
             message = "normal equations singular (gimbal lock or degenerate points)"
             break
-        # Converged when the step is negligible, or when the decrease it promises
-        # (1/2 g^T delta for a Gauss-Newton step) is below the rounding noise of the cost.
-        if np.max(np.abs(delta_gn)) < tol or 0.5 * (g @ delta_gn) <= _COST_RTOL * cost:
+        if np.max(np.abs(delta_gn)) < tol:
             converged, message = True, "converged"
             break
-        delta = delta_gn if lam == 0.0 else np.linalg.solve(H + lam * np.diag(np.diag(H)), g)
+        # When the decrease a step promises (1/2 g^T delta) is below the cost's rounding
+        # noise, comparing costs can no longer judge it; the step itself, computed from the
+        # gradient, is still accurate (it matters along weakly observed directions), so it
+        # is taken undamped as long as the cost does not visibly rise.
+        polishing = 0.5 * (g @ delta_gn) <= _COST_RTOL * cost
+        if polishing:
+            polish_steps += 1
+            if polish_steps > _MAX_POLISH_STEPS:
+                converged, message = True, "converged (step at the rounding limit)"
+                break
+        delta = delta_gn if lam == 0.0 or polishing else np.linalg.solve(H + lam * np.diag(np.diag(H)), g)
         p_new = p + delta
         r_new, z_new, J_new = _residual(K, p_new, I, W, True)
         cost_new = _cost(r_new, huber_px) if np.all(z_new > _MIN_DEPTH) else np.inf
-        if cost_new < cost:
+        if cost_new < cost or (polishing and cost_new <= cost * (1.0 + 100 * _COST_RTOL)):
             p, r, J, cost = p_new, r_new, J_new, cost_new
             lam = 0.0 if lam < 1e-6 else lam / 10.0
         else:
