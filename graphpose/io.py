@@ -351,6 +351,9 @@ def result_record(image, estimate=None, error=None) -> dict:
 def load_pose(path) -> np.ndarray:
     """Read a pose file: a JSON 4 x 4 matrix, as a nested list or as ``{"T_WC": [...]}``.
 
+    A list holding one such object (the command line's ``--json`` output for one image) is
+    read too.
+
     Returns
     -------
     T_WC : (4, 4) ndarray of float64
@@ -368,6 +371,8 @@ def load_pose(path) -> np.ndarray:
         raise InputError(f"pose file not found: {path}") from None
     except (OSError, ValueError) as exc:
         raise InputError(f"cannot read pose file {path}: {exc}") from None
+    if isinstance(doc, list) and len(doc) == 1 and isinstance(doc[0], dict):
+        doc = doc[0]  # the --json output of one image
     if isinstance(doc, dict):
         if "T_WC" not in doc:
             raise InputError(f"pose file {path} is an object without the key T_WC")

@@ -173,7 +173,7 @@ BOUNDS = "100,100,540,100,540,380,100,380"
     (["estimate", "img.png", "--bounds", "1,2,3"], ["--bounds", "8 numbers", "'1,2,3'"]),
     (["estimate", "img.png", "--bounds", "1,2,3,4,5,6,7,x"], ["--bounds", "numbers"]),
     (["estimate", "img.png", "--bounds", BOUNDS, "--K", "500,500,320"], ["--K", "4 or 5 numbers"]),
-    (["estimate", "img.png", "--bounds", BOUNDS, "--K=-500,500,320,240"], ["--K", "focal lengths"]),
+    (["estimate", "img.png", "--bounds", BOUNDS, "--K", "-500,500,320,240"], ["--K", "focal lengths"]),
     (["estimate", "img.png", "--bounds", BOUNDS, "--board", "8x6"], ["--board", "COLSxROWSxSQUARE_M"]),
     (["estimate", "img.png"], ["IMAGE needs --bounds"]),
     (["estimate", "--cases", "c.json", "--bounds", BOUNDS], ["--bounds goes with IMAGE"]),
@@ -299,8 +299,19 @@ def test_help_names_the_defaults(capsys):
 
 def test_typed_values():
     np.testing.assert_array_equal(parse_bounds("1,2, 3,4,5,6,7,8"), [[1, 3, 5, 7], [2, 4, 6, 8]])
+    np.testing.assert_array_equal(parse_bounds("-1.5,2,3,-4e1,5,6,7,8")[:, :2], [[-1.5, 3], [2, -40]])
     np.testing.assert_array_equal(parse_K("500,510,320,240"),
                                   [[500, 0, 320], [0, 510, 240], [0, 0, 1]])
+
+
+def test_negative_lists_are_values_not_options(monkeypatch):
+    import graphpose.cli.estimate as estimate
+
+    seen = []
+    monkeypatch.setattr(estimate, "run", lambda args: seen.append(args) or 0)
+    assert main(["estimate", "a.png", "--bounds", "-3,-2.5,400,1,400,300,-1e1,300", "-q"]) == 0
+    np.testing.assert_array_equal(seen[0].bounds, [[-3, 400, 400, -10], [-2.5, 1, 300, 300]])
+    assert seen[0].quiet
 
 
 def test_progress_bar_only_on_a_terminal():
@@ -359,6 +370,8 @@ def test_load_pose_forms(tmp_path):
     plain.write_text(json.dumps(T.tolist()))
     wrapped.write_text(json.dumps({"T_WC": T.tolist()}))
     np.testing.assert_allclose(load_pose(plain), T)
+    np.testing.assert_allclose(load_pose(wrapped), T)
+    wrapped.write_text(json.dumps([{"image": "a.png", "T_WC": T.tolist()}]))  # --json of one image
     np.testing.assert_allclose(load_pose(wrapped), T)
     for text, message in [('{"pose": 1}', "without the key T_WC"), ("[[1, 2]", "cannot read"),
                           ('[["a"]]', "4 x 4"), (json.dumps((2 * T).tolist()), "not a rotation")]:

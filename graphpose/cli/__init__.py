@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import sys
 
 from ..errors import GraphposeError, InputError
@@ -67,7 +68,7 @@ def main(argv=None) -> int:
     argv : list of str, optional
         Arguments without the program name; ``sys.argv[1:]`` by default.
     """
-    argv = list(sys.argv[1:] if argv is None else argv)
+    argv = _attach_negative_lists(list(sys.argv[1:] if argv is None else argv))
     if not argv:
         argv = ["estimate"]
     try:
@@ -90,6 +91,25 @@ def main(argv=None) -> int:
         # flush at exit from failing on the closed pipe as well.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_FAILED
+
+
+#: A comma-separated list of numbers that starts with a minus sign, e.g. "-3.5,10,...".
+_NEGATIVE_LIST = re.compile(r"^-\.?\d[\d.eE+-]*(,[-+]?\.?\d[\d.eE+-]*)+$")
+
+
+def _attach_negative_lists(argv: list) -> list:
+    """Write ``--opt -1,2,...`` as ``--opt=-1,2,...``.
+
+    argparse takes a value starting with '-' for an option unless it is a single number, so
+    ``--bounds -3,10,...`` would fail; a comma-separated list of numbers is never an option.
+    """
+    out = []
+    for arg in argv:
+        if out and out[-1].startswith("--") and "=" not in out[-1] and _NEGATIVE_LIST.match(arg):
+            out[-1] = f"{out[-1]}={arg}"
+        else:
+            out.append(arg)
+    return out
 
 
 def exit_code(exc: GraphposeError) -> int:

@@ -41,7 +41,6 @@ examples:
 --bounds lists the polygon's corners (u, v) in pixels, (u, v) = (column, row) from 0,
 clockwise from the corner nearest the board's upper-left junction. POSE.json holds a 4 x 4
 T_WC (camera pose in the target frame) as a nested list or as {"T_WC": [...]}.
-A value starting with '-' needs '=', e.g. --bounds=-3,10,...
 exit codes: 0 success, 1 an estimate failed (no board found, no convergence),
 2 bad usage or input."""
 
