@@ -294,7 +294,8 @@ def format_report(name: str, estimate, record: dict) -> str:
     trusted = np.asarray(estimate.junctions.trusted, dtype=bool)
     check = estimate.cross_check
     state = "converged" if estimate.converged else "NOT converged"
-    rows = [f"{name}  ({state}, {estimate.iterations} iterations)"]
+    n = int(estimate.iterations)
+    rows = [f"{name}  ({state}, {n} iteration{'' if n == 1 else 's'})"]
     for i, row in enumerate(T):
         rows.append(("  T_WC  " if i == 0 else "        ") + "[" + " ".join(f"{v:9.5f}" for v in row) + " ]")
     rows += [
