@@ -196,9 +196,13 @@ def test_usage_errors_in_process(args, fragments, capsys):
         assert fragment in line, line
 
 
-def test_malformed_board_as_a_user_sees_it():
+def test_malformed_values_as_a_user_sees_them():
     one_error_line(graphpose("estimate", "img.png", "--bounds", BOUNDS, "--board", "8by6"),
                    2, "graphpose estimate: error: argument --board", "'8by6'")
+    one_error_line(graphpose("estimate", "img.png", "--bounds", "1,2,3,4"),
+                   2, "graphpose estimate: error: argument --bounds", "8 numbers", "'1,2,3,4'")
+    one_error_line(graphpose("estimate", "img.png", "--bounds", BOUNDS, "--K", "500,0,320,240"),
+                   2, "graphpose estimate: error: argument --K", "focal lengths must be positive")
 
 
 def test_missing_and_unreadable_image_and_guess(tmp_path):
