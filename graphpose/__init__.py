@@ -33,3 +33,6 @@ from .homography import pose_from_homography
 from .junctions import Junctions, cross_junctions, extract_junctions, refine_junctions
 from .graph import GraphResult, graph_pose
 from .pipeline import CrossCheck, PoseEstimate, estimate_pose, estimate_pose_from_points
+from .tum import TumTrajectory, read_tum, write_tum
+from .tracking import FrameResult, MotionPrior, Track, TrackerConfig, track_sequence
+from .sequence import Sequence, render_sequence, write_sequence

@@ -17,7 +17,7 @@ sinusoids of random frequency and phase, so the pose is defined at any instant):
 Each frame is rendered by :func:`graphpose.render.render_ideal` at its mid-exposure pose.
 When the junctions move more than ``blur_threshold_px`` during the exposure (half a frame
 interval), the frame is the average of ideal renders at evenly spaced sub-frame poses
-(about one per pixel of motion, at most ``max_subframes``): motion blur. Then Gaussian
+(one per 1.5 pixels of motion, at most ``max_subframes``): motion blur. Then Gaussian
 noise is added and the image quantised to 8 bits. The true pose of a frame is its
 mid-exposure pose.
 
@@ -221,7 +221,7 @@ def _look_at(position, target) -> np.ndarray:
 def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(), size=(640, 480),
                     fps: float = 30.0, noise_sigma: float = 2.0, blur_sigma: float = 1.0,
                     distance=(0.6, 1.3), excursions: int = 2, blur_threshold_px: float = 1.0,
-                    max_subframes: int = 8, supersample: int = 2, progress=None) -> Sequence:
+                    max_subframes: int = 16, supersample: int = 2, progress=None) -> Sequence:
     """Render a synthetic hand-held sequence of the board (model in the module docstring).
 
     Parameters
@@ -284,7 +284,7 @@ def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(),
         T = motion(t)
         exposure = 0.5 / fps
         travel = np.max(np.linalg.norm(project(K, motion(t + exposure / 2), W) - project(K, motion(t - exposure / 2), W), axis=0))
-        m = 1 if travel < blur_threshold_px else int(min(max_subframes, np.ceil(travel)))
+        m = 1 if travel < blur_threshold_px else int(min(max_subframes, np.ceil(travel / 1.5) + 1))
         offsets = (np.arange(m) + 0.5) / m - 0.5 if m > 1 else np.zeros(1)
         image = np.mean([_ideal(K, motion(t + o * exposure), board, size, ideal, background) for o in offsets], axis=0)
         image += rng.normal(0.0, noise_sigma, image.shape)

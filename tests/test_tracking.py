@@ -1,0 +1,236 @@
+import gtsam
+import numpy as np
+import pytest
+from gtsam.symbol_shorthand import X
+
+from graphpose import Board, InputError, K_from_params, T_from_params, project
+from graphpose.sequence import render_sequence
+from graphpose.tracking import (
+    DETECTED,
+    LOST,
+    TRACKED,
+    MotionPrior,
+    SequenceGraph,
+    TrackerConfig,
+    _constant_velocity_factor,
+    list_frames,
+    read_timestamps,
+    resection_factor,
+    track_sequence,
+)
+
+K = K_from_params(564.9, 564.3, 337.3, 226.5)
+BOARD = Board()
+W = BOARD.world_points()
+
+
+def _trajectory(n):
+    t = np.arange(n) / 30.0
+    params = np.column_stack([0.22 + 0.1 * np.sin(t), 0.16 + 0.05 * np.sin(1.3 * t), -0.9 + 0.2 * np.sin(0.7 * t),
+                              0.1 * np.sin(0.9 * t), 0.1 * np.sin(1.1 * t), 0.05 * np.sin(0.5 * t)])
+    return t, np.array([T_from_params(p) for p in params])
+
+
+def _numeric_jacobians(factor, values, keys):
+    out = []
+    for key in keys:
+        J = np.zeros((factor.dim(), 6))
+        for i in range(6):
+            d = np.zeros(6)
+            d[i] = 1e-6
+            plus, minus = gtsam.Values(values), gtsam.Values(values)
+            plus.update(key, values.atPose3(key).retract(d))
+            minus.update(key, values.atPose3(key).retract(-d))
+            J[:, i] = (factor.unwhitenedError(plus) - factor.unwhitenedError(minus)) / 2e-6
+        out.append(J)
+    return out
+
+
+def test_resection_factor_error_and_jacobian():
+    _, poses = _trajectory(1)
+    uv = project(K, poses[0], W)
+    factor = resection_factor(X(0), uv + 0.25, W, K, 0.5)
+    values = gtsam.Values()
+    values.insert(X(0), gtsam.Pose3(poses[0]))
+    np.testing.assert_allclose(factor.unwhitenedError(values), -0.25, atol=1e-9)
+    A, _ = factor.linearize(values).jacobian()
+    (J,) = _numeric_jacobians(factor, values, [X(0)])
+    np.testing.assert_allclose(A * 0.5, J, atol=1e-5 * np.abs(J).max())
+
+
+def test_constant_velocity_factor_is_zero_on_constant_twist_and_has_exact_jacobians():
+    T0 = gtsam.Pose3(T_from_params([0.1, 0.2, -1.0, 0.1, -0.2, 0.3]))
+    step = gtsam.Pose3.Expmap(np.array([0.01, -0.02, 0.015, 0.004, 0.003, -0.002]))
+    values = gtsam.Values()
+    for k, T in enumerate([T0, T0.compose(step), T0.compose(step).compose(step).compose(step)]):
+        values.insert(X(k), T)
+    # X2 is two steps after X1 while dt ratio is 2: zero error.
+    prior = MotionPrior(huber=None)
+    factor = _constant_velocity_factor(X(0), X(1), X(2), 2.0, prior.noise())
+    np.testing.assert_allclose(factor.unwhitenedError(values), 0.0, atol=1e-12)
+    values.update(X(2), values.atPose3(X(2)).retract(np.array([0.01, 0.0, 0.0, 0.0, 0.02, 0.0])))
+    Js = _numeric_jacobians(factor, values, [X(0), X(1), X(2)])
+    A, _ = factor.linearize(values).jacobian()  # whitened, columns in key order
+    sigmas = prior.noise().sigmas()
+    for i, J in enumerate(Js):
+        np.testing.assert_allclose(A[:, 6 * i:6 * i + 6] * sigmas[:, None], J, atol=1e-6)
+
+
+@pytest.mark.parametrize("target", ["resection", "landmarks"])
+def test_backend_recovers_exact_poses(target):
+    t, poses = _trajectory(8)
+    graph = SequenceGraph(K, BOARD, MotionPrior(sigma_rot_rad=1.0, sigma_trans_m=1.0), target=target)  # no pull
+    rng = np.random.default_rng(1)
+    for k in range(8):
+        start = poses[k] @ gtsam.Pose3.Expmap(rng.normal(0, 0.01, 6)).matrix()
+        result = graph.add_frame(k, t[k], project(K, poses[k], W), np.arange(BOARD.n), start, 0.05)
+        np.testing.assert_allclose(result.T_WC, poses[k], atol=1e-6)
+        assert np.all(np.linalg.eigvalsh(result.cov) > 0)
+    smoothed = graph.smooth()
+    for k in range(8):
+        np.testing.assert_allclose(smoothed[k].T_WC, poses[k], atol=1e-7)
+
+
+def test_backend_smoothing_beats_single_frames_on_noisy_correspondences():
+    n = 90
+    t, poses = _trajectory(n)
+    rng = np.random.default_rng(2)
+    graph = SequenceGraph(K, BOARD, MotionPrior())
+    single, online = [], []
+    for k in range(n):
+        uv = project(K, poses[k], W) + rng.normal(0, 0.2, (2, BOARD.n))
+        lone = SequenceGraph(K, BOARD, MotionPrior()).add_frame(0, 0.0, uv, np.arange(BOARD.n), poses[k], 0.2)
+        single.append(lone.T_WC)
+        online.append(graph.add_frame(k, t[k], uv, np.arange(BOARD.n), lone.T_WC, 0.2).T_WC)
+    smoothed = [graph.smooth()[k].T_WC for k in range(n)]
+
+    def rmse(estimates):
+        return np.sqrt(np.mean([np.sum((E[:3, 3] - T[:3, 3]) ** 2) for E, T in zip(estimates, poses)]))
+
+    assert rmse(smoothed) < rmse(online) < rmse(single)
+    assert rmse(smoothed) < 0.7 * rmse(single)
+
+
+def test_backend_segments_after_a_break_have_no_motion_factor():
+    t, poses = _trajectory(6)
+    graph = SequenceGraph(K, BOARD, MotionPrior("random_walk", 1e-9, 1e-9))
+    graph.add_frame(0, t[0], project(K, poses[0], W), np.arange(BOARD.n), poses[0], 0.1)
+    graph.break_segment()
+    # A random walk this tight would drag frame 5 onto frame 0 if the two were linked.
+    result = graph.add_frame(5, t[5], project(K, poses[5], W), np.arange(BOARD.n), poses[5], 0.1)
+    np.testing.assert_allclose(result.T_WC, poses[5], atol=1e-7)
+
+
+# ------------------------------------------------------------------ front end on rendered frames
+
+
+@pytest.fixture(scope="module")
+def clip():
+    """45 frames, one whip pan out of view and back (cheap rendering)."""
+    return render_sequence(K, 45, rng=4, excursions=1, supersample=1)
+
+
+@pytest.fixture(scope="module")
+def tracked(clip):
+    return track_sequence(clip.images, K, clip.bounds, timestamps=clip.timestamps, smooth=True)
+
+
+def test_track_reports_out_of_view_frames_lost_and_recovers(clip, tracked):
+    status = tracked.status
+    assert status[0] == DETECTED
+    assert np.all(status[clip.out_of_view] == LOST)
+    assert clip.out_of_view.any()
+    last_out = np.flatnonzero(clip.out_of_view)[-1]
+    after = np.flatnonzero(clip.in_view & (np.arange(len(clip)) > last_out))
+    # Back on the board within a few frames of its full return, then tracked to the end.
+    assert np.all(status[after[4:]] != LOST)
+    assert TRACKED in status[after]
+    for f in tracked.frames:
+        assert (f.T_WC is None) == (f.status == LOST)
+        assert (f.cov is None) == (f.status == LOST)
+
+
+def test_track_accuracy_against_truth(clip, tracked):
+    found = tracked.found
+    for which, limit_mm in (("online", 1.0), ("smoothed", 1.0), ("single", 1.0)):
+        P = tracked.poses(which)[found]
+        err = np.linalg.norm(P[:, :3, 3] - clip.T_WC[found, :3, 3], axis=1)
+        assert np.sqrt(np.mean(err**2)) * 1000 < limit_mm, which
+    for f in tracked.frames:
+        if f.status != LOST:
+            assert f.junctions >= TrackerConfig().min_junctions
+            assert f.reprojection_rms_px < 0.5
+            assert np.all(f.sigma > 0) and np.all(f.sigma[:3] < 0.01)
+
+
+def test_track_reads_a_folder_and_ignores_other_files(clip, tmp_path):
+    from skimage import io as skio
+
+    for k in range(3):
+        skio.imsave(tmp_path / f"f{k:02d}.png", clip.images[k], check_contrast=False)
+    (tmp_path / "notes.txt").write_text("not a frame")
+    assert [p.name for p in list_frames(tmp_path)] == ["f00.png", "f01.png", "f02.png"]
+    (tmp_path / "times.txt").write_text("# seconds\n10.0\n10.1\n10.2\n")
+    t = read_timestamps(tmp_path / "times.txt", 3)
+    track = track_sequence(tmp_path, K, clip.bounds, timestamps=t)
+    assert list(track.status) == [DETECTED, TRACKED, TRACKED]
+    np.testing.assert_allclose(track.timestamps, [10.0, 10.1, 10.2])
+
+
+def test_real_images_as_a_jumpy_sequence(real_cases, real_images):
+    images = [image for _, image in real_images]
+    polygons = [case.bounds for case, _ in real_images]
+    track = track_sequence(images, real_cases.K, real_images[0][0].bounds, polygons=polygons, smooth=True)
+    assert len(track) == 6
+    assert all(s in (TRACKED, DETECTED) for s in track.status)
+    for f in track.best_frames():
+        assert f.reprojection_rms_px < 1.0 and f.junctions >= 40
+
+
+# ------------------------------------------------------------------------------ errors
+
+
+def test_track_input_errors(clip, tmp_path):
+    images = clip.images[:2]
+    with pytest.raises(InputError, match="first frame needs"):
+        track_sequence(images, K)
+    with pytest.raises(InputError, match="empty"):
+        track_sequence([], K, clip.bounds)
+    with pytest.raises(InputError, match="timestamps has"):
+        track_sequence(images, K, clip.bounds, timestamps=[0.0])
+    with pytest.raises(InputError, match="increasing"):
+        track_sequence(images, K, clip.bounds, timestamps=[1.0, 1.0])
+    with pytest.raises(InputError, match="fps"):
+        track_sequence(images, K, clip.bounds, fps=0.0)
+    with pytest.raises(InputError, match="polygons has"):
+        track_sequence(images, K, clip.bounds, polygons=[None])
+    with pytest.raises(InputError, match="bounds must be"):
+        track_sequence(images, K, np.zeros((2, 3)))
+    with pytest.raises(InputError, match="motion model"):
+        track_sequence(images, K, clip.bounds, config=TrackerConfig(motion=MotionPrior("teleport")))
+    with pytest.raises(InputError, match="frame 1"):
+        track_sequence([images[0], np.zeros((2, 2, 2))], K, clip.bounds)
+    with pytest.raises(InputError, match="not found"):
+        track_sequence(tmp_path / "nowhere", K, clip.bounds)
+    with pytest.raises(InputError, match="no image files"):
+        list_frames(tmp_path)
+
+
+def test_read_timestamps_errors(tmp_path):
+    path = tmp_path / "t.txt"
+    path.write_text("0.0\nabc\n")
+    with pytest.raises(InputError, match="t.txt:2"):
+        read_timestamps(path)
+    path.write_text("0.0\n0.1\n")
+    with pytest.raises(InputError, match="2 timestamps for 3 frames"):
+        read_timestamps(path, 3)
+    with pytest.raises(InputError, match="not found"):
+        read_timestamps(tmp_path / "missing.txt")
+
+
+def test_track_poses_accessors(tracked):
+    with pytest.raises(InputError, match="which"):
+        tracked.poses("median")
+    lost = ~tracked.found
+    assert np.all(np.isnan(tracked.poses("online")[lost]))
+    assert tracked.smoothed is not None and len(tracked.smoothed) == len(tracked)
