@@ -39,14 +39,14 @@ from .gauss_newton import _check_in_front, _project, check_correspondences
 LANDMARK_SIGMA_M = 1e-8
 #: Huber threshold in units of the pixel sigma (95 % efficiency under Gaussian noise).
 HUBER_K = 1.345
-#: Levenberg-Marquardt stopping tolerances on the cost change: the step that meets them is
-#: about 1e-8 m, far inside the 1e-6 m cross-check, and tighter ones only waste lambda trials.
-_RELATIVE_TOL = 1e-8
+#: Levenberg-Marquardt stopping tolerances on the cost change. LM brings the pose near the
+#: minimum from afar; the undamped steps after it (cheaper than LM iterations) finish.
+_RELATIVE_TOL = 1e-6
 _ABSOLUTE_TOL = 1e-12
 _MAX_ITERATIONS = 100
 #: Undamped Gauss-Newton steps after Levenberg-Marquardt (see step 6 of the graph's solve):
 #: at most this many, until the pose step (rad, m) is below _POLISH_STEP.
-_POLISH_ITERATIONS = 6
+_POLISH_ITERATIONS = 10
 _POLISH_STEP = 1e-10
 
 
@@ -69,8 +69,9 @@ class GraphResult:
         Pixel noise used for the covariance: given, or estimated from the residuals as
         ``sqrt(chi2 / (2m - 6))`` (robustly, from the median, when ``robust``).
     converged : bool
-        True when Levenberg-Marquardt stopped on its tolerances before the iteration cap
-        with every used point in front of the camera.
+        True when Levenberg-Marquardt stopped on its tolerances before the iteration cap,
+        the Gauss-Newton steps after it shrank below 1e-10, and every used point is in
+        front of the camera.
     iterations : int
         Levenberg-Marquardt iterations.
     residuals : (2, n) ndarray
@@ -219,11 +220,14 @@ def _solve(K, T_guess, Ipts, Wpts, mask, sigma, huber_k):
     #    stops falling visibly, which along weakly observed directions (tilt against sideways
     #    translation) can leave 1e-7 m; the steps, computed from the gradient, stay accurate
     #    below the cost's rounding noise. They converge linearly (rate 0.01-0.2 with 1 px
-    #    noise), so they run until the pose step is below _POLISH_STEP.
+    #    noise), so they run until the pose step is below _POLISH_STEP; if they never get
+    #    there, the result is reported as not converged.
+    polished = False
     for _ in range(_POLISH_ITERATIONS):
         delta = graph.linearize(result).optimize()
         result = result.retract(delta)
         if np.max(np.abs(delta.at(X(0)))) < _POLISH_STEP:
+            polished = True
             break
     # 7. Marginal covariance of the pose: tangent order (rotation rad, translation m), body frame.
     cov = gtsam.Marginals(graph, result).marginalCovariance(X(0))
@@ -231,7 +235,8 @@ def _solve(K, T_guess, Ipts, Wpts, mask, sigma, huber_k):
     # The projection factors do not enforce cheirality: a solution with a point behind the
     # camera is a failure, not a pose.
     in_front = np.all(_project(K, params_from_T(T), Wpts[:, mask], jacobian=False)[1] > 0)
-    converged = optimizer.iterations() < _MAX_ITERATIONS and np.isfinite(optimizer.error()) and in_front
+    converged = (optimizer.iterations() < _MAX_ITERATIONS and np.isfinite(optimizer.error())
+                 and polished and in_front)
     return T, np.asarray(cov), bool(converged), int(optimizer.iterations())
 
 
