@@ -8,13 +8,14 @@ with ``theta = (x, y, z, roll, pitch, yaw)`` as in :mod:`graphpose.camera`. Each
 the 6 x 6 normal equations with the exact analytic Jacobian (:func:`find_jacobian`,
 :func:`projection_jacobians`). Step control is Levenberg-Marquardt damping: the plain
 Gauss-Newton step is tried first and, when it raises the cost or puts a point behind the
-camera, it is damped (``(J^T J + lambda diag(J^T J)) delta = -J^T r``) until the cost falls,
-so a poor start cannot make it diverge.
+camera, it is damped (``(J^T J + lambda diag(J^T J)) delta = J^T r`` with ``r`` measured
+minus predicted) until the cost falls, so a poor start cannot make it diverge.
 
 Gimbal lock: the Euler parameterisation is singular at pitch = +-90 degrees (roll and yaw turn
-about the same axis and the normal equations lose rank). A camera that faces the board has
-roll near 180 degrees and a small pitch, far from the singularity; a pose near it is reported
-as not converged rather than solved badly.
+about the same axis and the normal equations lose rank). A camera that faces the board looks
+along the target's +z, so its pitch is small (roll is near 0, or near 180 degrees for a
+target frame with z out of the board), far from the singularity. Near it the roll and yaw
+variances blow up; exactly at it the solve stops and reports not converged.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from .errors import ConvergenceError, InputError
 MAX_ITERATIONS = 100
 #: Convergence: the undamped Gauss-Newton step is below this (metres and radians, inf-norm).
 STEP_TOL = 1e-9
-#: Convergence also when the promised decrease is below this fraction of the cost (rounding).
+#: A step promising a decrease below this fraction of the cost is within the cost's rounding.
 _COST_RTOL = 1e-12
 #: Undamped steps taken below the cost's rounding noise before stopping anyway.
 _MAX_POLISH_STEPS = 5

@@ -248,3 +248,14 @@ def test_find_jacobian_refuses_more_than_one_point_and_points_behind():
         find_jacobian(K, T, WPTS[:, :2])
     with pytest.raises(InputError, match="behind"):
         find_jacobian(K, T, [0.0, 0.0, -2.0])
+
+
+def test_gimbal_lock_is_reported_not_hidden():
+    # A camera at pitch 90 degrees (looking along the target's x axis) at a board in x = 0:
+    # roll and yaw turn about one axis, the normal equations are singular.
+    W = np.vstack([np.zeros(48), WPTS[0], WPTS[1]])
+    T = T_from_params([-1.0, 0.2, 0.1, 0.3, np.pi / 2, 0.1])
+    res = gauss_newton(K, T_from_params([-0.95, 0.22, 0.12, 0.35, np.pi / 2 - 0.05, 0.1]), project(K, T, W), W)
+    assert not res.converged and "gimbal lock" in res.message
+    with pytest.raises(ConvergenceError, match="gimbal lock"):
+        pose_estimate_nls(K, T, project(K, T, W), W)
