@@ -224,11 +224,12 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
     """
     image = _grey(I)
     P = as_points(points, 2, "points")
-    radius = np.broadcast_to(np.asarray(half_width, dtype=float), P.shape[1:]) \
-        if np.ndim(half_width) in (0, 1) and np.size(half_width) in (1, P.shape[1]) else None
-    if radius is None or not np.all(np.isfinite(radius)) or np.any(radius < 2):
+    radius = np.asarray(half_width, dtype=float)
+    if radius.ndim > 1 or radius.size not in (1, P.shape[1]) or not np.all(np.isfinite(radius)) \
+            or np.any(radius < 2):
         raise InputError(f"half_width must be >= 2 px, a scalar or one per point ({P.shape[1]}), "
-                         f"got {np.asarray(half_width)!r}")
+                         f"got {radius!r}")
+    radius = np.broadcast_to(radius, P.shape[1:])
     if not np.isfinite(smooth_sigma) or smooth_sigma < 0:
         raise InputError(f"smooth_sigma must be >= 0 pixels, got {smooth_sigma!r}")
     return _refine(image, P, radius.astype(float), smooth_sigma)
@@ -252,7 +253,8 @@ def _check_polygon(bpoly, shape) -> np.ndarray:
         raise InputError("bpoly contains NaN or infinite values")
     height, width = shape
     slack = 0.05 * np.hypot(height, width)
-    outside = (poly[0] < -slack) | (poly[0] > width - 1 + slack) | (poly[1] < -slack) | (poly[1] > height - 1 + slack)
+    outside = (poly[0] < -slack) | (poly[0] > width - 1 + slack) | \
+        (poly[1] < -slack) | (poly[1] > height - 1 + slack)
     if np.any(outside):
         raise InputError(
             f"bpoly vertices {np.flatnonzero(outside).tolist()} lie off the {width} x {height} image "
@@ -499,7 +501,8 @@ def _refine(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: fl
         drift = act[np.any(np.abs(current[:, act] - base[:, act]) > slack - 0.5, axis=0)]
         if drift.size:
             base[:, drift] = np.rint(current[:, drift])
-            patches[drift], grad2[drift], inside[drift] = _patches(image, base[:, drift], half, sigma, radius[drift])
+            fresh = _patches(image, base[:, drift], half, sigma, radius[drift])
+            patches[drift], grad2[drift], inside[drift] = fresh
         weights = _weights(offs, current[:, act] - base[:, act], radius[act], grad2[act])
         pts, saddle, within, _, residual[act] = _fit(patches[act], weights)
         new = base[:, act] + pts - half

@@ -229,7 +229,8 @@ def test_polygon_starting_on_a_column_raises_board_not_found(small_case):
 def test_polygon_around_part_of_the_board_raises_board_not_found(small_case):
     R, _ = small_case
     J = R.junctions.reshape(2, 6, 8)
-    part = np.stack([J[:, 0, 0], J[:, 0, 4], J[:, 5, 4], J[:, 5, 0]], axis=1) + [[-5, 5, 5, -5], [-5, -5, 5, 5]]
+    corners = np.stack([J[:, 0, 0], J[:, 0, 4], J[:, 5, 4], J[:, 5, 0]], axis=1)
+    part = corners + [[-5, 5, 5, -5], [-5, -5, 5, 5]]
     with pytest.raises(BoardNotFoundError):
         extract_junctions(R.image, part)
 
