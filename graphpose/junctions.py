@@ -170,7 +170,7 @@ def extract_junctions(I, bpoly, board: Board = Board(), *, window: float = WINDO
     >>> J.points.shape, J.trusted.all()                                # doctest: +SKIP
     ((2, 48), True)
     """
-    image = _grey(I)
+    image, scale = _grey(I)
     poly = _check_polygon(bpoly, image.shape)
     if not 0 < window <= 0.7:
         raise InputError(f"window must be a fraction of the square in (0, 0.7], got {window!r}")
@@ -182,7 +182,7 @@ def extract_junctions(I, bpoly, board: Board = Board(), *, window: float = WINDO
     square = _square_sides(H_grid, grid)
     radius = np.minimum(window * square, MAX_RADIUS)
     points, ok, residual = _refine(image, coarse, radius, smooth_sigma)
-    return _judge(points, ok, residual, square, coarse, grid, board)
+    return _judge(points, ok, residual * scale, square, grid, board)
 
 
 def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGMA):
@@ -222,27 +222,32 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
         If the image or points are malformed, or ``half_width`` is not >= 2 (scalar or one
         per point).
     """
-    image = _grey(I)
+    image, scale = _grey(I)
     P = as_points(points, 2, "points")
     radius = np.asarray(half_width, dtype=float)
     if radius.ndim > 1 or radius.size not in (1, P.shape[1]) or not np.all(np.isfinite(radius)) \
             or np.any(radius < 2):
         raise InputError(f"half_width must be >= 2 px, a scalar or one per point ({P.shape[1]}), "
                          f"got {radius!r}")
-    radius = np.broadcast_to(radius, P.shape[1:])
+    radius = np.broadcast_to(radius, P.shape[1:]).astype(float)
     if not np.isfinite(smooth_sigma) or smooth_sigma < 0:
         raise InputError(f"smooth_sigma must be >= 0 pixels, got {smooth_sigma!r}")
-    return _refine(image, P, radius.astype(float), smooth_sigma)
+    points, trusted, residual = _refine(image, P, radius, smooth_sigma)
+    return points, trusted, residual * scale
 
 
 # ------------------------------------------------------------------------------ checks
 
 
-def _grey(I) -> np.ndarray:
-    """As :func:`graphpose.io.as_grey`, with a one-pass shortcut for 8-bit grey images."""
+def _grey(I):
+    """Grey pixels and the factor that scales them to [0, 1], as :func:`graphpose.io.as_grey`.
+
+    An 8-bit grey image is used as it is (every step but the residual is invariant to the
+    grey scale), which spares converting the whole image for the few pixels read.
+    """
     if isinstance(I, np.ndarray) and I.dtype == np.uint8 and I.ndim == 2 and I.size:
-        return I * (1.0 / 255.0)
-    return as_grey(I)
+        return I, 1.0 / 255.0
+    return as_grey(I), 1.0
 
 
 def _check_polygon(bpoly, shape) -> np.ndarray:
@@ -529,7 +534,7 @@ def _patches(image, base, half, sigma, radius):
         (base[1] - radius >= 0) & (base[1] + radius <= height - 1)
     # Single precision for the pixel work (half the memory traffic); the fit itself, in
     # saddle.fit_quadrics, accumulates in double.
-    raw = image.ravel()[(rows * width)[:, :, None] + cols[:, None, :]].astype(np.float32)
+    raw = image.ravel()[(rows * width)[:, :, None] + cols[:, None, :]].astype(np.float32, copy=False)
     smooth = _convolve(_convolve(raw, kernel.astype(np.float32), 1), kernel.astype(np.float32), 2)
     gx = 0.5 * (smooth[:, 1:-1, 2:] - smooth[:, 1:-1, :-2])
     gy = 0.5 * (smooth[:, 2:, 1:-1] - smooth[:, :-2, 1:-1])
@@ -602,7 +607,7 @@ def _ring_diff(ring):
 # --------------------------------------------------------------------------- verdict
 
 
-def _judge(points, ok, residual, square, coarse, grid, board) -> Junctions:
+def _judge(points, ok, residual, square, grid, board) -> Junctions:
     """Fit the grid homography to the refined points and decide what to trust."""
     if ok.sum() < max(4, board.n // 2):
         raise BoardNotFoundError(
@@ -612,16 +617,19 @@ def _judge(points, ok, residual, square, coarse, grid, board) -> Junctions:
     # a partly covered or smudged junction fits worse.
     ok = ok & (residual <= _RESIDUAL_RATIO * np.median(residual[ok]))
     trusted = ok.copy()
+    limit = np.maximum(_GRID_TOLERANCE * square, 1.5)
     for _ in range(3):
         H = _homography(grid[:, trusted], points[:, trusted])
-        err = np.hypot(*(_apply(H, grid) - points))
-        limit = np.maximum(_GRID_TOLERANCE * square, 1.5)
-        trusted = ok & (err < limit)
-        if trusted.sum() < max(4, board.n // 2):
+        agree = ok & (np.hypot(*(_apply(H, grid) - points)) < limit)
+        if agree.sum() < max(4, board.n // 2):
             raise BoardNotFoundError(
-                f"only {int(trusted.sum())} of {board.n} refined junctions agree with a planar grid"
+                f"only {int(agree.sum())} of {board.n} refined junctions agree with a planar grid"
             )
-    H = _homography(grid[:, trusted], points[:, trusted])
+        if np.array_equal(agree, trusted):
+            break
+        trusted = agree
+    else:
+        H = _homography(grid[:, trusted], points[:, trusted])
     # Where the fit failed, the grid's prediction is the best estimate left; it stays untrusted.
     best = np.where(ok, points, _apply(H, grid))
     return Junctions(best, trusted, np.where(ok, residual, np.nan), square, H)

@@ -164,7 +164,10 @@ def _weighted(h: int, w: int, W: np.ndarray, y: np.ndarray):
     Returns the coefficients (6, m), centred coordinates, and the weighted RMS residual
     (m,), from ``sum W r^2 = sum W y^2 - c . A^T W y`` at the solution.
     """
-    N = (W @ _outer(h, w)).reshape(-1, 6, 6)
+    upper = W @ _outer(h, w)
+    N = np.empty((W.shape[0], 6, 6))
+    N[:, _UPPER[0], _UPPER[1]] = upper
+    N[:, _UPPER[1], _UPPER[0]] = upper
     Wy = W * y
     rhs = Wy @ _design(h, w)
     # A tiny ridge keeps all-zero-weight patches solvable; they come out invalid anyway.
@@ -174,11 +177,15 @@ def _weighted(h: int, w: int, W: np.ndarray, y: np.ndarray):
     return coeffs.T, np.sqrt(rss / np.maximum(W.sum(axis=1), 1e-300))
 
 
+#: Upper triangle of a 6 x 6 matrix: the normal matrix is symmetric, so 21 sums suffice.
+_UPPER = np.triu_indices(6)
+
+
 @lru_cache(maxsize=32)
 def _outer(h: int, w: int) -> np.ndarray:
-    """Row-wise outer products of the design matrix, (h*w, 36): N = W @ this."""
+    """Row-wise products of design columns, upper triangle only, (h*w, 21)."""
     A = _design(h, w)
-    O = (A[:, :, None] * A[:, None, :]).reshape(A.shape[0], 36)
+    O = np.ascontiguousarray(A[:, _UPPER[0]] * A[:, _UPPER[1]])
     O.setflags(write=False)
     return O
 

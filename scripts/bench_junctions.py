@@ -115,7 +115,7 @@ def synthetic(cv2, count):
             J = extract_junctions(R.image, poly, board)
             err = np.sum((J.points - R.junctions) ** 2, axis=0)
             ours.append(err)
-            coarse = _apply(_locate_grid(_grey(R.image), poly, board), board.grid_indices().astype(float))
+            coarse = _apply(_locate_grid(_grey(R.image)[0], poly, board), board.grid_indices().astype(float))
             refined = cv2.cornerSubPix(R.image, coarse.T.astype(np.float32).reshape(-1, 1, 2).copy(),
                                        (5, 5), (-1, -1), criteria)
             subpix.append(np.sum((refined.reshape(-1, 2).T - R.junctions) ** 2, axis=0))
