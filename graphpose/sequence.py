@@ -130,8 +130,8 @@ class HandHeldMotion:
         self.distance = distance
         self.centre_W = np.array([(board.cols - 1) / 2, (board.rows - 1) / 2, 0.0]) * board.square_m
         self._half_px = 0.5 * np.array([board.cols + 2, board.rows + 2]) * board.square_m * K[0, 0]
-        span = max(duration, 30.0)  # normalise over a long span so short clips move as slowly
-        self._slow = [_Wave(rng, (0.03, 0.15), duration=span) for _ in range(6)]
+        self._span = max(duration, 10.0)  # normalise over at least 10 s: short clips move as slowly
+        self._slow = [_Wave(rng, (0.02, 0.1)) for _ in range(6)]
         self._tremor = [_Wave(rng, (2.0, 4.0), parts=2) for _ in range(6)]
         self._tilt = np.deg2rad(max_tilt_deg)
         self._roll = np.deg2rad(max_roll_deg)
@@ -167,6 +167,8 @@ class HandHeldMotion:
         sheet = _sheet_corners(self.board)
         for _ in range(tries):
             start = rng.uniform(0.0, 30.0)
+            for wave in self._slow:
+                wave.normalise(start, start + self._span)
             T = self(start)
             uv = project(self.K, T, sheet)
             if np.all(to_camera(T, sheet)[2] > 0) and np.all((uv >= 10) & (uv.T <= np.array(self.size) - 11).T):
@@ -184,19 +186,22 @@ def _sheet_corners(board: Board, margin: float = 0.5) -> np.ndarray:
 class _Wave:
     """Sum of sinusoids of random frequency (Hz) and phase, scaled into [-1, 1].
 
-    With a ``duration``, the scale makes the wave span exactly [-1, 1] over [0, duration].
+    :meth:`normalise` makes it span exactly [-1, 1] over a stretch of time.
     """
 
-    def __init__(self, rng, band, parts=3, duration=None):
+    def __init__(self, rng, band, parts=3):
         self.f = rng.uniform(*band, parts)
         self.phase = rng.uniform(0.0, 2 * np.pi, parts)
         self.a = rng.uniform(0.5, 1.0, parts)
         self.a /= self.a.sum()
         self.shift, self.scale = 0.0, 1.0
-        if duration is not None:
-            values = [self(t) for t in np.linspace(0.0, duration, 200)]
-            self.shift = 0.5 * (max(values) + min(values))
-            self.scale = 2.0 / max(max(values) - min(values), 1e-9)
+
+    def normalise(self, t0: float, t1: float) -> None:
+        """Scale so that the wave spans exactly [-1, 1] over [t0, t1]."""
+        self.shift, self.scale = 0.0, 1.0
+        values = [self(t) for t in np.linspace(t0, t1, 400)]
+        self.shift = 0.5 * (max(values) + min(values))
+        self.scale = 2.0 / max(max(values) - min(values), 1e-9)
 
     def __call__(self, t):
         value = np.sum(self.a * np.sin(2 * np.pi * self.f * t + self.phase))
@@ -220,7 +225,7 @@ def _look_at(position, target) -> np.ndarray:
 
 def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(), size=(640, 480),
                     fps: float = 30.0, noise_sigma: float = 2.0, blur_sigma: float = 1.0,
-                    distance=(0.6, 1.3), excursions: int = 2, blur_threshold_px: float = 1.0,
+                    distance=(0.6, 1.3), excursions: int = 2, blur_threshold_px: float = 2.0,
                     max_subframes: int = 16, supersample: int = 2, progress=None) -> Sequence:
     """Render a synthetic hand-held sequence of the board (model in the module docstring).
 

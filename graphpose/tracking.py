@@ -156,6 +156,7 @@ class SequenceGraph:
         params = gtsam.ISAM2Params()
         params.setRelinearizeThreshold(RELINEARIZE_THRESHOLD)
         params.relinearizeSkip = 1
+        params.enablePartialRelinearizationCheck = True  # only near the newest frames
         self._isam = gtsam.ISAM2(params)
         self._graph = gtsam.NonlinearFactorGraph()
         self._values = gtsam.Values()
@@ -215,12 +216,14 @@ class SequenceGraph:
         self._frames.append(k)
         start = time.perf_counter()
         self._isam.update(self._pending, self._pending_values)
+        linear, pose = gtsam.Pose3(T_init), self._isam.calculateEstimatePose3(X(k))
         for _ in range(RELINEARIZE_STEPS):
-            # One update is one Gauss-Newton step; a poor start needs a few more.
-            if np.max(np.abs(self._isam.getDelta().at(X(k)))) < RELINEARIZE_THRESHOLD:
+            # One update is one Gauss-Newton step; a poor start needs a few more. (Compare
+            # poses: getDelta() would copy every variable's step, O(frames).)
+            if np.max(np.abs(gtsam.Pose3.Logmap(linear.between(pose)))) < RELINEARIZE_THRESHOLD:
                 break
             self._isam.update()
-        pose = self._isam.calculateEstimatePose3(X(k))
+            linear, pose = pose, self._isam.calculateEstimatePose3(X(k))
         cov = self._isam.marginalCovariance(X(k))
         update_s = time.perf_counter() - start
         self._pending = gtsam.NonlinearFactorGraph()
@@ -380,6 +383,14 @@ class TrackerConfig:
         Smallest residual ever called an outlier, pixels.
     max_rms_px : float
         A frame whose fit leaves more RMS residual than this is not believed (lost).
+    rms_factor, rms_floor_px : float
+        Once five frames have a pose, a frame whose fit RMS exceeds ``rms_factor`` times the
+        median of those frames (and ``rms_floor_px``) is not believed either: heavy motion
+        blur, or a grid labelled one square off, fits worse than the sequence's usual noise.
+    max_speed : float
+        Junctions predicted to move more than this many local square sides since the last
+        frame are not tracked (constant velocity cannot predict a whip pan to within the
+        half-square basin of the saddle fit); the frame goes to full extraction instead.
     min_pixel_sigma_px : float
         Floor of the per-frame pixel noise given to the back end, pixels.
     target : {"resection", "landmarks"}
@@ -388,13 +399,16 @@ class TrackerConfig:
 
     motion: MotionPrior = field(default_factory=MotionPrior)
     min_junctions: int = 12
-    min_detected_fraction: float = 0.75
+    min_detected_fraction: float = 0.9
     window_fraction: float = 0.3
     window_px: tuple = (4.0, 6.0)
     gate_px: float = 4.0
     outlier_sigmas: float = 4.0
     outlier_floor_px: float = 0.5
     max_rms_px: float = 1.5
+    rms_factor: float = 3.0
+    rms_floor_px: float = 0.03
+    max_speed: float = 0.5
     min_pixel_sigma_px: float = 0.02
     target: str = "resection"
 
@@ -724,6 +738,7 @@ class _Tracker:
         self.graph = SequenceGraph(K, board, config.motion, target=config.target)
         self.recent = []  # (k, timestamp, T_WC) of the last two tracked frames, consecutive
         self.last_outline = None  # outline of the last frame with the whole sheet in view
+        self.rms = []  # fit RMS of every frame with a pose
 
     def step(self, k, t, image, polygon) -> FrameResult:
         start = time.perf_counter()
@@ -733,7 +748,7 @@ class _Tracker:
             found, message = self._track(image, prediction)
             status = TRACKED if found is not None else LOST
         if found is None:
-            for poly in self._detection_polygons(polygon, prediction):
+            for poly in self._detection_polygons(polygon, prediction, image.shape[:2]):
                 found, why = self._detect(image, poly)
                 if found is not None:
                     status = DETECTED
@@ -749,6 +764,7 @@ class _Tracker:
             # The motion model failed to predict this frame (or there was none): no motion
             # factor may tie it to the frames before.
             self.graph.break_segment()
+        self.rms.append(fit.residual_rms_px)
         sigma = max(fit.sigma_px, self.config.min_pixel_sigma_px)
         back = self.graph.add_frame(k, t, points, ids, fit.T_WC, sigma)
         self.recent = (self.recent + [(k, t, back.T_WC)])[-2:]
@@ -783,13 +799,19 @@ class _Tracker:
         twist = gtsam.Pose3.Logmap(gtsam.Pose3(np.linalg.inv(T0) @ T1))
         return T1 @ gtsam.Pose3.Expmap(ratio * twist).matrix()
 
-    def _detection_polygons(self, polygon, prediction):
+    def _detection_polygons(self, polygon, prediction, shape):
+        """Polygons to search, most specific first: the caller's, the predicted outline, the
+        last whole outline seen and two enlargements of it, then the whole image."""
         polys = [polygon] if polygon is not None else []
         if prediction is not None:
             polys.append(project(self.K, prediction, self.sheet_W))
         if self.last_outline is not None:
-            polys.append(self.last_outline)
-        return polys
+            centre = self.last_outline.mean(axis=1, keepdims=True)
+            polys += [centre + f * (self.last_outline - centre) for f in (1.0, 1.4, 2.0)]
+        h, w = shape
+        if polygon is None or self.last_outline is not None:
+            polys.append(np.array([[0.0, w - 1.0, w - 1.0, 0.0], [0.0, 0.0, h - 1.0, h - 1.0]]))
+        return [np.clip(P, 0.0, [[w - 1.0], [h - 1.0]]) for P in polys]
 
     # ----------------------------------------------------------------- junctions
     def _track(self, image, T_pred):
@@ -800,6 +822,9 @@ class _Tracker:
             return None, "prediction puts the board behind the camera"
         uv = project(self.K, T_pred, self.Wpts)
         side = _square_px(self.K, T_pred, self.Wpts, uv, self.board.square_m)
+        speed = np.median(np.hypot(*(uv - project(self.K, self.recent[-1][2], self.Wpts))) / side)
+        if speed > cfg.max_speed:
+            return None, f"predicted motion {speed:.2f} squares a frame is too fast to track"
         radius = np.clip(cfg.window_fraction * side, *cfg.window_px)
         h, w = image.shape
         inside = (uv[0] - radius >= 0) & (uv[0] + radius <= w - 1) & (uv[1] - radius >= 0) & (uv[1] + radius <= h - 1)
@@ -843,8 +868,11 @@ class _Tracker:
             return None, "outlier removal did not settle"
         if not fit.converged:
             return None, f"pose fit did not converge: {fit.message}"
-        if fit.residual_rms_px > cfg.max_rms_px:
-            return None, f"fit residual {fit.residual_rms_px:.2f} px RMS exceeds {cfg.max_rms_px} px"
+        limit = cfg.max_rms_px
+        if len(self.rms) >= 5:
+            limit = min(limit, max(cfg.rms_factor * float(np.median(self.rms)), cfg.rms_floor_px))
+        if fit.residual_rms_px > limit:
+            return None, f"fit residual {fit.residual_rms_px:.3f} px RMS exceeds {limit:.3f} px"
         return (points, ids, fit), ""
 
 
