@@ -80,6 +80,8 @@ class GraphResult:
         RMS of the used residuals, pixels.
     mask : (n,) ndarray of bool
         The junctions with a projection factor.
+    message : str
+        Empty, or why GTSAM failed (then ``converged`` is False and ``cov`` is NaN).
     """
 
     T_WC: np.ndarray
@@ -92,6 +94,7 @@ class GraphResult:
     residuals: np.ndarray
     residual_rms_px: float
     mask: np.ndarray
+    message: str = ""
 
     @property
     def sigma_xyz_m(self) -> np.ndarray:
@@ -163,7 +166,7 @@ def graph_pose(K, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=Fa
         r = Ipts[:, mask] - project(K, plain[0], Wpts[:, mask])
         pixel_sigma = max(1.4826 * float(np.median(np.abs(r))), 1e-12)
     sigma = 1.0 if pixel_sigma is None else float(pixel_sigma)
-    T, cov_tangent, converged, iterations = _solve(
+    T, cov_tangent, converged, iterations, message = _solve(
         K, T_guess, Ipts, Wpts, mask, sigma, huber_k if robust else None)
     residuals = np.full((2, mask.size), np.nan)
     residuals[:, mask] = Ipts[:, mask] - project(K, T, Wpts[:, mask])
@@ -184,11 +187,15 @@ def graph_pose(K, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=Fa
         residuals=residuals,
         residual_rms_px=float(np.sqrt(np.mean(used**2))),
         mask=mask.copy(),
+        message=message,
     )
 
 
 def _solve(K, T_guess, Ipts, Wpts, mask, sigma, huber_k):
-    """Build and optimise the graph; return (T_WC, tangent covariance, converged, iterations)."""
+    """Build and optimise the graph.
+
+    Returns (T_WC, tangent covariance, converged, iterations, failure message or "").
+    """
     # 1. Create the factor graph and the camera calibration (pixels).
     graph = gtsam.NonlinearFactorGraph()
     calibration = gtsam.Cal3_S2(K[0, 0], K[1, 1], K[0, 1], K[0, 2], K[1, 2])
@@ -215,6 +222,19 @@ def _solve(K, T_guess, Ipts, Wpts, mask, sigma, huber_k):
     params.setAbsoluteErrorTol(_ABSOLUTE_TOL)
     params.setMaxIterations(_MAX_ITERATIONS)
     optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
+    try:
+        return _optimise(graph, optimizer, K, Wpts, mask)
+    except RuntimeError as exc:
+        # From a far-off guess the linearised system can become indeterminate (GTSAM's
+        # IndeterminateSystemException): that is a failed solve, reported, not a crash.
+        nan = np.full((6, 6), np.nan)
+        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+        return np.asarray(T_guess, dtype=float), nan, False, int(optimizer.iterations()), (
+            lines[0] if lines else type(exc).__name__)
+
+
+def _optimise(graph, optimizer, K, Wpts, mask):
+    """Steps 5-7 of :func:`_solve`; GTSAM may raise RuntimeError on an indeterminate system."""
     result = optimizer.optimize()
     # 6. Polish with undamped Gauss-Newton steps. Levenberg-Marquardt stops when the cost
     #    stops falling visibly, which along weakly observed directions (tilt against sideways
@@ -237,7 +257,7 @@ def _solve(K, T_guess, Ipts, Wpts, mask, sigma, huber_k):
     in_front = np.all(_project(K, params_from_T(T), Wpts[:, mask], jacobian=False)[1] > 0)
     converged = (optimizer.iterations() < _MAX_ITERATIONS and np.isfinite(optimizer.error())
                  and polished and in_front)
-    return T, np.asarray(cov), bool(converged), int(optimizer.iterations())
+    return T, np.asarray(cov), bool(converged), int(optimizer.iterations()), ""
 
 
 def params_from_tangent_jacobian(T_WC) -> np.ndarray:

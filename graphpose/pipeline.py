@@ -214,7 +214,8 @@ def estimate_pose_from_points(K, Ipts, Wpts, guess=None, mask=None, *, robust: b
     if not check.agree:
         message = ("" if message == "ok" else message + "; ") + (
             f"Gauss-Newton and GTSAM disagree by {check.translation_m:.3g} m and "
-            f"{check.rotation_deg:.3g} deg (GN converged: {gn.converged}, GTSAM converged: {graph.converged})")
+            f"{check.rotation_deg:.3g} deg (GN converged: {gn.converged}, GTSAM converged: {graph.converged}"
+            + (f": {graph.message}" if graph.message else "") + ")")
     return PoseEstimate(
         T_WC=gn.T_WC,
         params=gn.params,

@@ -127,3 +127,18 @@ def test_bad_input_is_refused(kwargs, match):
     args.update(kwargs)
     with pytest.raises(InputError, match=match):
         graph_pose(**args)
+
+
+def test_indeterminate_system_from_a_wild_guess_is_reported_not_raised():
+    # A guess found by hand (CLI issue) that drives GTSAM into an indeterminate linear system.
+    from pathlib import Path
+
+    from graphpose import load_cases
+
+    cases = load_cases(Path(__file__).resolve().parents[1] / "data" / "cases.json")
+    case = cases.cases[0]
+    guess = T_from_params([0.8988, -0.2123, -0.9709, 1.4218, -1.2728, 3.0092])
+    result = graph_pose(cases.K, guess, case.true_junctions, cases.board.world_points())
+    assert not result.converged
+    assert "Indeterminate" in result.message
+    assert np.all(np.isnan(result.cov))
