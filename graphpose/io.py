@@ -197,7 +197,7 @@ def atomic_write(path, data) -> None:
 
 
 def encode_png(rgb) -> bytes:
-    """Encode an 8-bit image as PNG bytes (no dependency beyond zlib).
+    """Encode an 8-bit image as PNG bytes (with imageio, which scikit-image reads with).
 
     Parameters
     ----------
@@ -209,24 +209,12 @@ def encode_png(rgb) -> bytes:
     InputError
         If the array is not uint8 of one of those shapes, or is empty.
     """
-    import struct
-    import zlib
+    import imageio.v3 as iio
 
     A = np.asarray(rgb)
     if A.dtype != np.uint8 or A.ndim not in (2, 3) or (A.ndim == 3 and A.shape[2] != 3) or A.size == 0:
         raise InputError(f"rgb must be a non-empty uint8 (H, W) or (H, W, 3) array, got {A.dtype} {A.shape}")
-    height, width = A.shape[:2]
-    colour_type = 2 if A.ndim == 3 else 0
-
-    def chunk(kind: bytes, body: bytes) -> bytes:
-        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
-
-    # Filter type 0 (none) on every row: a zero byte in front of each row's pixels.
-    rows = np.ascontiguousarray(A).reshape(height, -1)
-    raw = np.hstack([np.zeros((height, 1), np.uint8), rows]).tobytes()
-    header = struct.pack(">IIBBBBB", width, height, 8, colour_type, 0, 0, 0)
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
-            + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
+    return iio.imwrite("<bytes>", A, extension=".png")
 
 
 def write_png(path, rgb) -> None:
