@@ -229,7 +229,8 @@ def test_no_board_found_exits_1(blank_png, tmp_path):
 
 def test_no_convergence_exits_1(bundled, tmp_path):
     # A guess 0.4 m and about 150 degrees off: Gauss-Newton runs into its iteration cap and
-    # GTSAM lands elsewhere, so the estimate is unreliable and must say so.
+    # GTSAM lands elsewhere, so the estimate is unreliable and must say so. Should a later
+    # estimator recover from it, the pose it reports must then be the true one.
     case = bundled.cases[0]
     guess = tmp_path / "wild.json"
     guess.write_text(json.dumps(T_from_params([0.8772, 0.0529, -1.5562, 0.9138, -0.5396, 2.2721]).tolist()))
@@ -238,7 +239,9 @@ def test_no_convergence_exits_1(bundled, tmp_path):
     result = graphpose("estimate", case.image, "--bounds", bounds, "--guess", guess, "--json", out_json,
                        "--overlay", tmp_path / "o.png")
     if result.returncode == 0:
-        pytest.skip("the estimator recovered from this guess; nothing to report")
+        (record,) = json.loads(out_json.read_text())
+        assert record["vs_truth"]["translation_mm"] < 1.0 and record["vs_truth"]["rotation_deg"] < 0.05
+        return
     one_error_line(result, 1, case.image.name, "no reliable pose")
     assert result.stdout == ""  # an unreliable pose is not reported as a result
     (record,) = json.loads(out_json.read_text())
