@@ -234,3 +234,38 @@ def test_track_poses_accessors(tracked):
     lost = ~tracked.found
     assert np.all(np.isnan(tracked.poses("online")[lost]))
     assert tracked.smoothed is not None and len(tracked.smoothed) == len(tracked)
+
+
+# ---------------------------------------------------------------------------- command line
+
+
+def test_cli_render_sequence_then_track(tmp_path, capsys):
+    import json
+
+    from graphpose.cli import main
+    from graphpose.tum import read_tum
+
+    seq_dir = tmp_path / "seq"
+    assert main(["render-sequence", str(seq_dir), "--frames", "5", "--excursions", "0", "--seed", "1"]) == 0
+    assert "track it: graphpose track" in capsys.readouterr().out
+    meta = json.loads((seq_dir / "bounds.json").read_text())
+    bounds = ",".join(f"{u},{v}" for u, v in zip(*meta["bounds"]))
+    tum, out = tmp_path / "est.tum", tmp_path / "est.json"
+    assert main(["track", str(seq_dir), "--bounds", bounds, "--tum", str(tum), "--json", str(out), "--smooth"]) == 0
+    assert "lost 0 (smoothed)" in capsys.readouterr().out
+    est, truth = read_tum(tum), read_tum(seq_dir / "truth.tum")
+    np.testing.assert_allclose(est.timestamps, truth.timestamps, atol=1e-6)
+    assert np.max(np.abs(est.poses[:, :3, 3] - truth.poses[:, :3, 3])) < 1e-3
+    frames = json.loads(out.read_text())["frames"]
+    assert frames[0]["status"] == "detected" and "tracked" in [f["status"] for f in frames[1:]]
+    assert all(f["junctions"] == 48 and len(f["sigma_xyz_m"]) == 3 for f in frames)
+
+
+def test_cli_track_usage_errors(tmp_path, capsys):
+    from graphpose.cli import main
+
+    assert main(["track", str(tmp_path)]) == 2
+    assert "no image files" in capsys.readouterr().err
+    assert main(["track", str(tmp_path / "a.png"), "--bounds", "1,2,3"]) == 2
+    assert "bounds needs 8 numbers" in capsys.readouterr().err
+    assert main(["render-sequence", str(tmp_path), "--frames", "1"]) == 2

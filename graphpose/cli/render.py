@@ -1,0 +1,95 @@
+"""``graphpose render-sequence``: a synthetic sequence with its true trajectory, to measure a tracker.
+
+Calls :func:`graphpose.sequence.render_sequence` and :func:`graphpose.sequence.write_sequence`:
+OUT_DIR gets ``frame_00000.png ...``, ``truth.tum`` (the true pose of every frame) and
+``bounds.json`` (K, board, fps, the first frame's bounding polygon, per-frame labels), and
+the command prints the ``graphpose track`` line that tracks it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import textwrap
+from pathlib import Path
+
+from ..board import Board
+from ..camera import K_from_params
+from . import EXIT_OK
+from .estimate import DEFAULT_K, Progress, parse_board, parse_K
+from .track import _positive
+
+_EXAMPLES = """\
+examples:
+  graphpose render-sequence seq/                       # 300 frames, seed 0
+  graphpose render-sequence seq/ --frames 60 --seed 3 --excursions 1 --noise 1
+  graphpose track seq/ --bounds ... --tum est.tum && evo_ape tum seq/truth.tum est.tum"""
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``render-sequence`` subcommand's parser to ``subparsers``."""
+    fx, fy, cx, cy = DEFAULT_K
+    p = subparsers.add_parser(
+        "render-sequence",
+        help="render a synthetic hand-held sequence of the board with its true trajectory (TUM)",
+        description=textwrap.fill(
+            "Render a synthetic sequence: smooth hand-held motion 0.6-1.3 m from the board, motion "
+            "blur on fast frames, whip pans that take the board out of view. Writes PNG frames, "
+            "truth.tum and bounds.json (the first frame's polygon) into OUT_DIR.", 88),
+        epilog=_EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.set_defaults(command="render")  # the module that runs it (graphpose/cli/render.py)
+    p.add_argument("out_dir", type=Path, metavar="OUT_DIR", help="folder to write (created if absent)")
+    p.add_argument("--frames", type=_count, default=300, help="number of frames (default 300)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--fps", type=_positive, default=30.0, help="frame rate (default 30)")
+    p.add_argument("--noise", type=float, default=2.0, help="Gaussian noise, grey levels of 255 (default 2)")
+    p.add_argument("--blur", type=float, default=1.0, help="optical blur sigma, pixels (default 1)")
+    p.add_argument("--distance", type=_pair, default=(0.6, 1.3), metavar="NEAR,FAR",
+                   help="range of the board centre's distance, metres (default 0.6,1.3)")
+    p.add_argument("--excursions", type=int, default=2, help="whip pans out of view (default 2)")
+    p.add_argument("--K", dest="K", type=parse_K, metavar="FX,FY,CX,CY",
+                   help=f"camera intrinsics in pixels (default {fx},{fy},{cx},{cy})")
+    p.add_argument("--board", type=parse_board, metavar="COLSxROWSxSQUARE_M", help="the target (default 8x6x0.0635)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no summary on stdout")
+    return p
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 2, got {text!r}") from None
+    if value < 2:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 2, got {text!r}")
+    return value
+
+
+def _pair(text: str) -> tuple:
+    try:
+        near, far = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NEAR,FAR in metres, got {text!r}") from None
+    if not (0 < near <= far):
+        raise argparse.ArgumentTypeError(f"expected 0 < NEAR <= FAR, got {text!r}")
+    return near, far
+
+
+def run(args) -> int:
+    """Run ``graphpose render-sequence`` with parsed ``args``; returns the exit code."""
+    from ..sequence import render_sequence, write_sequence
+
+    K = args.K if args.K is not None else K_from_params(*DEFAULT_K)
+    progress = Progress(args.frames, sys.stderr)
+    seq = render_sequence(K, args.frames, rng=args.seed, board=args.board or Board(), fps=args.fps,
+                          noise_sigma=args.noise, blur_sigma=args.blur, distance=args.distance,
+                          excursions=args.excursions, progress=lambda k, n: progress.show(k + 1, f"frame {k}"))
+    progress.clear()
+    out = write_sequence(seq, args.out_dir)
+    if not args.quiet:
+        bounds = ",".join(f"{u:.1f},{v:.1f}" for u, v in zip(*seq.bounds))
+        print(f"{len(seq)} frames in {out}: {int(seq.out_of_view.sum())} with the board out of view, "
+              f"{int((seq.subframes > 1).sum())} motion-blurred; truth in {out / 'truth.tum'}")
+        print(f"track it: graphpose track {out} --bounds {bounds} --fps {seq.fps:g} --tum est.tum --json est.json")
+    return EXIT_OK

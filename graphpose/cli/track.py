@@ -1,0 +1,189 @@
+"""``graphpose track``: the camera trajectory over a sequence of frames of the board.
+
+Turns the arguments into typed values (frame files, bounds (2, 4), K (3, 3), :class:`Board`,
+timestamps), calls :func:`graphpose.tracking.track_sequence` once, and writes the trajectory
+in TUM format (``--tum``), per-frame results as JSON (``--json``) and a summary on stdout.
+Exit code 0 when at least one frame has a pose, 1 when every frame was lost (see
+:mod:`graphpose.cli`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+
+from ..board import Board
+from ..camera import K_from_params
+from ..errors import InputError
+from . import EXIT_FAILED, EXIT_OK
+from .estimate import DEFAULT_K, Progress, parse_board, parse_bounds, parse_K
+
+_EXAMPLES = """\
+examples:
+  graphpose render-sequence seq/ --frames 120
+  graphpose track seq/ --bounds "$(python -c 'import json; b=json.load(open("seq/bounds.json"))["bounds"]; print(",".join(f"{u},{v}" for u, v in zip(*b)))')" \\
+      --tum est.tum --json est.json --smooth
+  graphpose track frames/*.png --bounds 166,254,455,136,541,347,259,477 --timestamps times.txt --tum est.tum
+  evo_ape tum seq/truth.tum est.tum          # absolute trajectory error (no alignment needed)
+
+FRAMES is one folder (its image files in name order; other files are ignored) or image files
+in the order given. --bounds is the board's polygon in the FIRST frame, (u, v) pixels,
+clockwise from the corner nearest the upper-left junction. The TUM file has one line
+'timestamp tx ty tz qx qy qz qw' per frame with a pose (camera in the target frame); a lost
+frame has no line. exit codes: 0 success, 1 every frame lost, 2 bad usage or input."""
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``track`` subcommand's parser to ``subparsers``."""
+    fx, fy, cx, cy = DEFAULT_K
+    board = Board()
+    p = subparsers.add_parser(
+        "track",
+        help="camera trajectory over a sequence of frames (iSAM2), TUM and JSON output",
+        description=textwrap.fill(
+            "Track the camera pose T_WC relative to a checkerboard over a sequence of frames: "
+            "junctions predicted and refined frame to frame, one GTSAM graph solved incrementally "
+            "with iSAM2, frames without a usable board reported lost.", 88),
+        epilog=_EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("frames", nargs="+", type=Path, metavar="FRAMES", help="a folder of frames, or frame files in order")
+    p.add_argument("--bounds", type=parse_bounds, metavar="U1,V1,U2,V2,U3,V3,U4,V4",
+                   help="the board's bounding polygon in the first frame, pixels (or give --polygons)")
+    p.add_argument("--polygons", type=Path, metavar="POLYGONS.json",
+                   help="per-frame bounding polygons for re-detection: a JSON list with one 2 x 4 "
+                   "polygon or null per frame")
+    p.add_argument("--K", dest="K", type=parse_K, metavar="FX,FY,CX,CY",
+                   help=f"camera intrinsics in pixels, images undistorted (default {fx},{fy},{cx},{cy})")
+    p.add_argument("--board", type=parse_board, metavar="COLSxROWSxSQUARE_M",
+                   help=f"inner junctions per row and column, square side in metres (default "
+                   f"{board.cols}x{board.rows}x{board.square_m})")
+    times = p.add_mutually_exclusive_group()
+    times.add_argument("--fps", type=_positive, default=30.0, help="frame rate for timestamps index / fps (default 30)")
+    times.add_argument("--timestamps", type=Path, metavar="FILE", help="one timestamp (seconds) per frame, one per line")
+    p.add_argument("--motion", choices=("constant_velocity", "random_walk"), default="constant_velocity",
+                   help="motion prior between frames (default constant_velocity)")
+    p.add_argument("--smooth", action="store_true", help="smooth the whole trajectory in batch at the end")
+    p.add_argument("--tum", metavar="OUT.txt", help="write the trajectory in TUM format")
+    p.add_argument("--json", metavar="OUT.json", help="write per-frame results as JSON ('-': stdout, no summary)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no summary on stdout")
+    return p
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not (np.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
+
+
+def run(args) -> int:
+    """Run ``graphpose track`` with parsed ``args``; returns the exit code."""
+    from ..io import dumps_json, write_json
+    from ..tracking import MotionPrior, TrackerConfig, list_frames, read_timestamps, track_sequence
+    from ..tum import write_tum
+
+    files = _frame_files(args.frames, list_frames)
+    timestamps = None if args.timestamps is None else read_timestamps(args.timestamps, len(files))
+    polygons = None if args.polygons is None else _read_polygons(args.polygons)
+    if args.bounds is None and polygons is None:
+        raise InputError("give --bounds (the board's polygon in the first frame) or --polygons")
+    for path, name in ((args.tum, "--tum"), (args.json, "--json")):
+        if path not in (None, "-") and not Path(path).resolve().parent.is_dir():
+            raise InputError(f"{name}: folder {Path(path).resolve().parent} does not exist")
+    K = args.K if args.K is not None else K_from_params(*DEFAULT_K)
+    board = args.board or Board()
+    progress = Progress(len(files), sys.stderr)
+    config = TrackerConfig(motion=MotionPrior(args.motion))
+    track = track_sequence(files, K, args.bounds, board=board, timestamps=timestamps, fps=args.fps,
+                           polygons=polygons, config=config, smooth=args.smooth,
+                           progress=lambda k, n: progress.show(k + 1, files[k].name))
+    progress.clear()
+    frames = track.best_frames()
+    found = [f for f in frames if f.T_WC is not None]
+    if args.tum is not None:
+        write_tum(args.tum, [f.timestamp for f in found], [f.T_WC for f in found],
+                  header=f"graphpose track: camera pose T_WC in the target frame; {len(frames) - len(found)} "
+                  f"lost frames have no line")
+    records = {"frames": [_record(f, files[f.index]) for f in frames], "smoothed": bool(args.smooth),
+               "motion": args.motion, "K": K, "board": f"{board.cols}x{board.rows}x{board.square_m}"}
+    if args.json == "-":
+        sys.stdout.write(dumps_json(records))
+    elif args.json is not None:
+        write_json(args.json, records)
+    if not args.quiet and args.json != "-":
+        print(_summary(track, frames))
+    return EXIT_OK if found else EXIT_FAILED
+
+
+def _frame_files(paths, list_frames) -> list:
+    if len(paths) == 1 and paths[0].is_dir():
+        return list_frames(paths[0])
+    missing = [str(p) for p in paths if not p.is_file()]
+    if missing:
+        raise InputError(f"frame file(s) not found: {', '.join(missing[:3])}" + (" ..." if len(missing) > 3 else ""))
+    return list(paths)
+
+
+def _read_polygons(path: Path) -> list:
+    try:
+        doc = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise InputError(f"--polygons file not found: {path}") from None
+    except (OSError, ValueError) as exc:
+        raise InputError(f"cannot read --polygons file {path}: {exc}") from None
+    if not isinstance(doc, list):
+        raise InputError(f"--polygons {path} must hold a JSON list (one 2 x 4 polygon or null per frame)")
+    return [None if p is None else np.asarray(p, dtype=float) for p in doc]
+
+
+def _record(f, path) -> dict:
+    """One frame as a JSON-ready dict; lost frames carry nulls."""
+    from ..camera import params_from_T
+
+    has = f.T_WC is not None
+    sigma = f.sigma if has else None
+    return {
+        "index": f.index,
+        "file": str(path),
+        "timestamp": float(f.timestamp),
+        "status": f.status,
+        "T_WC": f.T_WC if has else None,
+        "params": params_from_T(f.T_WC) if has else None,
+        "sigma_xyz_m": sigma[:3] if has else None,
+        "sigma_rpy_rad": sigma[3:] if has else None,
+        "junctions": int(f.junctions),
+        "reprojection_rms_px": float(f.reprojection_rms_px) if has else None,
+        "message": f.message,
+    }
+
+
+def _summary(track, frames) -> str:
+    status = track.status
+    counts = ", ".join(f"{s} {int(np.sum(status == s))}" for s in ("tracked", "detected", "lost"))
+    found = [f for f in frames if f.T_WC is not None]
+    lines = [f"{len(frames)} frames: {counts}" + (" (smoothed)" if track.smoothed is not None else "")]
+    if found:
+        sig = np.median([f.sigma for f in found], axis=0)
+        rms = np.median([f.reprojection_rms_px for f in found])
+        ms = np.median([f.frontend_s + f.update_s for f in track.frames if f.status != "lost"]) * 1000
+        lines.append(f"median 1-sigma: {1000 * np.max(sig[:3]):.3f} mm (largest axis), "
+                     f"{np.rad2deg(np.max(sig[3:])):.4f} deg; median reprojection RMS {rms:.3f} px; "
+                     f"median {ms:.1f} ms a frame")
+    lost = np.flatnonzero(status == "lost")
+    if lost.size:
+        lines.append("lost frames: " + _ranges(lost))
+    return "\n".join(lines)
+
+
+def _ranges(idx) -> str:
+    runs = np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1)
+    return ", ".join(f"{r[0]}" if r.size == 1 else f"{r[0]}-{r[-1]}" for r in runs)
