@@ -16,19 +16,27 @@ One GTSAM factor graph over the whole sequence (keys as in GTSAM's examples):
   * ``"landmarks"``: as in the single-image graph of :mod:`graphpose.graph`: target point
     ``j`` is a variable ``L(j)`` pinned once by a tight prior (``landmark_sigma_m``) and
     shared by every frame, one ``GenericProjectionFactorCal3_S2`` per junction. Every frame
-    then touches the same 48 variables, so iSAM2 re-eliminates a 144-dimensional root and
-    scans a variable index that grows with the sequence on every update: about ten times
-    slower, and slower with every frame (``scripts/bench_tracking.py`` prints both).
-- A motion prior between consecutive tracked frames of one segment (a lost frame starts a new
-  segment: no factor spans a loss):
+    then touches the same 48 variables, so every iSAM2 update re-eliminates a
+    144-dimensional root: about ten times slower (``scripts/bench_tracking.py`` prints both).
+- A motion prior between consecutive frames of one segment (a lost or re-detected frame
+  starts a new segment: no factor spans a loss or a jump):
 
   * ``"constant_velocity"`` (default): a three-pose factor on ``X(k-2), X(k-1), X(k)`` saying
     the body-frame twist stays the same, ``Log(X(k-1)^-1 X(k)) - r Log(X(k-2)^-1 X(k-1)) ~
     N(0, S)`` with ``r = dt_k / dt_(k-1)``;
   * ``"random_walk"``: ``BetweenFactorPose3(X(k-1), X(k), identity, S)``.
 
-  ``S = diag(sigma_rot_rad^2 * 3, sigma_trans_m^2 * 3)``: rotation (rad) first, then
-  translation (m), in the camera frame, per frame interval (GTSAM's ``Pose3`` tangent order).
+  ``S = diag(sigma_rot_rad^2 (x3), sigma_trans_m^2 (x3))``: rotation (rad) first, then
+  translation (m), in the camera frame, per frame interval (GTSAM's ``Pose3`` tangent
+  order), with a Huber kernel (:class:`MotionPrior`).
+
+Front end (:class:`TrackerConfig` holds its thresholds): predict every junction from the
+constant-velocity pose, refine the predictions with the saddle fit
+(:func:`graphpose.junctions.refine_junctions`), drop untrusted fits, fits far from their
+prediction and residual outliers of the frame's own pose fit; fall back to full extraction
+(:func:`graphpose.junctions.extract_junctions`) in a ladder of polygons when too few survive,
+when the motion is too fast to predict, or after a loss. A frame whose board cannot be found,
+or whose fit is much worse than the sequence's usual, is lost: no pose is guessed.
 
 The graph is solved incrementally with ``gtsam.ISAM2``; every frame adds a fixed number of
 factors next to the newest poses, so each update costs about the same. At the end the whole
