@@ -565,11 +565,10 @@ def _weights(offs, local, radius, grad2):
     """Fit weights (m, h, w) centred on each sub-pixel estimate.
 
     The squared gradient picks out the two edges, where the position information is; the
-    division by the squared distance from the centre favours the inner stretch of each edge
-    (on the real images the outer stretch fits worse: 0.069 vs 0.070-0.072 px reprojection
-    RMS on target 01, 0.106 vs 0.116-0.130 on target 02, at a small cost on synthetic
-    images, 0.040 vs 0.037 px at noise 6); a smooth taper keeps the window point-symmetric
-    about the estimate on the pixel grid.
+    division by the squared distance from the centre favours the inner stretch of each edge,
+    which fits the real images better than the outer stretch (measurements in the README's
+    cross-junctions section); a smooth taper keeps the window point-symmetric about the
+    estimate on the pixel grid.
     """
     inv_r2 = (1.0 / (radius * radius)).astype(np.float32)
     dx2 = ((offs[None, :] - local[0][:, None]) ** 2).astype(np.float32)
