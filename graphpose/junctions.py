@@ -294,9 +294,15 @@ def _locate_grid(image: np.ndarray, poly: np.ndarray, board: Board) -> np.ndarra
             f"found {cand.shape[1]} junction-like points inside the polygon, need a "
             f"{cols} x {rows} grid; is the board inside bpoly?"
         )
-    nodes = _grow_lattice(cand, strength, (width / 2, height / 2), np.array([cols + 3, rows + 3]))
-    H_canon = _choose_window(nodes, cand, canon, board)
-    return H_img @ H_canon
+    # A seed that is clutter grows a lattice that fails the checks: try the next ones.
+    error = BoardNotFoundError("no strong junction candidate inside the polygon")
+    for seed in _seeds(cand, strength, (width / 2, height / 2))[:3]:
+        nodes = _grow_lattice(cand, seed, np.array([cols + 3, rows + 3]))
+        try:
+            return H_img @ _choose_window(nodes, cand, canon, board)
+        except BoardNotFoundError as exc:
+            error = exc
+    raise error
 
 
 def _rectify(image, H_img, width: int, height: int) -> np.ndarray:
@@ -371,19 +377,25 @@ def _subpixel_peaks(response, pts):
     return pts + np.vstack([np.clip(ox, -0.5, 0.5), np.clip(oy, -0.5, 0.5)])
 
 
-def _grow_lattice(cand: np.ndarray, strength: np.ndarray, centre, max_extent) -> dict:
-    """Integer lattice coordinates {(i, j): candidate index} grown from a central seed.
+def _seeds(cand: np.ndarray, strength: np.ndarray, centre) -> np.ndarray:
+    """Indices of strong candidates, nearest the canonical centre first."""
+    strong = strength >= 0.25 * np.median(np.sort(strength)[::-1][: max(4, len(strength) // 3)])
+    dist = np.hypot(cand[0] - centre[0], cand[1] - centre[1])
+    order = np.argsort(dist)
+    return order[strong[order]]
 
-    Each round predicts every node of the found nodes' bounding box grown by one, through
-    a homography fitted to the nodes so far (an affine guess from the typical steps at
-    first), and takes the nearest unused candidate within 0.3 squares of each.
+
+def _grow_lattice(cand: np.ndarray, seed: int, max_extent) -> dict:
+    """Integer lattice coordinates {(i, j): candidate index} grown from a seed candidate.
+
+    Each round predicts every node of the found nodes' bounding box grown by one (two once
+    there are nine nodes), through a homography fitted to the nodes so far (an affine guess
+    from the typical steps at first), and takes the nearest unused candidate within 0.3
+    squares of each. The box never exceeds ``max_extent`` (i, j) nodes.
     """
     tree = cKDTree(cand.T)
     step = _lattice_steps(cand, tree)
-    strong = strength >= 0.25 * np.median(np.sort(strength)[::-1][: max(4, len(strength) // 3)])
-    dist = np.hypot(cand[0] - centre[0], cand[1] - centre[1])
-    seed = int(np.argmin(np.where(strong, dist, np.inf)))
-    nodes = {(0, 0): seed}
+    nodes = {(0, 0): int(seed)}
     tol = 0.3 * min(step[0, 0], step[1, 1])
     for _ in range(max(max_extent) + 2):
         keys = np.array(list(nodes.keys()))
@@ -441,12 +453,13 @@ def _choose_window(nodes: dict, cand: np.ndarray, canon: np.ndarray, board: Boar
             f"found a {i1 - i0 + 1} x {j1 - j0 + 1} grid of junctions inside the polygon, "
             f"need {cols} x {rows}; does bpoly enclose the whole board, first edge along a row?"
         )
-    spacing = np.median(np.hypot(*np.diff(pts, axis=1))) if pts.shape[1] > 1 else _CANON_SQUARE
-    score = np.maximum(_chess_score(canon, pts, 0.3 * _CANON_SQUARE), 0.0)
+    spacing = np.median(_square_sides(_homography(keys.T.astype(float), pts), keys.T.astype(float)))
+    score = np.maximum(_chess_score(canon, pts, 0.3 * spacing), 0.0)
     best, best_score = None, -1.0
     for a in range(i0, i1 - cols + 2):
         for b in range(j0, j1 - rows + 2):
-            inside = (keys[:, 0] >= a) & (keys[:, 0] < a + cols) & (keys[:, 1] >= b) & (keys[:, 1] < b + rows)
+            inside = (keys[:, 0] >= a) & (keys[:, 0] < a + cols) & \
+                (keys[:, 1] >= b) & (keys[:, 1] < b + rows)
             if score[inside].sum() > best_score:
                 best, best_score = (a, b, inside), score[inside].sum()
     a, b, inside = best
