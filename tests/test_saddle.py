@@ -125,3 +125,17 @@ def test_bad_batch_raises_input_error():
 def test_weights_of_the_wrong_shape_raise_input_error():
     with pytest.raises(InputError, match="weights"):
         fit_saddles(np.zeros((2, 5, 5)), weights=np.ones((4, 4)))
+
+
+def test_weighted_fit_minimises_the_weighted_residual():
+    rng = np.random.default_rng(8)
+    patches = np.stack([junction(9, rng.uniform(3, 5, 2)) + rng.normal(0, 0.02, (9, 9)) for _ in range(3)])
+    weights = rng.uniform(0.0, 2.0, patches.shape)
+    fit = fit_saddles(patches, weights)
+    for k in range(3):
+        model = quadric(9, 9, fit.coeffs[:, k])
+        rms = np.sqrt(np.sum(weights[k] * (patches[k] - model) ** 2) / weights[k].sum())
+        np.testing.assert_allclose(fit.residual[k], rms, rtol=1e-6)
+        # Any other quadric leaves a larger weighted residual.
+        nudged = quadric(9, 9, fit.coeffs[:, k] + rng.normal(0, 1e-3, 6))
+        assert np.sum(weights[k] * (patches[k] - nudged) ** 2) > np.sum(weights[k] * (patches[k] - model) ** 2)
