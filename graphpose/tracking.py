@@ -627,8 +627,9 @@ def track_sequence(frames, K, bounds=None, *, board: Board = Board(), timestamps
         Intrinsics, pixels (undistorted images).
     bounds : (2, 4) array_like, optional
         Bounding polygon of the board in the first frame (clockwise from the upper-left
-        vertex, as in :func:`graphpose.junctions.extract_junctions`). Without it, the first
-        frame needs ``polygons[0]``.
+        vertex, as in :func:`graphpose.junctions.extract_junctions`). Without it (and
+        without ``polygons[0]``) the first frame is searched in the whole image, which finds
+        a board that is not too large in the frame; frames stay lost until it is found.
     board : Board
         The target.
     timestamps : (N,) array_like, optional
@@ -724,8 +725,6 @@ def _polygons(polygons, bounds, n):
         polys = [None if p is None else _check_poly(p, f"polygons[{k}]") for k, p in enumerate(polygons)]
     if bounds is not None:
         polys[0] = _check_poly(bounds, "bounds")
-    if polys[0] is None:
-        raise InputError("the first frame needs a bounding polygon: give bounds (2, 4) or polygons[0]")
     return polys
 
 

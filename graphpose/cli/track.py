@@ -54,7 +54,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("frames", nargs="+", type=Path, metavar="FRAMES", help="a folder of frames, or frame files in order")
     p.add_argument("--bounds", type=parse_bounds, metavar="U1,V1,U2,V2,U3,V3,U4,V4",
-                   help="the board's bounding polygon in the first frame, pixels (or give --polygons)")
+                   help="the board's bounding polygon in the first frame, pixels (default: search the "
+                   "whole image, which finds a board that does not fill the frame)")
     p.add_argument("--polygons", type=Path, metavar="POLYGONS.json",
                    help="per-frame bounding polygons for re-detection: a JSON list with one 2 x 4 "
                    "polygon or null per frame")
@@ -94,8 +95,6 @@ def run(args) -> int:
     files = _frame_files(args.frames, list_frames)
     timestamps = None if args.timestamps is None else read_timestamps(args.timestamps, len(files))
     polygons = None if args.polygons is None else _read_polygons(args.polygons)
-    if args.bounds is None and polygons is None:
-        raise InputError("give --bounds (the board's polygon in the first frame) or --polygons")
     for path, name in ((args.tum, "--tum"), (args.json, "--json")):
         if path not in (None, "-") and not Path(path).resolve().parent.is_dir():
             raise InputError(f"{name}: folder {Path(path).resolve().parent} does not exist")
