@@ -31,6 +31,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     fx, fy, cx, cy = DEFAULT_K
     p = subparsers.add_parser(
         "render-sequence",
+        aliases=["render"],  # the module's name, as the subcommand protocol expects
         help="render a synthetic hand-held sequence of the board with its true trajectory (TUM)",
         description=textwrap.fill(
             "Render a synthetic sequence: smooth hand-held motion 0.6-1.3 m from the board, motion "
