@@ -684,8 +684,10 @@ def _add_board(image, K, T_WC, board, margin, sigma, S, light, background, white
     u1 = min(int(np.ceil(sheet[0].max())) + reach + 2, width + reach)
     v0 = max(int(np.floor(sheet[1].min())) - reach - 1, -reach)
     v1 = min(int(np.ceil(sheet[1].max())) + reach + 2, height + reach)
-    if u1 <= u0 or v1 <= v0:
-        return
+    cu0, cv0 = max(u0, 0), max(v0, 0)
+    cu1, cv1 = min(u1, width), min(v1, height)
+    if cu1 <= cu0 or cv1 <= cv0:
+        return  # the sheet and its blur lie wholly outside the image
     # Fine grid: cell (i, j) spans u in u0 - 0.5 + [i, i + 1] / S, likewise v.
     origin = np.array([[u0 - 0.5], [v0 - 0.5]])
     squares = _black_squares_world(board)
@@ -710,8 +712,6 @@ def _add_board(image, K, T_WC, board, margin, sigma, S, light, background, white
     row, col, value = partial
     rows += _x_pass(row, col, [value * light(u_fine(col), v_fine[row])], k, S, h, u1 - u0)[0]
     blurred = sum(correlate1d(rows[b::S, :], k[:, b], axis=0, mode="constant") for b in range(S))
-    cu0, cv0 = max(u0, 0), max(v0, 0)
-    cu1, cv1 = min(u1, width), min(v1, height)
     image[cv0:cv1, cu0:cu1] += blurred[cv0 - v0 : cv1 - v0, cu0 - u0 : cu1 - u0]
 
 
@@ -744,7 +744,9 @@ def _x_pass(row, col, values, k, S: int, h: int, w: int) -> list:
     wide = w + 2 * reach  # room for the kernel's reach beyond either side, cut off below
     index = (row * wide + p + 2 * reach)[:, None] - np.arange(2 * reach + 1)
     kernel = k.T[b]
-    sums = (np.bincount(index.ravel(), (kernel * v[:, None]).ravel(), h * wide) for v in values)
+    # astype: with no entries at all, np.bincount returns int64 even with float weights.
+    sums = (np.bincount(index.ravel(), (kernel * v[:, None]).ravel(), h * wide).astype(float, copy=False)
+            for v in values)
     return [a.reshape(h, wide)[:, reach : reach + w] for a in sums]
 
 

@@ -305,13 +305,9 @@ def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(),
 
 
 def _ideal(K, T, board, size, ideal, background) -> np.ndarray:
-    """Ideal render, or the plain background when the sheet is entirely out of view (a whip
-    pan can even turn it behind the camera, which the renderer rightly refuses)."""
-    sheet = _sheet_corners(board)
-    if np.any(to_camera(T, sheet)[2] <= 1e-3):
-        return background
-    uv = project(K, T, sheet)
-    if uv[0].max() < 0 or uv[0].min() > size[0] - 1 or uv[1].max() < 0 or uv[1].min() > size[1] - 1:
+    """Ideal render, or the plain background when a whip pan turns the sheet behind the
+    camera (which the renderer rightly refuses)."""
+    if np.any(to_camera(T, _sheet_corners(board))[2] <= 1e-3):
         return background
     return render_ideal(K, T, board, size, **ideal)
 

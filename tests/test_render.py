@@ -350,3 +350,17 @@ def test_bundled_truth_is_consistent():
     for case in cases.cases:
         assert np.allclose(case.true_junctions, project(cases.K, case.true_T_WC, cases.board.world_points()))
         assert imread(case.image).shape == (480, 640)
+
+
+def test_sheet_just_outside_the_image_renders_background():
+    # Sheets beyond the right edge: a few pixels off (inside the blur kernel's reach, where no
+    # fine cell of the window is fully covered, which once broke the sparse path) and far off.
+    from graphpose.render import _sheet_world
+
+    K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
+    for x in (-0.75, -2.0):
+        T = T_from_params([x, 0.0, -1.2, 0.0, 0.0, 0.0])
+        assert project(K, T, _sheet_world(Board(), 0.5))[0].min() > 640
+        ideal = render_ideal(K, T, blur_sigma=1.0, gradient=0.0)
+        assert ideal.dtype == np.float64 and ideal.shape == (480, 640)
+        np.testing.assert_allclose(ideal, 60.0, atol=1e-6)
