@@ -19,7 +19,7 @@ from conftest import REAL_DIR, REPO
 
 from graphpose import InputError, T_from_params, load_cases
 from graphpose.cli import main
-from graphpose.cli.estimate import Progress, parse_bounds, parse_K
+from graphpose.cli.options import Progress, parse_bounds, parse_K
 from graphpose.io import atomic_write, dumps_json, encode_png, load_pose, result_record, write_json
 
 BUNDLED = REPO / "data" / "cases.json"

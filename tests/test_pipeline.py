@@ -98,7 +98,6 @@ def test_sigmas_are_the_covariance_diagonal():
 
 
 def test_untrusted_points_are_left_out_but_reported():
-    rng = np.random.default_rng(4)
     T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
     I = project(K, T, WPTS)
     I[:, 9] += [25.0, -12.0]

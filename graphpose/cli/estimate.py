@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import sys
 import textwrap
 from dataclasses import dataclass
@@ -19,13 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..board import Board
-from ..camera import K_from_params, params_from_T
+from ..camera import params_from_T
 from ..errors import GraphposeError, InputError
 from . import EXIT_OK, UsageError, exit_code, print_error
-
-#: The project's camera (the ROB501 sample set's): fx, fy, cx, cy in pixels.
-DEFAULT_K = (564.9, 564.3, 337.3, 226.5)
+from .options import Progress, add_target_options, parse_bounds, target_from_args
 
 #: The bundled example, a case file beside the package (made by graphpose.render).
 DEFAULT_CASES = Path(__file__).resolve().parents[2] / "data" / "cases.json"
@@ -47,8 +43,6 @@ exit codes: 0 success, 1 an estimate failed (no board found, no convergence),
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``estimate`` subcommand's parser to ``subparsers`` (an argparse subparsers action)."""
-    fx, fy, cx, cy = DEFAULT_K
-    board = Board()
     p = subparsers.add_parser(
         "estimate",
         help="camera pose from checkerboard images (default: the bundled example)",
@@ -62,12 +56,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("image", nargs="?", type=Path, metavar="IMAGE", help="an image of the board (any format scikit-image reads; colour is made grey)")
     p.add_argument("--bounds", type=parse_bounds, metavar="U1,V1,U2,V2,U3,V3,U4,V4",
                    help="the board's bounding polygon in IMAGE, pixels (needed with IMAGE)")
-    p.add_argument("--K", dest="K", type=parse_K, metavar="FX,FY,CX,CY",
-                   help=f"camera intrinsics in pixels, images undistorted (default: the project's "
-                   f"camera, {fx},{fy},{cx},{cy}; with --cases, the file's K)")
-    p.add_argument("--board", type=parse_board, metavar="COLSxROWSxSQUARE_M",
-                   help=f"inner junctions per row and column, square side in metres (default: the "
-                   f"project's target, {board.cols}x{board.rows}x{board.square_m}; with --cases, the file's)")
+    add_target_options(p, "with --cases, the file's")
     p.add_argument("--guess", type=Path, metavar="POSE.json",
                    help="initial pose for IMAGE (default: the linear homography initialiser)")
     p.add_argument("--cases", type=Path, metavar="CASES.json",
@@ -83,46 +72,6 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "(created if absent) holds one IMAGE_NAME.overlay.png per image")
     p.add_argument("-q", "--quiet", action="store_true", help="no report on stdout (errors still on stderr)")
     return p
-
-
-# --- typed values ----------------------------------------------------------------------
-
-
-def parse_bounds(text: str) -> np.ndarray:
-    """``"u1,v1,...,u4,v4"`` -> (2, 4) polygon in pixels (row 0 = u); ArgumentTypeError if malformed."""
-    values = _numbers(text, (8,), "bounds", "U1,V1,U2,V2,U3,V3,U4,V4")
-    return values.reshape(4, 2).T.copy()
-
-
-def parse_K(text: str) -> np.ndarray:
-    """``"fx,fy,cx,cy"`` (or with a fifth value, the skew) -> (3, 3) K; ArgumentTypeError if malformed."""
-    values = _numbers(text, (4, 5), "K", "FX,FY,CX,CY")
-    try:
-        return K_from_params(*values)
-    except InputError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-def parse_board(text: str) -> Board:
-    """``"COLSxROWSxSQUARE_M"`` -> :class:`Board`; ArgumentTypeError if malformed."""
-    try:
-        return Board.parse(text)
-    except InputError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-def _numbers(text, counts, name, form) -> np.ndarray:
-    parts = [p for p in re.split(r"[,;\s]+", text.strip()) if p]
-    try:
-        values = np.array([float(p) for p in parts])
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{name} must be comma-separated numbers {form}, got {text!r}") from None
-    if values.size not in counts:
-        raise argparse.ArgumentTypeError(f"{name} needs {' or '.join(map(str, counts))} numbers ({form}), "
-                                         f"got {values.size} in {text!r}")
-    if not np.all(np.isfinite(values)):
-        raise argparse.ArgumentTypeError(f"{name} must be finite numbers, got {text!r}")
-    return values
 
 
 # --- the run -----------------------------------------------------------------------------
@@ -215,9 +164,7 @@ def _jobs(args):
         if args.no_guess and args.guess is not None:
             raise UsageError("--guess and --no-guess contradict each other")
         guess = load_pose(args.guess) if args.guess is not None else None
-        K = args.K if args.K is not None else K_from_params(*DEFAULT_K)
-        board = args.board if args.board is not None else Board()
-        return [Job(str(args.image), args.image, args.bounds, guess)], K, board
+        return [Job(str(args.image), args.image, args.bounds, guess)], *target_from_args(args)
     if args.bounds is not None:
         raise UsageError("--bounds goes with IMAGE; a case file gives each image its bounds")
     if args.guess is not None:
@@ -230,9 +177,7 @@ def _jobs(args):
         raise InputError(f"case file {path} has no cases")
     jobs = [Job(_display(c.image), c.image, c.bounds, None if args.no_guess else c.guess_T_WC,
                 c.true_T_WC, c.ref_T_WC) for c in cases.cases]
-    K = args.K if args.K is not None else cases.K
-    board = args.board if args.board is not None else cases.board
-    return jobs, K, board
+    return jobs, *target_from_args(args, cases.K, cases.board)
 
 
 def _display(path: Path) -> str:
@@ -316,27 +261,3 @@ def format_report(name: str, estimate, record: dict) -> str:
     return "\n".join(rows) + "\n"
 
 
-class Progress:
-    """A one-line progress bar on a terminal ``stream``; silent for one image or a non-terminal."""
-
-    def __init__(self, total: int, stream, width: int = 24):
-        self.total, self.stream, self.width = total, stream, width
-        self.enabled = total > 1 and hasattr(stream, "isatty") and stream.isatty()
-        self._shown = 0
-
-    def show(self, done: int, name: str) -> None:
-        """Draw the bar with ``done`` of ``total`` finished, now working on ``name``."""
-        if not self.enabled:
-            return
-        filled = self.width * done // self.total
-        line = f"[{'#' * filled}{'.' * (self.width - filled)}] {done}/{self.total} {name}"[:78]
-        self.stream.write("\r" + line.ljust(self._shown))
-        self.stream.flush()
-        self._shown = len(line)
-
-    def clear(self) -> None:
-        """Erase the bar (before other output, and at the end)."""
-        if self.enabled and self._shown:
-            self.stream.write("\r" + " " * self._shown + "\r")
-            self.stream.flush()
-            self._shown = 0

@@ -13,10 +13,8 @@ import sys
 import textwrap
 from pathlib import Path
 
-from ..board import Board
-from ..camera import K_from_params
 from . import EXIT_OK
-from .estimate import DEFAULT_K, Progress, parse_board, parse_K
+from .options import Progress, add_target_options, target_from_args
 from .track import _positive
 
 _EXAMPLES = """\
@@ -28,7 +26,6 @@ examples:
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``render-sequence`` subcommand's parser to ``subparsers``."""
-    fx, fy, cx, cy = DEFAULT_K
     p = subparsers.add_parser(
         "render-sequence",
         aliases=["render"],  # the module's name, as the subcommand protocol expects
@@ -50,9 +47,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--distance", type=_pair, default=(0.6, 1.3), metavar="NEAR,FAR",
                    help="range of the board centre's distance, metres (default 0.6,1.3)")
     p.add_argument("--excursions", type=int, default=2, help="whip pans out of view (default 2)")
-    p.add_argument("--K", dest="K", type=parse_K, metavar="FX,FY,CX,CY",
-                   help=f"camera intrinsics in pixels (default {fx},{fy},{cx},{cy})")
-    p.add_argument("--board", type=parse_board, metavar="COLSxROWSxSQUARE_M", help="the target (default 8x6x0.0635)")
+    add_target_options(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no summary on stdout")
     return p
 
@@ -81,9 +76,9 @@ def run(args) -> int:
     """Run ``graphpose render-sequence`` with parsed ``args``; returns the exit code."""
     from ..sequence import render_sequence, write_sequence
 
-    K = args.K if args.K is not None else K_from_params(*DEFAULT_K)
+    K, board = target_from_args(args)
     progress = Progress(args.frames, sys.stderr)
-    seq = render_sequence(K, args.frames, rng=args.seed, board=args.board or Board(), fps=args.fps,
+    seq = render_sequence(K, args.frames, rng=args.seed, board=board, fps=args.fps,
                           noise_sigma=args.noise, blur_sigma=args.blur, distance=args.distance,
                           excursions=args.excursions, progress=lambda k, n: progress.show(k + 1, f"frame {k}"))
     progress.clear()

@@ -17,11 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..board import Board
-from ..camera import K_from_params
 from ..errors import InputError
 from . import EXIT_FAILED, EXIT_OK
-from .estimate import DEFAULT_K, Progress, parse_board, parse_bounds, parse_K
+from .options import Progress, add_target_options, parse_bounds, target_from_args
 
 _EXAMPLES = """\
 examples:
@@ -40,8 +38,6 @@ frame has no line. exit codes: 0 success, 1 every frame lost, 2 bad usage or inp
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add the ``track`` subcommand's parser to ``subparsers``."""
-    fx, fy, cx, cy = DEFAULT_K
-    board = Board()
     p = subparsers.add_parser(
         "track",
         help="camera trajectory over a sequence of frames (iSAM2), TUM and JSON output",
@@ -59,11 +55,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--polygons", type=Path, metavar="POLYGONS.json",
                    help="per-frame bounding polygons for re-detection: a JSON list with one 2 x 4 "
                    "polygon or null per frame")
-    p.add_argument("--K", dest="K", type=parse_K, metavar="FX,FY,CX,CY",
-                   help=f"camera intrinsics in pixels, images undistorted (default {fx},{fy},{cx},{cy})")
-    p.add_argument("--board", type=parse_board, metavar="COLSxROWSxSQUARE_M",
-                   help=f"inner junctions per row and column, square side in metres (default "
-                   f"{board.cols}x{board.rows}x{board.square_m})")
+    add_target_options(p)
     times = p.add_mutually_exclusive_group()
     times.add_argument("--fps", type=_positive, default=30.0, help="frame rate for timestamps index / fps (default 30)")
     times.add_argument("--timestamps", type=Path, metavar="FILE", help="one timestamp (seconds) per frame, one per line")
@@ -98,8 +90,7 @@ def run(args) -> int:
     for path, name in ((args.tum, "--tum"), (args.json, "--json")):
         if path not in (None, "-") and not Path(path).resolve().parent.is_dir():
             raise InputError(f"{name}: folder {Path(path).resolve().parent} does not exist")
-    K = args.K if args.K is not None else K_from_params(*DEFAULT_K)
-    board = args.board or Board()
+    K, board = target_from_args(args)
     progress = Progress(len(files), sys.stderr)
     config = TrackerConfig(motion=MotionPrior(args.motion))
     track = track_sequence(files, K, args.bounds, board=board, timestamps=timestamps, fps=args.fps,

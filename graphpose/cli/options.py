@@ -1,0 +1,109 @@
+"""Typed values and options shared by the subcommands: bounds, K, board, progress.
+
+Each parser turns one argument string into a checked value or raises
+``argparse.ArgumentTypeError`` with what was expected and what came; :func:`add_target_options`
+declares ``--K`` and ``--board`` once, with the project's defaults named in ``--help``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+
+import numpy as np
+
+from ..board import Board
+from ..camera import K_from_params
+from ..errors import InputError
+
+#: The project's camera (the ROB501 sample set's): fx, fy, cx, cy in pixels.
+DEFAULT_K = (564.9, 564.3, 337.3, 226.5)
+
+
+def add_target_options(parser: argparse.ArgumentParser, file_note: str = "") -> None:
+    """Add ``--K FX,FY,CX,CY`` and ``--board COLSxROWSxSQUARE_M`` to ``parser``.
+
+    ``file_note`` names where else a value may come from (e.g. "with --cases, the file's"),
+    for the help text; :func:`target_from_args` applies the project's defaults.
+    """
+    fx, fy, cx, cy = DEFAULT_K
+    board = Board()
+    note = f"; {file_note}" if file_note else ""
+    parser.add_argument("--K", dest="K", type=parse_K, metavar="FX,FY,CX,CY",
+                        help=f"camera intrinsics in pixels (a fifth number is the skew), images "
+                        f"undistorted (default: the project's camera, {fx},{fy},{cx},{cy}{note})")
+    parser.add_argument("--board", type=parse_board, metavar="COLSxROWSxSQUARE_M",
+                        help=f"inner junctions per row and per column, square side in metres (default: "
+                        f"the project's target, {board.cols}x{board.rows}x{board.square_m}{note})")
+
+
+def target_from_args(args, K=None, board=None):
+    """``(K (3, 3), Board)`` from ``--K``/``--board``, else ``K``/``board``, else the project's."""
+    K = args.K if args.K is not None else (K if K is not None else K_from_params(*DEFAULT_K))
+    board = args.board if args.board is not None else (board if board is not None else Board())
+    return K, board
+
+
+
+
+def parse_bounds(text: str) -> np.ndarray:
+    """``"u1,v1,...,u4,v4"`` -> (2, 4) polygon in pixels (row 0 = u); ArgumentTypeError if malformed."""
+    values = _numbers(text, (8,), "bounds", "U1,V1,U2,V2,U3,V3,U4,V4")
+    return values.reshape(4, 2).T.copy()
+
+
+def parse_K(text: str) -> np.ndarray:
+    """``"fx,fy,cx,cy"`` (or with a fifth value, the skew) -> (3, 3) K; ArgumentTypeError if malformed."""
+    values = _numbers(text, (4, 5), "K", "FX,FY,CX,CY")
+    try:
+        return K_from_params(*values)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def parse_board(text: str) -> Board:
+    """``"COLSxROWSxSQUARE_M"`` -> :class:`Board`; ArgumentTypeError if malformed."""
+    try:
+        return Board.parse(text)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _numbers(text, counts, name, form) -> np.ndarray:
+    parts = [p for p in re.split(r"[,;\s]+", text.strip()) if p]
+    try:
+        values = np.array([float(p) for p in parts])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{name} must be comma-separated numbers {form}, got {text!r}") from None
+    if values.size not in counts:
+        raise argparse.ArgumentTypeError(f"{name} needs {' or '.join(map(str, counts))} numbers ({form}), "
+                                         f"got {values.size} in {text!r}")
+    if not np.all(np.isfinite(values)):
+        raise argparse.ArgumentTypeError(f"{name} must be finite numbers, got {text!r}")
+    return values
+
+
+class Progress:
+    """A one-line progress bar on a terminal ``stream``; silent for one image or a non-terminal."""
+
+    def __init__(self, total: int, stream, width: int = 24):
+        self.total, self.stream, self.width = total, stream, width
+        self.enabled = total > 1 and hasattr(stream, "isatty") and stream.isatty()
+        self._shown = 0
+
+    def show(self, done: int, name: str) -> None:
+        """Draw the bar with ``done`` of ``total`` finished, now working on ``name``."""
+        if not self.enabled:
+            return
+        filled = self.width * done // self.total
+        line = f"[{'#' * filled}{'.' * (self.width - filled)}] {done}/{self.total} {name}"[:78]
+        self.stream.write("\r" + line.ljust(self._shown))
+        self.stream.flush()
+        self._shown = len(line)
+
+    def clear(self) -> None:
+        """Erase the bar (before other output, and at the end)."""
+        if self.enabled and self._shown:
+            self.stream.write("\r" + " " * self._shown + "\r")
+            self.stream.flush()
+            self._shown = 0
