@@ -83,6 +83,23 @@ def read_image(path) -> np.ndarray:
     return as_grey(data)
 
 
+def read_json(path, what: str = "JSON file"):
+    """Parse a JSON file; ``what`` names it in errors ("case file", "pose file", ...).
+
+    Raises
+    ------
+    InputError
+        If the file is missing, unreadable or not JSON; the message names ``what`` and the path.
+    """
+    path = Path(path)
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise InputError(f"{what} not found: {path}") from None
+    except (OSError, ValueError) as exc:
+        raise InputError(f"cannot read {what} {path}: {exc}") from None
+
+
 @dataclass(frozen=True)
 class Case:
     """One image of a case file; arrays as in the module docstring, None where absent."""
@@ -114,12 +131,7 @@ def load_cases(path) -> CaseFile:
         If the file is missing, not JSON, or a field has the wrong shape.
     """
     path = Path(path)
-    try:
-        doc = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise InputError(f"case file not found: {path}") from None
-    except (OSError, ValueError) as exc:
-        raise InputError(f"cannot read case file {path}: {exc}") from None
+    doc = read_json(path, "case file")
     try:
         K = check_K(doc["K"])
         grid = doc.get("grid", {})
@@ -353,12 +365,7 @@ def load_pose(path) -> np.ndarray:
         If the file is missing, not JSON, or not a rigid 4 x 4 transform.
     """
     path = Path(path)
-    try:
-        doc = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise InputError(f"pose file not found: {path}") from None
-    except (OSError, ValueError) as exc:
-        raise InputError(f"cannot read pose file {path}: {exc}") from None
+    doc = read_json(path, "pose file")
     if isinstance(doc, list) and len(doc) == 1 and isinstance(doc[0], dict):
         doc = doc[0]  # the --json output of one image
     if isinstance(doc, dict):

@@ -10,7 +10,6 @@ Exit code 0 when at least one frame has a pose, 1 when every frame was lost (see
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import textwrap
 from pathlib import Path
@@ -18,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..io import read_json
 from . import EXIT_FAILED, EXIT_OK
 from .options import Progress, add_target_options, parse_bounds, target_from_args
 
@@ -124,12 +124,7 @@ def _frame_files(paths, list_frames) -> list:
 
 
 def _read_polygons(path: Path) -> list:
-    try:
-        doc = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise InputError(f"--polygons file not found: {path}") from None
-    except (OSError, ValueError) as exc:
-        raise InputError(f"cannot read --polygons file {path}: {exc}") from None
+    doc = read_json(path, "--polygons file")
     if not isinstance(doc, list):
         raise InputError(f"--polygons {path} must hold a JSON list (one 2 x 4 polygon or null per frame)")
     return [None if p is None else np.asarray(p, dtype=float) for p in doc]
