@@ -2,8 +2,10 @@
 
 Data flows one way: image -> cross-junctions (:mod:`graphpose.junctions`, refined by
 :mod:`graphpose.saddle`) -> pose by Gauss-Newton (:mod:`graphpose.gauss_newton`) and by a
-GTSAM factor graph (:mod:`graphpose.graph`) -> result. Conventions are stated once, in
-:mod:`graphpose.camera`.
+GTSAM factor graph (:mod:`graphpose.graph`), held against each other by
+:mod:`graphpose.pipeline` -> result; over image sequences, :mod:`graphpose.tracking` with
+iSAM2. :mod:`graphpose.render` makes synthetic images with exact truth. Conventions are
+stated once, in :mod:`graphpose.camera`.
 """
 
 from .board import Board
@@ -26,7 +28,6 @@ from .errors import (
 )
 from .io import as_grey, load_cases, read_image
 
-# Modules below register their public names here as they land.
 from .saddle import SaddleFit, fit_saddles, saddle_point
 from .gauss_newton import GNResult, find_jacobian, gauss_newton, pose_estimate_nls
 from .homography import pose_from_homography
@@ -36,3 +37,52 @@ from .pipeline import CrossCheck, PoseEstimate, estimate_pose, estimate_pose_fro
 from .tum import TumTrajectory, read_tum, write_tum
 from .tracking import FrameResult, MotionPrior, Track, TrackerConfig, track_sequence
 from .sequence import Sequence, render_sequence, write_sequence
+
+__all__ = [
+    "as_grey",
+    "Board",
+    "BoardNotFoundError",
+    "C_from_rpy",
+    "check_K",
+    "check_transform",
+    "ConvergenceError",
+    "cross_junctions",
+    "CrossCheck",
+    "estimate_pose",
+    "estimate_pose_from_points",
+    "extract_junctions",
+    "find_jacobian",
+    "fit_saddles",
+    "FrameResult",
+    "gauss_newton",
+    "GNResult",
+    "graph_pose",
+    "GraphposeError",
+    "GraphResult",
+    "InputError",
+    "Junctions",
+    "K_from_params",
+    "load_cases",
+    "MotionPrior",
+    "params_from_T",
+    "pose_estimate_nls",
+    "pose_from_homography",
+    "PoseEstimate",
+    "project",
+    "read_image",
+    "read_tum",
+    "refine_junctions",
+    "render_sequence",
+    "rpy_from_C",
+    "saddle_point",
+    "SaddleError",
+    "SaddleFit",
+    "Sequence",
+    "T_from_params",
+    "Track",
+    "track_sequence",
+    "TrackerConfig",
+    "TumTrajectory",
+    "write_sequence",
+    "write_tum",
+]
