@@ -64,6 +64,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--smooth", action="store_true", help="smooth the whole trajectory in batch at the end")
     p.add_argument("--tum", metavar="OUT.txt", help="write the trajectory in TUM format")
     p.add_argument("--json", metavar="OUT.json", help="write per-frame results as JSON ('-': stdout, no summary)")
+    p.add_argument("--plot", metavar="OUT.png",
+                   help="draw the trajectory and the per-frame reprojection RMS (needs the plot extra: "
+                   "pip install -e \".[plot]\")")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary on stdout")
     return p
 
@@ -87,7 +90,7 @@ def run(args) -> int:
     files = _frame_files(args.frames, list_frames)
     timestamps = None if args.timestamps is None else read_timestamps(args.timestamps, len(files))
     polygons = None if args.polygons is None else _read_polygons(args.polygons)
-    for path, name in ((args.tum, "--tum"), (args.json, "--json")):
+    for path, name in ((args.tum, "--tum"), (args.json, "--json"), (args.plot, "--plot")):
         if path not in (None, "-") and not Path(path).resolve().parent.is_dir():
             raise InputError(f"{name}: folder {Path(path).resolve().parent} does not exist")
     K, board = target_from_args(args)
@@ -109,6 +112,10 @@ def run(args) -> int:
         sys.stdout.write(dumps_json(records))
     elif args.json is not None:
         write_json(args.json, records)
+    if args.plot is not None:
+        from ..plot import plot_track
+
+        plot_track(track, args.plot, board=board, title=f"graphpose track: {len(frames)} frames")
     if not args.quiet and args.json != "-":
         print(_summary(track, frames))
     return EXIT_OK if found else EXIT_FAILED

@@ -1,0 +1,62 @@
+"""The trajectory picture (graphpose.plot, the plot extra) and graphpose track --plot."""
+
+import sys
+
+import numpy as np
+import pytest
+from skimage.io import imread
+
+from graphpose import InputError, K_from_params, render_sequence, write_sequence
+from graphpose.camera import T_from_params
+from graphpose.cli import main
+from graphpose.plot import plot_track
+from graphpose.tracking import FrameResult, Track, TrackerConfig
+
+K = K_from_params(564.9, 564.3, 337.3, 226.5)
+
+
+def small_track(n=12, lost=(5, 6)):
+    frames = []
+    for k in range(n):
+        T = T_from_params([0.1 + 0.01 * k, 0.1, -1.0, 0.0, 0.0, 0.01 * k])
+        if k in lost:
+            frames.append(FrameResult(k, k / 30.0, "lost", message="out of view"))
+        else:
+            frames.append(FrameResult(k, k / 30.0, "detected" if k in (0, 7) else "tracked", T_WC=T,
+                                      cov=np.eye(6) * 1e-8, junctions=48, reprojection_rms_px=0.01 + 1e-3 * k))
+    return Track(tuple(frames), None, TrackerConfig())
+
+
+def test_plot_track_writes_a_png_with_truth(tmp_path):
+    track = small_track()
+    truth = np.array([T_from_params([0.1 + 0.01 * k, 0.1, -1.0, 0.0, 0.0, 0.01 * k]) for k in range(12)])
+    out = tmp_path / "track.png"
+    plot_track(track, out, truth=truth, title="test")
+    picture = imread(out)
+    assert picture.shape[:2] == (750, 1100)
+    assert picture[..., :3].std() > 10  # something was drawn, not a blank canvas
+
+
+def test_plot_track_refuses_truth_of_another_length(tmp_path):
+    with pytest.raises(InputError, match="one 4 x 4 pose per frame"):
+        plot_track(small_track(), tmp_path / "x.png", truth=np.zeros((3, 4, 4)))
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_plot_track_without_matplotlib_says_how_to_get_it(tmp_path, monkeypatch):
+    for name in [m for m in sys.modules if m.startswith("matplotlib")]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # makes "import matplotlib..." fail
+    with pytest.raises(InputError, match=r"pip install -e \"\.\[plot\]\""):
+        plot_track(small_track(), tmp_path / "x.png")
+
+
+def test_track_command_draws_the_picture(tmp_path, capsys):
+    seq = render_sequence(K, 6, rng=3, excursions=0)
+    folder = write_sequence(seq, tmp_path / "seq")
+    bounds = ",".join(f"{u:.3f},{v:.3f}" for u, v in seq.bounds.T)
+    out = tmp_path / "track.png"
+    assert main(["track", str(folder), "--bounds", bounds, "--plot", str(out), "-q"]) == 0
+    assert imread(out).shape[:2] == (750, 1100)
+    assert main(["track", str(folder), "--bounds", bounds, "--plot", str(tmp_path / "no" / "x.png")]) == 2
+    assert "--plot: folder" in capsys.readouterr().err
