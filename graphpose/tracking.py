@@ -7,17 +7,32 @@ One GTSAM factor graph over the whole sequence (keys as in GTSAM's examples):
 - ``X(k)``: ``Pose3`` of the camera in the target frame at frame ``k`` (``T_WC``); a lost
   frame has no variable at all.
 - The junctions used in frame ``k``, with isotropic pixel noise (the frame's own fit
-  residual, floored). The target points are known and fixed. Two equivalent ways to say so
-  (``target=``):
+  residual, floored). The target points are known and fixed. Three equivalent ways to say
+  so (``target=``, :data:`TARGET_FORMS`); they minimise the same cost up to the landmark
+  priors' sigma and give the same poses to about 1e-8 m (tested):
 
   * ``"resection"`` (default): one factor per frame holding all its junctions, the pinhole
-    projection of the FIXED target points, analytic Jacobian. This is the limit of the
-    landmark form as its prior sigma goes to 0.
-  * ``"landmarks"``: as in the single-image graph of :mod:`graphpose.graph`: target point
-    ``j`` is a variable ``L(j)`` pinned once by a tight prior (``landmark_sigma_m``) and
-    shared by every frame, one ``GenericProjectionFactorCal3_S2`` per junction. Every frame
-    then touches the same 48 variables, so every iSAM2 update re-eliminates a
-    144-dimensional root: about ten times slower (``scripts/bench_tracking.py`` prints both).
+    projection of the FIXED target points, analytic Jacobian (a Python ``CustomFactor``).
+    This is the limit of the landmark forms as their prior sigma goes to 0. Fastest, and
+    its iSAM2 update stays about flat along a sequence.
+  * ``"frame_landmarks"``: the single-image graph of :mod:`graphpose.graph` repeated per
+    frame, all GTSAM C++ factors: frame ``k`` gets its OWN copy of every target point ``j``
+    it observes, a ``Point3`` variable ``symbol('l', k * stride + j)`` (``stride`` from
+    :func:`landmark_stride`: 100 for 48 junctions, so frame 300's junction 3 is
+    ``l30003``; keys cannot collide since ``j < stride``), pinned by a
+    ``PriorFactorPoint3`` of sigma ``landmark_sigma_m`` (default
+    :data:`graphpose.graph.LANDMARK_SIGMA_M`) and observed by one
+    ``GenericProjectionFactorCal3_S2``. Each frame's landmarks hang below its pose in the
+    Bayes tree and are eliminated locally. Its cost: 49 variables and 97 factors a frame
+    (about 15,000 variables after 300 frames), and a Python factor linearised inside iSAM2
+    gets a copy of iSAM2's whole ``Values`` (pybind11 passes ``const Values&`` to Python
+    by value), so with the Python constant-velocity prior every update grows with the
+    sequence (about 3-8x from frame 10 to frame 300); with ``"random_walk"`` (all C++) it
+    stays flat. Measured figures: ``scripts/bench_tracking.py``.
+  * ``"landmarks"``: target point ``j`` is ONE variable ``L(j)`` pinned once by a tight
+    prior and shared by every frame, one ``GenericProjectionFactorCal3_S2`` per junction.
+    Every frame then touches the same 48 variables, so every iSAM2 update re-eliminates a
+    144-dimensional root: several times slower than the others.
 - A motion prior between consecutive frames of one segment (a lost or re-detected frame
   starts a new segment: no factor spans a loss or a jump):
 
@@ -61,7 +76,7 @@ from .board import Board
 from .camera import check_K, project, to_camera
 from .errors import BoardNotFoundError, InputError
 from .gauss_newton import gauss_newton
-from .graph import params_from_tangent_jacobian
+from .graph import LANDMARK_SIGMA_M, params_from_tangent_jacobian
 from .homography import pose_from_homography
 from .io import as_grey, read_image
 from .junctions import extract_junctions, refine_junctions
@@ -74,6 +89,26 @@ RELINEARIZE_STEPS = 3
 
 #: Pose models the back end knows.
 MOTION_MODELS = ("constant_velocity", "random_walk")
+
+#: How the fixed target enters the back end's graph (module docstring).
+TARGET_FORMS = ("resection", "landmarks", "frame_landmarks")
+
+
+def default_isam_params() -> gtsam.ISAM2Params:
+    """The back end's iSAM2 settings: relinearise above :data:`RELINEARIZE_THRESHOLD` at
+    every update, checking only the cliques near the newest frames."""
+    params = gtsam.ISAM2Params()
+    params.setRelinearizeThreshold(RELINEARIZE_THRESHOLD)
+    params.relinearizeSkip = 1
+    params.enablePartialRelinearizationCheck = True
+    return params
+
+
+def landmark_stride(board: Board) -> int:
+    """Key stride of the per-frame landmarks: the smallest power of ten >= ``board.n``, so
+    frame ``k``'s copy of junction ``j`` is ``symbol('l', k * stride + j)`` (for 48
+    junctions frame 300, junction 3 is ``l30003``); ``j < stride`` makes keys unique."""
+    return 10 ** len(str(max(board.n - 1, 1)))
 
 
 @dataclass(frozen=True)
@@ -128,7 +163,8 @@ class BackendResult:
     cov : (6, 6) ndarray
         Marginal covariance of ``(x, y, z, roll, pitch, yaw)``, metres and radians.
     update_s : float
-        Wall time of the iSAM2 update that added the frame (0 for batch results), seconds.
+        Wall time of the back end for the frame (0 for batch results), seconds: building its
+        factors, the iSAM2 update(s) and the marginal covariance.
     """
 
     T_WC: np.ndarray
@@ -147,25 +183,33 @@ class SequenceGraph:
         The target.
     motion : MotionPrior
         Prior between consecutive frames.
-    target : {"resection", "landmarks"}
+    target : {"resection", "frame_landmarks", "landmarks"}
         How the fixed target enters the graph (module docstring).
     landmark_sigma_m : float
-        Standard deviation of the priors pinning the target points (``"landmarks"``), metres.
+        Standard deviation of the priors pinning the target points (the landmark forms),
+        metres.
+    isam_params : gtsam.ISAM2Params, optional
+        iSAM2 settings; default :func:`default_isam_params`.
+
+    Raises
+    ------
+    InputError
+        If ``target`` is not one of :data:`TARGET_FORMS`.
     """
 
     def __init__(self, K, board: Board, motion: MotionPrior, target: str = "resection",
-                 landmark_sigma_m: float = 1e-6):
+                 landmark_sigma_m: float = LANDMARK_SIGMA_M, isam_params: gtsam.ISAM2Params | None = None):
+        if target not in TARGET_FORMS:
+            raise InputError(f"target must be one of {TARGET_FORMS}, got {target!r}")
         self.board = board
         self.motion = motion
         self.target = target
         self._K = np.asarray(K, dtype=float)
         self._Wpts = board.world_points()
         self._cal = gtsam.Cal3_S2(K[0, 0], K[1, 1], K[0, 1], K[0, 2], K[1, 2])
-        params = gtsam.ISAM2Params()
-        params.setRelinearizeThreshold(RELINEARIZE_THRESHOLD)
-        params.relinearizeSkip = 1
-        params.enablePartialRelinearizationCheck = True  # only near the newest frames
-        self._isam = gtsam.ISAM2(params)
+        self._pin = gtsam.noiseModel.Isotropic.Sigma(3, landmark_sigma_m)
+        self._stride = landmark_stride(board)
+        self._isam = gtsam.ISAM2(isam_params if isam_params is not None else default_isam_params())
         self._graph = gtsam.NonlinearFactorGraph()
         self._values = gtsam.Values()
         self._pending = gtsam.NonlinearFactorGraph()
@@ -173,9 +217,8 @@ class SequenceGraph:
         self._segment: list = []  # (key index, timestamp) of this segment's latest frames
         self._frames: list = []
         if target == "landmarks":
-            pin = gtsam.noiseModel.Isotropic.Sigma(3, landmark_sigma_m)
             for j, p in enumerate(self._Wpts.T):
-                self._add(gtsam.PriorFactorPoint3(L(j), p, pin))
+                self._add(gtsam.PriorFactorPoint3(L(j), p, self._pin))
                 self._pending_values.insert(L(j), p)
 
     @property
@@ -210,20 +253,15 @@ class SequenceGraph:
         BackendResult
             The incremental (filtered) estimate of the frame and its marginal covariance.
         """
+        start = time.perf_counter()
         points = np.asarray(points, dtype=float)
         ids = np.asarray(ids, dtype=int)
-        if self.target == "landmarks":
-            noise = gtsam.noiseModel.Isotropic.Sigma(2, pixel_sigma)
-            for uv, j in zip(points.T, ids):
-                self._add(gtsam.GenericProjectionFactorCal3_S2(uv, noise, X(k), L(int(j)), self._cal))
-        else:
-            self._add(resection_factor(X(k), points, self._Wpts[:, ids], self._K, pixel_sigma))
+        self._add_target(k, points, ids, pixel_sigma)
         self._add_motion(k, timestamp)
         self._pending_values.insert(X(k), gtsam.Pose3(np.asarray(T_init, dtype=float)))
         self._segment = (self._segment + [(k, timestamp)])[-2:]
         self._frames.append(k)
-        start = time.perf_counter()
-        self._isam.update(self._pending, self._pending_values)
+        self._isam.update(self._pending, self._pending_values, constrainedKeys=self._order(k, ids))
         linear, pose = gtsam.Pose3(T_init), self._isam.calculateEstimatePose3(X(k))
         for _ in range(RELINEARIZE_STEPS):
             # One update is one Gauss-Newton step; a poor start needs a few more. (Compare
@@ -265,9 +303,47 @@ class SequenceGraph:
             out[k] = BackendResult(T, _params_cov(T, marginals.marginalCovariance(X(k))))
         return out
 
+    def landmark_key(self, k: int, j: int) -> int:
+        """Key of frame ``k``'s copy of target point ``j`` (``"frame_landmarks"``):
+        ``symbol('l', k * stride + j)``, ``stride`` = :func:`landmark_stride`."""
+        return gtsam.symbol("l", k * self._stride + j)
+
+    def _order(self, k, ids):
+        """Elimination groups of an update that adds frame ``k`` (None: iSAM2's default)."""
+        if self.target != "frame_landmarks":
+            return None
+        # iSAM2 puts every key of the new factors last, in COLAMD's order, which can leave one
+        # of the frame's landmarks at the root of the Bayes tree above X(k). Its partial
+        # relinearisation check walks down from the root and stops at a clique whose step is
+        # small, so X(k) would never be relinearised (its online estimate stuck microns off
+        # the optimum). The frame's landmarks go first (group 0, with the untouched part),
+        # then the older poses of the new factors, X(k) last, at the root. Groups must stay
+        # below the number of re-eliminated variables (ccolamd), at least 49 here.
+        groups = gtsam.KeyGroupMap()
+        groups.insert2(X(k), 2)  # insert2 never overwrites: most specific first
+        for j in ids.tolist():
+            groups.insert2(self.landmark_key(k, j), 0)
+        for key in self._pending.keyVector():
+            groups.insert2(key, 1)
+        return groups
+
     def _add(self, factor) -> None:
         self._graph.add(factor)
         self._pending.add(factor)
+
+    def _add_target(self, k, points, ids, pixel_sigma) -> None:
+        if self.target == "resection":
+            self._add(resection_factor(X(k), points, self._Wpts[:, ids], self._K, pixel_sigma))
+            return
+        noise = gtsam.noiseModel.Isotropic.Sigma(2, pixel_sigma)
+        for uv, j in zip(points.T, ids.tolist()):
+            if self.target == "landmarks":
+                key = L(j)
+            else:
+                key = self.landmark_key(k, j)
+                self._add(gtsam.PriorFactorPoint3(key, self._Wpts[:, j], self._pin))
+                self._pending_values.insert(key, self._Wpts[:, j])
+            self._add(gtsam.GenericProjectionFactorCal3_S2(uv, noise, X(k), key, self._cal))
 
     def _add_motion(self, k: int, timestamp: float) -> None:
         if not self._segment:
@@ -401,8 +477,9 @@ class TrackerConfig:
         half-square basin of the saddle fit); the frame goes to full extraction instead.
     min_pixel_sigma_px : float
         Floor of the per-frame pixel noise given to the back end, pixels.
-    target : {"resection", "landmarks"}
-        How the fixed target enters the graph (see :class:`SequenceGraph`).
+    target : {"resection", "frame_landmarks", "landmarks"}
+        How the fixed target enters the back end's graph (module docstring; measured
+        trade-offs in ``scripts/bench_tracking.py``).
     """
 
     motion: MotionPrior = field(default_factory=MotionPrior)
