@@ -13,22 +13,18 @@ One GTSAM factor graph over the whole sequence (keys as in GTSAM's examples):
 
   * ``"resection"`` (default): one factor per frame holding all its junctions, the pinhole
     projection of the FIXED target points, analytic Jacobian (a Python ``CustomFactor``).
-    This is the limit of the landmark forms as their prior sigma goes to 0. Fastest, and
-    its iSAM2 update stays about flat along a sequence.
+    This is the limit of the landmark forms as their prior sigma goes to 0. Fastest; its
+    update grows mildly along a sequence (trade-offs below).
   * ``"frame_landmarks"``: the single-image graph of :mod:`graphpose.graph` repeated per
-    frame, all GTSAM C++ factors: frame ``k`` gets its OWN copy of every target point ``j``
-    it observes, a ``Point3`` variable ``symbol('l', k * stride + j)`` (``stride`` from
-    :func:`landmark_stride`: 100 for 48 junctions, so frame 300's junction 3 is
+    frame, GTSAM's C++ factors only: frame ``k`` gets its OWN copy of every target point
+    ``j`` it observes, a ``Point3`` variable ``symbol('l', k * stride + j)`` (``stride``
+    from :func:`landmark_stride`: 100 for 48 junctions, so frame 300's junction 3 is
     ``l30003``; keys cannot collide since ``j < stride``), pinned by a
     ``PriorFactorPoint3`` of sigma ``landmark_sigma_m`` (default
-    :data:`graphpose.graph.LANDMARK_SIGMA_M`) and observed by one
+    :data:`graphpose.graph.LANDMARK_SIGMA_M`, 1e-8 m) and observed by one
     ``GenericProjectionFactorCal3_S2``. Each frame's landmarks hang below its pose in the
-    Bayes tree and are eliminated locally. Its cost: 49 variables and 97 factors a frame
-    (about 15,000 variables after 300 frames), and a Python factor linearised inside iSAM2
-    gets a copy of iSAM2's whole ``Values`` (pybind11 passes ``const Values&`` to Python
-    by value), so with the Python constant-velocity prior every update grows with the
-    sequence (about 3-8x from frame 10 to frame 300); with ``"random_walk"`` (all C++) it
-    stays flat. Measured figures: ``scripts/bench_tracking.py``.
+    Bayes tree and are eliminated locally (the update orders them first and ``X(k)`` last).
+    49 variables and 97 factors a frame.
   * ``"landmarks"``: target point ``j`` is ONE variable ``L(j)`` pinned once by a tight
     prior and shared by every frame, one ``GenericProjectionFactorCal3_S2`` per junction.
     Every frame then touches the same 48 variables, so every iSAM2 update re-eliminates a
@@ -39,11 +35,49 @@ One GTSAM factor graph over the whole sequence (keys as in GTSAM's examples):
   * ``"constant_velocity"`` (default): a three-pose factor on ``X(k-2), X(k-1), X(k)`` saying
     the body-frame twist stays the same, ``Log(X(k-1)^-1 X(k)) - r Log(X(k-2)^-1 X(k-1)) ~
     N(0, S)`` with ``r = dt_k / dt_(k-1)``;
-  * ``"random_walk"``: ``BetweenFactorPose3(X(k-1), X(k), identity, S)``.
+  * ``"random_walk"``: ``BetweenFactorPose3(X(k-1), X(k), identity, S)``;
+  * ``"wnoa"``: constant velocity in GTSAM's C++ (white noise on acceleration,
+    ``WnoaMotionFactorPose3``): a body-velocity variable ``V(k)`` (rad/s then m/s) per frame
+    of a segment with two or more frames, and one factor per consecutive pair on
+    ``X(k-1), V(k-1), X(k), V(k)`` whose power spectral density ``S / dt^3`` makes the
+    velocity change over one interval ``dt`` cost as the twist change of
+    ``"constant_velocity"``. Not the same cost (it integrates the velocity rather than
+    differencing poses) but the same idea, with every factor in C++; Gaussian (the factor
+    builds its own noise model, so ``huber`` does not apply).
 
   ``S = diag(sigma_rot_rad^2 (x3), sigma_trans_m^2 (x3))``: rotation (rad) first, then
   translation (m), in the camera frame, per frame interval (GTSAM's ``Pose3`` tangent
-  order), with a Huber kernel (:class:`MotionPrior`).
+  order), with a Huber kernel except for ``"wnoa"`` (:class:`MotionPrior`).
+
+Trade-offs (measured, ``scripts/bench_tracking.py`` and /work/notes/tracking.md): a Python
+``CustomFactor`` linearised inside iSAM2 costs time in proportion to ALL the variables in
+the graph (a profile shows iSAM2's ``Values`` being copied for the call into Python: one
+such factor costs 1.1 ms an update among 5,000 ``Point3`` variables, 6.8 ms among 15,000,
+against 0.01-0.02 ms for a C++ factor). So the growth of the update along a sequence comes from the Python factors
+(``"resection"``, ``"constant_velocity"``) times the graph's size. On 300-frame synthetic
+sequences (median update of frames 5-15 -> 289-299; total = front end + back end a frame):
+
+- ``"resection"`` + ``"constant_velocity"`` (default): 0.4 -> 0.6 ms (1.4x), total 3.9-4.0
+  ms; 300 variables, so the copies stay cheap, but they grow with the sequence.
+- ``"frame_landmarks"`` + ``"constant_velocity"``: 1.0-1.4 -> 6.8-9.4 ms (5-9.5x), total
+  8.6-9.0 ms: one Python factor a frame among 15,000 variables. No ``ISAM2Params``
+  setting removes it (relinearizeSkip, QR, threshold, partial check; uncached linear
+  factors make it worse).
+- ``"frame_landmarks"`` + ``"wnoa"`` (every factor C++): 0.9-1.1 -> 0.8-1.4 ms (0.84x and
+  1.28x), total 4.1-4.9 ms, the same accuracy as ``"constant_velocity"`` on these
+  sequences. Flat, but twice the default's back end at frame 300 and a Gaussian prior.
+- ``"frame_landmarks"`` + ``"random_walk"``: flat (0.4-0.6x), total 5.4-5.8 ms, less
+  accurate online (0.19 against 0.12 mm).
+- ``"landmarks"``: 4-6 ms an update (a 144-dimensional root every time), 10-12 ms a frame;
+  with ``"wnoa"`` it grows to 15-21 ms.
+
+The default stays ``"resection"`` + ``"constant_velocity"``: the all-C++ pair is flat but
+only with a different (Gaussian) motion model, with thin margins and twice the back-end time
+at frame 300. For sequences of thousands of frames, where the default's growth continues,
+use ``TrackerConfig(target="frame_landmarks", motion=MotionPrior("wnoa"))``.
+
+All forms give the same poses: tracker runs agree with ``"resection"`` (same motion prior)
+to 0.11 um online and 0.001 um smoothed, with identical frame statuses.
 
 Front end (:class:`TrackerConfig` holds its thresholds): predict every junction from the
 constant-velocity pose, refine the predictions with the saddle fit
@@ -54,7 +88,8 @@ when the motion is too fast to predict, or after a loss. A frame whose board can
 or whose fit is much worse than the sequence's usual, is lost: no pose is guessed.
 
 The graph is solved incrementally with ``gtsam.ISAM2``; every frame adds a fixed number of
-factors next to the newest poses, so each update costs about the same. At the end the whole
+factors next to the newest poses, so each update costs about the same, up to the Python
+factors' growth above. At the end the whole
 graph can be smoothed in batch (Levenberg-Marquardt from iSAM2's estimate) with marginal
 covariances from ``gtsam.Marginals``.
 
@@ -70,7 +105,7 @@ from pathlib import Path
 
 import gtsam
 import numpy as np
-from gtsam.symbol_shorthand import L, X
+from gtsam.symbol_shorthand import L, V, X
 
 from .board import Board
 from .camera import check_K, project, to_camera
@@ -88,7 +123,7 @@ RELINEARIZE_THRESHOLD = 1e-4
 RELINEARIZE_STEPS = 3
 
 #: Pose models the back end knows.
-MOTION_MODELS = ("constant_velocity", "random_walk")
+MOTION_MODELS = ("constant_velocity", "random_walk", "wnoa")
 
 #: How the fixed target enters the back end's graph (module docstring).
 TARGET_FORMS = ("resection", "landmarks", "frame_landmarks")
@@ -117,16 +152,19 @@ class MotionPrior:
 
     Attributes
     ----------
-    model : {"constant_velocity", "random_walk"}
-        Constant body-frame twist (a three-pose factor) or a random walk on the pose.
+    model : {"constant_velocity", "random_walk", "wnoa"}
+        Constant body-frame twist (a three-pose Python factor), a random walk on the pose,
+        or constant velocity with velocity variables (GTSAM's C++ white-noise-on-
+        acceleration factor); module docstring.
     sigma_rot_rad : float
         Standard deviation per axis, radians per frame interval, of the twist change
-        (constant velocity) or of the pose change (random walk).
+        (constant velocity, wnoa) or of the pose change (random walk).
     sigma_trans_m : float
         Same for the translation, metres per frame interval.
     huber : float or None
-        Huber threshold of the motion factor, in sigmas (None: Gaussian). A jolt (a whip
-        pan, a knock) then costs linearly instead of dragging the neighbouring poses.
+        Huber threshold of the motion factor, in sigmas (None: Gaussian; ``"wnoa"`` is
+        always Gaussian). A jolt (a whip pan, a knock) then costs linearly instead of
+        dragging the neighbouring poses.
 
     Notes
     -----
@@ -351,10 +389,27 @@ class SequenceGraph:
         if self.motion.model == "random_walk":
             prev = self._segment[-1][0]
             self._add(gtsam.BetweenFactorPose3(X(prev), X(k), gtsam.Pose3(), self.motion.noise()))
+        elif self.motion.model == "wnoa":
+            self._add(self._wnoa_factor(k, timestamp))
         elif len(self._segment) == 2:
             (k0, t0), (k1, t1) = self._segment
             ratio = (timestamp - t1) / (t1 - t0) if t1 > t0 else 1.0
             self._add(_constant_velocity_factor(X(k0), X(k1), X(k), ratio, self.motion.noise()))
+
+
+    def _wnoa_factor(self, k, timestamp):
+        """White-noise-on-acceleration factor from the segment's last frame to frame ``k``;
+        adds the velocity variables it needs (a velocity is only created with a factor, so
+        a one-frame segment has none and stays determined)."""
+        k1, t1 = self._segment[-1]
+        for key in (V(k1), V(k)):
+            if not self._isam.valueExists(key) and not self._pending_values.exists(key):
+                self._pending_values.insert(key, np.zeros(6))
+        dt = timestamp - t1
+        sigmas = np.r_[np.full(3, self.motion.sigma_rot_rad), np.full(3, self.motion.sigma_trans_m)]
+        # Gaussian: the factor builds its own noise model and cannot be cloned with a robust one.
+        return gtsam.WnoaMotionFactorPose3(gtsam.StateData(X(k1), V(k1), t1), gtsam.StateData(X(k), V(k), timestamp),
+                                           sigmas**2 / dt**3)
 
 
 def resection_factor(key, points, Wpts, K, pixel_sigma: float) -> gtsam.CustomFactor:

@@ -15,9 +15,13 @@ in this run. OpenCV (the peer) is imported here only.
    trajectory. Both trajectories are camera poses in the target frame, the frame the truth is
    in, so no alignment (no Umeyama/SE(3) fit) is applied: the errors are absolute.
 4. Lost frames: every frame with the board out of view must be lost; recovery after each pan.
-5. Speed: per-frame front end (junctions + single-frame fit) + iSAM2 update, median; iSAM2
-   update time at frame 10 and at the last frame (single values and medians of 11-frame
-   windows); the same back end with shared landmark variables instead of resection factors.
+5. Speed: per-frame front end (junctions + single-frame fit) + back end (the frame's factors,
+   iSAM2 update, marginal), median; back-end time at frame 10 and at the last frame (single
+   values and medians of 11-frame windows). Then the tracked frames' junctions replayed into
+   each back-end form (resection, landmarks, frame_landmarks) with each motion prior
+   (constant_velocity, random_walk, wnoa): median
+   and growth of the back-end time, batch smoothing time, and the poses' agreement with the
+   resection form.
 """
 
 from __future__ import annotations
@@ -72,7 +76,7 @@ def main(quick: bool = False) -> None:
     import cv2
 
     from graphpose import Board, K_from_params, project, render_sequence, track_sequence
-    from graphpose.tracking import LOST, MotionPrior, SequenceGraph
+    from graphpose.tracking import LOST, TrackerConfig
 
     K = K_from_params(564.9, 564.3, 337.3, 226.5)
     board = Board()
@@ -156,28 +160,58 @@ def main(quick: bool = False) -> None:
     front = np.median([f.frontend_s for f in frames if f.status == "tracked"]) * 1000
     cv_med = np.median(np.array(cv_times)[cv_found]) * 1000
     print(f"speed per frame (median, ms): graphpose tracked frames {np.median(tracked):.2f} (front end "
-          f"{front:.2f} + iSAM2 {np.median([f.update_s for f in frames]) * 1000:.2f}); all frames with a pose "
+          f"{front:.2f} + back end {np.median([f.update_s for f in frames]) * 1000:.2f}); all frames with a pose "
           f"{np.median(per_frame):.2f}; OpenCV per frame {cv_med:.2f} (ratio {cv_med / np.median(tracked):.2f}x)")
-    print(_update_times("resection factors (default)", [(f.index, f.update_s) for f in frames]))
-    graph = SequenceGraph(K, board, MotionPrior(), target="landmarks")
-    times = []
-    for f in frames:
-        if f.status == "detected":
-            graph.break_segment()
-        times.append((f.index, graph.add_frame(f.index, f.timestamp, f.points, f.ids, f.single_T_WC, 0.05).update_s))
-    print(_update_times("shared landmarks L(j)    ", times))
+    config = TrackerConfig()
+    print(_update_times(f"back end as tracked ({config.target}, {config.motion.model})",
+                        [(f.index, f.update_s) for f in frames]))
+    _compare_forms(K, board, frames)
 
 
-def _update_times(name, times):
+def _compare_forms(K, board, frames):
+    """The tracked frames' junctions replayed into each back-end form and motion prior."""
+    from graphpose.tracking import MOTION_MODELS, TARGET_FORMS, MotionPrior, SequenceGraph
+
+    print("\nback-end forms, the same junctions replayed (pixel sigma 0.05; update = factors + iSAM2 + "
+          "marginal, ms; poses against resection with the same motion prior):")
+    for model in MOTION_MODELS:
+        reference = None
+        for target in TARGET_FORMS:
+            graph = SequenceGraph(K, board, MotionPrior(model), target=target)
+            times, poses = [], []
+            for f in frames:
+                if f.status == "detected":
+                    graph.break_segment()
+                r = graph.add_frame(f.index, f.timestamp, f.points, f.ids, f.single_T_WC, 0.05)
+                times.append((f.index, r.update_s))
+                poses.append(r.T_WC)
+            start = time.perf_counter()
+            smoothed = graph.smooth()
+            smooth_s = time.perf_counter() - start
+            online = np.array(poses)
+            batch = np.array([smoothed[f.index].T_WC for f in frames])
+            if reference is None:
+                reference, agree = (online, batch), "reference"
+            else:
+                d_on = np.max(np.linalg.norm(online[:, :3, 3] - reference[0][:, :3, 3], axis=1)) * 1e6
+                d_sm = np.max(np.linalg.norm(batch[:, :3, 3] - reference[1][:, :3, 3], axis=1)) * 1e6
+                agree = f"max |dt| online {d_on:.3f} um, smoothed {d_sm:.4f} um"
+            ms = np.array([s for _, s in times]) * 1000
+            print(f"  {target:15s} {model:17s} median {np.median(ms):5.2f}; {_update_times('', times, short=True)}; "
+                  f"batch smoothing {smooth_s:.2f} s; {agree}")
+
+
+def _update_times(name, times, short=False):
     idx = np.array([k for k, _ in times])
     ms = np.array([s for _, s in times]) * 1000
-    at10 = ms[np.argmin(np.abs(idx - 10))]
-    last = ms[-1]
     early = np.median(ms[(idx >= 5) & (idx <= 15)])
     late = np.median(ms[-11:])
-    return (f"iSAM2 update, {name}: frame 10 {at10:.2f} ms, frame {idx[-1]} {last:.2f} ms "
-            f"(ratio {last / at10:.2f}); medians of 11-frame windows {early:.2f} -> {late:.2f} ms "
-            f"(ratio {late / early:.2f})")
+    window = f"frames 5-15 {early:.2f} -> frames {idx[-11]}-{idx[-1]} {late:.2f} (ratio {late / early:.2f})"
+    if short:
+        return window
+    at10 = ms[np.argmin(np.abs(idx - 10))]
+    return (f"{name}: frame 10 {at10:.2f} ms, frame {idx[-1]} {ms[-1]:.2f} ms (ratio {ms[-1] / at10:.2f}); "
+            f"medians of 11-frame windows: {window} ms")
 
 
 if __name__ == "__main__":
