@@ -57,15 +57,17 @@ against 0.01-0.02 ms for a C++ factor). So the growth of the update along a sequ
 (``"resection"``, ``"constant_velocity"``) times the graph's size. On 300-frame synthetic
 sequences (median update of frames 5-15 -> 289-299; total = front end + back end a frame):
 
-- ``"resection"`` + ``"constant_velocity"`` (default): 0.4 -> 0.6 ms (1.4x), total 3.9-4.0
-  ms; 300 variables, so the copies stay cheap, but they grow with the sequence.
+- ``"resection"`` + ``"constant_velocity"`` (default): 0.35-0.5 -> 0.6 ms (1.3-1.7x over six
+  runs), total 3.4-4.2 ms; 300 variables, so the copies stay cheap, but they grow with the
+  sequence.
 - ``"frame_landmarks"`` + ``"constant_velocity"``: 1.0-1.4 -> 6.8-9.4 ms (5-9.5x), total
   8.6-9.0 ms: one Python factor a frame among 15,000 variables. No ``ISAM2Params``
   setting removes it (relinearizeSkip, QR, threshold, partial check; uncached linear
   factors make it worse).
-- ``"frame_landmarks"`` + ``"wnoa"`` (every factor C++): 0.9-1.1 -> 0.8-1.4 ms (0.84x and
-  1.28x), total 4.1-4.9 ms, the same accuracy as ``"constant_velocity"`` on these
-  sequences. Flat, but twice the default's back end at frame 300 and a Gaussian prior.
+- ``"frame_landmarks"`` + ``"wnoa"`` (every factor C++): 0.8-1.1 -> 0.7-1.4 ms (0.7-0.8x
+  with whip pans, 1.3-1.4x on one unbroken segment; three runs each), total 4.1-6.0 ms, the
+  same accuracy as ``"constant_velocity"`` on these sequences. About flat, but twice the
+  default's back end at frame 300 and a Gaussian prior.
 - ``"frame_landmarks"`` + ``"random_walk"``: flat (0.4-0.6x), total 5.4-5.8 ms, less
   accurate online (0.19 against 0.12 mm).
 - ``"landmarks"``: 4-6 ms an update (a 144-dimensional root every time), 10-12 ms a frame;
