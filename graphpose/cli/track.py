@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..io import read_json
+from ..tracking import MOTION_MODELS, TARGET_FORMS
 from . import EXIT_FAILED, EXIT_OK
 from .options import Progress, add_target_options, parse_bounds, target_from_args
 
@@ -59,8 +60,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     times = p.add_mutually_exclusive_group()
     times.add_argument("--fps", type=_positive, default=30.0, help="frame rate for timestamps index / fps (default 30)")
     times.add_argument("--timestamps", type=Path, metavar="FILE", help="one timestamp (seconds) per frame, one per line")
-    p.add_argument("--motion", choices=("constant_velocity", "random_walk"), default="constant_velocity",
-                   help="motion prior between frames (default constant_velocity)")
+    p.add_argument("--motion", choices=MOTION_MODELS, default="constant_velocity",
+                   help="motion prior between frames (default constant_velocity; wnoa is GTSAM's C++ "
+                   "constant-velocity factor, without a robust kernel)")
+    p.add_argument("--target", choices=TARGET_FORMS, default="resection",
+                   help="how the fixed target points enter the graph (default resection: one factor "
+                   "a frame; frame_landmarks: pinned landmark copies with GTSAM's projection factors, "
+                   "all C++ with --motion wnoa)")
     p.add_argument("--smooth", action="store_true", help="smooth the whole trajectory in batch at the end")
     p.add_argument("--tum", metavar="OUT.txt", help="write the trajectory in TUM format")
     p.add_argument("--json", metavar="OUT.json", help="write per-frame results as JSON ('-': stdout, no summary)")
@@ -95,7 +101,7 @@ def run(args) -> int:
             raise InputError(f"{name}: folder {Path(path).resolve().parent} does not exist")
     K, board = target_from_args(args)
     progress = Progress(len(files), sys.stderr)
-    config = TrackerConfig(motion=MotionPrior(args.motion))
+    config = TrackerConfig(motion=MotionPrior(args.motion), target=args.target)
     track = track_sequence(files, K, args.bounds, board=board, timestamps=timestamps, fps=args.fps,
                            polygons=polygons, config=config, smooth=args.smooth,
                            progress=lambda k, n: progress.show(k + 1, files[k].name))
@@ -107,7 +113,7 @@ def run(args) -> int:
                   header=f"graphpose track: camera pose T_WC in the target frame; {len(frames) - len(found)} "
                   f"lost frames have no line")
     records = {"frames": [_record(f, files[f.index]) for f in frames], "smoothed": bool(args.smooth),
-               "motion": args.motion, "K": K, "board": f"{board.cols}x{board.rows}x{board.square_m}"}
+               "motion": args.motion, "target": args.target, "K": K, "board": f"{board.cols}x{board.rows}x{board.square_m}"}
     if args.json == "-":
         sys.stdout.write(dumps_json(records))
     elif args.json is not None:
