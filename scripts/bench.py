@@ -20,9 +20,13 @@ SECTIONS = ("junctions", "pose", "tracking")
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("sections", nargs="*", choices=SECTIONS + ((),), default=[], metavar="SECTION")
+    parser.add_argument("sections", nargs="*", metavar="SECTION", help=f"any of {', '.join(SECTIONS)} (default: all)")
     parser.add_argument("--quick", action="store_true", help="fewer trials, for a smoke run")
     args = parser.parse_args(argv)
+    # argparse checks an empty nargs="*" default against choices, so SECTION is checked here.
+    unknown = [s for s in args.sections if s not in SECTIONS]
+    if unknown:
+        parser.error(f"unknown section(s) {', '.join(unknown)}; choose from {', '.join(SECTIONS)}")
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     print(f"# graphpose benchmark on {platform.node()} ({platform.processor() or platform.machine()}), "
           f"Python {platform.python_version()}")
