@@ -69,6 +69,17 @@ def parse_board(text: str) -> Board:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def parse_positive(text: str) -> float:
+    """A positive finite number; ArgumentTypeError otherwise."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not (np.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
+
+
 def _numbers(text, counts, name, form) -> np.ndarray:
     parts = [p for p in re.split(r"[,;\s]+", text.strip()) if p]
     try:

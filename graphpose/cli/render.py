@@ -14,8 +14,7 @@ import textwrap
 from pathlib import Path
 
 from . import EXIT_OK
-from .options import Progress, add_target_options, target_from_args
-from .track import _positive
+from .options import Progress, add_target_options, parse_positive, target_from_args
 
 _EXAMPLES = """\
 examples:
@@ -41,7 +40,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("out_dir", type=Path, metavar="OUT_DIR", help="folder to write (created if absent)")
     p.add_argument("--frames", type=_count, default=300, help="number of frames (default 300)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--fps", type=_positive, default=30.0, help="frame rate (default 30)")
+    p.add_argument("--fps", type=parse_positive, default=30.0, help="frame rate (default 30)")
     p.add_argument("--noise", type=float, default=2.0, help="Gaussian noise, grey levels of 255 (default 2)")
     p.add_argument("--blur", type=float, default=1.0, help="optical blur sigma, pixels (default 1)")
     p.add_argument("--distance", type=_pair, default=(0.6, 1.3), metavar="NEAR,FAR",

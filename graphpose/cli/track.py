@@ -20,7 +20,7 @@ from ..errors import InputError
 from ..io import read_json
 from ..tracking import MOTION_MODELS, TARGET_FORMS
 from . import EXIT_FAILED, EXIT_OK
-from .options import Progress, add_target_options, parse_bounds, target_from_args
+from .options import Progress, add_target_options, parse_bounds, parse_positive, target_from_args
 
 _EXAMPLES = """\
 examples:
@@ -58,7 +58,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "polygon or null per frame")
     add_target_options(p)
     times = p.add_mutually_exclusive_group()
-    times.add_argument("--fps", type=_positive, default=30.0, help="frame rate for timestamps index / fps (default 30)")
+    times.add_argument("--fps", type=parse_positive, default=30.0, help="frame rate for timestamps index / fps (default 30)")
     times.add_argument("--timestamps", type=Path, metavar="FILE", help="one timestamp (seconds) per frame, one per line")
     p.add_argument("--motion", choices=MOTION_MODELS, default="constant_velocity",
                    help="motion prior between frames (default constant_velocity; wnoa is GTSAM's C++ "
@@ -75,16 +75,6 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "pip install -e \".[plot]\")")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary on stdout")
     return p
-
-
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
-    if not (np.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
 
 
 def run(args) -> int:
