@@ -26,6 +26,7 @@ from scipy.spatial.transform import Rotation
 
 from .camera import check_transform
 from .errors import InputError
+from .io import atomic_write
 
 #: Tolerance on the norm of a quaternion read from a file (files are written to ~9 digits).
 QUAT_NORM_TOL = 1e-4
@@ -56,7 +57,8 @@ def write_tum(path, timestamps, poses, header: str | None = None) -> Path:
     Parameters
     ----------
     path : str or Path
-        File to write; its parent folder must exist.
+        File to write, whole or not at all (:func:`graphpose.io.atomic_write`); its parent
+        folder must exist.
     timestamps : (N,) array_like
         Seconds, finite.
     poses : (N, 4, 4) array_like
@@ -72,7 +74,9 @@ def write_tum(path, timestamps, poses, header: str | None = None) -> Path:
     Raises
     ------
     InputError
-        If the shapes disagree, a timestamp is not finite, or a pose is not a rigid transform.
+        If the shapes disagree, a timestamp is not finite, a pose is not a rigid transform,
+        or the file cannot be written (missing folder, no permission; the message names the
+        path).
     """
     t = np.asarray(timestamps, dtype=float).reshape(-1)
     T = np.asarray(poses, dtype=float)
@@ -91,7 +95,7 @@ def write_tum(path, timestamps, poses, header: str | None = None) -> Path:
             numbers = " ".join(f"{v:.9f}" for v in (*Tk[:3, 3], *qk))
             lines.append(f"{tk:.6f} {numbers}")
     path = Path(path)
-    path.write_text("\n".join(lines) + "\n" if lines else "")
+    atomic_write(path, "\n".join(lines) + "\n" if lines else "")
     return path
 
 

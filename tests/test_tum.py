@@ -75,3 +75,13 @@ def test_write_rejects_bad_input(tmp_path):
     bad[0, 0] = 2.0
     with pytest.raises(InputError, match=r"poses\[0\]"):
         write_tum(tmp_path / "x.txt", [0.0], [bad])
+
+
+def test_write_failure_is_an_input_error_and_leaves_no_file(tmp_path):
+    with pytest.raises(InputError, match="cannot write .*missing"):
+        write_tum(tmp_path / "missing" / "x.txt", [0.0], [np.eye(4)])
+    assert not (tmp_path / "missing").exists()
+    (tmp_path / "folder.txt").mkdir()  # the path is a folder: os.replace refuses
+    with pytest.raises(InputError, match="cannot write .*folder.txt"):
+        write_tum(tmp_path / "folder.txt", [0.0], [np.eye(4)])
+    assert [p.name for p in tmp_path.iterdir()] == ["folder.txt"]  # no temporary file left behind
