@@ -89,17 +89,61 @@ def params_from_T(T) -> np.ndarray:
     return np.concatenate([T[:3, 3], rpy_from_C(T[:3, :3])])
 
 
+def as_float_array(x, name: str, shape=None) -> np.ndarray:
+    """Convert array-like input to float64, turning conversion failures into InputError.
+
+    Parameters
+    ----------
+    x : array_like
+        Numbers (bool, integer or real); strings, complex numbers, None and other objects
+        and ragged nests are refused.
+    name : str
+        The parameter's name, used in the message.
+    shape : tuple of int, optional
+        Required shape; unchecked when None.
+
+    Returns
+    -------
+    a : ndarray of float64
+        ``x`` as an array (not copied when already float64).
+
+    Raises
+    ------
+    InputError
+        If ``x`` is not a rectangular array of real numbers, or does not have ``shape``.
+    """
+    try:
+        a = np.asarray(x)
+        # Strings would convert ("1.5" -> 1.5), complex would lose its imaginary part and
+        # None in an object array would become NaN.
+        if a.dtype.kind not in "biuf":
+            raise TypeError
+        a = a.astype(float, copy=False)
+    except (TypeError, ValueError):
+        raise InputError(
+            f"{name} must be a rectangular array of real numbers, got {_describe(x)}") from None
+    if shape is not None and a.shape != tuple(shape):
+        raise InputError(f"{name} must have shape {tuple(shape)}, got {a.shape}")
+    return a
+
+
+def _describe(x) -> str:
+    """A short description of a rejected value for an error message."""
+    text = repr(x)
+    return text if len(text) <= 60 else f"{type(x).__name__} {text[:57]}..."
+
+
 def check_transform(T, name: str = "T_WC") -> np.ndarray:
     """Validate a rigid transform and return it as a (4, 4) float64 array.
 
     Raises
     ------
     InputError
-        If the shape is not (4, 4), an entry is not finite, the rotation block is not
-        orthonormal with determinant +1 (tolerance :data:`ROTATION_TOL`), or the last row
-        is not ``[0, 0, 0, 1]``.
+        If T is not an array of real numbers, the shape is not (4, 4), an entry is not
+        finite, the rotation block is not orthonormal with determinant +1 (tolerance
+        :data:`ROTATION_TOL`), or the last row is not ``[0, 0, 0, 1]``.
     """
-    T = np.asarray(T, dtype=float)
+    T = as_float_array(T, name)
     if T.shape != (4, 4):
         raise InputError(f"{name} must have shape (4, 4), got {T.shape}")
     if not np.all(np.isfinite(T)):
@@ -118,10 +162,10 @@ def check_K(K) -> np.ndarray:
     Raises
     ------
     InputError
-        If K is not (3, 3), not finite, its last row is not ``[0, 0, 1]``, ``K[1, 0]`` is not
-        0, or a focal length is not positive (a singular K).
+        If K is not a (3, 3) array of real numbers, not finite, its last row is not
+        ``[0, 0, 1]``, ``K[1, 0]`` is not 0, or a focal length is not positive (a singular K).
     """
-    K = np.asarray(K, dtype=float)
+    K = as_float_array(K, "K")
     if K.shape != (3, 3):
         raise InputError(f"K must have shape (3, 3), got {K.shape}")
     if not np.all(np.isfinite(K)):
@@ -144,10 +188,10 @@ def as_points(P, dim: int, name: str = "points", min_count: int = 1) -> np.ndarr
     Raises
     ------
     InputError
-        If it is not 2-D with ``dim`` rows, has fewer than ``min_count`` columns, or holds
-        NaN or infinite values.
+        If it is not a 2-D array of real numbers with ``dim`` rows, has fewer than
+        ``min_count`` columns, or holds NaN or infinite values.
     """
-    P = np.asarray(P, dtype=float)
+    P = as_float_array(P, name)
     if P.ndim != 2 or P.shape[0] != dim:
         raise InputError(f"{name} must have shape ({dim}, N), got {P.shape}")
     if P.shape[1] < min_count:

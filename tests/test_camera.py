@@ -5,6 +5,7 @@ from graphpose import Board, InputError
 from graphpose.camera import (
     C_from_rpy,
     T_from_params,
+    as_float_array,
     as_points,
     check_K,
     check_transform,
@@ -91,6 +92,31 @@ def test_as_points_rejects():
         as_points([[np.nan], [0.0]], 2)
     with pytest.raises(InputError, match="at least 4"):
         as_points(np.zeros((2, 3)), 2, min_count=4)
+
+
+def test_as_float_array_converts_numbers_and_checks_shape():
+    a = np.eye(3)
+    assert as_float_array(a, "a") is a
+    out = as_float_array([[1, 2], [True, 4]], "a", shape=(2, 2))
+    assert out.dtype == np.float64
+    np.testing.assert_array_equal(out, [[1.0, 2.0], [1.0, 4.0]])
+    with pytest.raises(InputError, match=r"a must have shape \(3,\), got \(2, 2\)"):
+        as_float_array(out, "a", shape=(3,))
+
+
+@pytest.mark.parametrize("bad", [[[1, 2], [3]], "abc", "1.5", ["1", "2"], [1j, 2], [1, None], {"a": 1}])
+def test_as_float_array_refuses_non_numbers(bad):
+    with pytest.raises(InputError, match="thing must be a rectangular array of real numbers"):
+        as_float_array(bad, "thing")
+
+
+def test_public_validators_name_the_parameter_on_non_numbers():
+    with pytest.raises(InputError, match="K must be"):
+        check_K("abc")
+    with pytest.raises(InputError, match="T_guess must be"):
+        check_transform([[1, 0], [0]], "T_guess")
+    with pytest.raises(InputError, match="Ipts must be"):
+        as_points([[1, 2], [3]], 2, "Ipts")
 
 
 def test_board_world_points_and_parse():
