@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .camera import as_float_array
 from .errors import InputError
 
 
@@ -36,7 +37,8 @@ class Board:
             value = getattr(self, name)
             if not isinstance(value, (int, np.integer)) or value < 2:
                 raise InputError(f"Board {name} must be an integer >= 2, got {value!r}")
-        if not np.isfinite(self.square_m) or self.square_m <= 0:
+        square = as_float_array(self.square_m, "Board square_m", shape=())
+        if not np.isfinite(square) or square <= 0:
             raise InputError(f"Board square_m must be a positive number of metres, got {self.square_m!r}")
 
     @property
@@ -54,6 +56,39 @@ class Board:
         """
         r, c = np.divmod(np.arange(self.n), self.cols)
         return np.vstack([c * self.square_m, r * self.square_m, np.zeros(self.n)])
+
+    def sheet_corners(self, margin=0.5) -> np.ndarray:
+        """Corners of the white sheet that carries the squares, in the target frame.
+
+        The squares cover ``[-s, cols * s] x [-s, rows * s]`` (``s = square_m``): one square
+        beyond the outer junctions on every side. The sheet adds a white border of ``margin``
+        squares to that.
+
+        Parameters
+        ----------
+        margin : float or (4,) array_like
+            Width of the white border in squares (>= 0): one value for all corners, or one
+            per corner in the order returned.
+
+        Returns
+        -------
+        corners : (3, 4) ndarray of float64
+            Metres, z = 0; upper-left, upper-right, lower-right, lower-left (clockwise in an
+            image of the board's front, starting with the corner nearest junction 0).
+
+        Raises
+        ------
+        InputError
+            If ``margin`` is not one or four finite non-negative numbers.
+        """
+        m = as_float_array(margin, "margin")
+        if m.shape not in ((), (4,)) or not np.all(np.isfinite(m)) or np.any(m < 0):
+            raise InputError(f"margin must be one or four finite numbers >= 0 squares, got {margin!r}")
+        s = self.square_m
+        m = np.broadcast_to(m, (4,)) * s
+        x0, x1 = -s - m, self.cols * s + m
+        y0, y1 = -s - m, self.rows * s + m
+        return np.array([[x0[0], x1[1], x1[2], x0[3]], [y0[0], y0[1], y1[2], y1[3]], np.zeros(4)])
 
     def grid_indices(self) -> np.ndarray:
         """Column and row index of every junction, shape (2, n) int, row-major."""

@@ -48,7 +48,7 @@ from scipy.ndimage import correlate1d
 from scipy.special import ndtr
 
 from .board import Board
-from .camera import check_K, check_transform, project, rot_x, rot_z, to_camera
+from .camera import as_points, check_K, check_transform, project, rot_x, rot_z, to_camera
 from .errors import InputError
 
 #: The Gaussian kernel reaches this many sigmas; the tail beyond holds < 3e-7 of the mass.
@@ -172,7 +172,7 @@ def render_ideal(
         raise InputError(f"gradient must be in [0, 1), got {gradient!r}")
     if not isinstance(supersample, (int, np.integer)) or supersample < 1:
         raise InputError(f"supersample must be an integer >= 1, got {supersample!r}")
-    sheet = _sheet_world(board, margin)
+    sheet = board.sheet_corners(margin)
     if np.any(to_camera(T_WC, sheet)[2] <= 0):
         raise InputError("the board sheet is not entirely in front of the camera (a corner has depth <= 0)")
     S = int(supersample) if blur_sigma > 0 else 1
@@ -231,7 +231,7 @@ def render(
     return Rendering(
         image=image,
         junctions=project(K, T_WC, board.world_points()),
-        outline=project(K, T_WC, _sheet_world(board, margin)),
+        outline=project(K, T_WC, board.sheet_corners(margin)),
         K=K.copy(),
         T_WC=T_WC.copy(),
         board=board,
@@ -311,7 +311,7 @@ def random_pose(
     if not isinstance(max_tries, (int, np.integer)) or max_tries < 1:
         raise InputError(f"max_tries must be an integer >= 1, got {max_tries!r}")
     rng = np.random.default_rng(rng)
-    sheet = _sheet_world(board, margin)
+    sheet = board.sheet_corners(margin)
     centre_W = np.array([(board.cols - 1) / 2, (board.rows - 1) / 2, 0.0]) * board.square_m
     for _ in range(max_tries):
         axis_angle = rng.uniform(-np.pi, np.pi)
@@ -369,7 +369,7 @@ def loose_polygon(rendering: Rendering, rng, *, offset_px=(-4.0, 4.0), inset: bo
     outline = rendering.outline
     if inset:
         fraction = rng.uniform(0.25, 0.75, 4)
-        sheet = _sheet_world(rendering.board, rendering.margin * fraction)
+        sheet = rendering.board.sheet_corners(rendering.margin * fraction)
         outline = project(rendering.K, rendering.T_WC, sheet)
     return outline + rng.uniform(lo, hi, (2, 4))
 
@@ -538,7 +538,6 @@ def polygon_coverage(polygons, size) -> np.ndarray:
     InputError
         If a polygon is not a finite (2, m) array with m >= 3, or size is invalid.
     """
-    from .camera import as_points
 
     width, height = _check_size(size)
     if isinstance(polygons, np.ndarray) and polygons.ndim == 2:
@@ -651,18 +650,6 @@ class _Light:
         return self.c + self.a * u + self.b * v
 
 
-def _sheet_world(board: Board, margin) -> np.ndarray:
-    """Sheet corners (3, 4), metres, clockwise in the image from the upper left.
-
-    ``margin`` may be a scalar or one value per corner (squares).
-    """
-    s = board.square_m
-    m = np.broadcast_to(np.asarray(margin, dtype=float), (4,)) * s
-    x0, x1 = -s - m, board.cols * s + m
-    y0, y1 = -s - m, board.rows * s + m
-    return np.array([[x0[0], x1[1], x1[2], x0[3]], [y0[0], y0[1], y1[2], y1[3]], [0.0, 0.0, 0.0, 0.0]])
-
-
 def _black_squares_world(board: Board) -> np.ndarray:
     """Corners of the black squares, (k, 3, 4) metres; square (0, 0) is the upper-left one."""
     i, j = np.meshgrid(np.arange(board.cols + 1), np.arange(board.rows + 1))
@@ -678,7 +665,7 @@ def _black_squares_world(board: Board) -> np.ndarray:
 def _add_board(image, K, T_WC, board, margin, sigma, S, light, background, white, black):
     """Add the board's departure from the background into ``image`` (H, W), in place."""
     height, width = image.shape
-    sheet = project(K, T_WC, _sheet_world(board, margin))
+    sheet = project(K, T_WC, board.sheet_corners(margin))
     reach = int(np.ceil(_TRUNCATE * sigma)) + 1  # kernel reach in pixels
     u0 = max(int(np.floor(sheet[0].min())) - reach - 1, -reach)
     u1 = min(int(np.ceil(sheet[0].max())) + reach + 2, width + reach)
@@ -748,16 +735,6 @@ def _x_pass(row, col, values, k, S: int, h: int, w: int) -> list:
     sums = (np.bincount(index.ravel(), (kernel * v[:, None]).ravel(), h * wide).astype(float, copy=False)
             for v in values)
     return [a.reshape(h, wide)[:, reach : reach + w] for a in sums]
-
-
-def _blur_integrate(fine: np.ndarray, sigma: float, S: int, reach: int) -> np.ndarray:
-    """Blur a dense fine image (h*S, w*S) and integrate it over pixels, giving (h, w).
-
-    The dense twin of the sparse path in :func:`_add_board`, kept for tests.
-    """
-    k = _kernel(sigma, S, reach)
-    rows = sum(correlate1d(fine[:, b::S], k[:, b], axis=1, mode="constant") for b in range(S))
-    return sum(correlate1d(rows[b::S, :], k[:, b], axis=0, mode="constant") for b in range(S))
 
 
 # --------------------------------------------------------------------------- validation

@@ -132,6 +132,49 @@ def test_board_world_points_and_parse():
         Board.from_world_points(W[:, ::-1])
 
 
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"cols": 1}, "cols must be an integer >= 2"),
+        ({"rows": 2.0}, "rows must be an integer >= 2"),
+        ({"square_m": 0.0}, "square_m must be a positive number"),
+        ({"square_m": -0.1}, "square_m must be a positive number"),
+        ({"square_m": np.inf}, "square_m must be a positive number"),
+        ({"square_m": "0.1"}, "square_m must be a rectangular array of real numbers"),
+        ({"square_m": [0.1, 0.2]}, r"square_m must have shape \(\)"),
+    ],
+)
+def test_board_rejects(kwargs, message):
+    with pytest.raises(InputError, match=message):
+        Board(**kwargs)
+
+
+def test_board_from_world_points_rejects_a_partial_grid():
+    W = Board().world_points()
+    with pytest.raises(InputError, match="47 points is not a full row-major grid"):
+        Board.from_world_points(W[:, :47])  # last row one junction short
+    with pytest.raises(InputError, match="starting at the upper-left junction"):
+        Board.from_world_points(W + [[0.01], [0.0], [0.0]])
+    with pytest.raises(InputError, match=r"shape \(3, n\)"):
+        Board.from_world_points(W[:2])
+    with pytest.raises(InputError, match="NaN"):
+        Board.from_world_points(np.where(W == W[0, 5], np.nan, W))
+
+
+def test_sheet_corners_border_the_squares_clockwise():
+    b = Board(4, 3, 0.5)
+    np.testing.assert_array_equal(b.sheet_corners(0.0), [[-0.5, 2.0, 2.0, -0.5], [-0.5, -0.5, 1.5, 1.5], [0, 0, 0, 0]])
+    np.testing.assert_array_equal(b.sheet_corners(), [[-0.75, 2.25, 2.25, -0.75], [-0.75, -0.75, 1.75, 1.75], [0, 0, 0, 0]])
+    per_corner = b.sheet_corners([0.0, 1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(per_corner[:2], [[-0.5, 2.5, 3.0, -2.0], [-0.5, -1.0, 2.5, 3.0]])
+
+
+@pytest.mark.parametrize("margin", [-0.1, np.nan, [0.5, 0.5], "wide"])
+def test_sheet_corners_rejects_bad_margin(margin):
+    with pytest.raises(InputError, match="margin must be"):
+        Board().sheet_corners(margin)
+
+
 def test_real_world_points_match_board(real_cases):
     import json
 

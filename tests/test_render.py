@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.ndimage import correlate1d
 from skimage.io import imread
 from skimage.measure import points_in_poly
 
@@ -15,10 +16,9 @@ from graphpose.errors import InputError
 from graphpose.render import (
     Rendering,
     _black_squares_world,
-    _blur_integrate,
     _coverage,
+    _kernel,
     _Light,
-    _sheet_world,
     image_gradients,
     junction_information,
     loose_polygon,
@@ -104,6 +104,14 @@ def test_blur_free_fronto_parallel_edge_values():
     assert I[100, 40] == pytest.approx(0.8 * 60.0 + 0.2 * 200.0, abs=1e-9)
 
 
+def _blur_integrate(fine, sigma, S, reach):
+    """Blur a dense fine image (h*S, w*S) and integrate it over pixels, giving (h, w): the
+    dense twin of the renderer's sparse path."""
+    k = _kernel(sigma, S, reach)
+    rows = sum(correlate1d(fine[:, b::S], k[:, b], axis=1, mode="constant") for b in range(S))
+    return sum(correlate1d(rows[b::S, :], k[:, b], axis=0, mode="constant") for b in range(S))
+
+
 def test_sparse_blur_equals_dense_fine_grid_reference():
     # The renderer blurs sparse coverage entries and moves the light's v-part past a column
     # sum; here the same image is made the plain way: dense fine grid over the whole image
@@ -115,7 +123,7 @@ def test_sparse_blur_equals_dense_fine_grid_reference():
     light = _Light(*size, 0.3, np.deg2rad(60.0))
     reach = int(np.ceil(5.0 * sigma)) + 1
     origin = np.array([[-reach - 0.5], [-reach - 0.5]])
-    corners = [_sheet_world(board, 0.5), *_black_squares_world(board)]
+    corners = [board.sheet_corners(0.5), *_black_squares_world(board)]
     polys = [(project(K, T, Q) - origin) * S for Q in corners]
     gains = [160.0] + [-180.0] * (len(polys) - 1)
     h, w = (size[1] + 2 * reach) * S, (size[0] + 2 * reach) * S
@@ -355,12 +363,10 @@ def test_bundled_truth_is_consistent():
 def test_sheet_just_outside_the_image_renders_background():
     # Sheets beyond the right edge: a few pixels off (inside the blur kernel's reach, where no
     # fine cell of the window is fully covered, which once broke the sparse path) and far off.
-    from graphpose.render import _sheet_world
-
     K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
     for x in (-0.75, -2.0):
         T = T_from_params([x, 0.0, -1.2, 0.0, 0.0, 0.0])
-        assert project(K, T, _sheet_world(Board(), 0.5))[0].min() > 640
+        assert project(K, T, Board().sheet_corners(0.5))[0].min() > 640
         ideal = render_ideal(K, T, blur_sigma=1.0, gradient=0.0)
         assert ideal.dtype == np.float64 and ideal.shape == (480, 640)
         np.testing.assert_allclose(ideal, 60.0, atol=1e-6)
