@@ -18,7 +18,8 @@ then a body-frame translation increment (m), with ``T (+) xi = T Exp(xi)``. To f
 
 so ``omega = M d(rpy)`` with ``M = [e_x, Cx^T e_y, (Cy Cx)^T e_z]`` (det M = cos pitch, the
 gimbal lock). The parameter covariance in (x, y, z, roll, pitch, yaw) is ``A Sigma_xi A^T``
-with ``A = [[0, C], [M^-1, 0]]`` (:func:`params_from_tangent_jacobian`).
+with ``A = [[0, C], [M^-1, 0]]`` (:func:`params_from_tangent_jacobian`,
+:func:`params_cov_from_tangent`).
 """
 
 from __future__ import annotations
@@ -175,11 +176,10 @@ def graph_pose(K, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=Fa
         m = used.shape[1]
         sigma = math.sqrt(float(np.sum(used**2)) / (2 * m - 6))
         cov_tangent = sigma**2 * cov_tangent
-    A = params_from_tangent_jacobian(T)
     return GraphResult(
         T_WC=T,
         params=params_from_T(T),
-        cov=A @ cov_tangent @ A.T,
+        cov=params_cov_from_tangent(T, cov_tangent),
         cov_tangent=cov_tangent,
         sigma_px=sigma,
         converged=converged,
@@ -283,3 +283,24 @@ def params_from_tangent_jacobian(T_WC) -> np.ndarray:
     A[:3, 3:] = C
     A[3:, :3] = np.linalg.inv(M)
     return A
+
+
+def params_cov_from_tangent(T_WC, cov_tangent) -> np.ndarray:
+    """Covariance of the pose parameters from a covariance on GTSAM's Pose3 tangent space.
+
+    Parameters
+    ----------
+    T_WC : (4, 4) ndarray
+        The pose the tangent covariance belongs to (trusted).
+    cov_tangent : (6, 6) ndarray
+        Covariance of ``(omega, v)``: body-frame rotation (rad) then body-frame translation
+        (m), as GTSAM's ``Marginals`` give it for a ``Pose3``.
+
+    Returns
+    -------
+    cov : (6, 6) ndarray
+        Covariance of ``(x, y, z, roll, pitch, yaw)`` in m and rad, ``A cov_tangent A^T``
+        with ``A`` from :func:`params_from_tangent_jacobian`; infinite or NaN at gimbal lock.
+    """
+    A = params_from_tangent_jacobian(T_WC)
+    return A @ cov_tangent @ A.T

@@ -5,7 +5,7 @@ import pytest
 from graphpose import Board, InputError
 from graphpose.camera import T_from_params, params_from_T, project
 from graphpose.gauss_newton import gauss_newton
-from graphpose.graph import GraphResult, graph_pose, params_from_tangent_jacobian
+from graphpose.graph import GraphResult, graph_pose, params_cov_from_tangent, params_from_tangent_jacobian
 
 K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
 WPTS = Board().world_points()
@@ -94,6 +94,22 @@ def test_tangent_to_parameter_jacobian_matches_differences_of_gtsam_retract():
             xi[k] = h
             fd = (params_from_T(pose.retract(xi).matrix()) - params_from_T(pose.retract(-xi).matrix())) / (2 * h)
             np.testing.assert_allclose(A[:, k], fd, atol=1e-7)
+
+
+def test_params_cov_from_tangent_rotates_position_and_maps_angles():
+    rng = np.random.default_rng(14)
+    T = random_pose(rng)
+    B = rng.normal(size=(6, 6))
+    cov_tangent = B @ B.T
+    cov = params_cov_from_tangent(T, cov_tangent)
+    C = T[:3, :3]
+    # dt = C v, and position does not depend on omega.
+    np.testing.assert_allclose(cov[:3, :3], C @ cov_tangent[3:, 3:] @ C.T, rtol=1e-12, atol=1e-12)
+    M_inv = params_from_tangent_jacobian(T)[3:, :3]
+    np.testing.assert_allclose(cov[3:, 3:], M_inv @ cov_tangent[:3, :3] @ M_inv.T, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(cov[:3, 3:], C @ cov_tangent[3:, :3] @ M_inv.T, rtol=1e-12, atol=1e-12)
+    res = graph_pose(K, T, project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48)), WPTS)
+    np.testing.assert_array_equal(res.cov, params_cov_from_tangent(res.T_WC, res.cov_tangent))
 
 
 def test_sigmas_in_reporting_units():
