@@ -110,7 +110,7 @@ import numpy as np
 from gtsam.symbol_shorthand import L, V, X
 
 from .board import Board
-from .camera import check_K, project, to_camera
+from .camera import as_points, check_K, project, to_camera
 from .errors import BoardNotFoundError, InputError
 from .gauss_newton import gauss_newton
 from .graph import LANDMARK_SIGMA_M, params_from_tangent_jacobian
@@ -168,6 +168,12 @@ class MotionPrior:
         always Gaussian). A jolt (a whip pan, a knock) then costs linearly instead of
         dragging the neighbouring poses.
 
+    Raises
+    ------
+    InputError
+        If ``model`` is not one of :data:`MOTION_MODELS`, a sigma is not a positive finite
+        number, or ``huber`` is neither None nor a positive finite number.
+
     Notes
     -----
     Defaults suit a camera held steadily at 30 frames a second: the twist changes by an
@@ -183,10 +189,22 @@ class MotionPrior:
 
     huber: float | None = 3.0
 
+    def __post_init__(self):
+        if self.model not in MOTION_MODELS:
+            raise InputError(f"motion model must be one of {MOTION_MODELS}, got {self.model!r}")
+        _check_setting("sigma_rot_rad", self.sigma_rot_rad)
+        _check_setting("sigma_trans_m", self.sigma_trans_m)
+        if self.huber is not None:
+            _check_setting("huber", self.huber)
+
+    def sigmas(self) -> np.ndarray:
+        """(6,) standard deviations in GTSAM's Pose3 tangent order: rotation (rad) x3, then
+        translation (m) x3."""
+        return np.r_[np.full(3, float(self.sigma_rot_rad)), np.full(3, float(self.sigma_trans_m))]
+
     def noise(self) -> gtsam.noiseModel.Base:
         """GTSAM noise model, rotation (rad) then translation (m), Huber-robust when set."""
-        sigmas = np.r_[np.full(3, self.sigma_rot_rad), np.full(3, self.sigma_trans_m)]
-        model = gtsam.noiseModel.Diagonal.Sigmas(sigmas)
+        model = gtsam.noiseModel.Diagonal.Sigmas(self.sigmas())
         if self.huber is None:
             return model
         return gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(self.huber), model)
@@ -408,10 +426,9 @@ class SequenceGraph:
             if not self._isam.valueExists(key) and not self._pending_values.exists(key):
                 self._pending_values.insert(key, np.zeros(6))
         dt = timestamp - t1
-        sigmas = np.r_[np.full(3, self.motion.sigma_rot_rad), np.full(3, self.motion.sigma_trans_m)]
         # Gaussian: the factor builds its own noise model and cannot be cloned with a robust one.
         return gtsam.WnoaMotionFactorPose3(gtsam.StateData(X(k1), V(k1), t1), gtsam.StateData(X(k), V(k), timestamp),
-                                           sigmas**2 / dt**3)
+                                           self.motion.sigmas()**2 / dt**3)
 
 
 def resection_factor(key, points, Wpts, K, pixel_sigma: float) -> gtsam.CustomFactor:
@@ -436,8 +453,19 @@ def resection_factor(key, points, Wpts, K, pixel_sigma: float) -> gtsam.CustomFa
         Error ``(u_1 - u'_1, v_1 - v'_1, ...)`` of length 2m (predicted minus measured),
         with its analytic Jacobian for the right perturbation ``T Exp(omega, v)``:
         ``dp_C = [p_C]_x omega - v``.
+
+    Raises
+    ------
+    InputError
+        If ``points`` or ``Wpts`` is malformed or not finite, their counts differ, or
+        ``pixel_sigma`` is not a positive finite number.
     """
+    points = as_points(points, 2, "points")
+    Wpts = as_points(Wpts, 3, "Wpts")
     m = points.shape[1]
+    if Wpts.shape[1] != m:
+        raise InputError(f"points and Wpts must hold the same number of points, got {m} and {Wpts.shape[1]}")
+    _check_setting("pixel_sigma", pixel_sigma)
     fx, s, cx, fy, cy = K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]
     noise = gtsam.noiseModel.Isotropic.Sigma(2 * m, pixel_sigma)
 
@@ -483,6 +511,17 @@ def _params_cov(T, cov_tangent) -> np.ndarray:
     """Tangent covariance (rotation, translation; GTSAM) to (x, y, z, roll, pitch, yaw)."""
     A = params_from_tangent_jacobian(T)
     return A @ cov_tangent @ A.T
+
+
+def _check_setting(name, value, minimum=0.0, *, strict=True, maximum=None) -> None:
+    """InputError unless ``value`` is a finite real number above ``minimum`` (or equal, when
+    not ``strict``) and at most ``maximum``."""
+    real = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+    if real and np.isfinite(value) and (value > minimum if strict else value >= minimum) \
+            and (maximum is None or value <= maximum):
+        return
+    bound = f"{'>' if strict else '>='} {minimum:g}" + ("" if maximum is None else f" and <= {maximum:g}")
+    raise InputError(f"{name} must be a finite number {bound}, got {value!r}")
 
 
 # ============================================================================ front end
@@ -537,6 +576,15 @@ class TrackerConfig:
     target : {"resection", "frame_landmarks", "landmarks"}
         How the fixed target enters the back end's graph (module docstring; measured
         trade-offs in ``scripts/bench_tracking.py``).
+
+    Raises
+    ------
+    InputError
+        If ``motion`` is not a :class:`MotionPrior`, ``target`` is not one of
+        :data:`TARGET_FORMS`, ``min_junctions`` is not an integer >= 4 (a pose needs four
+        points), ``min_detected_fraction`` is not in [0, 1], ``window_px`` is not
+        ``(low, high)`` with ``2 <= low <= high`` (the saddle fit's smallest window),
+        ``rms_floor_px`` is negative, or another setting is not a positive finite number.
     """
 
     motion: MotionPrior = field(default_factory=MotionPrior)
@@ -553,6 +601,27 @@ class TrackerConfig:
     max_speed: float = 0.5
     min_pixel_sigma_px: float = 0.02
     target: str = "resection"
+
+    def __post_init__(self):
+        # Checked here, at construction: a bad setting used to fail frames into the track.
+        if not isinstance(self.motion, MotionPrior):
+            raise InputError(f"motion must be a MotionPrior, got {type(self.motion).__name__}")
+        if self.target not in TARGET_FORMS:
+            raise InputError(f"target must be one of {TARGET_FORMS}, got {self.target!r}")
+        n = self.min_junctions
+        if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 4:
+            raise InputError(f"min_junctions must be an integer >= 4, got {n!r}")
+        _check_setting("min_detected_fraction", self.min_detected_fraction, strict=False, maximum=1.0)
+        for name in ("window_fraction", "gate_px", "outlier_sigmas", "outlier_floor_px", "max_rms_px",
+                     "rms_factor", "max_speed", "min_pixel_sigma_px"):
+            _check_setting(name, getattr(self, name))
+        _check_setting("rms_floor_px", self.rms_floor_px, strict=False)
+        try:
+            low, high = self.window_px
+        except (TypeError, ValueError):
+            raise InputError(f"window_px must be (low, high) pixels, got {self.window_px!r}") from None
+        _check_setting("window_px[0]", low, 2.0, strict=False)
+        _check_setting("window_px[1]", high, low, strict=False)
 
 
 @dataclass(frozen=True)
@@ -717,14 +786,16 @@ def read_timestamps(path, n_frames: int | None = None) -> np.ndarray:
     Raises
     ------
     InputError
-        If the file is missing, a line is not a number, the count differs from
-        ``n_frames``, or the times do not increase strictly.
+        If the file is missing or unreadable (a folder, not text), a line is not a number,
+        the count differs from ``n_frames``, or the times do not increase strictly.
     """
     path = Path(path)
     try:
         lines = path.read_text().splitlines()
     except FileNotFoundError:
         raise InputError(f"timestamps file not found: {path}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read timestamps file {path}: {exc}") from None
     values = []
     for number, line in enumerate(lines, start=1):
         line = line.strip()
@@ -789,8 +860,10 @@ def track_sequence(frames, K, bounds=None, *, board: Board = Board(), timestamps
     Raises
     ------
     InputError
-        If K, bounds, timestamps or polygons are malformed, there are no frames, or a frame
-        file cannot be read. A frame without a usable board is NOT an error: it is lost.
+        If K, bounds, timestamps, polygons or config are malformed, there are no frames, or
+        a frame cannot be read or is not a finite grey or colour image (checked as it is
+        reached, so earlier frames have been tracked). A frame without a usable board is NOT
+        an error: it is lost.
     """
     K = check_K(K)
     source = _frame_source(frames)
@@ -799,8 +872,8 @@ def track_sequence(frames, K, bounds=None, *, board: Board = Board(), timestamps
         raise InputError("frames is empty")
     t = _timestamps(timestamps, fps, n)
     polys = _polygons(polygons, bounds, n)
-    if config.motion.model not in MOTION_MODELS:
-        raise InputError(f"motion model must be one of {MOTION_MODELS}, got {config.motion.model!r}")
+    if not isinstance(config, TrackerConfig):
+        raise InputError(f"config must be a TrackerConfig, got {type(config).__name__}")
     tracker = _Tracker(K, board, config)
     results = []
     for k in range(n):
@@ -827,15 +900,18 @@ def _frame_source(frames):
 
 
 def _load(item, k):
-    """The frame as an array; grey conversion is left to the junction code (done once there)."""
+    """Frame ``k`` converted and checked once, for every junction call of the frame: 8-bit
+    grey as it is (no NaN possible; the junction code reads it without a copy), anything else
+    float64 grey in [0, 1] checked finite (:func:`graphpose.io.as_grey`)."""
     if isinstance(item, (str, Path)):
         return read_image(item)
-    image = np.asarray(item)
-    if image.ndim == 3 and image.shape[2] in (3, 4):
+    try:
+        image = np.asarray(item)
+        if image.ndim == 2 and image.dtype == np.uint8 and image.size:
+            return image
         return as_grey(image)
-    if image.ndim != 2 or image.size == 0:
-        raise InputError(f"frame {k} must be a 2-D grey or (H, W, 3|4) colour image, got shape {image.shape}")
-    return image
+    except (TypeError, ValueError) as exc:  # InputError is a ValueError; ragged lists raise ValueError
+        raise InputError(f"frame {k} must be a finite (H, W) grey or (H, W, 3|4) colour image: {exc}") from None
 
 
 def _timestamps(timestamps, fps, n):
@@ -886,11 +962,11 @@ class _Tracker:
         found, status, message = None, LOST, ""
         prediction = self._predict(k, t)
         if prediction is not None:
-            found, message = self._track(image, prediction)
+            found, message = _attempt(self._track, image, prediction)
             status = TRACKED if found is not None else LOST
         if found is None:
             for poly in self._detection_polygons(polygon, prediction, image.shape[:2]):
-                found, why = self._detect(image, poly)
+                found, why = _attempt(self._detect, image, poly)
                 if found is not None:
                     status = DETECTED
                     break
@@ -1015,6 +1091,16 @@ class _Tracker:
         if fit.residual_rms_px > limit:
             return None, f"fit residual {fit.residual_rms_px:.3f} px RMS exceeds {limit:.3f} px"
         return (points, ids, fit), ""
+
+
+def _attempt(method, *args):
+    """``method(*args)`` of the front end; an InputError from the junction or pose code (a
+    degenerate frame its own checks did not foresee) fails this attempt, so the frame falls
+    back to the next one or is lost, never the sequence."""
+    try:
+        return method(*args)
+    except InputError as exc:
+        return None, f"{method.__name__.strip('_')} failed: {exc}"
 
 
 def _sheet_corners(board: Board, margin: float = 0.5) -> np.ndarray:

@@ -11,6 +11,7 @@ from graphpose.tracking import (
     TRACKED,
     MotionPrior,
     SequenceGraph,
+    Track,
     TrackerConfig,
     _constant_velocity_factor,
     list_frames,
@@ -196,16 +197,21 @@ def test_track_reports_out_of_view_frames_lost_and_recovers(clip, tracked):
 
 
 def test_track_accuracy_against_truth(clip, tracked):
+    # Measured RMSE: online 0.119 mm, smoothed 0.110 mm, single-frame 0.119 mm; the limits
+    # are regression guards with room for platform noise, and smoothing must not hurt.
     found = tracked.found
-    for which, limit_mm in (("online", 1.0), ("smoothed", 1.0), ("single", 1.0)):
+    rmse_mm = {}
+    for which in ("online", "smoothed", "single"):
         P = tracked.poses(which)[found]
         err = np.linalg.norm(P[:, :3, 3] - clip.T_WC[found, :3, 3], axis=1)
-        assert np.sqrt(np.mean(err**2)) * 1000 < limit_mm, which
+        rmse_mm[which] = np.sqrt(np.mean(err**2)) * 1000
+        assert rmse_mm[which] < 0.3, which
+    assert rmse_mm["smoothed"] <= rmse_mm["single"]
     for f in tracked.frames:
         if f.status != LOST:
             assert f.junctions >= TrackerConfig().min_junctions
-            assert f.reprojection_rms_px < 0.5
-            assert np.all(f.sigma > 0) and np.all(f.sigma[:3] < 0.01)
+            assert f.reprojection_rms_px < 0.1  # measured at most 0.016 px
+            assert np.all(f.sigma > 0) and np.all(f.sigma[:3] < 0.001)  # measured at most 0.15 mm
 
 
 def test_track_without_any_polygon_searches_the_whole_image(clip):
@@ -234,6 +240,7 @@ def test_real_images_as_a_jumpy_sequence(real_cases, real_images):
     track = track_sequence(images, real_cases.K, real_images[0][0].bounds, polygons=polygons, smooth=True)
     assert len(track) == 6
     assert all(s in (TRACKED, DETECTED) for s in track.status)
+    assert len(track.best_frames()) == 6
     for f in track.best_frames():
         assert f.reprojection_rms_px < 1.0 and f.junctions >= 40
 
@@ -257,6 +264,8 @@ def test_track_input_errors(clip, tmp_path):
         track_sequence(images, K, np.zeros((2, 3)))
     with pytest.raises(InputError, match="motion model"):
         track_sequence(images, K, clip.bounds, config=TrackerConfig(motion=MotionPrior("teleport")))
+    with pytest.raises(InputError, match="config must be a TrackerConfig"):
+        track_sequence(images, K, clip.bounds, config={"min_junctions": 12})
     with pytest.raises(InputError, match="frame 1"):
         track_sequence([images[0], np.zeros((2, 2, 2))], K, clip.bounds)
     with pytest.raises(InputError, match="not found"):
@@ -275,14 +284,110 @@ def test_read_timestamps_errors(tmp_path):
         read_timestamps(path, 3)
     with pytest.raises(InputError, match="not found"):
         read_timestamps(tmp_path / "missing.txt")
+    with pytest.raises(InputError, match="cannot read timestamps file"):
+        read_timestamps(tmp_path)  # a folder
+    path.write_bytes(b"\xff\xfe\x00\x81")
+    with pytest.raises(InputError, match="cannot read timestamps file"):
+        read_timestamps(path)  # not text
 
 
 def test_track_poses_accessors(tracked):
     with pytest.raises(InputError, match="which"):
         tracked.poses("median")
     lost = ~tracked.found
+    assert lost.any()
     assert np.all(np.isnan(tracked.poses("online")[lost]))
     assert tracked.smoothed is not None and len(tracked.smoothed) == len(tracked)
+    unsmoothed = Track(tracked.frames, None, tracked.config)
+    with pytest.raises(InputError, match="not smoothed"):
+        unsmoothed.poses("smoothed")
+    np.testing.assert_array_equal(unsmoothed.poses("best"), tracked.poses("online"))
+
+
+def test_frame_sources_that_are_not_sequences(clip):
+    with pytest.raises(InputError, match=r"one array of shape \(480, 640\)"):
+        track_sequence(clip.images[0], K, clip.bounds)
+    with pytest.raises(InputError, match="got int"):
+        track_sequence(5, K, clip.bounds)
+
+
+def test_bad_frames_are_errors_naming_the_frame(clip):
+    nan_frame = clip.images[1] / 255.0
+    nan_frame[100, 100] = np.nan
+    with pytest.raises(InputError, match="frame 1 .*NaN"):
+        track_sequence([clip.images[0], nan_frame], K, clip.bounds)
+    with pytest.raises(InputError, match="frame 1 must be"):
+        track_sequence([clip.images[0], [[0.0, 1.0], [2.0]]], K, clip.bounds)
+
+
+def test_float_and_colour_frames_track_as_8_bit_grey(clip):
+    # Converted once per frame (graphpose.io.as_grey): the same junctions, the same poses.
+    grey = track_sequence(clip.images[:3], K, clip.bounds)
+    scaled = track_sequence([image / 255.0 for image in clip.images[:3]], K, clip.bounds)
+    colour = track_sequence([np.dstack([image] * 3) for image in clip.images[:3]], K, clip.bounds)
+    for other in (scaled, colour):
+        assert list(other.status) == list(grey.status) == [DETECTED, TRACKED, TRACKED]
+        np.testing.assert_allclose(other.poses("online"), grey.poses("online"), atol=1e-9)
+
+
+def test_front_end_input_errors_lose_the_frame_not_the_sequence(clip, monkeypatch):
+    import graphpose.tracking as tracking
+
+    def refuse(*args, **kwargs):
+        raise InputError("degenerate")
+
+    # A refinement that fails once tracking started: each frame falls back to full extraction.
+    monkeypatch.setattr(tracking, "refine_junctions", refuse)
+    track = track_sequence(clip.images[:3], K, clip.bounds)
+    assert list(track.status) == [DETECTED, DETECTED, DETECTED]
+    assert all("track failed: degenerate" in f.message for f in track.frames[1:])
+    # A pose from the homography that fails: every attempt fails, every frame is lost.
+    monkeypatch.setattr(tracking, "pose_from_homography", refuse)
+    track = track_sequence(clip.images[:2], K, clip.bounds)
+    assert list(track.status) == [LOST, LOST]
+    assert all("detect failed: degenerate" in f.message for f in track.frames)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [({"model": "teleport"}, "motion model"), ({"sigma_rot_rad": 0.0}, "sigma_rot_rad"),
+     ({"sigma_trans_m": float("nan")}, "sigma_trans_m"), ({"sigma_trans_m": "1"}, "sigma_trans_m"),
+     ({"huber": -1.0}, "huber")],
+)
+def test_motion_prior_rejects(kwargs, message):
+    with pytest.raises(InputError, match=message):
+        MotionPrior(**kwargs)
+
+
+def test_motion_prior_sigmas_are_rotation_then_translation():
+    prior = MotionPrior(sigma_rot_rad=0.002, sigma_trans_m=0.0003, huber=None)
+    np.testing.assert_array_equal(prior.sigmas(), [0.002] * 3 + [0.0003] * 3)
+    np.testing.assert_array_equal(prior.noise().sigmas(), prior.sigmas())
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [({"motion": "constant_velocity"}, "motion must be a MotionPrior"), ({"target": "points"}, "target must be"),
+     ({"min_junctions": 3}, "min_junctions"), ({"min_junctions": 12.0}, "min_junctions"),
+     ({"min_detected_fraction": 1.5}, "min_detected_fraction"), ({"window_px": 5.0}, r"window_px must be \(low"),
+     ({"window_px": (1.0, 2.0)}, r"window_px\[0\]"), ({"window_px": (5.0, 4.0)}, r"window_px\[1\]"),
+     ({"gate_px": 0.0}, "gate_px"), ({"outlier_floor_px": 0.0}, "outlier_floor_px"),
+     ({"max_speed": float("inf")}, "max_speed"), ({"min_pixel_sigma_px": None}, "min_pixel_sigma_px"),
+     ({"rms_floor_px": -0.1}, "rms_floor_px")],
+)
+def test_tracker_config_rejects(kwargs, message):
+    with pytest.raises(InputError, match=message):
+        TrackerConfig(**kwargs)
+
+
+def test_resection_factor_rejects():
+    uv = project(K, _trajectory(1)[1][0], W)
+    with pytest.raises(InputError, match="same number"):
+        resection_factor(X(0), uv[:, :5], W, K, 0.5)
+    with pytest.raises(InputError, match="points must have shape"):
+        resection_factor(X(0), uv.T, W, K, 0.5)
+    with pytest.raises(InputError, match="pixel_sigma"):
+        resection_factor(X(0), uv, W, K, 0.0)
 
 
 # ---------------------------------------------------------------------------- command line
