@@ -33,6 +33,8 @@ from .errors import InputError
 
 #: Orthonormality tolerance used when validating a rotation block.
 ROTATION_TOL = 1e-6
+#: Smallest camera-frame depth (metres) a point may have to count as in front of the camera.
+MIN_DEPTH = 1e-9
 
 
 def rot_x(a: float) -> np.ndarray:
@@ -199,6 +201,78 @@ def as_points(P, dim: int, name: str = "points", min_count: int = 1) -> np.ndarr
     if not np.all(np.isfinite(P)):
         raise InputError(f"{name} contains NaN or infinite values")
     return P
+
+
+def check_correspondences(K, Ipts, Wpts, mask=None):
+    """Validate K, image and target points and a trust mask at a public edge.
+
+    Parameters
+    ----------
+    K : (3, 3) array_like
+        Intrinsics, pixels (see :func:`check_K`).
+    Ipts : (2, n) array_like
+        Image points (u, v), pixels.
+    Wpts : (3, n) array_like
+        Matching target points, metres.
+    mask : (n,) array_like of bool, optional
+        The points to use; all when None.
+
+    Returns
+    -------
+    K : (3, 3) ndarray
+    Ipts : (2, n) ndarray
+    Wpts : (3, n) ndarray
+    mask : (n,) ndarray of bool
+        All True when ``mask`` is None.
+
+    Raises
+    ------
+    InputError
+        If K is singular or malformed, the point arrays are malformed, hold NaN, differ in
+        count, the mask is not boolean of shape (n,), or fewer than 4 points are used.
+    """
+    K = check_K(K)
+    Ipts = as_points(Ipts, 2, "Ipts")
+    Wpts = as_points(Wpts, 3, "Wpts")
+    n = Ipts.shape[1]
+    if Wpts.shape[1] != n:
+        raise InputError(f"Ipts and Wpts must hold the same number of points, got {n} and {Wpts.shape[1]}")
+    if mask is None:
+        mask = np.ones(n, dtype=bool)
+    else:
+        mask = np.asarray(mask)
+        if mask.shape != (n,) or mask.dtype != bool:
+            raise InputError(f"mask must be a boolean array of shape ({n},), got {mask.dtype} {mask.shape}")
+    if np.count_nonzero(mask) < 4:
+        raise InputError(f"pose needs at least 4 trusted points, got {np.count_nonzero(mask)}")
+    return K, Ipts, Wpts, mask
+
+
+def check_in_front(depth, name: str, index=None) -> None:
+    """Refuse points at or behind the camera.
+
+    Parameters
+    ----------
+    depth : (m,) ndarray
+        Camera-frame depths (metres), e.g. ``to_camera(T_WC, P_W)[2]``.
+    name : str
+        The pose the depths belong to, for the message ("the guess").
+    index : (m,) array_like of int, optional
+        The caller's index of each depth (``np.flatnonzero(mask)`` when the depths are of
+        the masked points), so the message names the caller's point; ``arange(m)`` if None.
+
+    Raises
+    ------
+    InputError
+        If a depth is at most :data:`MIN_DEPTH`.
+    """
+    bad = np.flatnonzero(depth <= MIN_DEPTH)
+    if bad.size:
+        first = bad[0] if index is None else int(index[bad[0]])
+        raise InputError(
+            f"{bad.size} target point(s) lie at or behind the camera at {name} "
+            f"(first index {first}, depth {depth[bad[0]]:.3g} m)"
+        )
 
 
 def to_camera(T_WC, P_W) -> np.ndarray:

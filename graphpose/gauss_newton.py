@@ -25,7 +25,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .camera import T_from_params, as_points, check_K, check_transform, params_from_T
+from .camera import (
+    MIN_DEPTH,
+    T_from_params,
+    as_points,
+    check_correspondences,
+    check_in_front,
+    check_K,
+    check_transform,
+    params_from_T,
+)
 from .errors import ConvergenceError, InputError
 
 #: Default iteration cap (damped and undamped steps both count).
@@ -38,8 +47,6 @@ _COST_RTOL = 1e-12
 _MAX_POLISH_STEPS = 5
 #: The damping factor above which a stuck search gives up.
 _LAMBDA_MAX = 1e10
-#: Smallest camera-frame depth (metres) a point may have during the iterations.
-_MIN_DEPTH = 1e-9
 
 
 @dataclass(frozen=True)
@@ -145,7 +152,7 @@ def projection_jacobians(K, T_WC, Wpts) -> np.ndarray:
     W = as_points(Wpts, 3, "Wpts")
     p = params_from_T(T)
     _, depth, J = _project(K, p, W, jacobian=True)
-    _check_in_front(depth, "T_WC")
+    check_in_front(depth, "T_WC")
     return J
 
 
@@ -203,49 +210,6 @@ def _project(K, p, W, jacobian):
     return uv, z, (G @ D).reshape(2 * n, 6)
 
 
-def _check_in_front(depth, name):
-    if np.any(depth <= _MIN_DEPTH):
-        bad = np.flatnonzero(depth <= _MIN_DEPTH)
-        raise InputError(
-            f"{bad.size} target point(s) lie at or behind the camera at {name} "
-            f"(first index {bad[0]}, depth {depth[bad[0]]:.3g} m)"
-        )
-
-
-def check_correspondences(K, Ipts, Wpts, mask=None):
-    """Validate K, image and target points and a trust mask at a public edge.
-
-    Returns
-    -------
-    K : (3, 3) ndarray
-    Ipts : (2, n) ndarray
-    Wpts : (3, n) ndarray
-    mask : (n,) ndarray of bool
-        All True when ``mask`` is None.
-
-    Raises
-    ------
-    InputError
-        If K is singular or malformed, the point arrays are malformed, hold NaN, differ in
-        count, or fewer than 4 points are used.
-    """
-    K = check_K(K)
-    Ipts = as_points(Ipts, 2, "Ipts")
-    Wpts = as_points(Wpts, 3, "Wpts")
-    n = Ipts.shape[1]
-    if Wpts.shape[1] != n:
-        raise InputError(f"Ipts and Wpts must hold the same number of points, got {n} and {Wpts.shape[1]}")
-    if mask is None:
-        mask = np.ones(n, dtype=bool)
-    else:
-        mask = np.asarray(mask)
-        if mask.shape != (n,) or mask.dtype != bool:
-            raise InputError(f"mask must be a boolean array of shape ({n},), got {mask.dtype} {mask.shape}")
-    if np.count_nonzero(mask) < 4:
-        raise InputError(f"pose needs at least 4 trusted points, got {np.count_nonzero(mask)}")
-    return K, Ipts, Wpts, mask
-
-
 def gauss_newton(K, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel_sigma=None,
                  max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL) -> GNResult:
     """Refine a camera pose by damped Gauss-Newton on the reprojection error.
@@ -281,8 +245,8 @@ def gauss_newton(K, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel_sigm
     Raises
     ------
     InputError
-        On malformed input (see :func:`check_correspondences`), a malformed guess, a
-        non-positive ``huber_px`` or ``pixel_sigma``, or a used point behind the camera at
+        On malformed input (see :func:`graphpose.camera.check_correspondences`), a
+        malformed guess, a non-positive ``huber_px`` or ``pixel_sigma``, or a used point behind the camera at
         the guess.
     """
     K, Ipts, Wpts, mask = check_correspondences(K, Ipts, Wpts, mask)
@@ -317,7 +281,7 @@ def _residual(K, p, I, W, jacobian):
 def _solve(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol) -> GNResult:
     I, W = Ipts[:, mask], Wpts[:, mask]
     r, depth, J = _residual(K, p, I, W, True)
-    _check_in_front(depth, "the guess")
+    check_in_front(depth, "the guess", np.flatnonzero(mask))
     cost = _cost(r, huber_px)
     lam, converged, message, it, polish_steps = 0.0, False, "iteration cap reached", 0, 0
     while it < max_iterations:
@@ -347,7 +311,7 @@ def _solve(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol) -
         delta = delta_gn if lam == 0.0 or polishing else np.linalg.solve(H + lam * np.diag(np.diag(H)), g)
         p_new = p + delta
         r_new, z_new, J_new = _residual(K, p_new, I, W, True)
-        cost_new = _cost(r_new, huber_px) if np.all(z_new > _MIN_DEPTH) else np.inf
+        cost_new = _cost(r_new, huber_px) if np.all(z_new > MIN_DEPTH) else np.inf
         if cost_new < cost or (polishing and cost_new <= cost * (1.0 + 100 * _COST_RTOL)):
             p, r, J, cost = p_new, r_new, J_new, cost_new
             lam = 0.0 if lam < 1e-6 else lam / 10.0

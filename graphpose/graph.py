@@ -31,9 +31,8 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, X
 
-from .camera import check_transform, params_from_T, project
+from .camera import check_correspondences, check_in_front, check_transform, params_from_T, project, to_camera
 from .errors import InputError
-from .gauss_newton import _check_in_front, _project, check_correspondences
 
 #: Standard deviation (metres) of the prior that pins each target point: far below anything
 #: the pixels can resolve (about 1e-6 px at 1 m), yet finite so the marginals exist.
@@ -151,7 +150,7 @@ def graph_pose(K, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=Fa
     Raises
     ------
     InputError
-        On malformed input (see :func:`graphpose.gauss_newton.check_correspondences`), a
+        On malformed input (see :func:`graphpose.camera.check_correspondences`), a
         non-positive ``pixel_sigma`` or ``huber_k``, or a used point behind the camera at the
         guess.
     """
@@ -160,8 +159,7 @@ def graph_pose(K, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=Fa
     for name, value in (("pixel_sigma", pixel_sigma), ("huber_k", huber_k)):
         if value is not None and not (np.isfinite(value) and value > 0):
             raise InputError(f"{name} must be a positive number, got {value!r}")
-    _, depth, _ = _project(K, params_from_T(T_guess), Wpts[:, mask], jacobian=False)
-    _check_in_front(depth, "the guess")
+    check_in_front(to_camera(T_guess, Wpts[:, mask])[2], "the guess", np.flatnonzero(mask))
     if robust and pixel_sigma is None:
         plain = _solve(K, T_guess, Ipts, Wpts, mask, 1.0, None)
         r = Ipts[:, mask] - project(K, plain[0], Wpts[:, mask])
@@ -223,7 +221,7 @@ def _solve(K, T_guess, Ipts, Wpts, mask, sigma, huber_k):
     params.setMaxIterations(_MAX_ITERATIONS)
     optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
     try:
-        return _optimise(graph, optimizer, K, Wpts, mask)
+        return _optimise(graph, optimizer, Wpts, mask)
     except RuntimeError as exc:
         # From a far-off guess the linearised system can become indeterminate (GTSAM's
         # IndeterminateSystemException): that is a failed solve, reported, not a crash.
@@ -233,7 +231,7 @@ def _solve(K, T_guess, Ipts, Wpts, mask, sigma, huber_k):
             lines[0] if lines else type(exc).__name__)
 
 
-def _optimise(graph, optimizer, K, Wpts, mask):
+def _optimise(graph, optimizer, Wpts, mask):
     """Steps 5-7 of :func:`_solve`; GTSAM may raise RuntimeError on an indeterminate system."""
     result = optimizer.optimize()
     # 6. Polish with undamped Gauss-Newton steps. Levenberg-Marquardt stops when the cost
@@ -254,7 +252,7 @@ def _optimise(graph, optimizer, K, Wpts, mask):
     T = result.atPose3(X(0)).matrix()
     # The projection factors do not enforce cheirality: a solution with a point behind the
     # camera is a failure, not a pose.
-    in_front = np.all(_project(K, params_from_T(T), Wpts[:, mask], jacobian=False)[1] > 0)
+    in_front = np.all(to_camera(T, Wpts[:, mask])[2] > 0)
     converged = (optimizer.iterations() < _MAX_ITERATIONS and np.isfinite(optimizer.error())
                  and polished and in_front)
     return T, np.asarray(cov), bool(converged), int(optimizer.iterations()), ""

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .camera import check_correspondences
 from .errors import InputError
-from .gauss_newton import check_correspondences
 
 #: Target points farther than this (metres, relative to the board's extent) from z = 0 are refused.
 _PLANE_TOL = 1e-6

@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .board import Board
-from .camera import check_K, check_transform, project
+from .camera import check_correspondences, check_K, check_transform, project
 from .errors import InputError
-from .gauss_newton import GNResult, check_correspondences, gauss_newton
+from .gauss_newton import GNResult, gauss_newton
 from .graph import HUBER_K, GraphResult, graph_pose
 from .homography import pose_from_homography
 

@@ -1,4 +1,9 @@
-"""Shared fixtures: the real ROB501 images beside the checkout, skipped only when absent."""
+"""Shared fixtures: the real ROB501 images beside the checkout, skipped only when absent.
+
+GRAPHPOSE_ROB501 points at another copy of the folder. With GRAPHPOSE_REQUIRE_REAL=1 a
+missing folder or file fails the tests that need it instead of skipping them (for CI
+machines that are meant to have the data).
+"""
 
 import os
 from pathlib import Path
@@ -9,14 +14,24 @@ REPO = Path(__file__).resolve().parents[1]
 REAL_DIR = Path(os.environ.get("GRAPHPOSE_ROB501", REPO.parent / "shared" / "data" / "rob501"))
 
 
+def real_file(name: str) -> Path:
+    """Path of a file of the real data folder; skips the test (fails it under
+    GRAPHPOSE_REQUIRE_REAL=1) when the file is absent."""
+    path = REAL_DIR / name
+    if not path.is_file():
+        message = f"real data file {path} is absent"
+        if os.environ.get("GRAPHPOSE_REQUIRE_REAL") == "1":
+            pytest.fail(f"{message} and GRAPHPOSE_REQUIRE_REAL=1")
+        pytest.skip(message)
+    return path
+
+
 @pytest.fixture(scope="session")
 def real_cases():
     """The parsed real case file (:class:`graphpose.io.CaseFile`)."""
     from graphpose.io import load_cases
 
-    if not (REAL_DIR / "cases.json").is_file():
-        pytest.skip(f"real data folder {REAL_DIR} is absent")
-    return load_cases(REAL_DIR / "cases.json")
+    return load_cases(real_file("cases.json"))
 
 
 @pytest.fixture(scope="session")

@@ -15,7 +15,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from conftest import REAL_DIR, REPO
+from conftest import REPO, real_file
 
 from graphpose import InputError, T_from_params, load_cases
 from graphpose.cli import main
@@ -121,9 +121,7 @@ def test_module_json_and_overlay_folder(bundled, tmp_path):
 
 
 def test_real_cases_target_01_matches_its_reference(tmp_path):
-    cases_file = REAL_DIR / "cases.json"
-    if not cases_file.is_file():
-        pytest.skip(f"real data folder {REAL_DIR} is absent")
+    cases_file = real_file("cases.json")
     result = graphpose("estimate", "--cases", cases_file, "--json", tmp_path / "real.json", "-q")
     assert result.returncode == 0, result.stderr
     records = json.loads((tmp_path / "real.json").read_text())

@@ -1,9 +1,9 @@
 import json
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import real_file
 
 from graphpose import Board, ConvergenceError, InputError
 from graphpose.camera import C_from_rpy, T_from_params, params_from_T, project
@@ -12,7 +12,6 @@ from graphpose.homography import pose_from_homography
 
 K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
 WPTS = Board().world_points()
-JACOBIAN_CASE = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "rob501" / "jacobian_case.json"
 
 
 def random_pose(rng, distance=(0.6, 1.5), max_tilt_deg=35.0):
@@ -46,6 +45,11 @@ def perturb(rng, T, max_deg, max_m):
     return out
 
 
+#: Guesses drawn per pose in the basin test before giving up (a draw is refused when it puts
+#: a point behind the camera, which at 30 degrees and 0.5 m happens for a few per cent).
+MAX_GUESS_DRAWS = 20
+
+
 def pose_error(T, T_ref):
     """Translation (m) and rotation angle (degrees) between two poses."""
     dR = T[:3, :3].T @ T_ref[:3, :3]
@@ -62,9 +66,8 @@ def numeric_jacobian(K, p, W, h=1e-6):
     return J
 
 
-@pytest.mark.skipif(not JACOBIAN_CASE.is_file(), reason="real data folder absent")
 def test_jacobian_matches_reference_case_to_its_decimals():
-    case = json.loads(JACOBIAN_CASE.read_text())
+    case = json.loads(real_file("jacobian_case.json").read_text())
     J = find_jacobian(case["K"], case["T_WC"], np.reshape(case["point"], (3, 1)))
     assert J.shape == (2, 6)
     np.testing.assert_array_equal(np.round(J, case["J_decimals"]), case["J"])
@@ -201,13 +204,15 @@ def test_convergence_basin_reaches_the_linear_initialiser_pose():
         T = random_pose(rng)
         I = project(K, T, WPTS) + rng.normal(0, 0.2, WPTS[:2].shape)
         T_lin = gauss_newton(K, pose_from_homography(K, I, WPTS), I, WPTS).T_WC
-        while True:
+        for _ in range(MAX_GUESS_DRAWS):
             guess = perturb(rng, T, 30, 0.5)
             try:
                 res = gauss_newton(K, guess, I, WPTS)
                 break
             except InputError:  # a point behind the camera at the guess: not a valid guess
                 continue
+        else:
+            pytest.fail(f"no guess in {MAX_GUESS_DRAWS} draws had the whole board in front of the camera")
         dt, dr = pose_error(res.T_WC, T_lin)
         if res.converged and dt < 1e-6 and dr < 1e-5:
             good += 1
@@ -216,7 +221,7 @@ def test_convergence_basin_reaches_the_linear_initialiser_pose():
         else:
             reported += 1
     assert wrong == 0
-    assert good >= 0.97 * 150
+    assert good >= 0.99 * 150  # the goal; the benchmark measured 100 %
 
 
 @pytest.mark.parametrize(
@@ -240,6 +245,18 @@ def test_bad_input_is_refused(change, match):
     args = dict(K=K, T_guess=T, Ipts=project(K, T, WPTS), Wpts=WPTS)
     with pytest.raises(InputError, match=match):
         gauss_newton(**change(args))
+
+
+def test_behind_the_camera_message_names_the_callers_index():
+    T = T_from_params([0.2, 0.15, -1.0, 0.0, 0.0, 0.0])
+    W = WPTS.copy()
+    W[2, [20, 30]] = -2.0  # behind a camera at z = -1 looking along +z
+    mask = np.arange(48) >= 10
+    with pytest.raises(InputError, match=r"2 target point\(s\) .* \(first index 20, depth -1 m\)"):
+        gauss_newton(K, T, project(K, T, WPTS), W, mask=mask)
+    W[2, 5] = -2.0  # masked out: not checked
+    with pytest.raises(InputError, match="first index 20,"):
+        gauss_newton(K, T, project(K, T, WPTS), W, mask=mask)
 
 
 def test_find_jacobian_refuses_more_than_one_point_and_points_behind():

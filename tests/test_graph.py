@@ -126,6 +126,14 @@ def test_sigmas_in_reporting_units():
     assert 0.05 < res.sigma_translation_mm.max() < 10 and res.sigma_rotation_deg.max() < 1
 
 
+def test_behind_the_camera_message_names_the_callers_index():
+    T = T_from_params([0.2, 0.15, -1.0, 0.0, 0.0, 0.0])
+    W = WPTS.copy()
+    W[2, [5, 20, 30]] = -2.0  # behind a camera at z = -1 looking along +z; 5 is masked out
+    with pytest.raises(InputError, match=r"2 target point\(s\) .* \(first index 20, depth -1 m\)"):
+        graph_pose(K, T, project(K, T, WPTS), W, mask=np.arange(48) >= 10)
+
+
 @pytest.mark.parametrize(
     "kwargs, match",
     [
