@@ -266,11 +266,31 @@ def _weights(r, huber_px):
     return np.repeat(w, 2)
 
 
-def _cost(r, huber_px):
+def reprojection_cost(residuals, huber_px=None) -> float:
+    """The cost Gauss-Newton minimises, from reprojection residuals.
+
+    Parameters
+    ----------
+    residuals : (2, m) ndarray
+        Measured minus predicted pixels of the used points (trusted: no NaN).
+    huber_px : float, optional
+        Huber threshold on each point's 2-D error norm, pixels; plain least squares if None.
+
+    Returns
+    -------
+    float
+        ``1/2 sum e_j^2`` (plain), or ``sum rho(e_j)`` with the Huber ``rho``
+        (``e^2 / 2`` up to the threshold ``k``, ``k (e - k / 2)`` beyond), pixels squared.
+    """
     if huber_px is None:
-        return 0.5 * float(r @ r)
-    e = np.hypot(r[0::2], r[1::2])
+        return 0.5 * float(np.sum(residuals * residuals))
+    e = np.hypot(residuals[0], residuals[1])
     return float(np.sum(np.where(e <= huber_px, 0.5 * e * e, huber_px * (e - 0.5 * huber_px))))
+
+
+def _cost(r, huber_px):
+    """:func:`reprojection_cost` of the stacked residual vector (2m,) ``(u0, v0, u1, ...)``."""
+    return reprojection_cost(r.reshape(-1, 2).T, huber_px)
 
 
 def _residual(K, p, I, W, jacobian):

@@ -50,8 +50,7 @@ def pose_from_homography(K, Ipts, Wpts) -> np.ndarray:
         sign of the decomposition puts all the points in front of the camera.
     """
     K, Ipts, Wpts, _ = check_correspondences(K, Ipts, Wpts)
-    extent = max(1.0, float(np.max(np.abs(Wpts[:2]))))
-    if np.max(np.abs(Wpts[2])) > _PLANE_TOL * extent:
+    if not on_target_plane(Wpts):
         raise InputError("Wpts must lie on the target plane z = 0 for the homography initialiser")
     H = homography_dlt(Wpts[:2], Ipts)
     M = np.linalg.solve(K, H)  # ~ [r1 r2 t_CW] up to scale and sign
@@ -67,6 +66,24 @@ def pose_from_homography(K, Ipts, Wpts) -> np.ndarray:
     T[:3, :3] = R.T
     T[:3, 3] = -R.T @ t_CW
     return T
+
+
+def on_target_plane(Wpts) -> bool:
+    """Whether target points lie on the plane z = 0, to within rounding of their coordinates.
+
+    Parameters
+    ----------
+    Wpts : (3, n) ndarray
+        Target points, metres (trusted: validated by the caller).
+
+    Returns
+    -------
+    bool
+        True when every ``|z|`` is at most 1e-6 of the points' extent in x and y (at least
+        1e-6 m): the tolerance the homography initialiser accepts.
+    """
+    extent = max(1.0, float(np.max(np.abs(Wpts[:2]))))
+    return bool(np.max(np.abs(Wpts[2])) <= _PLANE_TOL * extent)
 
 
 def homography_dlt(src, dst) -> np.ndarray:

@@ -23,9 +23,9 @@ import numpy as np
 from .board import Board
 from .camera import check_correspondences, check_K, check_transform, project
 from .errors import InputError
-from .gauss_newton import GNResult, gauss_newton
+from .gauss_newton import GNResult, gauss_newton, reprojection_cost
 from .graph import HUBER_K, GraphResult, graph_pose
-from .homography import pose_from_homography
+from .homography import on_target_plane, pose_from_homography
 
 #: GN and the graph must agree this closely (metres, degrees): the same cost, two solvers.
 AGREE_TRANSLATION_M = 1e-6
@@ -156,12 +156,13 @@ def estimate_pose(image, bpoly, K, board: Board = Board(), guess=None, *, robust
     """
     from .junctions import extract_junctions
 
+    # K and the guess are checked before the extraction, so bad ones fail before the slow step.
     K = check_K(K)
-    if guess is not None:
-        guess = check_transform(guess, "guess")
+    guess = None if guess is None else check_transform(guess, "guess")
     junctions = extract_junctions(image, bpoly, board)
-    estimate = estimate_pose_from_points(K, junctions.points, board.world_points(), guess,
-                                         junctions.trusted, robust=robust)
+    # The junctions are finite (2, n) and the trusted mask is (n,) bool by contract; the
+    # solvers refuse fewer than 4 trusted points.
+    estimate = _estimate(K, junctions.points, board.world_points(), guess, junctions.trusted, robust)
     return dataclasses.replace(estimate, junctions=junctions)
 
 
@@ -195,11 +196,13 @@ def estimate_pose_from_points(K, Ipts, Wpts, guess=None, mask=None, *, robust: b
         camera, or (without a guess) target points off z = 0 or degenerate.
     """
     K, Ipts, Wpts, mask = check_correspondences(K, Ipts, Wpts, mask)
-    planar = bool(np.all(Wpts[2] == 0))
-    if guess is None:
-        start = pose_from_homography(K, Ipts[:, mask], Wpts[:, mask])
-    else:
-        start = check_transform(guess, "guess")
+    guess = None if guess is None else check_transform(guess, "guess")
+    return _estimate(K, Ipts, Wpts, guess, mask, robust)
+
+
+def _estimate(K, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
+    """:func:`estimate_pose_from_points` on validated K, points, guess and mask."""
+    start = pose_from_homography(K, Ipts[:, mask], Wpts[:, mask]) if guess is None else guess
     huber_px = pixel_sigma = None
     gn = gauss_newton(K, start, Ipts, Wpts, mask=mask)
     if robust:
@@ -208,7 +211,7 @@ def estimate_pose_from_points(K, Ipts, Wpts, guess=None, mask=None, *, robust: b
         gn = gauss_newton(K, start, Ipts, Wpts, mask=mask, huber_px=huber_px, pixel_sigma=pixel_sigma)
     graph = graph_pose(K, start, Ipts, Wpts, mask=mask, pixel_sigma=pixel_sigma, robust=robust)
     converged, message = gn.converged, "ok" if gn.converged else f"Gauss-Newton: {gn.message}"
-    if guess is not None and planar and gn.converged:
+    if guess is not None and gn.converged and on_target_plane(Wpts):
         converged, message = _compare_with_linear_start(K, Ipts, Wpts, mask, huber_px, gn)
     check = cross_check(gn, graph)
     if not check.agree:
@@ -244,7 +247,8 @@ def _compare_with_linear_start(K, Ipts, Wpts, mask, huber_px, gn):
         other = gauss_newton(K, linear, Ipts, Wpts, mask=mask, huber_px=huber_px)
     except InputError:
         return True, "ok"  # no usable homography start: nothing to compare with
-    mine, theirs = _cost(gn, huber_px), _cost(other, huber_px)
+    mine = reprojection_cost(gn.residuals[:, mask], huber_px)
+    theirs = reprojection_cost(other.residuals[:, mask], huber_px)
     dt, dr = pose_difference(gn.T_WC, other.T_WC)
     elsewhere = dt > AGREE_TRANSLATION_M or dr > AGREE_ROTATION_DEG  # not the same minimum
     if other.converged and elsewhere and theirs < mine * (1 - _COST_MARGIN):
@@ -255,19 +259,23 @@ def _compare_with_linear_start(K, Ipts, Wpts, mask, huber_px, gn):
     return True, "ok"
 
 
-def _cost(result: GNResult, huber_px):
-    r = result.residuals[:, result.mask]
-    e = np.hypot(r[0], r[1])
-    if huber_px is None:
-        return 0.5 * float(np.sum(e * e))
-    return float(np.sum(np.where(e <= huber_px, 0.5 * e * e, huber_px * (e - 0.5 * huber_px))))
-
-
 def pose_difference(T_a, T_b):
     """Distance (m) between two camera positions and angle (degrees) of their relative rotation.
 
     The angle comes from ``atan2`` of the skew and symmetric parts, accurate for tiny angles
     (``arccos`` of the trace loses half the digits there).
+
+    Parameters
+    ----------
+    T_a, T_b : (4, 4) array_like
+        Camera poses T_WC (trusted: rigid transforms).
+
+    Returns
+    -------
+    translation_m : float
+        ``|t_a - t_b|``, metres.
+    rotation_deg : float
+        Angle of ``C_a^T C_b``, degrees in [0, 180].
     """
     R = np.asarray(T_a)[:3, :3].T @ np.asarray(T_b)[:3, :3]
     s = 0.5 * np.linalg.norm([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
@@ -276,7 +284,21 @@ def pose_difference(T_a, T_b):
 
 
 def cross_check(gn: GNResult, graph: GraphResult) -> CrossCheck:
-    """Compare the Gauss-Newton and GTSAM poses (see :class:`CrossCheck`)."""
+    """Compare the Gauss-Newton and GTSAM poses.
+
+    Parameters
+    ----------
+    gn : GNResult
+        The Gauss-Newton solution.
+    graph : GraphResult
+        The GTSAM solution from the same start.
+
+    Returns
+    -------
+    CrossCheck
+        Their difference; ``agree`` needs both converged and the difference within
+        :data:`AGREE_TRANSLATION_M` and :data:`AGREE_ROTATION_DEG`.
+    """
     dt, dr = pose_difference(gn.T_WC, graph.T_WC)
     agree = gn.converged and graph.converged and dt <= AGREE_TRANSLATION_M and dr <= AGREE_ROTATION_DEG
     return CrossCheck(translation_m=dt, rotation_deg=dr, agree=bool(agree))

@@ -7,7 +7,13 @@ from conftest import real_file
 
 from graphpose import Board, ConvergenceError, InputError
 from graphpose.camera import C_from_rpy, T_from_params, params_from_T, project
-from graphpose.gauss_newton import find_jacobian, gauss_newton, pose_estimate_nls, projection_jacobians
+from graphpose.gauss_newton import (
+    find_jacobian,
+    gauss_newton,
+    pose_estimate_nls,
+    projection_jacobians,
+    reprojection_cost,
+)
 from graphpose.homography import pose_from_homography
 
 K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
@@ -245,6 +251,13 @@ def test_bad_input_is_refused(change, match):
     args = dict(K=K, T_guess=T, Ipts=project(K, T, WPTS), Wpts=WPTS)
     with pytest.raises(InputError, match=match):
         gauss_newton(**change(args))
+
+
+def test_reprojection_cost_plain_and_huber():
+    r = np.array([[3.0, 0.0, 0.3], [4.0, 0.5, 0.4]])  # point errors 5, 0.5, 0.5 px
+    assert reprojection_cost(r) == pytest.approx(0.5 * (25 + 0.25 + 0.25), rel=1e-15)
+    assert reprojection_cost(r, huber_px=1.0) == pytest.approx(1.0 * (5 - 0.5) + 0.125 + 0.125, rel=1e-15)
+    assert reprojection_cost(r, huber_px=10.0) == reprojection_cost(r)
 
 
 def test_behind_the_camera_message_names_the_callers_index():

@@ -4,7 +4,7 @@ import pytest
 from graphpose import Board, InputError
 from graphpose.camera import T_from_params, project, to_camera
 from graphpose.gauss_newton import gauss_newton
-from graphpose.homography import homography_dlt, pose_from_homography
+from graphpose.homography import homography_dlt, on_target_plane, pose_from_homography
 
 K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
 WPTS = Board().world_points()
@@ -79,6 +79,17 @@ def test_off_plane_points_are_refused():
     W[2, 5] = 0.01
     with pytest.raises(InputError, match="z = 0"):
         pose_from_homography(K, project(K, T_from_params([0.2, 0.1, -0.9, 0, 0, 0]), W), W)
+
+
+def test_on_target_plane_tolerance_is_relative_to_the_extent():
+    W = WPTS.copy()
+    assert on_target_plane(W)
+    W[2, 5] = 0.9e-6  # extent 0.4445 m < 1 m: the tolerance is 1e-6 m
+    assert on_target_plane(W)
+    W[2, 5] = -1.1e-6
+    assert not on_target_plane(W)
+    W[:2] *= 10  # extent 4.445 m: the tolerance is 4.445e-6 m
+    assert on_target_plane(W)
 
 
 @pytest.mark.parametrize(

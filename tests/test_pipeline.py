@@ -150,6 +150,10 @@ def test_guess_in_another_minimum_is_reported_not_hidden():
     assert not est.converged and not est.ok
     assert "local minimum" in est.message and "guess=None" in est.message
     assert_good(estimate_pose_from_points(K, I, WPTS))
+    # Target points off z = 0 by rounding (the homography accepts them) get the same check.
+    W_rounded = WPTS + [[0.0], [0.0], [1e-9]] * (np.arange(48) % 2)
+    est = estimate_pose_from_points(K, I, W_rounded, guess=_mirror(T, centre))
+    assert not est.converged and "local minimum" in est.message
     # Started at the truth, the same check stays quiet.
     assert_good(estimate_pose_from_points(K, I, WPTS, guess=T))
 
