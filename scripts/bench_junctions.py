@@ -193,8 +193,8 @@ def speed(cv2, repeats):
     print("### Speed: one 640 x 480 image in memory (median ms over the six real images)\n")
     print("extract_junctions is given the board's polygon. findChessboardCornersSB is timed twice: on the "
           "whole image, which is how each tool is used (SB takes no polygon and searches everything), and on "
-          f"the polygon's bounding box plus {CROP_MARGIN} px, the closer peer (about the region ours is told "
-          "about). The times include failed searches.\n")
+          f"the polygon's bounding box plus {CROP_MARGIN} px, the closer peer (roughly the region ours is "
+          "given). The times include failed searches.\n")
     print(f"| extract_junctions (polygon given) | SB, whole image | SB whole / ours | SB, bounding box + {CROP_MARGIN} px "
           "| SB box / ours | SB found the board in the box |")
     print("|---|---|---|---|---|---|")
