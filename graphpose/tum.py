@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .camera import check_transform
+from .camera import as_float_array, check_transform
 from .errors import InputError
 from .io import atomic_write
 
@@ -63,6 +63,7 @@ def write_tum(path, timestamps, poses, header: str | None = None) -> Path:
         Seconds, finite.
     poses : (N, 4, 4) array_like
         Camera poses ``T_WC`` in the target frame; each must be a valid rigid transform.
+        N may be 0 (``[]`` too): the file then holds only the header.
     header : str, optional
         Text written first as ``#`` comment lines.
 
@@ -74,12 +75,14 @@ def write_tum(path, timestamps, poses, header: str | None = None) -> Path:
     Raises
     ------
     InputError
-        If the shapes disagree, a timestamp is not finite, a pose is not a rigid transform,
+        If an input is not an array of numbers, the shapes disagree, a timestamp is not finite, a pose is not a rigid transform,
         or the file cannot be written (missing folder, no permission; the message names the
         path).
     """
-    t = np.asarray(timestamps, dtype=float).reshape(-1)
-    T = np.asarray(poses, dtype=float)
+    t = as_float_array(timestamps, "timestamps").reshape(-1)
+    T = as_float_array(poses, "poses")
+    if T.size == 0 and t.size == 0:
+        T = T.reshape(0, 4, 4)  # an empty list of poses (every frame lost) is an empty trajectory
     if T.ndim != 3 or T.shape[1:] != (4, 4):
         raise InputError(f"poses must have shape (N, 4, 4), got {T.shape}")
     if T.shape[0] != t.size:

@@ -36,6 +36,8 @@ def test_quaternion_order_is_xyzw_with_translation_first(tmp_path):
 def test_empty_and_comments(tmp_path):
     path = write_tum(tmp_path / "empty.txt", [], np.zeros((0, 4, 4)))
     assert len(read_tum(path)) == 0
+    path = write_tum(tmp_path / "lists.txt", [], [], header="every frame lost")  # plain empty lists
+    assert path.read_text() == "# every frame lost\n" and len(read_tum(path)) == 0
     (tmp_path / "c.txt").write_text("# header\n\n0 1 2 3 0 0 0 1\n")
     traj = read_tum(tmp_path / "c.txt")
     np.testing.assert_allclose(traj.poses[0][:3, 3], [1, 2, 3])
@@ -69,6 +71,12 @@ def test_write_rejects_bad_input(tmp_path):
         write_tum(tmp_path / "x.txt", [0.0], np.eye(4))
     with pytest.raises(InputError, match="entries"):
         write_tum(tmp_path / "x.txt", [0.0, 1.0], [np.eye(4)])
+    with pytest.raises(InputError, match=r"\(N, 4, 4\)"):
+        write_tum(tmp_path / "x.txt", [0.0], [])
+    with pytest.raises(InputError, match="poses must be a rectangular array"):
+        write_tum(tmp_path / "x.txt", [0.0, 1.0], [np.eye(4), np.eye(3)])
+    with pytest.raises(InputError, match="timestamps must be a rectangular array"):
+        write_tum(tmp_path / "x.txt", ["0.0"], [np.eye(4)])
     with pytest.raises(InputError, match="NaN"):
         write_tum(tmp_path / "x.txt", [np.nan], [np.eye(4)])
     bad = np.eye(4)
