@@ -31,7 +31,6 @@ Files written by :func:`write_sequence`::
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -40,7 +39,8 @@ import numpy as np
 from .board import Board
 from .camera import check_K, project, rot_x, rot_y, rot_z, to_camera
 from .errors import InputError
-from .render import loose_polygon, render, render_ideal
+from .io import write_json, write_png
+from .render import _check_board, _check_number, _check_size, loose_polygon, render, render_ideal
 from .tum import write_tum
 
 #: Border, pixels, inside which a junction counts as visible.
@@ -164,7 +164,7 @@ class HandHeldMotion:
 
     def _first_full_view(self, rng, tries: int = 200) -> float:
         """A start time whose frame shows the whole sheet, 10 px inside the image."""
-        sheet = _sheet_corners(self.board)
+        sheet = self.board.sheet_corners()
         for _ in range(tries):
             start = rng.uniform(0.0, 30.0)
             for wave in self._slow:
@@ -174,13 +174,6 @@ class HandHeldMotion:
             if np.all(to_camera(T, sheet)[2] > 0) and np.all((uv >= 10) & (uv.T <= np.array(self.size) - 11).T):
                 return start
         raise InputError("no start time shows the whole board; use a larger distance range")
-
-
-def _sheet_corners(board: Board, margin: float = 0.5) -> np.ndarray:
-    """The sheet's corners (squares area plus ``margin`` squares) in the target frame, (3, 4)."""
-    s = board.square_m
-    lo, hx, hy = -(1 + margin) * s, (board.cols + margin) * s, (board.rows + margin) * s
-    return np.array([[lo, hx, hx, lo], [lo, lo, hy, hy], [0.0, 0.0, 0.0, 0.0]])
 
 
 class _Wave:
@@ -236,7 +229,8 @@ def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(),
     n_frames : int
         Frames to render, >= 2.
     rng : numpy.random.Generator, int or None
-        Source of randomness (motion, noise, first polygon).
+        Source of randomness (motion, noise, first polygon); an int (>= 0) seeds a new
+        generator, None draws fresh entropy.
     board : Board
         The target.
     size : (int, int)
@@ -254,10 +248,10 @@ def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(),
     blur_threshold_px : float
         Junction motion during the exposure above which a frame gets motion blur, pixels.
     max_subframes : int
-        Most ideal renders averaged for one frame.
+        Most ideal renders averaged for one frame, >= 1.
     supersample : int
-        Passed to :func:`graphpose.render.render_ideal` (2 keeps junctions within ~0.002 px
-        of finer grids at a fraction of the cost).
+        Passed to :func:`graphpose.render.render_ideal`, >= 1 (2 keeps junctions within
+        ~0.002 px of finer grids at a fraction of the cost).
     progress : callable, optional
         Called as ``progress(k, n_frames)`` after each frame.
 
@@ -268,16 +262,29 @@ def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(),
     Raises
     ------
     InputError
-        If K is invalid or a count or rate is out of range.
+        Before any rendering: if K is invalid, ``board`` is not a :class:`Board`, ``size``
+        is not two positive integers, ``n_frames`` is not an integer >= 2, ``fps`` is not a
+        positive finite number, ``noise_sigma``, ``blur_sigma`` or ``blur_threshold_px`` is
+        negative or not finite, ``distance`` is not ``(near, far)`` with
+        ``0 < near <= far``, ``excursions`` is not an integer >= 0, ``max_subframes`` or
+        ``supersample`` is not an integer >= 1, or ``rng`` is neither a Generator, a seed
+        >= 0 nor None. Also if no start time of the drawn motion shows the whole board.
     """
     K = check_K(K)
-    if not isinstance(n_frames, (int, np.integer)) or n_frames < 2:
-        raise InputError(f"n_frames must be an integer >= 2, got {n_frames!r}")
-    if not (np.isfinite(fps) and fps > 0):
+    _check_board(board)
+    size = _check_size(size)
+    _check_count("n_frames", n_frames, 2)
+    _check_count("excursions", excursions, 0)
+    _check_count("max_subframes", max_subframes, 1)
+    _check_count("supersample", supersample, 1)
+    fps = _check_number("fps", fps, 0.0)
+    if fps == 0:
         raise InputError(f"fps must be a positive number, got {fps!r}")
-    if not isinstance(excursions, (int, np.integer)) or excursions < 0:
-        raise InputError(f"excursions must be an integer >= 0, got {excursions!r}")
-    rng = np.random.default_rng(rng)
+    for name, value in (("noise_sigma", noise_sigma), ("blur_sigma", blur_sigma),
+                        ("blur_threshold_px", blur_threshold_px)):
+        _check_number(name, value, 0.0)
+    distance = _check_distance(distance)
+    rng = _generator(rng)
     motion = HandHeldMotion(rng, K, board, size, n_frames / fps, distance=distance, excursions=excursions)
     times = np.arange(n_frames) / fps
     ideal = dict(blur_sigma=blur_sigma, supersample=supersample, background=60.0, white=215.0, black=35.0)
@@ -285,13 +292,14 @@ def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(),
     background = render_ideal(K, motion(0.0), board, size, **{**ideal, "white": 60.0, "black": 60.0})
     images, poses, visible, subframes = [], [], [], []
     W = board.world_points()
+    sheet = board.sheet_corners()
+    exposure = 0.5 / fps
     for k, t in enumerate(times):
         T = motion(t)
-        exposure = 0.5 / fps
         travel = np.max(np.linalg.norm(project(K, motion(t + exposure / 2), W) - project(K, motion(t - exposure / 2), W), axis=0))
         m = 1 if travel < blur_threshold_px else int(min(max_subframes, np.ceil(travel / 1.5) + 1))
-        offsets = (np.arange(m) + 0.5) / m - 0.5 if m > 1 else np.zeros(1)
-        image = np.mean([_ideal(K, motion(t + o * exposure), board, size, ideal, background) for o in offsets], axis=0)
+        sub = [T] if m == 1 else [motion(t + ((i + 0.5) / m - 0.5) * exposure) for i in range(m)]
+        image = np.mean([_ideal(K, S, board, size, ideal, background, sheet) for S in sub], axis=0)
         image += rng.normal(0.0, noise_sigma, image.shape)
         images.append(np.clip(np.rint(image), 0, 255).astype(np.uint8))
         poses.append(T)
@@ -304,10 +312,33 @@ def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(),
                     loose_polygon(first, rng), K, board, float(fps))
 
 
-def _ideal(K, T, board, size, ideal, background) -> np.ndarray:
-    """Ideal render, or the plain background when a whip pan turns the sheet behind the
-    camera (which the renderer rightly refuses)."""
-    if np.any(to_camera(T, _sheet_corners(board))[2] <= 1e-3):
+def _check_count(name, value, minimum) -> None:
+    if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < minimum:
+        raise InputError(f"{name} must be an integer >= {minimum}, got {value!r}")
+
+
+def _check_distance(distance) -> tuple:
+    try:
+        near, far = distance
+    except (TypeError, ValueError):
+        raise InputError(f"distance must be (near, far) metres, got {distance!r}") from None
+    near, far = _check_number("distance near", near, 0.0), _check_number("distance far", far, 0.0)
+    if not 0 < near <= far:
+        raise InputError(f"distance must be (near, far) metres with 0 < near <= far, got {distance!r}")
+    return near, far
+
+
+def _generator(rng) -> np.random.Generator:
+    try:
+        return np.random.default_rng(rng)
+    except (TypeError, ValueError):
+        raise InputError(f"rng must be a numpy Generator, an integer seed >= 0 or None, got {rng!r}") from None
+
+
+def _ideal(K, T, board, size, ideal, background, sheet) -> np.ndarray:
+    """Ideal render, or the plain background when a whip pan turns the sheet (``sheet``,
+    its corners in the target frame) behind the camera (which the renderer rightly refuses)."""
+    if np.any(to_camera(T, sheet)[2] <= 1e-3):
         return background
     return render_ideal(K, T, board, size, **ideal)
 
@@ -334,13 +365,21 @@ def write_sequence(sequence: Sequence, out_dir) -> Path:
     -------
     Path
         The folder.
-    """
-    from skimage import io as skio
 
+    Raises
+    ------
+    InputError
+        If the folder cannot be created (a file in the way, no permission) or a file cannot
+        be written; each file is written whole or not at all
+        (:func:`graphpose.io.atomic_write`), files written before the failure stay.
+    """
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create folder {out}: {exc.strerror or exc}") from None
     for k, image in enumerate(sequence.images):
-        skio.imsave(out / f"frame_{k:05d}.png", image, check_contrast=False)
+        write_png(out / f"frame_{k:05d}.png", image)
     write_tum(out / "truth.tum", sequence.timestamps, sequence.T_WC,
               header="true camera pose T_WC in the target frame, every frame (graphpose render-sequence)")
     b = sequence.board
@@ -354,5 +393,5 @@ def write_sequence(sequence: Sequence, out_dir) -> Path:
         "out_of_view": np.flatnonzero(sequence.out_of_view).tolist(),
         "subframes": sequence.subframes.tolist(),
     }
-    (out / "bounds.json").write_text(json.dumps(meta, indent=1) + "\n")
+    write_json(out / "bounds.json", meta)
     return out

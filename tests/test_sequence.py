@@ -81,8 +81,24 @@ def test_write_sequence_round_trip(short, tmp_path):
 
 @pytest.mark.parametrize(
     "kwargs, message",
-    [({"n_frames": 1}, "n_frames"), ({"fps": 0.0}, "fps"), ({"excursions": -1}, "excursions")],
+    [({"n_frames": 1}, "n_frames"), ({"n_frames": 5.0}, "n_frames"), ({"fps": 0.0}, "fps"),
+     ({"excursions": -1}, "excursions"), ({"noise_sigma": -1.0}, "noise_sigma"),
+     ({"blur_sigma": float("nan")}, "blur_sigma"), ({"blur_threshold_px": -2.0}, "blur_threshold_px"),
+     ({"size": (640,)}, "size"), ({"size": (640, 0)}, "size height"), ({"distance": (1.3, 0.6)}, "near <= far"),
+     ({"distance": (0.0, 1.0)}, "near <= far"), ({"distance": 1.0}, r"distance must be \(near, far\)"),
+     ({"distance": ("a", 1.0)}, "distance near"), ({"max_subframes": 0}, "max_subframes"),
+     ({"supersample": 0}, "supersample"), ({"rng": -1}, "rng must be"), ({"board": "8x6"}, "board must be")],
 )
 def test_render_sequence_rejects(kwargs, message):
     with pytest.raises(InputError, match=message):
         render_sequence(K, **{"n_frames": 5, **kwargs})
+
+
+def test_write_sequence_failures_are_input_errors(short, tmp_path):
+    (tmp_path / "file").write_text("in the way")
+    with pytest.raises(InputError, match="cannot create folder .*file"):
+        write_sequence(short, tmp_path / "file")
+    (tmp_path / "seq" / "frame_00002.png").mkdir(parents=True)  # a folder where a frame goes
+    with pytest.raises(InputError, match="cannot write .*frame_00002.png"):
+        write_sequence(short, tmp_path / "seq")
+    assert not (tmp_path / "seq" / "truth.tum").exists()
