@@ -110,10 +110,10 @@ import numpy as np
 from gtsam.symbol_shorthand import L, V, X
 
 from .board import Board
-from .camera import as_points, check_K, project, to_camera
+from .camera import as_float_array, as_points, check_K, project, to_camera
 from .errors import BoardNotFoundError, InputError
 from .gauss_newton import gauss_newton
-from .graph import LANDMARK_SIGMA_M, params_from_tangent_jacobian
+from .graph import LANDMARK_SIGMA_M, params_cov_from_tangent
 from .homography import pose_from_homography
 from .io import as_grey, read_image
 from .junctions import extract_junctions, refine_junctions
@@ -235,8 +235,8 @@ class SequenceGraph:
 
     Parameters
     ----------
-    K : (3, 3) ndarray
-        Intrinsics (validated by the caller).
+    K : (3, 3) array_like
+        Intrinsics, pixels.
     board : Board
         The target.
     motion : MotionPrior
@@ -252,7 +252,8 @@ class SequenceGraph:
     Raises
     ------
     InputError
-        If ``target`` is not one of :data:`TARGET_FORMS`.
+        If ``K`` is invalid (:func:`graphpose.camera.check_K`) or ``target`` is not one of
+        :data:`TARGET_FORMS`.
     """
 
     def __init__(self, K, board: Board, motion: MotionPrior, target: str = "resection",
@@ -262,7 +263,7 @@ class SequenceGraph:
         self.board = board
         self.motion = motion
         self.target = target
-        self._K = np.asarray(K, dtype=float)
+        K = self._K = check_K(K)
         self._Wpts = board.world_points()
         self._cal = gtsam.Cal3_S2(K[0, 0], K[1, 1], K[0, 1], K[0, 2], K[1, 2])
         self._pin = gtsam.noiseModel.Isotropic.Sigma(3, landmark_sigma_m)
@@ -333,7 +334,7 @@ class SequenceGraph:
         self._pending = gtsam.NonlinearFactorGraph()
         self._pending_values = gtsam.Values()
         T = pose.matrix()
-        return BackendResult(T, _params_cov(T, cov), update_s)
+        return BackendResult(T, params_cov_from_tangent(T, cov), update_s)
 
     def estimate(self) -> dict:
         """iSAM2's current estimate of every frame: ``{k: (4, 4) T_WC}``."""
@@ -358,7 +359,7 @@ class SequenceGraph:
         out = {}
         for k in self._frames:
             T = values.atPose3(X(k)).matrix()
-            out[k] = BackendResult(T, _params_cov(T, marginals.marginalCovariance(X(k))))
+            out[k] = BackendResult(T, params_cov_from_tangent(T, marginals.marginalCovariance(X(k))))
         return out
 
     def landmark_key(self, k: int, j: int) -> int:
@@ -505,12 +506,6 @@ def _constant_velocity_factor(ka, kb, kc, ratio: float, noise) -> gtsam.CustomFa
         return v2 - ratio * v1
 
     return gtsam.CustomFactor(noise, [ka, kb, kc], error)
-
-
-def _params_cov(T, cov_tangent) -> np.ndarray:
-    """Tangent covariance (rotation, translation; GTSAM) to (x, y, z, roll, pitch, yaw)."""
-    A = params_from_tangent_jacobian(T)
-    return A @ cov_tangent @ A.T
 
 
 def _check_setting(name, value, minimum=0.0, *, strict=True, maximum=None) -> None:
@@ -919,7 +914,7 @@ def _timestamps(timestamps, fps, n):
         if not (np.isfinite(fps) and fps > 0):
             raise InputError(f"fps must be a positive number, got {fps!r}")
         return np.arange(n) / float(fps)
-    t = np.asarray(timestamps, dtype=float).reshape(-1)
+    t = as_float_array(timestamps, "timestamps").reshape(-1)
     if t.size != n:
         raise InputError(f"timestamps has {t.size} entries for {n} frames")
     _check_timestamps(t, "timestamps")
@@ -939,7 +934,7 @@ def _polygons(polygons, bounds, n):
 
 
 def _check_poly(P, name):
-    P = np.asarray(P, dtype=float)
+    P = as_float_array(P, name)
     if P.shape != (2, 4) or not np.all(np.isfinite(P)):
         raise InputError(f"{name} must be a finite (2, 4) polygon (u row, v row), got shape {P.shape}")
     return P
@@ -951,7 +946,7 @@ class _Tracker:
     def __init__(self, K, board, config):
         self.K, self.board, self.config = K, board, config
         self.Wpts = board.world_points()
-        self.sheet_W = _sheet_corners(board)
+        self.sheet_W = board.sheet_corners()
         self.graph = SequenceGraph(K, board, config.motion, target=config.target)
         self.recent = []  # (k, timestamp, T_WC) of the last two tracked frames, consecutive
         self.last_outline = None  # outline of the last frame with the whole sheet in view
@@ -1101,14 +1096,6 @@ def _attempt(method, *args):
         return method(*args)
     except InputError as exc:
         return None, f"{method.__name__.strip('_')} failed: {exc}"
-
-
-def _sheet_corners(board: Board, margin: float = 0.5) -> np.ndarray:
-    """Outline of the board's squares area plus ``margin`` squares, target frame (3, 4),
-    clockwise in the image from the corner nearest the upper-left junction."""
-    s = board.square_m
-    lo, hx, hy = -(1 + margin) * s, (board.cols + margin) * s, (board.rows + margin) * s
-    return np.array([[lo, hx, hx, lo], [lo, lo, hy, hy], [0.0, 0.0, 0.0, 0.0]])
 
 
 def _square_px(K, T_WC, Wpts, uv, square_m) -> np.ndarray:

@@ -422,7 +422,85 @@ def test_cli_track_usage_errors(tmp_path, capsys):
     assert "no image files" in capsys.readouterr().err
     assert main(["track", str(tmp_path / "a.png"), "--bounds", "1,2,3"]) == 2
     assert "bounds needs 8 numbers" in capsys.readouterr().err
-    assert main(["render-sequence", str(tmp_path), "--frames", "1"]) == 2
+    assert main(["track", str(tmp_path / "a.png"), str(tmp_path / "b.png")]) == 2
+    assert "frame file(s) not found: " in capsys.readouterr().err
+    assert main(["track", str(tmp_path), "--fps", "0"]) == 2
+    assert "--fps: expected a positive number, got '0'" in capsys.readouterr().err
+
+
+@pytest.fixture
+def blank_frames(tmp_path):
+    """Two frames without a board."""
+    from graphpose.io import write_png
+
+    folder = tmp_path / "blank"
+    folder.mkdir()
+    for k in range(2):
+        write_png(folder / f"f{k}.png", np.full((48, 64), 128, np.uint8))
+    return folder
+
+
+def test_cli_track_exits_1_when_every_frame_is_lost(blank_frames, tmp_path, capsys):
+    from graphpose.cli import main
+    from graphpose.tum import read_tum
+
+    tum = tmp_path / "est.tum"
+    assert main(["track", str(blank_frames), "--tum", str(tum)]) == 1
+    assert "2 frames: tracked 0, detected 0, lost 2" in capsys.readouterr().out
+    assert len(read_tum(tum)) == 0
+
+
+@pytest.mark.parametrize(
+    "document, message",
+    [(None, "--polygons file not found"), ("{not json", "cannot read --polygons file"),
+     ('{"0": null}', "must hold a JSON list"), ('[[[1, 2, 3, 4], [1, 2]], null]', "entry 0 must be a rectangular"),
+     ('[null, [["a", "b", "c", "d"], [1, 2, 3, 4]]]', "entry 1 must be a rectangular"),
+     ('[[[1, 2, 3], [1, 2, 3]], null]', "polygons[0] must be a finite (2, 4) polygon"),
+     ("[null]", "polygons has 1 entries for 2 frames")],
+)
+def test_cli_track_rejects_bad_polygons_files(blank_frames, tmp_path, capsys, document, message):
+    from graphpose.cli import main
+
+    path = tmp_path / "polygons.json"
+    if document is not None:
+        path.write_text(document)
+    assert main(["track", str(blank_frames), "--polygons", str(path)]) == 2
+    assert message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("option", ["--tum", "--json", "--plot"])
+def test_cli_track_refuses_output_into_a_missing_folder(blank_frames, tmp_path, capsys, option):
+    from graphpose.cli import main
+
+    assert main(["track", str(blank_frames), option, str(tmp_path / "no" / "out")]) == 2
+    assert f"{option}: folder {tmp_path / 'no'} does not exist" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [(["--frames", "1"], "--frames: expected an integer >= 2, got '1'"),
+     (["--seed", "-1"], "--seed: expected an integer >= 0, got '-1'"),
+     (["--excursions", "-1"], "--excursions: expected an integer >= 0, got '-1'"),
+     (["--noise", "-1"], "--noise: expected a number >= 0, got '-1'"),
+     (["--blur", "nan"], "--blur: expected a number >= 0, got 'nan'"),
+     (["--fps", "0"], "--fps: expected a positive number, got '0'"),
+     (["--distance", "1"], "--distance: expected NEAR,FAR in metres, got '1'"),
+     (["--distance", "1.3,0.6"], "--distance: expected 0 < NEAR <= FAR, got '1.3,0.6'")],
+)
+def test_cli_render_sequence_usage_errors(tmp_path, capsys, args, message):
+    from graphpose.cli import main
+
+    assert main(["render-sequence", str(tmp_path / "seq"), *args]) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "seq").exists()
+
+
+def test_cli_render_sequence_into_a_file_is_a_usage_error(tmp_path, capsys):
+    from graphpose.cli import main
+
+    (tmp_path / "seq").write_text("in the way")
+    assert main(["render-sequence", str(tmp_path / "seq"), "--frames", "2", "--excursions", "0", "-q"]) == 2
+    assert "cannot create folder" in capsys.readouterr().err
 
 
 def test_all_cpp_back_end_from_the_command_line_matches_the_default(tmp_path):

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..camera import as_float_array
 from ..errors import InputError
 from ..io import read_json
 from ..tracking import MOTION_MODELS, TARGET_FORMS
@@ -130,7 +131,7 @@ def _read_polygons(path: Path) -> list:
     doc = read_json(path, "--polygons file")
     if not isinstance(doc, list):
         raise InputError(f"--polygons {path} must hold a JSON list (one 2 x 4 polygon or null per frame)")
-    return [None if p is None else np.asarray(p, dtype=float) for p in doc]
+    return [None if p is None else as_float_array(p, f"--polygons {path} entry {k}") for k, p in enumerate(doc)]
 
 
 def _record(f, path) -> dict:
