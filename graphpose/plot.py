@@ -11,6 +11,7 @@ import io
 import numpy as np
 
 from .board import Board
+from .camera import as_float_array
 from .errors import InputError
 from .io import atomic_write
 
@@ -38,8 +39,8 @@ def plot_track(track, path, *, board: Board = Board(), truth=None, title: str = 
     Raises
     ------
     InputError
-        If matplotlib is not installed, ``truth`` does not have one pose per frame, or the
-        file cannot be written.
+        If matplotlib is not installed, ``truth`` is not an array of numbers with one pose per
+        frame, or the file cannot be written.
     """
     try:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -49,7 +50,7 @@ def plot_track(track, path, *, board: Board = Board(), truth=None, title: str = 
     frames = track.best_frames()
     poses = track.poses("best")
     if truth is not None:
-        truth = np.asarray(truth, dtype=float)
+        truth = as_float_array(truth, "truth")
         if truth.shape != poses.shape:
             raise InputError(f"truth must hold one 4 x 4 pose per frame, shape {poses.shape}, got {truth.shape}")
     figure = Figure(figsize=(11, 7.5), layout="constrained")
