@@ -16,8 +16,11 @@ in this run. OpenCV (the peer) is imported here only.
    in, so no alignment (no Umeyama/SE(3) fit) is applied: the errors are absolute.
 4. Lost frames: every frame with the board out of view must be lost; recovery after each pan.
 5. Speed: per-frame front end (junctions + single-frame fit) + back end (the frame's factors,
-   iSAM2 update, marginal), median; back-end time at frame 10 and at the last frame (single
-   values and medians of 11-frame windows). Then the tracked frames' junctions replayed into
+   iSAM2 update, marginal), median, against OpenCV's per-frame time on the SAME frames (those
+   both found); and, like for like with OpenCV's per-frame detection, graphpose's single-frame
+   pipeline without tracking on those frames (extract_junctions over the whole image,
+   pose_from_homography, gauss_newton; quick: every third of them). Back-end time at frame 10
+   and at the last frame (single values and medians of 11-frame windows). Then the tracked frames' junctions replayed into
    each back-end form (resection, landmarks, frame_landmarks) with each motion prior
    (constant_velocity, random_walk, wnoa): median
    and growth of the back-end time, batch smoothing time, and the poses' agreement with the
@@ -70,6 +73,35 @@ def _errors(P, truth):
 
 def _rmse(x, mask):
     return float(np.sqrt(np.mean(x[mask] ** 2))) if mask.any() else float("nan")
+
+
+def _median(x, mask):
+    """Median of ``x[mask]``; NaN (printed as nan) for an empty selection, without a warning."""
+    return float(np.median(x[mask])) if np.any(mask) else float("nan")
+
+
+def _single_frame_times(images, K, board, frames):
+    """graphpose on each chosen frame alone, as OpenCV runs: (ms (m,), found (m,) bool)."""
+    from graphpose.errors import BoardNotFoundError, InputError
+    from graphpose.gauss_newton import gauss_newton
+    from graphpose.homography import pose_from_homography
+    from graphpose.junctions import extract_junctions
+
+    W = board.world_points()
+    ms, ok = np.full(len(frames), np.nan), np.zeros(len(frames), dtype=bool)
+    for i, k in enumerate(frames):
+        h, w = images[k].shape
+        whole = np.array([[0.0, w - 1.0, w - 1.0, 0.0], [0.0, 0.0, h - 1.0, h - 1.0]])
+        start = time.perf_counter()
+        try:
+            J = extract_junctions(images[k], whole, board)
+            use = J.trusted
+            T0 = pose_from_homography(K, J.points[:, use], W[:, use])
+            ok[i] = gauss_newton(K, T0, J.points[:, use], W[:, use]).converged
+        except (BoardNotFoundError, InputError):
+            pass
+        ms[i] = (time.perf_counter() - start) * 1000
+    return ms, ok
 
 
 def main(quick: bool = False) -> None:
@@ -155,13 +187,25 @@ def main(quick: bool = False) -> None:
 
     # ------------------------------------------------------------------- speed
     frames = [f for f in track.frames if f.status != LOST]
-    per_frame = np.array([f.frontend_s + f.update_s for f in frames]) * 1000
-    tracked = np.array([f.frontend_s + f.update_s for f in frames if f.status == "tracked"]) * 1000
-    front = np.median([f.frontend_s for f in frames if f.status == "tracked"]) * 1000
-    cv_med = np.median(np.array(cv_times)[cv_found]) * 1000
-    print(f"speed per frame (median, ms): graphpose tracked frames {np.median(tracked):.2f} (front end "
-          f"{front:.2f} + back end {np.median([f.update_s for f in frames]) * 1000:.2f}); all frames with a pose "
-          f"{np.median(per_frame):.2f}; OpenCV per frame {cv_med:.2f} (ratio {cv_med / np.median(tracked):.2f}x)")
+    cv_ms = np.array(cv_times) * 1000
+    ours_ms = np.array([f.frontend_s + f.update_s for f in track.frames]) * 1000
+    is_tracked = status == "tracked"
+    front = _median(np.array([f.frontend_s for f in track.frames]) * 1000, is_tracked)
+    back = _median(np.array([f.update_s for f in track.frames]) * 1000, found)
+    print(f"speed per frame (median, ms): graphpose tracked frames {_median(ours_ms, is_tracked):.2f} (front "
+          f"end {front:.2f} + back end {back:.2f}); all frames with a pose {_median(ours_ms, found):.2f}; "
+          f"OpenCV on its {int(cv_found.sum())} frames {_median(cv_ms, cv_found):.2f}")
+    for name, mask in (("tracked by graphpose", is_tracked & cv_found), ("with a graphpose pose", both)):
+        ours_m, cv_m = _median(ours_ms, mask), _median(cv_ms, mask)
+        print(f"  same {int(mask.sum())} frames {name} and found by OpenCV: graphpose {ours_m:.2f}, "
+              f"OpenCV {cv_m:.2f} (ratio OpenCV / graphpose {cv_m / ours_m:.2f}x)")
+    sample = np.flatnonzero(both)[::3 if quick else 1]
+    single_ms, single_ok = _single_frame_times(seq.images, K, board, sample)
+    ok = sample[single_ok]
+    print(f"  single-frame pipeline, no tracking (whole-image extraction + homography + Gauss-Newton), "
+          f"{sample.size} of those frames ({int(single_ok.sum())} found): graphpose {_median(single_ms, single_ok):.2f}, "
+          f"OpenCV {_median(cv_ms, np.isin(np.arange(n), ok)):.2f} on the frames both found "
+          f"(ratio OpenCV / graphpose {_median(cv_ms, np.isin(np.arange(n), ok)) / _median(single_ms, single_ok):.2f}x)")
     config = TrackerConfig()
     print(_update_times(f"back end as tracked ({config.target}, {config.motion.model})",
                         [(f.index, f.update_s) for f in frames]))
@@ -204,9 +248,12 @@ def _compare_forms(K, board, frames):
 def _update_times(name, times, short=False):
     idx = np.array([k for k, _ in times])
     ms = np.array([s for _, s in times]) * 1000
-    early = np.median(ms[(idx >= 5) & (idx <= 15)])
+    if idx.size == 0:
+        return f"{name}: no frame with a pose" if not short else "no frame with a pose"
+    early = _median(ms, (idx >= 5) & (idx <= 15))  # NaN when no frame of 5-15 has a pose
     late = np.median(ms[-11:])
-    window = f"frames 5-15 {early:.2f} -> frames {idx[-11]}-{idx[-1]} {late:.2f} (ratio {late / early:.2f})"
+    window = (f"frames 5-15 {early:.2f} -> frames {idx[-11:][0]}-{idx[-1]} {late:.2f} "
+              f"(ratio {late / early:.2f})")
     if short:
         return window
     at10 = ms[np.argmin(np.abs(idx - 10))]
