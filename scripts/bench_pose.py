@@ -104,10 +104,10 @@ def speed(quick):
 
     import cv2
 
+    from graphpose.camera import project
     from graphpose.gauss_newton import gauss_newton
     from graphpose.graph import graph_pose
     from graphpose.homography import pose_from_homography
-    from graphpose.camera import project
     from graphpose.pipeline import pose_difference
 
     repeats = 30 if quick else 300
