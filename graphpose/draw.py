@@ -15,7 +15,7 @@ from skimage import draw
 from skimage.measure import points_in_poly
 
 from .board import Board
-from .camera import check_K, params_from_T, project, to_camera
+from .camera import check_K, project, to_camera
 from .io import as_grey
 
 #: RGB colours of the overlay's marks.
@@ -41,9 +41,10 @@ def draw_overlay(image, estimate, K, board: Board = Board(), *, bounds=None, lab
     image : (H, W) or (H, W, 3|4) array_like
         The image the estimate came from (any dtype :func:`graphpose.io.as_grey` takes).
     estimate : PoseEstimate
-        Result of :func:`graphpose.pipeline.estimate_pose`; uses ``T_WC``,
-        ``junctions.points`` / ``junctions.trusted``, ``reprojection_rms_px``, ``converged``
-        and ``cross_check.agree``.
+        Result of :func:`graphpose.pipeline.estimate_pose`; uses ``T_WC``, ``params``,
+        ``mask`` (the trusted junctions), ``junctions.points`` (none are marked when
+        ``junctions`` is None, as from :func:`~graphpose.pipeline.estimate_pose_from_points`),
+        ``reprojection_rms_px``, ``converged`` and ``cross_check.agree``.
     K : (3, 3) array_like
         Intrinsics, pixels.
     board : Board
@@ -81,8 +82,9 @@ def draw_overlay(image, estimate, K, board: Board = Board(), *, bounds=None, lab
     for u, v in model.T:
         _plus(canvas, u, v, 3.5 * size, COLOURS["reprojected"], 1.0)
 
-    points = np.asarray(estimate.junctions.points, dtype=float)
-    trusted = np.asarray(estimate.junctions.trusted, dtype=bool)
+    trusted = np.asarray(estimate.mask, dtype=bool)
+    junctions = estimate.junctions
+    points = np.zeros((2, 0)) if junctions is None else np.asarray(junctions.points, dtype=float)
     for (u, v), ok in zip(points.T, trusted):
         if not np.all(np.isfinite([u, v])):
             continue
@@ -96,7 +98,7 @@ def draw_overlay(image, estimate, K, board: Board = Board(), *, bounds=None, lab
     avoid = np.hstack([p for p in (points, model, tips) if p.size] or [np.zeros((2, 0))])
     sheet = None if bounds is None else np.asarray(bounds, dtype=float)
     scale = max(1, int(round(min(canvas.shape[:2]) / 240.0)))
-    _text_box(canvas, _pose_lines(estimate, T, trusted, label), avoid, sheet, scale)
+    _text_box(canvas, _pose_lines(estimate, trusted, label), avoid, sheet, scale)
     return np.clip(np.round(canvas), 0, 255).astype(np.uint8)
 
 
@@ -128,8 +130,8 @@ def _draw_axes(canvas, K, T, length, size) -> np.ndarray:
     return np.hstack([o] + tips)
 
 
-def _pose_lines(estimate, T, trusted, label) -> list:
-    x, y, z, roll, pitch, yaw = params_from_T(T)
+def _pose_lines(estimate, trusted, label) -> list:
+    x, y, z, roll, pitch, yaw = estimate.params
     # Rounded first, so that -0.000001 is not written as "-0.00".
     x, y, z = (round(float(c), 4) + 0.0 for c in (x, y, z))
     roll, pitch, yaw = (round(float(a), 2) + 0.0 for a in np.degrees([roll, pitch, yaw]))

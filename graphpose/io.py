@@ -10,13 +10,15 @@ optional ``square_m`` and ``grid`` (``{"cols": 8, "rows": 6}``), and ``cases``, 
 from __future__ import annotations
 
 import json
+import os
+import secrets
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .board import Board
-from .camera import check_K, check_transform
+from .camera import as_float_array, as_points, check_K, check_transform
 from .errors import InputError
 
 #: ITU-R BT.601 luma weights for R, G, B.
@@ -86,6 +88,11 @@ def read_image(path) -> np.ndarray:
 def read_json(path, what: str = "JSON file"):
     """Parse a JSON file; ``what`` names it in errors ("case file", "pose file", ...).
 
+    Returns
+    -------
+    object
+        The parsed document (dict, list, str, number, bool or None).
+
     Raises
     ------
     InputError
@@ -128,14 +135,21 @@ def load_cases(path) -> CaseFile:
     Raises
     ------
     InputError
-        If the file is missing, not JSON, or a field has the wrong shape.
+        If the file is missing, not JSON, not an object, lacks ``K``, ``cases`` or a case's
+        ``image`` or ``bounds``, or a field has the wrong type or shape.
     """
     path = Path(path)
     doc = read_json(path, "case file")
+    if not isinstance(doc, dict):
+        raise InputError(f"case file {path} must hold a JSON object, got {type(doc).__name__}")
     try:
         K = check_K(doc["K"])
         grid = doc.get("grid", {})
+        if not isinstance(grid, dict):
+            raise InputError(f'case file {path}: grid must be an object like {{"cols": 8, "rows": 6}}, got {grid!r}')
         board = Board(int(grid.get("cols", 8)), int(grid.get("rows", 6)), float(doc.get("square_m", 0.0635)))
+        if not isinstance(doc["cases"], list) or not all(isinstance(c, dict) for c in doc["cases"]):
+            raise InputError(f"case file {path}: cases must be a list of objects")
         cases = [_case(c, path.parent) for c in doc["cases"]]
     except KeyError as exc:
         raise InputError(f"case file {path} lacks the field {exc}") from None
@@ -145,21 +159,25 @@ def load_cases(path) -> CaseFile:
 
 
 def _case(entry: dict, folder: Path) -> Case:
-    bounds = np.asarray(entry["bounds"], dtype=float)
+    image = entry["image"]
+    if not isinstance(image, str):
+        raise InputError(f"a case's image must be a path string, got {image!r}")
+    bounds = as_float_array(entry["bounds"], f"bounds of {image}")
     if bounds.shape != (2, 4):
-        raise InputError(f"bounds of {entry['image']} must be 2 x 4, got {bounds.shape}")
+        raise InputError(f"bounds of {image} must be 2 x 4, got {bounds.shape}")
 
     def optional(key, check):
-        return None if entry.get(key) is None else check(np.asarray(entry[key], dtype=float))
+        return None if entry.get(key) is None else check(f"{key} of {image}", entry[key])
 
     return Case(
-        image=(folder / entry["image"]).resolve(),
+        image=(folder / image).resolve(),
         bounds=bounds,
-        guess_T_WC=optional("guess_T_WC", lambda T: check_transform(T, "guess_T_WC")),
-        ref_junctions=optional("ref_junctions", lambda P: P),
-        ref_T_WC=optional("ref_T_WC", lambda T: T),
-        true_T_WC=optional("true_T_WC", lambda T: check_transform(T, "true_T_WC")),
-        true_junctions=optional("true_junctions", lambda P: P),
+        guess_T_WC=optional("guess_T_WC", lambda name, T: check_transform(T, name)),
+        ref_junctions=optional("ref_junctions", lambda name, P: as_points(P, 2, name)),
+        # An estimate from elsewhere, rounded: only its shape is checked, not its rotation.
+        ref_T_WC=optional("ref_T_WC", lambda name, T: as_float_array(T, name, shape=(4, 4))),
+        true_T_WC=optional("true_T_WC", lambda name, T: check_transform(T, name)),
+        true_junctions=optional("true_junctions", lambda name, P: as_points(P, 2, name)),
     )
 
 
@@ -185,9 +203,6 @@ def atomic_write(path, data) -> None:
     InputError
         If the folder is missing or the file cannot be written (the message names the path).
     """
-    import os
-    import secrets
-
     path = Path(path)
     if isinstance(data, str):
         data = data.encode("utf-8")
@@ -317,20 +332,21 @@ def result_record(image, estimate=None, error=None) -> dict:
         Keys ``image``, ``converged``, ``iterations``, ``T_WC`` (4 x 4), ``xyz_m`` (3),
         ``rpy_deg`` (3, roll pitch yaw), ``sigma_xyz_mm`` (3), ``sigma_rpy_deg`` (3),
         ``reprojection_rms_px``, ``junctions`` (2 x n pixels, null where a junction was not
-        measured), ``trusted`` (n booleans), ``cross_check`` (``translation_m``,
-        ``rotation_deg``, ``agree``) and ``error``. Without an estimate every key but
-        ``image``, ``converged`` (false) and ``error`` is null.
+        measured; null altogether for an estimate from given points, which has no
+        ``junctions``), ``trusted`` (n booleans: the junctions' flags, or the estimate's
+        ``mask`` without junctions), ``cross_check`` (``translation_m``, ``rotation_deg``,
+        ``agree``) and ``error``. Without an estimate every key but ``image``, ``converged``
+        (false) and ``error`` is null.
     """
-    from .camera import params_from_T
-
     record = {"image": str(image), "converged": False, "iterations": None, "T_WC": None,
               "xyz_m": None, "rpy_deg": None, "sigma_xyz_mm": None, "sigma_rpy_deg": None,
               "reprojection_rms_px": None, "junctions": None, "trusted": None,
               "cross_check": None, "error": error}
     if estimate is None:
         return record
-    params = params_from_T(estimate.T_WC)
+    params = np.asarray(estimate.params)
     check = estimate.cross_check
+    junctions = estimate.junctions
     record.update(
         converged=bool(estimate.converged),
         iterations=int(estimate.iterations),
@@ -340,8 +356,8 @@ def result_record(image, estimate=None, error=None) -> dict:
         sigma_xyz_mm=1000.0 * np.asarray(estimate.sigma_xyz_m),
         sigma_rpy_deg=np.degrees(estimate.sigma_rpy_rad),
         reprojection_rms_px=float(estimate.reprojection_rms_px),
-        junctions=np.asarray(estimate.junctions.points),
-        trusted=np.asarray(estimate.junctions.trusted, dtype=bool),
+        junctions=None if junctions is None else np.asarray(junctions.points),
+        trusted=np.asarray(estimate.mask if junctions is None else junctions.trusted, dtype=bool),
         cross_check={"translation_m": float(check.translation_m),
                      "rotation_deg": float(check.rotation_deg), "agree": bool(check.agree)},
     )
@@ -373,7 +389,7 @@ def load_pose(path) -> np.ndarray:
             raise InputError(f"pose file {path} is an object without the key T_WC")
         doc = doc["T_WC"]
     try:
-        T = np.asarray(doc, dtype=float)
-    except (TypeError, ValueError):
+        T = as_float_array(doc, "pose")
+    except InputError:
         raise InputError(f"pose file {path} must hold a 4 x 4 matrix of numbers") from None
     return check_transform(T, f"pose in {path.name}")

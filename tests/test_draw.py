@@ -5,7 +5,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from graphpose import Board, InputError, T_from_params, project
+from graphpose import Board, InputError, T_from_params, params_from_T, project
 from graphpose.draw import COLOURS, draw_overlay, glyph
 
 K = np.array([[500.0, 0.0, 320.0], [0.0, 500.0, 240.0], [0.0, 0.0, 1.0]])
@@ -17,8 +17,8 @@ T_WC = T_from_params([0.075, 0.05, -0.8, 0.0, 0.0, 0.0])
 def _estimate(trusted):
     points = project(K, T_WC, BOARD.world_points())
     junctions = SimpleNamespace(points=points, trusted=np.asarray(trusted, bool))
-    return SimpleNamespace(T_WC=T_WC, junctions=junctions, reprojection_rms_px=0.25, converged=True,
-                           cross_check=SimpleNamespace(agree=True))
+    return SimpleNamespace(T_WC=T_WC, params=params_from_T(T_WC), junctions=junctions, mask=junctions.trusted,
+                           reprojection_rms_px=0.25, converged=True, cross_check=SimpleNamespace(agree=True))
 
 
 def _close(pixel, colour, tol=40):
@@ -111,10 +111,22 @@ def test_cross_check_failure_is_written_in_red():
 def test_camera_behind_the_board_draws_no_projection():
     estimate = _estimate(np.ones(BOARD.n, bool))
     estimate.T_WC = T_from_params([0.075, 0.05, 0.8, 0.0, 0.0, 0.0])  # behind: nothing projects
+    estimate.params = params_from_T(estimate.T_WC)
     estimate.junctions.points = np.full((2, BOARD.n), np.nan)
     out = draw_overlay(np.full((480, 640), 0.5), estimate, K, BOARD)
     centre = out[200:280, 280:360]
     assert np.all(centre == centre[0, 0])
+
+
+def test_estimate_without_junctions_marks_only_the_reprojection(picture):
+    # estimate_pose_from_points gives no junctions: the pose and its reprojection are drawn.
+    estimate = _estimate(np.ones(BOARD.n, bool))
+    estimate.junctions = None
+    out = draw_overlay(np.full((480, 640), 0.5), estimate, K, BOARD)
+    with_rings, points = picture
+    u, v = np.round(points[:, 6]).astype(int)
+    assert _close(out[v, u], COLOURS["reprojected"])
+    assert not _close(out[v, u + 6], COLOURS["trusted"]) and _close(with_rings[v, u + 6], COLOURS["trusted"])
 
 
 def test_bad_inputs():

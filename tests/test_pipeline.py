@@ -56,7 +56,10 @@ def test_target_01_is_near_the_course_reference(real_cases, real_images):
     for est in (estimate_pose(image, case.bounds, real_cases.K, guess=case.guess_T_WC),
                 estimate_pose_from_points(real_cases.K, case.ref_junctions, WPTS, case.guess_T_WC)):
         dt, dr = pose_difference(est.T_WC, case.ref_T_WC)
-        assert dt < 0.01 and dr < 0.5
+        assert dt < 0.01 and dr < 0.5  # the goal
+        # Regression guard: measured 3.2 mm and 0.30 deg from the image (the 0.3 deg is the
+        # reference junctions' bias; see the README), 2.4 mm and 0.03 deg from them.
+        assert dt < 0.005 and dr < 0.4
 
 
 # ------------------------------------------------------------------ synthetic images

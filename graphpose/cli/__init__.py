@@ -36,7 +36,13 @@ class UsageError(InputError):
 
 
 class ArgumentParser(argparse.ArgumentParser):
-    """An argparse parser that raises :class:`UsageError` instead of printing usage and exiting."""
+    """An argparse parser that raises :class:`UsageError` instead of printing usage and exiting.
+
+    ``commands`` holds the subcommands' parser names (``render-sequence`` for the module
+    ``render``), filled in by :func:`build_parser`.
+    """
+
+    commands: tuple = ()
 
     def error(self, message):
         raise UsageError(f"{message} (see '{self.prog} --help')")
@@ -57,6 +63,7 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(title="commands", dest="command", metavar="COMMAND", required=True)
     for name in SUBCOMMANDS:
         importlib.import_module(f"{__name__}.{name}").add_parser(subparsers)
+    parser.commands = tuple(subparsers.choices)
     return parser
 
 
@@ -71,6 +78,7 @@ def main(argv=None) -> int:
     argv = _attach_negative_lists(list(sys.argv[1:] if argv is None else argv))
     if not argv:
         argv = ["estimate"]
+    parser = None
     try:
         parser = build_parser()
         try:
@@ -81,7 +89,7 @@ def main(argv=None) -> int:
             raise UsageError(f"unrecognized arguments: {' '.join(extra)} (see '{PROG} {args.command} --help')")
         return int(importlib.import_module(f"{__name__}.{args.command}").run(args))
     except GraphposeError as exc:
-        print_error(exc, prog=_prog(exc, argv))
+        print_error(exc, prog=_prog(exc, argv, parser))
         return exit_code(exc)
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
@@ -128,8 +136,10 @@ def print_error(exc: BaseException, context: str = "", prog: str = PROG) -> None
     print(f"{prog}: error: {error_line(exc, context)}", file=sys.stderr, flush=True)
 
 
-def _prog(exc, argv) -> str:
-    if isinstance(exc, UsageError) and argv and argv[0] in SUBCOMMANDS:
+def _prog(exc, argv, parser) -> str:
+    """``graphpose COMMAND`` for a usage error of a subcommand's arguments, else ``graphpose``."""
+    commands = parser.commands if parser is not None else ()
+    if isinstance(exc, UsageError) and argv and argv[0] in commands:
         return f"{PROG} {argv[0]}"
     return PROG
 

@@ -18,8 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..camera import params_from_T
+from ..draw import draw_overlay
 from ..errors import GraphposeError, InputError
+from ..io import dumps_json, load_cases, load_pose, read_image, result_record, write_json, write_png
+from ..pipeline import estimate_pose, pose_difference
 from . import EXIT_OK, UsageError, exit_code, print_error
 from .options import Progress, add_target_options, parse_bounds, target_from_args
 
@@ -95,8 +97,6 @@ def run(args) -> int:
     overlays = _overlay_paths(args.overlay, jobs) or [None] * len(jobs)
     if args.json not in (None, "-"):
         _check_folder(Path(args.json), "--json")
-    from ..io import dumps_json, write_json
-
     report = not (args.quiet or args.json == "-")
     progress = Progress(len(jobs), sys.stderr)
     records, codes = [], []
@@ -117,16 +117,18 @@ def run(args) -> int:
 
 
 def _run_one(job, K, board, robust, overlay, report, progress):
-    """Estimate one image, report it and draw it; returns its JSON record and exit code."""
-    # Imported here, after the arguments are checked: a usage error needs no GTSAM.
-    from ..draw import draw_overlay
-    from ..io import read_image, result_record, write_png
-    from ..pipeline import estimate_pose
+    """Estimate one image, report it and draw it; returns its JSON record and exit code.
 
+    Every failure of this image, writing its overlay included, is reported and recorded here,
+    so the batch goes on and its JSON is still written.
+    """
     estimate, error, code = None, None, EXIT_OK
     try:
         image = read_image(job.path)
         estimate = estimate_pose(image, job.bounds, K, board, guess=job.guess, robust=robust)
+        # An unreliable pose is drawn too: the picture shows why.
+        if overlay is not None:
+            _write_overlay(overlay, image, estimate, K, board, job)
         if not estimate.ok:
             raise _NotConverged(f"no reliable pose: {estimate.message}")
     except GraphposeError as exc:
@@ -136,16 +138,20 @@ def _run_one(job, K, board, robust, overlay, report, progress):
     record = result_record(str(job.path), estimate, error)
     record["vs_truth"] = _difference(estimate, job.true_T_WC)
     record["vs_reference"] = _difference(estimate, job.ref_T_WC)
-    if estimate is None:
-        return record, code
-    # An unreliable pose goes to JSON and the overlay (to see why), not into the report.
+    # An unreliable pose goes to JSON and the overlay, not into the report.
     if report and code == EXIT_OK:
         progress.clear()
         print(format_report(job.name, estimate, record), flush=True)
-    if overlay is not None:
-        overlay.parent.mkdir(exist_ok=True)
-        write_png(overlay, draw_overlay(image, estimate, K, board, bounds=job.bounds, label=Path(job.name).name))
     return record, code
+
+
+def _write_overlay(path: Path, image, estimate, K, board, job) -> None:
+    """Draw ``estimate`` on ``image`` into the PNG ``path``, creating its folder if needed."""
+    try:
+        path.parent.mkdir(exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"--overlay: cannot create folder {path.parent}: {exc.strerror or exc}") from None
+    write_png(path, draw_overlay(image, estimate, K, board, bounds=job.bounds, label=Path(job.name).name))
 
 
 class _NotConverged(GraphposeError):
@@ -154,8 +160,6 @@ class _NotConverged(GraphposeError):
 
 def _jobs(args):
     """The images to estimate, K (3, 3) and the board, from IMAGE, --cases or the bundled example."""
-    from ..io import load_cases, load_pose
-
     if args.image is not None and args.cases is not None:
         raise UsageError("give either IMAGE or --cases, not both")
     if args.image is not None:
@@ -218,8 +222,6 @@ def _overlay_paths(overlay, jobs) -> list | None:
 
 def _difference(estimate, T_ref) -> dict | None:
     """Translation (mm) and rotation angle (deg) between the estimate and a known pose, or None."""
-    from ..pipeline import pose_difference
-
     if estimate is None or T_ref is None:
         return None
     metres, degrees = pose_difference(estimate.T_WC, T_ref)
@@ -232,11 +234,11 @@ def _difference(estimate, T_ref) -> dict | None:
 def format_report(name: str, estimate, record: dict) -> str:
     """The readable report of one image's estimate (several lines, no trailing newline)."""
     T = np.asarray(estimate.T_WC)
-    x, y, z, *rpy = params_from_T(T)
+    x, y, z, *rpy = estimate.params
     sx, sy, sz = 1000.0 * np.asarray(estimate.sigma_xyz_m)
     sr, sp, sw = np.degrees(estimate.sigma_rpy_rad)
     roll, pitch, yaw = np.degrees(rpy)
-    trusted = np.asarray(estimate.junctions.trusted, dtype=bool)
+    trusted = np.asarray(estimate.mask, dtype=bool)
     check = estimate.cross_check
     state = "converged" if estimate.converged else "NOT converged"
     n = int(estimate.iterations)
