@@ -331,7 +331,7 @@ def test_float_and_colour_frames_track_as_8_bit_grey(clip):
 
 
 def test_front_end_input_errors_lose_the_frame_not_the_sequence(clip, monkeypatch):
-    import graphpose.tracking as tracking
+    from graphpose import tracking
 
     def refuse(*args, **kwargs):
         raise InputError("degenerate")
