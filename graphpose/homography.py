@@ -21,8 +21,10 @@ from .errors import InputError
 
 #: Target points farther than this (metres, relative to the board's extent) from z = 0 are refused.
 _PLANE_TOL = 1e-6
-#: Relative size of the DLT's second-smallest singular value below which the points are degenerate.
-_RANK_TOL = 1e-9
+#: Relative size of the DLT's second-smallest singular value below which the points are
+#: degenerate. The singular values come squared from the normal matrix, whose eigenvalues are
+#: resolved to about 1e-16 of the largest: a ratio of 1e-6 (1e-12 squared) stays clear of that.
+_RANK_TOL = 1e-6
 
 
 def pose_from_homography(K, Ipts, Wpts) -> np.ndarray:
@@ -113,12 +115,13 @@ def homography_dlt(src, dst) -> np.ndarray:
     A[0::2, 6:9] = -b[0, :, None] * ah
     A[1::2, 3:6] = ah
     A[1::2, 6:9] = -b[1, :, None] * ah
-    # Thin SVD: the full U (2n x 2n) is unused and slow; with 4 points A is 8 x 9 and the
-    # null vector needs the full Vt.
-    _, s, Vt = np.linalg.svd(A, full_matrices=A.shape[0] < 9)
-    if s.size < 8 or s[7] < _RANK_TOL * s[0]:
+    # The null vector of A from the 9 x 9 normal matrix: about half the time of A's SVD, and
+    # with normalised points (A's condition number ~10 apart from the null direction) squaring
+    # the condition costs no accuracy that matters.
+    w, V = np.linalg.eigh(A.T @ A)
+    if n < 4 or w[1] < _RANK_TOL**2 * w[-1]:
         raise InputError("the points do not determine a homography (collinear or repeated points)")
-    Hn = Vt[-1].reshape(3, 3)
+    Hn = V[:, 0].reshape(3, 3)
     H = np.linalg.solve(Td, Hn @ Ts)
     return H / np.linalg.norm(H)
 

@@ -37,8 +37,9 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from .board import Board
-from .camera import as_points
+from .camera import as_float_array, as_points
 from .errors import BoardNotFoundError, InputError
+from .homography import homography_dlt
 from .io import as_grey
 from .saddle import fit_quadrics as _fit
 
@@ -52,6 +53,9 @@ WINDOW_FRACTION = 0.5
 SMOOTH_SIGMA = 0.5
 #: Largest refinement window radius, pixels (beyond it the fit gains little and costs time).
 MAX_RADIUS = 12.0
+#: Smallest image side, pixels: the smallest refinement window (radius 2) must fit, and the
+#: bilinear resampling needs two rows and columns.
+_MIN_SIDE = 5
 #: A junction whose refined position is farther than this from the grid homography's
 #: prediction (fraction of the local square, or 1.5 px if more) is not trusted.
 _GRID_TOLERANCE = 0.08
@@ -154,8 +158,8 @@ def extract_junctions(I, bpoly, board: Board = Board(), *, window: float = WINDO
     Raises
     ------
     InputError
-        If the image is empty, not 2-D grey or colour, or holds NaN; if ``bpoly`` is not a
-        finite 2 x 4 array, is degenerate, not convex, counter-clockwise, or lies off the
+        If the image is empty, smaller than 5 x 5 pixels, not 2-D grey or colour, or holds
+        NaN; if ``bpoly`` is not a finite 2 x 4 array, is degenerate, not convex, counter-clockwise, or lies off the
         image; if ``window`` or ``smooth_sigma`` is out of range.
     BoardNotFoundError
         If no ``cols x rows`` grid of cross-junctions is found inside the polygon, or fewer
@@ -171,6 +175,8 @@ def extract_junctions(I, bpoly, board: Board = Board(), *, window: float = WINDO
     ((2, 48), True)
     """
     image, scale = _grey(I)
+    if min(image.shape) < _MIN_SIDE:
+        raise InputError(f"image must be at least {_MIN_SIDE} x {_MIN_SIDE} pixels, got shape {image.shape}")
     poly = _check_polygon(bpoly, image.shape)
     if not 0 < window <= 0.7:
         raise InputError(f"window must be a fraction of the square in (0, 0.7], got {window!r}")
@@ -224,7 +230,7 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
     """
     image, scale = _grey(I)
     P = as_points(points, 2, "points")
-    radius = np.asarray(half_width, dtype=float)
+    radius = as_float_array(half_width, "half_width")
     if radius.ndim > 1 or radius.size not in (1, P.shape[1]) or not np.all(np.isfinite(radius)) \
             or np.any(radius < 2):
         raise InputError(f"half_width must be >= 2 px, a scalar or one per point ({P.shape[1]}), "
@@ -251,7 +257,7 @@ def _grey(I):
 
 
 def _check_polygon(bpoly, shape) -> np.ndarray:
-    poly = np.asarray(bpoly, dtype=float)
+    poly = as_float_array(bpoly, "bpoly")
     if poly.shape != (2, 4):
         raise InputError(f"bpoly must have shape (2, 4) (u and v of 4 vertices), got {poly.shape}")
     if not np.all(np.isfinite(poly)):
@@ -659,34 +665,15 @@ def _square_sides(H: np.ndarray, grid: np.ndarray) -> np.ndarray:
 
 
 def _homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
-    """Least-squares homography (normalised DLT) mapping src (2, N) to dst (2, N)."""
-    Ts, Td = _normaliser(src), _normaliser(dst)
-    s = (src - Ts[1]) * Ts[0]
-    d = (dst - Td[1]) * Td[0]
-    n = src.shape[1]
-    A = np.zeros((2 * n, 9))
-    A[0::2, 0:2] = s.T
-    A[0::2, 2] = 1.0
-    A[0::2, 6:8] = -d[0][:, None] * s.T
-    A[0::2, 8] = -d[0]
-    A[1::2, 3:5] = s.T
-    A[1::2, 5] = 1.0
-    A[1::2, 6:8] = -d[1][:, None] * s.T
-    A[1::2, 8] = -d[1]
-    # The null vector of A via the 9 x 9 normal matrix: far cheaper than A's full SVD.
-    Hn = np.linalg.eigh(A.T @ A)[1][:, 0].reshape(3, 3)
-    S = np.array([[Ts[0], 0.0, -Ts[0] * Ts[1][0, 0]], [0.0, Ts[0], -Ts[0] * Ts[1][1, 0]], [0, 0, 1.0]])
-    D = np.array([[1.0 / Td[0], 0.0, Td[1][0, 0]], [0.0, 1.0 / Td[0], Td[1][1, 0]], [0, 0, 1.0]])
-    H = D @ Hn @ S
+    """Homography mapping src (2, N) to dst (2, N), scaled so ``H[2, 2] = 1``.
+
+    Junctions that do not fix one (collinear, coincident) mean no board was found.
+    """
+    try:
+        H = homography_dlt(src, dst)
+    except InputError as exc:
+        raise BoardNotFoundError(f"the junctions found do not fix a homography: {exc}") from None
     return H / H[2, 2]
-
-
-def _normaliser(P: np.ndarray):
-    """Scale and centre (2, 1) that bring P's mean distance from its centroid to sqrt(2)."""
-    c = P.sum(axis=1, keepdims=True) / P.shape[1]
-    d = P - c
-    spread = np.sqrt(d[0] * d[0] + d[1] * d[1]).sum() / P.shape[1]
-    return np.sqrt(2.0) / max(spread, 1e-12), c
 
 
 def _apply(H: np.ndarray, P: np.ndarray) -> np.ndarray:

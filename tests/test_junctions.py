@@ -17,8 +17,10 @@ from graphpose.gauss_newton import pose_estimate_nls
 from graphpose.render import loose_polygon, random_pose, render
 
 K = K_from_params(564.9, 564.3, 337.3, 226.5)
-#: OpenCV findChessboardCornersSB (CALIB_CB_ACCURACY) reprojection RMS on targets 01-06, px,
-#: as stated in issue 2: our junctions must fit a pinhole pose at least as well.
+#: OpenCV findChessboardCornersSB (CALIB_CB_ACCURACY) reprojection RMS on targets 01-06, px.
+#: Copied from issue 2, which set them as the goal (our junctions must fit a pinhole pose at
+#: least as well); not measured by this test. scripts/bench_junctions.py measures OpenCV
+#: itself, side by side, in each run.
 OPENCV_SB_RMS = [0.072, 0.128, 0.103, 0.191, 0.156, 0.063]
 
 
@@ -67,7 +69,9 @@ def test_real_images_match_reference_junctions_within_1_px(real_junctions):
     checked = 0
     for case, _, J in real_junctions:
         if case.ref_junctions is not None:
-            assert np.mean(np.hypot(*(J.points - case.ref_junctions))) < 1.0
+            mean_px = np.mean(np.hypot(*(J.points - case.ref_junctions)))
+            assert mean_px < 1.0  # the goal from the issue
+            assert mean_px < 0.5  # regression guard: measured 0.22 and 0.30 px
             checked += 1
     assert checked == 2
 
@@ -183,6 +187,7 @@ def small_case():
         (np.array([[100.0, 100, 300, 300], [100, 300, 300, 100]]), "clockwise"),
         (np.array([[100.0, 300, 100, 300], [100, 100, 300, 300]]), "convex|clockwise|degenerate"),
         (np.array([[100.0, 101, 101, 100], [100, 100, 101, 101]]), "degenerate"),
+        ([[100, 300, 300], [100, 100, 300, 300]], "bpoly must be a rectangular array of real numbers"),
     ],
 )
 def test_bad_polygon_raises_input_error(small_case, poly, message):
@@ -193,7 +198,9 @@ def test_bad_polygon_raises_input_error(small_case, poly, message):
 
 @pytest.mark.parametrize(
     "image, message",
-    [(np.zeros((0, 0)), "empty"), (np.zeros((4, 4, 4, 4)), "2-D"), (np.full((480, 640), np.nan), "NaN")],
+    [(np.zeros((0, 0)), "empty"), (np.zeros((4, 4, 4, 4)), "2-D"), (np.full((480, 640), np.nan), "NaN"),
+     (np.zeros((1, 4000)), r"at least 5 x 5 pixels, got shape \(1, 4000\)"),
+     (np.zeros((4000, 4), np.uint8), r"at least 5 x 5 pixels")],
 )
 def test_bad_image_raises_input_error(small_case, image, message):
     _, poly = small_case
@@ -249,3 +256,14 @@ def test_bad_options_raise_input_error(small_case):
         refine_junctions(R.image, R.junctions.T, 5.0)
     with pytest.raises(InputError, match="NaN"):
         refine_junctions(R.image, np.full((2, 3), np.nan), 5.0)
+    with pytest.raises(InputError, match="half_width must be a rectangular array of real numbers"):
+        refine_junctions(R.image, R.junctions, "wide")
+
+
+def test_junctions_that_fix_no_homography_mean_no_board():
+    from graphpose.junctions import _homography
+
+    one_row = np.array([[0.0, 1, 2, 3, 4, 5], [0, 0, 0, 0, 0, 0]])
+    pixels = np.array([[10.0, 20, 30, 40, 50, 60], [5, 6, 7, 8, 9, 10]])
+    with pytest.raises(BoardNotFoundError, match="do not fix a homography"):
+        _homography(one_row, pixels)
