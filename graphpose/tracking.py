@@ -856,9 +856,8 @@ def track_sequence(frames, K, bounds=None, *, board: Board = Board(), timestamps
     ------
     InputError
         If K, bounds, timestamps, polygons or config are malformed, there are no frames, or
-        a frame cannot be read or is not a finite grey or colour image (checked as it is
-        reached, so earlier frames have been tracked). A frame without a usable board is NOT
-        an error: it is lost.
+        a frame cannot be read or is not a finite grey or colour image (checked when the
+        frame is reached). A frame without a usable board is NOT an error: it is lost.
     """
     K = check_K(K)
     source = _frame_source(frames)
@@ -897,7 +896,8 @@ def _frame_source(frames):
 def _load(item, k):
     """Frame ``k`` converted and checked once, for every junction call of the frame: 8-bit
     grey as it is (no NaN possible; the junction code reads it without a copy), anything else
-    float64 grey in [0, 1] checked finite (:func:`graphpose.io.as_grey`)."""
+    float64 grey checked finite (:func:`graphpose.io.as_grey`: integers scaled to [0, 1],
+    floats kept)."""
     if isinstance(item, (str, Path)):
         return read_image(item)
     try:
