@@ -299,9 +299,7 @@ def random_pose(
     K = check_K(K)
     width, height = _check_size(size)
     _check_board(board)
-    lo, hi = (float(d) for d in distance)
-    if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo <= hi):
-        raise InputError(f"distance must be (near, far) metres with 0 < near <= far, got {distance!r}")
+    lo, hi = _check_pair("distance", distance, "(near, far) metres", minimum=0.0, strict=True)
     tilt_max = np.deg2rad(_check_number("max_tilt_deg", max_tilt_deg, 0.0))
     roll_max = np.deg2rad(_check_number("max_roll_deg", max_roll_deg, 0.0))
     if tilt_max >= np.pi / 2:
@@ -362,9 +360,7 @@ def loose_polygon(rendering: Rendering, rng, *, offset_px=(-4.0, 4.0), inset: bo
     InputError
         If ``offset_px`` is not an ordered pair of finite numbers.
     """
-    lo, hi = (float(d) for d in offset_px)
-    if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
-        raise InputError(f"offset_px must be (low, high) pixels with low <= high, got {offset_px!r}")
+    lo, hi = _check_pair("offset_px", offset_px, "(low, high) pixels")
     rng = np.random.default_rng(rng)
     outline = rendering.outline
     if inset:
@@ -397,16 +393,19 @@ def perturb_pose(rng, T_WC, *, angle_deg=(8.0, 12.0), offset_m=(0.15, 0.25)) -> 
     Raises
     ------
     InputError
-        If ``T_WC`` is not a rigid transform.
+        If ``T_WC`` is not a rigid transform, or ``angle_deg`` or ``offset_m`` is not an
+        ordered pair of finite numbers >= 0.
     """
     T = check_transform(T_WC).copy()
+    angle_range = _check_pair("angle_deg", angle_deg, "(low, high) degrees", minimum=0.0)
+    offset_range = _check_pair("offset_m", offset_m, "(low, high) metres", minimum=0.0)
     rng = np.random.default_rng(rng)
     axis, direction = (v / np.linalg.norm(v) for v in rng.normal(size=(2, 3)))
-    angle = np.deg2rad(rng.uniform(*angle_deg))
+    angle = np.deg2rad(rng.uniform(*angle_range))
     cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
     R = np.eye(3) + np.sin(angle) * cross + (1 - np.cos(angle)) * cross @ cross
     T[:3, :3] = T[:3, :3] @ R
-    T[:3, 3] += rng.uniform(*offset_m) * direction
+    T[:3, 3] += rng.uniform(*offset_range) * direction
     return T
 
 
@@ -754,6 +753,21 @@ def _check_size(size) -> tuple:
 def _check_board(board) -> None:
     if not isinstance(board, Board):
         raise InputError(f"board must be a graphpose.Board, got {type(board).__name__}")
+
+
+def _check_pair(name: str, value, what: str, minimum=None, strict: bool = False) -> tuple:
+    """An ordered pair ``low <= high`` of finite numbers, both ``>= minimum`` (``>`` if strict)."""
+    try:
+        if isinstance(value, (str, bytes)):
+            raise TypeError
+        low, high = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a pair {what}, got {value!r}") from None
+    below = minimum is not None and (low <= minimum if strict else low < minimum)
+    if not (np.isfinite(low) and np.isfinite(high) and low <= high) or below:
+        bound = "" if minimum is None else f", low {'>' if strict else '>='} {minimum:g}"
+        raise InputError(f"{name} must be a pair {what} with low <= high{bound}, got {value!r}")
+    return low, high
 
 
 def _check_number(name: str, value, minimum=None) -> float:

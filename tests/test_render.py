@@ -324,6 +324,15 @@ def test_perturb_pose_moves_by_the_requested_amounts():
         (lambda T: junction_information(K_REAL, T, delta=0.0), "delta must be positive"),
         (lambda T: polygon_coverage(np.zeros((2, 2)), (4, 4)), "at least 3"),
         (lambda T: perturb_pose(0, np.eye(3)), "T_WC must have shape"),
+        (lambda T: random_pose(0, K_REAL, distance=1.0), r"distance must be a pair \(near, far\) metres, got 1.0"),
+        (lambda T: random_pose(0, K_REAL, distance=(0.0, 1.0)), "distance must be .* low > 0"),
+        (lambda T: random_pose(0, K_REAL, distance=(1.0, 2.0, 3.0)), "distance must be a pair"),
+        (lambda T: loose_polygon(render(K_REAL, T, rng=0), 0, offset_px=4.0), "offset_px must be a pair"),
+        (lambda T: loose_polygon(render(K_REAL, T, rng=0), 0, offset_px="34"), "offset_px must be a pair"),
+        (lambda T: perturb_pose(0, T, angle_deg=(12.0, 8.0)), "angle_deg must be .* low <= high"),
+        (lambda T: perturb_pose(0, T, angle_deg=10.0), "angle_deg must be a pair"),
+        (lambda T: perturb_pose(0, T, offset_m=(-0.1, 0.2)), "offset_m must be .* low >= 0"),
+        (lambda T: perturb_pose(0, T, offset_m=(0.1, np.inf)), "offset_m must be"),
     ],
 )
 def test_input_errors(call, match):
