@@ -123,7 +123,7 @@ class Board:
         InputError
             If the points are not such a grid.
         """
-        W = np.asarray(Wpts, dtype=float)
+        W = as_float_array(Wpts, "Wpts")
         if W.ndim != 2 or W.shape[0] != 3 or W.shape[1] < 4:
             raise InputError(f"Wpts must have shape (3, n) with n >= 4, got {W.shape}")
         if not np.all(np.isfinite(W)):

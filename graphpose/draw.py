@@ -15,7 +15,7 @@ from skimage import draw
 from skimage.measure import points_in_poly
 
 from .board import Board
-from .camera import check_K, project, to_camera
+from .camera import as_points, check_K, project, to_camera
 from .io import as_grey
 
 #: RGB colours of the overlay's marks.
@@ -63,19 +63,20 @@ def draw_overlay(image, estimate, K, board: Board = Board(), *, bounds=None, lab
     Raises
     ------
     InputError
-        If the image or K is malformed.
+        If the image or K is malformed, or ``bounds`` is not a finite (2, m) polygon, m >= 3.
     """
     K = check_K(K)
     grey = as_grey(image)
+    if bounds is not None:
+        bounds = as_points(bounds, 2, "bounds", min_count=3)
     # Dimmed grey keeps the board readable while the saturated marks stand out on black and white.
     canvas = np.repeat((40.0 + 170.0 * np.clip(grey, 0.0, 1.0))[..., None], 3, axis=2)
     T = np.asarray(estimate.T_WC, dtype=float)
     size = max(1.0, min(canvas.shape[:2]) / 480.0)
 
     if bounds is not None:
-        B = np.asarray(bounds, dtype=float)
-        for i in range(B.shape[1]):
-            _line(canvas, B[:, i], B[:, (i + 1) % B.shape[1]], COLOURS["bounds"], 1.0)
+        for i in range(bounds.shape[1]):
+            _line(canvas, bounds[:, i], bounds[:, (i + 1) % bounds.shape[1]], COLOURS["bounds"], 1.0)
 
     Wpts = board.world_points()
     model = _visible(K, T, Wpts)
@@ -96,9 +97,8 @@ def draw_overlay(image, estimate, K, board: Board = Board(), *, bounds=None, lab
     tips = _draw_axes(canvas, K, T, 2.0 * board.square_m, size)
 
     avoid = np.hstack([p for p in (points, model, tips) if p.size] or [np.zeros((2, 0))])
-    sheet = None if bounds is None else np.asarray(bounds, dtype=float)
     scale = max(1, int(round(min(canvas.shape[:2]) / 240.0)))
-    _text_box(canvas, _pose_lines(estimate, trusted, label), avoid, sheet, scale)
+    _text_box(canvas, _pose_lines(estimate, trusted, label), avoid, bounds, scale)
     return np.clip(np.round(canvas), 0, 255).astype(np.uint8)
 
 

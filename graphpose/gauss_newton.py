@@ -28,6 +28,7 @@ import numpy as np
 from .camera import (
     MIN_DEPTH,
     T_from_params,
+    as_float_array,
     as_points,
     check_correspondences,
     check_in_front,
@@ -118,7 +119,8 @@ def find_jacobian(K, Twc, Wpt) -> np.ndarray:
     """
     K = check_K(K)
     T = check_transform(Twc, "Twc")
-    W = as_points(np.asarray(Wpt, dtype=float).reshape(3, -1), 3, "Wpt")
+    W = as_float_array(Wpt, "Wpt")
+    W = as_points(W[:, None] if W.shape == (3,) else W, 3, "Wpt")
     if W.shape[1] != 1:
         raise InputError(f"Wpt must be a single point (3, 1), got {W.shape[1]} points")
     return projection_jacobians(K, T, W)

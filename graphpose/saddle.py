@@ -28,6 +28,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .camera import as_float_array
 from .errors import InputError, SaddleError
 
 
@@ -83,7 +84,7 @@ def saddle_point(I) -> np.ndarray:
     >>> saddle_point((u - 4.3) * (v - 3.6)).ravel().round(6)
     array([4.3, 3.6])
     """
-    P = np.asarray(I, dtype=float)
+    P = as_float_array(I, "I")
     if P.ndim != 2 or min(P.shape) < 3:
         raise InputError(f"I must be a 2-D patch of at least 3 x 3 pixels, got shape {P.shape}")
     if not np.all(np.isfinite(P)):
@@ -128,11 +129,11 @@ def fit_saddles(patches, weights=None) -> SaddleFit:
         If ``patches`` is not 3-D with patches of at least 3 x 3 pixels, or ``weights`` does
         not match it.
     """
-    P = np.asarray(patches, dtype=float)
+    P = as_float_array(patches, "patches")
     if P.ndim != 3 or P.shape[1] < 3 or P.shape[2] < 3:
         raise InputError(f"patches must have shape (m, h, w) with h, w >= 3, got {P.shape}")
     if weights is not None:
-        weights = np.asarray(weights, dtype=float)
+        weights = as_float_array(weights, "weights")
         if weights.shape not in (P.shape, P.shape[1:]):
             raise InputError(f"weights must have shape {P.shape} or {P.shape[1:]}, got {weights.shape}")
         weights = np.broadcast_to(weights, P.shape)

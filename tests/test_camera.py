@@ -159,6 +159,8 @@ def test_board_from_world_points_rejects_a_partial_grid():
         Board.from_world_points(W[:2])
     with pytest.raises(InputError, match="NaN"):
         Board.from_world_points(np.where(W == W[0, 5], np.nan, W))
+    with pytest.raises(InputError, match="Wpts must be a rectangular array"):
+        Board.from_world_points([[0.0, 1.0], [0.0]])
 
 
 def test_sheet_corners_border_the_squares_clockwise():

@@ -278,6 +278,11 @@ def test_find_jacobian_refuses_more_than_one_point_and_points_behind():
         find_jacobian(K, T, WPTS[:, :2])
     with pytest.raises(InputError, match="behind"):
         find_jacobian(K, T, [0.0, 0.0, -2.0])
+    with pytest.raises(InputError, match=r"Wpt must have shape \(3, N\), got \(4,\)"):
+        find_jacobian(K, T, [0.0, 0.0, 0.0, 1.0])  # once a reshape ValueError
+    with pytest.raises(InputError, match="Wpt must be a rectangular array"):
+        find_jacobian(K, T, "origin")
+    np.testing.assert_array_equal(find_jacobian(K, T, [0.1, 0.2, 0.0]), find_jacobian(K, T, [[0.1], [0.2], [0.0]]))
 
 
 def test_gimbal_lock_is_reported_not_hidden():

@@ -110,7 +110,7 @@ def test_saddle_outside_the_patch_raises():
 @pytest.mark.parametrize(
     "bad, message",
     [(np.zeros((0, 0)), "at least 3 x 3"), (np.zeros(9), "2-D"), (np.zeros((2, 5)), "at least 3 x 3"),
-     (np.full((5, 5), np.nan), "NaN")],
+     (np.full((5, 5), np.nan), "NaN"), ([[1, 2, 3], [4, 5]], "I must be a rectangular array of real numbers")],
 )
 def test_bad_patch_raises_input_error(bad, message):
     with pytest.raises(InputError, match=message):
@@ -125,6 +125,10 @@ def test_bad_batch_raises_input_error():
 def test_weights_of_the_wrong_shape_raise_input_error():
     with pytest.raises(InputError, match="weights"):
         fit_saddles(np.zeros((2, 5, 5)), weights=np.ones((4, 4)))
+    with pytest.raises(InputError, match="weights must be a rectangular array of real numbers"):
+        fit_saddles(np.zeros((2, 5, 5)), weights="heavy")
+    with pytest.raises(InputError, match="patches must be a rectangular array of real numbers"):
+        fit_saddles([np.zeros((5, 5)), np.zeros((4, 4))])
 
 
 def test_weighted_fit_minimises_the_weighted_residual():
