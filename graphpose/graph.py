@@ -31,7 +31,14 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, X
 
-from .camera import check_correspondences, check_in_front, check_transform, params_from_T, project, to_camera
+from .camera import (
+    check_correspondences,
+    check_in_front,
+    check_transform,
+    params_from_T,
+    project,
+    to_camera,
+)
 from .errors import InputError
 
 #: Standard deviation (metres) of the prior that pins each target point: far below anything

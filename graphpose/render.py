@@ -48,7 +48,15 @@ from scipy.ndimage import correlate1d
 from scipy.special import ndtr
 
 from .board import Board
-from .camera import as_points, check_K, check_transform, project, rot_x, rot_z, to_camera
+from .camera import (
+    as_points,
+    check_K,
+    check_transform,
+    project,
+    rot_x,
+    rot_z,
+    to_camera,
+)
 from .errors import InputError
 
 #: The Gaussian kernel reaches this many sigmas; the tail beyond holds < 3e-7 of the mass.

@@ -166,7 +166,8 @@ def test_board_from_world_points_rejects_a_partial_grid():
 def test_sheet_corners_border_the_squares_clockwise():
     b = Board(4, 3, 0.5)
     np.testing.assert_array_equal(b.sheet_corners(0.0), [[-0.5, 2.0, 2.0, -0.5], [-0.5, -0.5, 1.5, 1.5], [0, 0, 0, 0]])
-    np.testing.assert_array_equal(b.sheet_corners(), [[-0.75, 2.25, 2.25, -0.75], [-0.75, -0.75, 1.75, 1.75], [0, 0, 0, 0]])
+    np.testing.assert_array_equal(
+        b.sheet_corners(), [[-0.75, 2.25, 2.25, -0.75], [-0.75, -0.75, 1.75, 1.75], [0, 0, 0, 0]])
     per_corner = b.sheet_corners([0.0, 1.0, 2.0, 3.0])
     np.testing.assert_array_equal(per_corner[:2], [[-0.5, 2.5, 3.0, -2.0], [-0.5, -1.0, 2.5, 3.0]])
 

@@ -18,10 +18,24 @@ import numpy as np
 import pytest
 from conftest import REPO, real_file
 
-from graphpose import Board, InputError, T_from_params, load_cases, params_from_T, project
+from graphpose import (
+    Board,
+    InputError,
+    T_from_params,
+    load_cases,
+    params_from_T,
+    project,
+)
 from graphpose.cli import main
 from graphpose.cli.options import Progress, parse_bounds, parse_K, parse_positive
-from graphpose.io import atomic_write, dumps_json, encode_png, load_pose, result_record, write_json
+from graphpose.io import (
+    atomic_write,
+    dumps_json,
+    encode_png,
+    load_pose,
+    result_record,
+    write_json,
+)
 
 BUNDLED = REPO / "data" / "cases.json"
 KEYS = {"image", "converged", "T_WC", "xyz_m", "rpy_deg", "sigma_xyz_mm", "sigma_rpy_deg",
@@ -232,7 +246,7 @@ def test_no_convergence_exits_1(bundled, tmp_path, monkeypatch, capsys):
     # must say so, with exit code 1, no report, a JSON record and the picture.
     import functools
 
-    import graphpose.pipeline as pipeline
+    from graphpose import pipeline
 
     monkeypatch.setattr(pipeline, "gauss_newton", functools.partial(pipeline.gauss_newton, max_iterations=1))
     case = bundled.cases[0]
@@ -466,8 +480,8 @@ def test_an_estimate_from_points_has_no_junctions_to_write_or_report():
     (BrokenPipeError, 1, ""),
 ])
 def test_interrupt_and_closed_pipe(monkeypatch, capsys, exception, code, message):
-    import graphpose.cli as cli
     import graphpose.cli.estimate as estimate
+    from graphpose import cli
 
     def run(args):
         raise exception

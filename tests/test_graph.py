@@ -5,7 +5,12 @@ import pytest
 from graphpose import Board, InputError
 from graphpose.camera import T_from_params, params_from_T, project
 from graphpose.gauss_newton import gauss_newton
-from graphpose.graph import GraphResult, graph_pose, params_cov_from_tangent, params_from_tangent_jacobian
+from graphpose.graph import (
+    GraphResult,
+    graph_pose,
+    params_cov_from_tangent,
+    params_from_tangent_jacobian,
+)
 
 K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
 WPTS = Board().world_points()

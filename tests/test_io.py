@@ -41,7 +41,8 @@ def test_real_images_load(real_images):
         assert case.bounds.shape == (2, 4)
 
 
-@pytest.mark.parametrize("image", [np.zeros((2, 2), complex), np.array([["a", "b"]]), np.zeros((2, 2), "datetime64[s]")])
+@pytest.mark.parametrize(
+    "image", [np.zeros((2, 2), complex), np.array([["a", "b"]]), np.zeros((2, 2), "datetime64[s]")])
 def test_as_grey_rejects_unsupported_dtypes(image):
     with pytest.raises(InputError, match="unsupported dtype"):
         as_grey(image)

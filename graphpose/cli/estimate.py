@@ -20,7 +20,15 @@ import numpy as np
 
 from ..draw import draw_overlay
 from ..errors import GraphposeError, InputError
-from ..io import dumps_json, load_cases, load_pose, read_image, result_record, write_json, write_png
+from ..io import (
+    dumps_json,
+    load_cases,
+    load_pose,
+    read_image,
+    result_record,
+    write_json,
+    write_png,
+)
 from ..pipeline import estimate_pose, pose_difference
 from . import EXIT_OK, UsageError, exit_code, print_error
 from .options import Progress, add_target_options, parse_bounds, target_from_args
