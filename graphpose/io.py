@@ -34,6 +34,12 @@ def as_grey(image) -> np.ndarray:
         uint8 (scaled by 1/255), uint16 (by 1/65535), bool, or float (kept as is).
         Colour is converted with ITU-R 601 luma weights; alpha is dropped.
 
+    Returns
+    -------
+    grey : (H, W) ndarray of float64
+        A grey float64 image is returned itself, not copied (the tracker passes each frame
+        through here several times): treat the result as read-only.
+
     Raises
     ------
     InputError
@@ -55,7 +61,7 @@ def _scale(I: np.ndarray) -> np.ndarray:
     if I.dtype == np.uint16:
         return I.astype(float) / 65535.0
     if I.dtype.kind in "biuf":
-        return I.astype(float)
+        return I.astype(float, copy=False)
     raise InputError(f"image has unsupported dtype {I.dtype}")
 
 

@@ -112,3 +112,9 @@ def test_load_cases_rejects(tmp_path, doc, message):
 def test_load_cases_missing_file(tmp_path):
     with pytest.raises(InputError, match="case file not found"):
         load_cases(tmp_path / "none.json")
+
+
+def test_as_grey_passes_float64_grey_through_without_a_copy():
+    image = np.random.default_rng(0).random((4, 5))
+    assert as_grey(image) is image
+    assert as_grey(image.astype(np.float32)).dtype == np.float64
