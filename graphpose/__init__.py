@@ -1,88 +1,95 @@
 """graphpose: where a calibrated camera is, relative to a planar checkerboard target.
 
-Data flows one way: image -> cross-junctions (:mod:`graphpose.junctions`, refined by
-:mod:`graphpose.saddle`) -> pose by Gauss-Newton (:mod:`graphpose.gauss_newton`) and by a
-GTSAM factor graph (:mod:`graphpose.graph`), held against each other by
-:mod:`graphpose.pipeline` -> result; over image sequences, :mod:`graphpose.tracking` with
-iSAM2. :mod:`graphpose.render` makes synthetic images with exact truth. Conventions are
-stated once, in :mod:`graphpose.camera`.
+Data flows one way, one subpackage per step:
+
+- :mod:`graphpose.image` reads files and makes grey images;
+- :mod:`graphpose.detect` finds the cross-junctions (coarse grid, then the saddle fit of
+  Lucchese & Mitra in :mod:`graphpose.detect.saddle`);
+- :mod:`graphpose.pose` solves for the pose twice, by Gauss-Newton and by a GTSAM factor
+  graph, and holds the two against each other (:func:`graphpose.pose.estimate.estimate_pose`);
+- :mod:`graphpose.track` follows the camera over a sequence with iSAM2;
+- :mod:`graphpose.io` reads and writes case files, TUM trajectories, JSON and PNG;
+- :mod:`graphpose.viz` draws overlays and trajectory plots; :mod:`graphpose.synth` renders
+  synthetic images with exact truth.
+
+Conventions are stated once, in :mod:`graphpose.camera`; input checks live in
+:mod:`graphpose._checks`. The names below are imported on first use, so that
+``import graphpose`` (or ``import graphpose.detect.saddle``) does not load GTSAM.
 """
 
-from .board import Board
-from .camera import (
-    C_from_rpy,
-    K_from_params,
-    T_from_params,
-    check_K,
-    check_transform,
-    params_from_T,
-    project,
-    rpy_from_C,
-)
-from .errors import (
+from __future__ import annotations
+
+import importlib
+
+from .errors import (  # noqa: F401  (re-exported: listed in __all__)
     BoardNotFoundError,
     ConvergenceError,
     GraphposeError,
     InputError,
     SaddleError,
 )
-from .io import as_grey, load_cases, read_image
 
-from .saddle import SaddleFit, fit_saddles, saddle_point
-from .gauss_newton import GNResult, find_jacobian, gauss_newton, pose_estimate_nls
-from .homography import pose_from_homography
-from .junctions import Junctions, cross_junctions, extract_junctions, refine_junctions
-from .graph import GraphResult, graph_pose
-from .pipeline import CrossCheck, PoseEstimate, estimate_pose, estimate_pose_from_points
-from .tum import TumTrajectory, read_tum, write_tum
-from .tracking import FrameResult, MotionPrior, Track, TrackerConfig, track_sequence
-from .sequence import Sequence, render_sequence, write_sequence
+#: Public name -> the module that defines it (imported lazily, PEP 562).
+_EXPORTS = {
+    "Board": "board",
+    "C_from_rpy": "camera",
+    "K_from_params": "camera",
+    "T_from_params": "camera",
+    "params_from_T": "camera",
+    "project": "camera",
+    "rpy_from_C": "camera",
+    "check_K": "_checks",
+    "check_transform": "_checks",
+    "as_grey": "image",
+    "read_image": "image",
+    "load_cases": "io.cases",
+    "bundled_cases": "io.cases",
+    "SaddleFit": "detect.saddle",
+    "fit_saddles": "detect.saddle",
+    "saddle_point": "detect.saddle",
+    "Junctions": "detect.junctions",
+    "cross_junctions": "detect.junctions",
+    "extract_junctions": "detect.junctions",
+    "refine_junctions": "detect.refine",
+    "pose_from_homography": "pose.homography",
+    "GNResult": "pose.gauss_newton",
+    "find_jacobian": "pose.gauss_newton",
+    "gauss_newton": "pose.gauss_newton",
+    "pose_estimate_nls": "pose.gauss_newton",
+    "GraphResult": "pose.graph",
+    "graph_pose": "pose.graph",
+    "CrossCheck": "pose.estimate",
+    "PoseEstimate": "pose.estimate",
+    "estimate_pose": "pose.estimate",
+    "estimate_pose_from_points": "pose.estimate",
+    "TumTrajectory": "io.tum",
+    "read_tum": "io.tum",
+    "write_tum": "io.tum",
+    "FrameResult": "track.tracker",
+    "Track": "track.tracker",
+    "MotionPrior": "track.tracker",
+    "TrackerConfig": "track.tracker",
+    "track_sequence": "track.tracker",
+    "Sequence": "synth.sequence",
+    "render_sequence": "synth.sequence",
+    "write_sequence": "synth.sequence",
+}
 
-__all__ = [
-    "as_grey",
-    "Board",
-    "BoardNotFoundError",
-    "C_from_rpy",
-    "check_K",
-    "check_transform",
-    "ConvergenceError",
-    "cross_junctions",
-    "CrossCheck",
-    "estimate_pose",
-    "estimate_pose_from_points",
-    "extract_junctions",
-    "find_jacobian",
-    "fit_saddles",
-    "FrameResult",
-    "gauss_newton",
-    "GNResult",
-    "graph_pose",
-    "GraphposeError",
-    "GraphResult",
-    "InputError",
-    "Junctions",
-    "K_from_params",
-    "load_cases",
-    "MotionPrior",
-    "params_from_T",
-    "pose_estimate_nls",
-    "pose_from_homography",
-    "PoseEstimate",
-    "project",
-    "read_image",
-    "read_tum",
-    "refine_junctions",
-    "render_sequence",
-    "rpy_from_C",
-    "saddle_point",
-    "SaddleError",
-    "SaddleFit",
-    "Sequence",
-    "T_from_params",
-    "Track",
-    "track_sequence",
-    "TrackerConfig",
-    "TumTrajectory",
-    "write_sequence",
-    "write_tum",
-]
+__all__ = sorted(
+    ["BoardNotFoundError", "ConvergenceError", "GraphposeError", "InputError", "SaddleError",
+     *_EXPORTS],
+    key=str.lower,
+)
+
+
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'graphpose' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__():
+    return __all__

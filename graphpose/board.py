@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .camera import as_float_array
+from ._checks import as_float_array
 from .errors import InputError
 
 

@@ -7,10 +7,10 @@ is imported here only.
 Sections
 --------
 1. Real images (../shared/data/rob501): RMS and median reprojection residual of a pinhole pose
-   (graphpose.gauss_newton.pose_estimate_nls with the known K, from the case guess) fitted to
+   (graphpose.pose.gauss_newton.pose_estimate_nls with the known K, from the case guess) fitted to
    our 48 junctions, beside the same for OpenCV ``findChessboardCornersSB`` with
    ``CALIB_CB_ACCURACY`` (its corners matched to ours by nearest neighbour).
-2. Synthetic images (graphpose.render, random poses like the real ones, loose polygons,
+2. Synthetic images (graphpose.synth.render, random poses like the real ones, loose polygons,
    half of them inside the white margin): RMS and median junction error against the exact
    truth for ours, ``cornerSubPix`` (11 x 11, started from the truth rounded to whole
    pixels), ``findChessboardCornersSB``
@@ -71,7 +71,7 @@ def _match(points, reference):
 def _pose_residuals(K, guess, points, board):
     """Reprojection residual lengths (n,) in pixels of a pinhole pose fitted to ``points``."""
     from graphpose.camera import project
-    from graphpose.gauss_newton import pose_estimate_nls
+    from graphpose.pose.gauss_newton import pose_estimate_nls
 
     W = board.world_points()
     T = pose_estimate_nls(K, guess, points, W)
@@ -110,8 +110,13 @@ def real_images(cv2):
 
 def synthetic(cv2, count):
     from graphpose import Board, extract_junctions
-    from graphpose.junctions import MAX_RADIUS
-    from graphpose.render import junction_information, loose_polygon, random_pose, render
+    from graphpose.detect.refine import MAX_RADIUS
+    from graphpose.synth.render import (
+        junction_information,
+        loose_polygon,
+        random_pose,
+        render,
+    )
 
     board = Board()
     half = int(np.ceil(MAX_RADIUS))

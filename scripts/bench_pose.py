@@ -17,7 +17,7 @@ Sections
    pipeline (image -> junctions -> pose) beside OpenCV findChessboardCorners + cornerSubPix +
    solvePnP, both run on every image: each on all it solved, failures counted apart, and the
    ratio on the images both solved; the Cramer-Rao bound from
-   :func:`graphpose.render.junction_information` (pose FIM = sum_j J_j^T FIM_j J_j); the NEES
+   :func:`graphpose.synth.render.junction_information` (pose FIM = sum_j J_j^T FIM_j J_j); the NEES
    of the 6-D error against the reported covariance beside chi-square(6) from scipy.
 4. Convergence basin: GN from guesses up to 30 degrees and 50 cm off on synthetic
    correspondences; converged to the homography-started pose / reported failure / wrong.
@@ -79,7 +79,7 @@ def _T_WC_from_opencv(cv2, rvec, tvec):
 def _speed_sets(quick):
     from graphpose import Board, load_cases
     from graphpose.camera import project
-    from graphpose.render import random_pose
+    from graphpose.synth.render import random_pose
 
     W = Board().world_points()
     sets = []
@@ -105,10 +105,10 @@ def speed(quick):
     import cv2
 
     from graphpose.camera import project
-    from graphpose.gauss_newton import gauss_newton
-    from graphpose.graph import graph_pose
-    from graphpose.homography import pose_from_homography
-    from graphpose.pipeline import pose_difference
+    from graphpose.pose.estimate import pose_difference
+    from graphpose.pose.gauss_newton import gauss_newton
+    from graphpose.pose.graph import graph_pose
+    from graphpose.pose.homography import pose_from_homography
 
     repeats = 30 if quick else 300
     sets = _speed_sets(quick)
@@ -162,7 +162,7 @@ def speed(quick):
 
 def real_images():
     from graphpose import estimate_pose, load_cases, read_image
-    from graphpose.pipeline import pose_difference
+    from graphpose.pose.estimate import pose_difference
 
     if not (DATA / "cases.json").is_file():
         print("(real data folder absent: skipped)\n")
@@ -190,8 +190,8 @@ def real_images():
 def _crb(K, T, fim):
     """Cramer-Rao covariance of the pose in GTSAM's tangent (rotation, translation) coordinates."""
     from graphpose import Board
-    from graphpose.gauss_newton import projection_jacobians
-    from graphpose.graph import params_from_tangent_jacobian
+    from graphpose.pose.gauss_newton import projection_jacobians
+    from graphpose.pose.graph import params_from_tangent_jacobian
 
     J = projection_jacobians(K, T, Board().world_points()).reshape(-1, 2, 6)
     F = np.einsum("nai,nab,nbj->ij", J, fim, J)
@@ -240,8 +240,13 @@ def synthetic(quick):
     from graphpose import estimate_pose
     from graphpose.camera import params_from_T
     from graphpose.errors import GraphposeError
-    from graphpose.pipeline import pose_difference
-    from graphpose.render import junction_information, loose_polygon, random_pose, render
+    from graphpose.pose.estimate import pose_difference
+    from graphpose.synth.render import (
+        junction_information,
+        loose_polygon,
+        random_pose,
+        render,
+    )
 
     n = 20 if quick else 200
     K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
@@ -320,8 +325,8 @@ def basin(quick):
     from graphpose import Board, gauss_newton, pose_from_homography
     from graphpose.camera import project
     from graphpose.errors import InputError
-    from graphpose.pipeline import pose_difference
-    from graphpose.render import random_pose
+    from graphpose.pose.estimate import pose_difference
+    from graphpose.synth.render import random_pose
 
     n = 200 if quick else 1000
     K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])

@@ -82,10 +82,10 @@ def _median(x, mask):
 
 def _single_frame_times(images, K, board, frames):
     """graphpose on each chosen frame alone, as OpenCV runs: (ms (m,), found (m,) bool)."""
+    from graphpose.detect.junctions import extract_junctions
     from graphpose.errors import BoardNotFoundError, InputError
-    from graphpose.gauss_newton import gauss_newton
-    from graphpose.homography import pose_from_homography
-    from graphpose.junctions import extract_junctions
+    from graphpose.pose.gauss_newton import gauss_newton
+    from graphpose.pose.homography import pose_from_homography
 
     W = board.world_points()
     ms, ok = np.full(len(frames), np.nan), np.zeros(len(frames), dtype=bool)
@@ -108,7 +108,7 @@ def main(quick: bool = False) -> None:
     import cv2
 
     from graphpose import Board, K_from_params, project, render_sequence, track_sequence
-    from graphpose.tracking import LOST, TrackerConfig
+    from graphpose.track.tracker import LOST, TrackerConfig
 
     K = K_from_params(564.9, 564.3, 337.3, 226.5)
     board = Board()
@@ -214,7 +214,12 @@ def main(quick: bool = False) -> None:
 
 def _compare_forms(K, board, frames):
     """The tracked frames' junctions replayed into each back-end form and motion prior."""
-    from graphpose.tracking import MOTION_MODELS, TARGET_FORMS, MotionPrior, SequenceGraph
+    from graphpose.track.tracker import (
+        MOTION_MODELS,
+        TARGET_FORMS,
+        MotionPrior,
+        SequenceGraph,
+    )
 
     print("\nback-end forms, the same junctions replayed (pixel sigma 0.05; update = factors + iSAM2 + "
           "marginal, ms; poses against resection with the same motion prior):")

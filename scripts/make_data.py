@@ -18,7 +18,7 @@ import numpy as np
 from skimage.io import imsave
 
 from graphpose.board import Board
-from graphpose.render import loose_polygon, perturb_pose, random_pose, render
+from graphpose.synth.render import loose_polygon, perturb_pose, random_pose, render
 
 SEED = 20261122
 COUNT = 4
@@ -62,7 +62,7 @@ def make(out_dir) -> dict:
 
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
-    out_dir = Path(argv[0]) if argv else Path(__file__).resolve().parents[1] / "data"
+    out_dir = Path(argv[0]) if argv else Path(__file__).resolve().parents[1] / "graphpose" / "data"
     make(out_dir)
     print(f"wrote {COUNT} images and cases.json to {out_dir}")
     return 0

@@ -29,7 +29,7 @@ def real_file(name: str) -> Path:
 @pytest.fixture(scope="session")
 def real_cases():
     """The parsed real case file (:class:`graphpose.io.CaseFile`)."""
-    from graphpose.io import load_cases
+    from graphpose.io.cases import load_cases
 
     return load_cases(real_file("cases.json"))
 
@@ -37,6 +37,6 @@ def real_cases():
 @pytest.fixture(scope="session")
 def real_images(real_cases):
     """List of (case, grey float image) for the six real images."""
-    from graphpose.io import read_image
+    from graphpose.image import read_image
 
     return [(case, read_image(case.image)) for case in real_cases.cases]

@@ -2,13 +2,10 @@ import numpy as np
 import pytest
 
 from graphpose import Board, InputError
+from graphpose._checks import as_float_array, as_points, check_K, check_transform
 from graphpose.camera import (
     C_from_rpy,
     T_from_params,
-    as_float_array,
-    as_points,
-    check_K,
-    check_transform,
     params_from_T,
     project,
     rpy_from_C,
@@ -181,7 +178,7 @@ def test_sheet_corners_rejects_bad_margin(margin):
 def test_real_world_points_match_board(real_cases):
     import json
 
-    from conftest import REAL_DIR
+    from tests.conftest import REAL_DIR
 
     W = np.asarray(json.loads((REAL_DIR / "cases.json").read_text())["world_points"])
     assert real_cases.board == Board()

@@ -1,7 +1,7 @@
 """``graphpose estimate``: the camera pose from one image, a case file, or the bundled example.
 
 Turns the arguments into typed values (bounds (2, 4), K (3, 3), :class:`Board`, a guess
-(4, 4)), calls :func:`graphpose.pipeline.estimate_pose` once per image, and writes a report
+(4, 4)), calls :func:`graphpose.pose.estimate.estimate_pose` once per image, and writes a report
 on stdout, optionally ``--json`` results and ``--overlay`` pictures. An image that fails in
 a batch is reported on stderr and in its JSON entry, and the others go on; the exit code is
 then the worst of the images' codes (see :mod:`graphpose.cli`).
@@ -18,23 +18,18 @@ from pathlib import Path
 
 import numpy as np
 
-from ..draw import draw_overlay
 from ..errors import GraphposeError, InputError
-from ..io import (
-    dumps_json,
-    load_cases,
-    load_pose,
-    read_image,
-    result_record,
-    write_json,
-    write_png,
-)
-from ..pipeline import estimate_pose, pose_difference
+from ..image import read_image
+from ..io.cases import bundled_cases_path, load_cases, load_pose
+from ..io.files import dumps_json, write_json, write_png
+from ..pose.estimate import estimate_pose, pose_difference
+from ..viz.overlay import draw_overlay
 from . import EXIT_OK, UsageError, exit_code, print_error
 from .options import Progress, add_target_options, parse_bounds, target_from_args
+from .records import result_record
 
-#: The bundled example, a case file beside the package (made by graphpose.render).
-DEFAULT_CASES = Path(__file__).resolve().parents[2] / "data" / "cases.json"
+#: The bundled example, package data made by scripts/make_data.py with graphpose.synth.render.
+DEFAULT_CASES = bundled_cases_path()
 
 _EXAMPLES = """\
 examples:

@@ -1,6 +1,6 @@
 """``graphpose render-sequence``: a synthetic sequence with its true trajectory, to measure a tracker.
 
-Calls :func:`graphpose.sequence.render_sequence` and :func:`graphpose.sequence.write_sequence`:
+Calls :func:`graphpose.synth.sequence.render_sequence` and :func:`graphpose.synth.sequence.write_sequence`:
 OUT_DIR gets ``frame_00000.png ...``, ``truth.tum`` (the true pose of every frame) and
 ``bounds.json`` (K, board, fps, the first frame's bounding polygon, per-frame labels), and
 the command prints the ``graphpose track`` line that tracks it.
@@ -91,7 +91,7 @@ def _pair(text: str) -> tuple:
 
 def run(args) -> int:
     """Run ``graphpose render-sequence`` with parsed ``args``; returns the exit code."""
-    from ..sequence import render_sequence, write_sequence
+    from ..synth.sequence import render_sequence, write_sequence
 
     K, board = target_from_args(args)
     progress = Progress(args.frames, sys.stderr)

@@ -1,7 +1,7 @@
 """``graphpose track``: the camera trajectory over a sequence of frames of the board.
 
 Turns the arguments into typed values (frame files, bounds (2, 4), K (3, 3), :class:`Board`,
-timestamps), calls :func:`graphpose.tracking.track_sequence` once, and writes the trajectory
+timestamps), calls :func:`graphpose.track.tracker.track_sequence` once, and writes the trajectory
 in TUM format (``--tum``), per-frame results as JSON (``--json``) and a summary on stdout.
 Exit code 0 when at least one frame has a pose, 1 when every frame was lost (see
 :mod:`graphpose.cli`).
@@ -16,12 +16,18 @@ from pathlib import Path
 
 import numpy as np
 
-from ..camera import as_float_array
+from .._checks import as_float_array
 from ..errors import InputError
-from ..io import read_json
-from ..tracking import MOTION_MODELS, TARGET_FORMS
+from ..io.files import read_json
+from ..track.tracker import MOTION_MODELS, TARGET_FORMS
 from . import EXIT_FAILED, EXIT_OK
-from .options import Progress, add_target_options, parse_bounds, parse_positive, target_from_args
+from .options import (
+    Progress,
+    add_target_options,
+    parse_bounds,
+    parse_positive,
+    target_from_args,
+)
 
 _EXAMPLES = """\
 examples:
@@ -80,9 +86,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     """Run ``graphpose track`` with parsed ``args``; returns the exit code."""
-    from ..io import dumps_json, write_json
-    from ..tracking import MotionPrior, TrackerConfig, list_frames, read_timestamps, track_sequence
-    from ..tum import write_tum
+    from ..io.files import dumps_json, write_json
+    from ..io.tum import write_tum
+    from ..track.tracker import (
+        MotionPrior,
+        TrackerConfig,
+        list_frames,
+        read_timestamps,
+        track_sequence,
+    )
 
     files = _frame_files(args.frames, list_frames)
     timestamps = None if args.timestamps is None else read_timestamps(args.timestamps, len(files))
@@ -110,7 +122,7 @@ def run(args) -> int:
     elif args.json is not None:
         write_json(args.json, records)
     if args.plot is not None:
-        from ..plot import plot_track
+        from ..viz.plot import plot_track
 
         plot_track(track, args.plot, board=board, title=f"graphpose track: {len(frames)} frames")
     if not args.quiet and args.json != "-":

@@ -1,0 +1,250 @@
+"""Input checks at graphpose's public edge, one coercing checker per concept.
+
+Each checker takes what a user may pass (lists, integer arrays, arrays of another float
+type), converts it, checks shape then meaning, and returns the float64 array, or raises
+:class:`~graphpose.errors.InputError` with a message that names the parameter, what was
+expected and what came. Public functions call these once, at the edge; the numerical code
+behind them trusts its callers.
+
+Concepts: arrays of numbers (:func:`as_float_array`), point sets (:func:`as_points`),
+intrinsics (:func:`check_K`), poses (:func:`check_transform`), bounding polygons
+(:func:`check_bounds`), correspondences (:func:`check_correspondences`), points in front
+of a camera (:func:`check_in_front`), and scalar settings and ranges (:func:`check_number`,
+:func:`check_range`, :func:`check_count`, :func:`check_size`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import InputError
+
+#: Orthonormality tolerance used when validating a rotation block.
+ROTATION_TOL = 1e-6
+#: Smallest camera-frame depth (metres) a point may have to count as in front of the camera.
+MIN_DEPTH = 1e-9
+
+
+def as_float_array(x, name: str, shape=None) -> np.ndarray:
+    """Convert array-like input to float64, turning conversion failures into InputError.
+
+    Parameters
+    ----------
+    x : array_like
+        Numbers (bool, integer or real); strings, complex numbers, None and other objects
+        and ragged nests are refused.
+    name : str
+        The parameter's name, used in the message.
+    shape : tuple of int, optional
+        Required shape; unchecked when None.
+
+    Returns
+    -------
+    a : ndarray of float64
+        ``x`` as an array (not copied when already float64).
+
+    Raises
+    ------
+    InputError
+        If ``x`` is not a rectangular array of real numbers, or does not have ``shape``.
+    """
+    try:
+        a = np.asarray(x)
+        # Strings would convert ("1.5" -> 1.5), complex would lose its imaginary part and
+        # None in an object array would become NaN.
+        if a.dtype.kind not in "biuf":
+            raise TypeError
+        a = a.astype(float, copy=False)
+    except (TypeError, ValueError):
+        raise InputError(
+            f"{name} must be a rectangular array of real numbers, got {_describe(x)}") from None
+    if shape is not None and a.shape != tuple(shape):
+        raise InputError(f"{name} must have shape {tuple(shape)}, got {a.shape}")
+    return a
+
+
+def _describe(x) -> str:
+    """A short description of a rejected value for an error message."""
+    text = repr(x)
+    return text if len(text) <= 60 else f"{type(x).__name__} {text[:57]}..."
+
+
+def check_transform(T, name: str = "T_WC") -> np.ndarray:
+    """Validate a rigid transform and return it as a (4, 4) float64 array.
+
+    Raises
+    ------
+    InputError
+        If T is not an array of real numbers, the shape is not (4, 4), an entry is not
+        finite, the rotation block is not orthonormal with determinant +1 (tolerance
+        :data:`ROTATION_TOL`), or the last row is not ``[0, 0, 0, 1]``.
+    """
+    T = as_float_array(T, name)
+    if T.shape != (4, 4):
+        raise InputError(f"{name} must have shape (4, 4), got {T.shape}")
+    if not np.all(np.isfinite(T)):
+        raise InputError(f"{name} contains NaN or infinite values")
+    C = T[:3, :3]
+    if np.max(np.abs(C.T @ C - np.eye(3))) > ROTATION_TOL or np.linalg.det(C) < 0:
+        raise InputError(f"{name}[:3, :3] is not a rotation (orthonormal, det +1)")
+    if not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0]):
+        raise InputError(f"{name}'s last row must be [0, 0, 0, 1], got {T[3].tolist()}")
+    return T
+
+
+def check_K(K) -> np.ndarray:
+    """Validate camera intrinsics and return them as a (3, 3) float64 array.
+
+    Raises
+    ------
+    InputError
+        If K is not a (3, 3) array of real numbers, not finite, its last row is not
+        ``[0, 0, 1]``, ``K[1, 0]`` is not 0, or a focal length is not positive (a singular K).
+    """
+    K = as_float_array(K, "K")
+    if K.shape != (3, 3):
+        raise InputError(f"K must have shape (3, 3), got {K.shape}")
+    if not np.all(np.isfinite(K)):
+        raise InputError("K contains NaN or infinite values")
+    if not np.allclose(K[2], [0.0, 0.0, 1.0]) or K[1, 0] != 0.0:
+        raise InputError(f"K must be upper triangular with last row [0, 0, 1], got {K.tolist()}")
+    if K[0, 0] <= 0 or K[1, 1] <= 0:
+        raise InputError(f"K's focal lengths must be positive, got fx={K[0, 0]}, fy={K[1, 1]}")
+    return K
+
+
+def as_points(P, dim: int, name: str = "points", min_count: int = 1) -> np.ndarray:
+    """Validate a ``dim`` x N point array and return it as float64.
+
+    Raises
+    ------
+    InputError
+        If it is not a 2-D array of real numbers with ``dim`` rows, has fewer than
+        ``min_count`` columns, or holds NaN or infinite values.
+    """
+    P = as_float_array(P, name)
+    if P.ndim != 2 or P.shape[0] != dim:
+        raise InputError(f"{name} must have shape ({dim}, N), got {P.shape}")
+    if P.shape[1] < min_count:
+        raise InputError(f"{name} needs at least {min_count} points, got {P.shape[1]}")
+    if not np.all(np.isfinite(P)):
+        raise InputError(f"{name} contains NaN or infinite values")
+    return P
+
+
+def check_correspondences(K, Ipts, Wpts, mask=None):
+    """Validate K, image and target points and a trust mask at a public edge.
+
+    Parameters
+    ----------
+    K : (3, 3) array_like
+        Intrinsics, pixels (see :func:`check_K`).
+    Ipts : (2, n) array_like
+        Image points (u, v), pixels.
+    Wpts : (3, n) array_like
+        Matching target points, metres.
+    mask : (n,) array_like of bool, optional
+        The points to use; all when None.
+
+    Returns
+    -------
+    K : (3, 3) ndarray
+    Ipts : (2, n) ndarray
+    Wpts : (3, n) ndarray
+    mask : (n,) ndarray of bool
+        All True when ``mask`` is None.
+
+    Raises
+    ------
+    InputError
+        If K is singular or malformed, the point arrays are malformed, hold NaN, differ in
+        count, the mask is not boolean of shape (n,), or fewer than 4 points are used.
+    """
+    K = check_K(K)
+    Ipts = as_points(Ipts, 2, "Ipts")
+    Wpts = as_points(Wpts, 3, "Wpts")
+    n = Ipts.shape[1]
+    if Wpts.shape[1] != n:
+        raise InputError(f"Ipts and Wpts must hold the same number of points, got {n} and {Wpts.shape[1]}")
+    if mask is None:
+        mask = np.ones(n, dtype=bool)
+    else:
+        mask = np.asarray(mask)
+        if mask.shape != (n,) or mask.dtype != bool:
+            raise InputError(f"mask must be a boolean array of shape ({n},), got {mask.dtype} {mask.shape}")
+    if np.count_nonzero(mask) < 4:
+        raise InputError(f"pose needs at least 4 trusted points, got {np.count_nonzero(mask)}")
+    return K, Ipts, Wpts, mask
+
+
+def check_in_front(depth, name: str, index=None) -> None:
+    """Refuse points at or behind the camera.
+
+    Parameters
+    ----------
+    depth : (m,) ndarray
+        Camera-frame depths (metres), e.g. ``to_camera(T_WC, P_W)[2]``.
+    name : str
+        The pose the depths belong to, for the message ("the guess").
+    index : (m,) array_like of int, optional
+        The caller's index of each depth (``np.flatnonzero(mask)`` when the depths are of
+        the masked points), so the message names the caller's point; ``arange(m)`` if None.
+
+    Raises
+    ------
+    InputError
+        If a depth is at most :data:`MIN_DEPTH`.
+    """
+    bad = np.flatnonzero(depth <= MIN_DEPTH)
+    if bad.size:
+        first = bad[0] if index is None else int(index[bad[0]])
+        raise InputError(
+            f"{bad.size} target point(s) lie at or behind the camera at {name} "
+            f"(first index {first}, depth {depth[bad[0]]:.3g} m)"
+        )
+
+
+
+def check_bounds(bounds, shape, name: str = "bounds") -> np.ndarray:
+    """Validate a board's bounding polygon in an image and return it as (2, 4) float64.
+
+    Parameters
+    ----------
+    bounds : (2, 4) array_like
+        Vertices (u, v), pixels, clockwise in the image (v down) from the vertex nearest
+        the board's upper-left junction.
+    shape : tuple of int
+        The image's ``(height, width)``.
+    name : str
+        The parameter's name in messages (``"bounds"``, ``"--bounds"``, ``name``).
+
+    Raises
+    ------
+    InputError
+        If it is not a finite 2 x 4 array, lies more than 5 % of the image diagonal off the
+        image, is degenerate, not convex, or runs counter-clockwise.
+    """
+    poly = as_float_array(bounds, name)
+    if poly.shape != (2, 4):
+        raise InputError(f"{name} must have shape (2, 4) (u and v of 4 vertices), got {poly.shape}")
+    if not np.all(np.isfinite(poly)):
+        raise InputError("{name} contains NaN or infinite values")
+    height, width = shape
+    slack = 0.05 * np.hypot(height, width)
+    outside = (poly[0] < -slack) | (poly[0] > width - 1 + slack) | \
+        (poly[1] < -slack) | (poly[1] > height - 1 + slack)
+    if np.any(outside):
+        raise InputError(
+            f"{name} vertices {np.flatnonzero(outside).tolist()} lie off the {width} x {height} image "
+            f"(more than {slack:.0f} px outside): {poly.round(1).tolist()}"
+        )
+    edges = np.roll(poly, -1, axis=1) - poly
+    turns = edges[0] * np.roll(edges[1], -1) - edges[1] * np.roll(edges[0], -1)
+    area = 0.5 * np.sum(poly[0] * np.roll(poly[1], -1) - np.roll(poly[0], -1) * poly[1])
+    if abs(area) < 100.0:
+        raise InputError(f"{name} is degenerate (area {abs(area):.1f} px^2): {poly.round(1).tolist()}")
+    if area < 0:
+        raise InputError("{name} must run clockwise (in the image, v down) from the upper-left vertex")
+    if np.any(turns <= 0):
+        raise InputError(f"{name} must be a convex quadrilateral, got {poly.round(1).tolist()}")
+    return poly

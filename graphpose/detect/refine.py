@@ -1,0 +1,226 @@
+"""Sub-pixel refinement of junction positions.
+
+Every junction is refined by the saddle fit of :mod:`graphpose.detect.saddle` on a Gaussian-
+smoothed patch, whose window is a smooth disc of radius a fraction of the local square
+(so no other edge enters it), re-centred on the estimate until it stops moving. Around
+the true junction of a blurred checkerboard such a window is point-symmetric, which
+makes the fitted saddle unbiased whatever the perspective. The fit is weighted by the
+squared gradient over the squared distance from the centre, which concentrates it on
+the two edges (where the position information is) and brings its noise within a factor
+~1.7 of the Cramer-Rao bound; the settings come from measurements on the real and
+synthetic images (see the README section on cross-junctions).
+
+Coordinates follow :mod:`graphpose.camera`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from .._checks import as_float_array, as_points
+from ..errors import InputError
+from ..image import as_grey
+from .saddle import fit_quadrics
+
+#: Default refinement window radius, as a fraction of the local square side.
+WINDOW_FRACTION = 0.5
+
+#: Gaussian pre-smoothing of refinement patches, pixels.
+SMOOTH_SIGMA = 0.5
+
+#: Largest refinement window radius, pixels (beyond it the fit gains little and costs time).
+MAX_RADIUS = 12.0
+
+
+
+def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGMA):
+    """Refine predicted junction positions with the re-centred saddle fit.
+
+    The same refinement :func:`extract_junctions` applies after finding the grid; the tracker
+    uses it on positions predicted from the previous frame.
+
+    Parameters
+    ----------
+    I : (H, W) or (H, W, 3|4) array_like
+        The image (converted as by :func:`graphpose.io.as_grey`).
+    points : (2, m) array_like
+        Predicted positions (u, v), pixels; each should be within about a third of the
+        window radius of its junction.
+    half_width : float or (m,) array_like
+        Window radius per point, pixels, >= 2: about half the local square side, so that no
+        other edge of the board enters the window.
+    smooth_sigma : float
+        Gaussian smoothing of the patches, pixels (>= 0).
+
+    Returns
+    -------
+    points : (2, m) ndarray of float64
+        Refined positions; where the fit failed, its last good estimate (or the input).
+    trusted : (m,) ndarray of bool
+        True where the fit converged to a saddle inside its window, the window lies in the
+        image, and a ring around the point looks like a cross-junction (point-symmetric,
+        four alternating sectors).
+    residual : (m,) ndarray of float64
+        RMS residual of the weighted saddle fit, grey units of the image scaled to [0, 1];
+        NaN where it failed.
+
+    Raises
+    ------
+    InputError
+        If the image or points are malformed, or ``half_width`` is not >= 2 (scalar or one
+        per point).
+    """
+    image, scale = grey_and_scale(I)
+    P = as_points(points, 2, "points")
+    radius = as_float_array(half_width, "half_width")
+    if radius.ndim > 1 or radius.size not in (1, P.shape[1]) or not np.all(np.isfinite(radius)) \
+            or np.any(radius < 2):
+        raise InputError(f"half_width must be >= 2 px, a scalar or one per point ({P.shape[1]}), "
+                         f"got {radius!r}")
+    radius = np.broadcast_to(radius, P.shape[1:]).astype(float)
+    if not np.isfinite(smooth_sigma) or smooth_sigma < 0:
+        raise InputError(f"smooth_sigma must be >= 0 pixels, got {smooth_sigma!r}")
+    points, trusted, residual = refine_points(image, P, radius, smooth_sigma)
+    return points, trusted, residual * scale
+
+
+
+def grey_and_scale(I):
+    """Grey pixels and the factor that scales them to [0, 1], as :func:`graphpose.io.as_grey`.
+
+    An 8-bit grey image is used as it is (every step but the residual is invariant to the
+    grey scale), which spares converting the whole image for the few pixels read.
+    """
+    if isinstance(I, np.ndarray) and I.dtype == np.uint8 and I.ndim == 2 and I.size:
+        return I, 1.0 / 255.0
+    return as_grey(I), 1.0
+
+
+
+def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: float,
+            max_iter: int = 8, tol: float = 0.02):
+    """Re-centred, gradient-weighted saddle fits: (points (2, m), trusted (m,), residual (m,)).
+
+    Each round refits only the junctions still moving; a junction that drifts off its
+    patch's centre gets a new patch.
+    """
+    m = points.shape[1]
+    current = points.astype(float).copy()
+    slack = 2
+    half = int(np.ceil(radius.max())) + slack
+    offs = np.arange(-half, half + 1, dtype=float)
+    base = np.rint(current).astype(int)
+    patches, grad2, inside = _patches(image, base, half, sigma, radius)
+    residual = np.full(m, np.nan)
+    state = np.zeros(m, dtype=int)  # 0 moving, 1 converged, 2 failed
+    for _ in range(max_iter):
+        act = np.flatnonzero(state == 0)
+        if act.size == 0:
+            break
+        drift = act[np.any(np.abs(current[:, act] - base[:, act]) > slack - 0.5, axis=0)]
+        if drift.size:
+            base[:, drift] = np.rint(current[:, drift])
+            fresh = _patches(image, base[:, drift], half, sigma, radius[drift])
+            patches[drift], grad2[drift], inside[drift] = fresh
+        weights = _weights(offs, current[:, act] - base[:, act], radius[act], grad2[act])
+        pts, saddle, within, _, residual[act] = fit_quadrics(patches[act], weights)
+        new = base[:, act] + pts - half
+        step = np.hypot(*(new - current[:, act]))
+        ok = saddle & within & (step < radius[act])
+        current[:, act[ok]] = new[:, ok]
+        state[act[~ok]] = 2
+        state[act[ok & (step < tol)]] = 1
+    fitted = state != 2
+    residual[~fitted] = np.nan
+    crosses = _looks_like_cross(patches, current - base + half, 0.6 * radius)
+    return current, (state == 1) & inside & crosses, residual
+
+
+
+def _patches(image, base, half, sigma, radius):
+    """Smoothed patches (m, 2h+1, 2h+1), squared gradients and an in-image mask (m,)."""
+    height, width = image.shape
+    kernel = _gaussian_kernel(sigma)
+    margin = len(kernel) // 2 + 1
+    offs = np.arange(-half - margin, half + margin + 1)
+    rows = np.clip(base[1][:, None] + offs, 0, height - 1)
+    cols = np.clip(base[0][:, None] + offs, 0, width - 1)
+    inside = (base[0] - radius >= 0) & (base[0] + radius <= width - 1) & \
+        (base[1] - radius >= 0) & (base[1] + radius <= height - 1)
+    # Single precision for the pixel work (half the memory traffic); the fit itself, in
+    # saddle.fit_quadrics, accumulates in double.
+    raw = image.ravel()[(rows * width)[:, :, None] + cols[:, None, :]].astype(np.float32, copy=False)
+    smooth = _convolve(_convolve(raw, kernel.astype(np.float32), 1), kernel.astype(np.float32), 2)
+    gx = 0.5 * (smooth[:, 1:-1, 2:] - smooth[:, 1:-1, :-2])
+    gy = 0.5 * (smooth[:, 2:, 1:-1] - smooth[:, :-2, 1:-1])
+    return smooth[:, 1:-1, 1:-1].astype(float), gx * gx + gy * gy, inside
+
+
+
+def _gaussian_kernel(sigma: float) -> np.ndarray:
+    """Normalised Gaussian taps out to 4 sigma (a single 1 for sigma = 0)."""
+    if sigma == 0:
+        return np.ones(1)
+    t = int(np.ceil(4.0 * sigma))
+    k = np.exp(-0.5 * (np.arange(-t, t + 1) / sigma) ** 2)
+    return k / k.sum()
+
+
+
+def _convolve(a: np.ndarray, kernel: np.ndarray, axis: int) -> np.ndarray:
+    """'Valid' correlation with a short symmetric kernel along one axis (shrinks it)."""
+    n = a.shape[axis] - len(kernel) + 1
+    index = [slice(None)] * a.ndim
+    out = 0.0
+    for j, k in enumerate(kernel):
+        index[axis] = slice(j, j + n)
+        out = out + k * a[tuple(index)]
+    return out
+
+
+
+def _weights(offs, local, radius, grad2):
+    """Fit weights (m, h, w) centred on each sub-pixel estimate.
+
+    The squared gradient picks out the two edges, where the position information is; the
+    division by the squared distance from the centre favours the inner stretch of each edge,
+    which fits the real images better than the outer stretch (measurements in the README's
+    cross-junctions section); a smooth taper keeps the window point-symmetric about the
+    estimate on the pixel grid.
+    """
+    inv_r2 = (1.0 / (radius * radius)).astype(np.float32)
+    dx2 = ((offs[None, :] - local[0][:, None]) ** 2).astype(np.float32)
+    dy2 = ((offs[None, :] - local[1][:, None]) ** 2).astype(np.float32)
+    r2 = dy2[:, :, None] + dx2[:, None, :]
+    taper = np.maximum(1.0 - r2 * inv_r2[:, None, None], 0.0)
+    taper *= taper
+    return (taper * grad2 / np.maximum(r2, np.float32(1.0))).astype(float)
+
+
+
+def _looks_like_cross(patches, centre, radius):
+    """Ring test on the smoothed patches: point-symmetric, with four alternating sectors.
+
+    The ChESS "sum" response (opposite samples against the quarter-turned pair) must be
+    at least twice its "diff" response (opposite samples against each other), which noise,
+    edges and L-corners fail.
+    """
+    m = patches.shape[0]
+    angles = np.arange(16) * (np.pi / 8)
+    x = centre[0][:, None] + radius[:, None] * np.cos(angles)
+    y = centre[1][:, None] + radius[:, None] * np.sin(angles)
+    k = np.repeat(np.arange(m), 16)
+    ring = ndimage.map_coordinates(patches, [k, y.ravel(), x.ravel()], order=1, mode="nearest").reshape(m, 16)
+    return ring_sum(ring) > 2.0 * ring_diff(ring)
+
+
+
+def ring_sum(ring):
+    return np.abs(ring[:, 0:4] + ring[:, 8:12] - ring[:, 4:8] - ring[:, 12:16]).sum(axis=1)
+
+
+
+def ring_diff(ring):
+    return np.abs(ring[:, 0:8] - ring[:, 8:16]).sum(axis=1)
+

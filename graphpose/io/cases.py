@@ -1,0 +1,144 @@
+"""Reading images and case files.
+
+A case file is the JSON format of ``../shared/data/rob501/cases.json``: ``K`` (3 x 3),
+optional ``square_m`` and ``grid`` (``{"cols": 8, "rows": 6}``), and ``cases``, each with
+``image`` (a path relative to the file), ``bounds`` (2 x 4 polygon) and optionally
+``guess_T_WC``, ``ref_junctions`` (2 x n) and ``ref_T_WC`` (estimates from elsewhere), and
+``true_T_WC`` and ``true_junctions`` (exact, for images made by :mod:`graphpose.synth.render`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .._checks import as_float_array, as_points, check_K, check_transform
+from ..board import Board
+from ..errors import InputError
+from .files import read_json
+
+
+@dataclass(frozen=True)
+class Case:
+    """One image of a case file; arrays as in the module docstring, None where absent."""
+
+    image: Path
+    bounds: np.ndarray
+    guess_T_WC: np.ndarray | None = None
+    ref_junctions: np.ndarray | None = None
+    ref_T_WC: np.ndarray | None = None
+    true_T_WC: np.ndarray | None = None
+    true_junctions: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class CaseFile:
+    """A parsed case file: intrinsics K (3, 3), the board, and its cases."""
+
+    K: np.ndarray
+    board: Board
+    cases: list
+
+
+def load_cases(path) -> CaseFile:
+    """Read a case file (format in the module docstring); image paths become absolute.
+
+    Raises
+    ------
+    InputError
+        If the file is missing, not JSON, not an object, lacks ``K``, ``cases`` or a case's
+        ``image`` or ``bounds``, or a field has the wrong type or shape.
+    """
+    path = Path(path)
+    doc = read_json(path, "case file")
+    if not isinstance(doc, dict):
+        raise InputError(f"case file {path} must hold a JSON object, got {type(doc).__name__}")
+    try:
+        K = check_K(doc["K"])
+        grid = doc.get("grid", {})
+        if not isinstance(grid, dict):
+            raise InputError(f'case file {path}: grid must be an object like {{"cols": 8, "rows": 6}}, got {grid!r}')
+        board = Board(int(grid.get("cols", 8)), int(grid.get("rows", 6)), float(doc.get("square_m", 0.0635)))
+        if not isinstance(doc["cases"], list) or not all(isinstance(c, dict) for c in doc["cases"]):
+            raise InputError(f"case file {path}: cases must be a list of objects")
+        cases = [_case(c, path.parent) for c in doc["cases"]]
+    except KeyError as exc:
+        raise InputError(f"case file {path} lacks the field {exc}") from None
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"case file {path}: {exc}") from None
+    return CaseFile(K, board, cases)
+
+
+def _case(entry: dict, folder: Path) -> Case:
+    image = entry["image"]
+    if not isinstance(image, str):
+        raise InputError(f"a case's image must be a path string, got {image!r}")
+    bounds = as_float_array(entry["bounds"], f"bounds of {image}")
+    if bounds.shape != (2, 4):
+        raise InputError(f"bounds of {image} must be 2 x 4, got {bounds.shape}")
+
+    def optional(key, check):
+        return None if entry.get(key) is None else check(f"{key} of {image}", entry[key])
+
+    return Case(
+        image=(folder / image).resolve(),
+        bounds=bounds,
+        guess_T_WC=optional("guess_T_WC", lambda name, T: check_transform(T, name)),
+        ref_junctions=optional("ref_junctions", lambda name, P: as_points(P, 2, name)),
+        # An estimate from elsewhere, rounded: only its shape is checked, not its rotation.
+        ref_T_WC=optional("ref_T_WC", lambda name, T: as_float_array(T, name, shape=(4, 4))),
+        true_T_WC=optional("true_T_WC", lambda name, T: check_transform(T, name)),
+        true_junctions=optional("true_junctions", lambda name, P: as_points(P, 2, name)),
+    )
+
+
+# --- Writing results: whole files or nothing -------------------------------------------
+
+
+def load_pose(path) -> np.ndarray:
+    """Read a pose file: a JSON 4 x 4 matrix, as a nested list or as ``{"T_WC": [...]}``.
+
+    A list holding one such object (the command line's ``--json`` output for one image) is
+    read too.
+
+    Returns
+    -------
+    T_WC : (4, 4) ndarray of float64
+        Validated by :func:`graphpose.camera.check_transform`.
+
+    Raises
+    ------
+    InputError
+        If the file is missing, not JSON, or not a rigid 4 x 4 transform.
+    """
+    path = Path(path)
+    doc = read_json(path, "pose file")
+    if isinstance(doc, list) and len(doc) == 1 and isinstance(doc[0], dict):
+        doc = doc[0]  # the --json output of one image
+    if isinstance(doc, dict):
+        if "T_WC" not in doc:
+            raise InputError(f"pose file {path} is an object without the key T_WC")
+        doc = doc["T_WC"]
+    try:
+        T = as_float_array(doc, "pose")
+    except InputError:
+        raise InputError(f"pose file {path} must hold a 4 x 4 matrix of numbers") from None
+    return check_transform(T, f"pose in {path.name}")
+
+
+def bundled_cases_path() -> Path:
+    """Path of the bundled example's case file, ``graphpose/data/cases.json``.
+
+    The four synthetic images beside it (made by ``scripts/make_data.py`` with
+    :mod:`graphpose.synth.render`) ship as package data, so the example runs from an
+    installed wheel as well as from a checkout.
+    """
+    return Path(str(resources.files("graphpose") / "data" / "cases.json"))
+
+
+def bundled_cases() -> CaseFile:
+    """The bundled example: four synthetic images with their true poses (:func:`load_cases`)."""
+    return load_cases(bundled_cases_path())

@@ -1,0 +1,305 @@
+"""From an image (or from correspondences) to a cross-checked camera pose with uncertainty.
+
+:func:`estimate_pose` runs the whole chain: cross-junctions (:mod:`graphpose.detect.junctions`), a
+start (the caller's guess, or the homography initialiser of :mod:`graphpose.pose.homography`),
+Gauss-Newton (:mod:`graphpose.pose.gauss_newton`) and, from the same start, the GTSAM factor
+graph (:mod:`graphpose.pose.graph`). The two solvers minimise the same cost, so their poses must
+agree to :data:`AGREE_TRANSLATION_M` and :data:`AGREE_ROTATION_DEG`; the difference is
+always reported in :class:`CrossCheck`, and a larger one makes ``agree`` False.
+
+A guess far off can lead Gauss-Newton to another local minimum. When a guess is given and
+the target is planar, Gauss-Newton is also run from the homography start; if that reaches
+a clearly lower cost, the estimate is marked not converged and says so in ``message``
+rather than returning the worse pose as if it were right.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._checks import check_correspondences, check_K, check_transform
+from ..board import Board
+from ..camera import project
+from ..errors import InputError
+from .gauss_newton import GNResult, gauss_newton, reprojection_cost
+from .graph import HUBER_K, GraphResult, graph_pose
+from .homography import on_target_plane, pose_from_homography
+
+#: GN and the graph must agree this closely (metres, degrees): the same cost, two solvers.
+AGREE_TRANSLATION_M = 1e-6
+AGREE_ROTATION_DEG = 1e-5
+#: A minimum counts as clearly worse when its cost exceeds the other's by this fraction.
+_COST_MARGIN = 1e-6
+
+
+@dataclass(frozen=True)
+class CrossCheck:
+    """Difference between the Gauss-Newton and the GTSAM poses.
+
+    Attributes
+    ----------
+    translation_m : float
+        Distance between the two camera positions, metres.
+    rotation_deg : float
+        Angle of the relative rotation, degrees.
+    agree : bool
+        Both solvers converged and the differences are within :data:`AGREE_TRANSLATION_M`
+        and :data:`AGREE_ROTATION_DEG`.
+    """
+
+    translation_m: float
+    rotation_deg: float
+    agree: bool
+
+
+@dataclass(frozen=True)
+class PoseEstimate:
+    """A camera pose with its uncertainty and the evidence behind it.
+
+    Attributes
+    ----------
+    T_WC : (4, 4) ndarray
+        Camera pose in the target frame (the Gauss-Newton solution).
+    params : (6,) ndarray
+        ``(x, y, z, roll, pitch, yaw)``, metres and radians.
+    cov : (6, 6) ndarray
+        Covariance of ``params`` (m, rad) from the GTSAM marginals, pixel noise estimated
+        from the residuals.
+    sigma_xyz_m : (3,) ndarray
+        1-sigma of x, y, z, metres.
+    sigma_rpy_rad : (3,) ndarray
+        1-sigma of roll, pitch, yaw, radians.
+    sigma_px : float
+        Pixel noise behind ``cov`` (estimated; robustly when ``robust``).
+    converged : bool
+        Gauss-Newton converged and, when a guess was given, no clearly better minimum was
+        found from the homography start.
+    iterations : int
+        Gauss-Newton iterations.
+    reprojection_rms_px : float
+        RMS of the residuals of the points used, pixels.
+    residuals : (2, n) ndarray
+        Measured minus predicted pixels for every point, used or not (see ``mask``).
+    mask : (n,) ndarray of bool
+        The points used (the trusted junctions).
+    junctions : Junctions or None
+        The extracted junctions; None from :func:`estimate_pose_from_points`.
+    cross_check : CrossCheck
+        Gauss-Newton against GTSAM.
+    start_T_WC : (4, 4) ndarray
+        Where both solvers started (the guess, or the homography pose).
+    message : str
+        "ok", or what went wrong.
+    gn : GNResult
+        The Gauss-Newton result in full.
+    graph : GraphResult
+        The GTSAM result in full.
+    """
+
+    T_WC: np.ndarray
+    params: np.ndarray
+    cov: np.ndarray
+    sigma_xyz_m: np.ndarray
+    sigma_rpy_rad: np.ndarray
+    sigma_px: float
+    converged: bool
+    iterations: int
+    reprojection_rms_px: float
+    residuals: np.ndarray
+    mask: np.ndarray
+    junctions: object
+    cross_check: CrossCheck
+    start_T_WC: np.ndarray
+    message: str
+    gn: GNResult
+    graph: GraphResult
+
+    @property
+    def ok(self) -> bool:
+        """Converged and cross-checked: the estimate can be used."""
+        return self.converged and self.cross_check.agree
+
+
+def estimate_pose(image, bounds, K, board: Board = Board(), guess=None, *, robust: bool = False) -> PoseEstimate:
+    """Camera pose from an image of the checkerboard.
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, 3|4) array_like
+        The undistorted image (see :func:`graphpose.io.as_grey`).
+    bounds : (2, 4) array_like
+        Bounding polygon of the board, pixels, clockwise from the upper left (see
+        :func:`graphpose.detect.junctions.extract_junctions`).
+    K : (3, 3) array_like
+        Intrinsics, pixels.
+    board : Board
+        The target.
+    guess : (4, 4) array_like, optional
+        Starting pose T_WC; the homography initialiser when None.
+    robust : bool
+        Use a Huber kernel (threshold 1.345 robust sigmas) in both solvers.
+
+    Returns
+    -------
+    PoseEstimate
+        Check ``ok`` (or ``converged`` and ``cross_check.agree``) before using the pose.
+
+    Raises
+    ------
+    InputError
+        On a malformed image, polygon, K or guess, fewer than 4 trusted junctions, or a
+        guess with junctions behind the camera.
+    BoardNotFoundError
+        If the junction grid is not found.
+    """
+    from ..detect.junctions import extract_junctions
+
+    # K and the guess are checked before the extraction, so bad ones fail before the slow step.
+    K = check_K(K)
+    guess = None if guess is None else check_transform(guess, "guess")
+    junctions = extract_junctions(image, bounds, board)
+    # The junctions are finite (2, n) and the trusted mask is (n,) bool by contract; the
+    # solvers refuse fewer than 4 trusted points.
+    estimate = _estimate(K, junctions.points, board.world_points(), guess, junctions.trusted, robust)
+    return dataclasses.replace(estimate, junctions=junctions)
+
+
+def estimate_pose_from_points(K, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False) -> PoseEstimate:
+    """Cross-checked camera pose from 2-D/3-D correspondences (no extraction).
+
+    Parameters
+    ----------
+    K : (3, 3) array_like
+        Intrinsics, pixels.
+    Ipts : (2, n) array_like
+        Image points (u, v), pixels.
+    Wpts : (3, n) array_like
+        Matching target points, metres (on z = 0 when ``guess`` is None).
+    guess : (4, 4) array_like, optional
+        Starting pose T_WC; the homography initialiser when None.
+    mask : (n,) array_like of bool, optional
+        Points to use; all by default. At least 4.
+    robust : bool
+        Use a Huber kernel in both solvers.
+
+    Returns
+    -------
+    PoseEstimate
+        With ``junctions`` None.
+
+    Raises
+    ------
+    InputError
+        On malformed input, fewer than 4 used points, a guess with used points behind the
+        camera, or (without a guess) target points off z = 0 or degenerate.
+    """
+    K, Ipts, Wpts, mask = check_correspondences(K, Ipts, Wpts, mask)
+    guess = None if guess is None else check_transform(guess, "guess")
+    return _estimate(K, Ipts, Wpts, guess, mask, robust)
+
+
+def _estimate(K, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
+    """:func:`estimate_pose_from_points` on validated K, points, guess and mask."""
+    start = pose_from_homography(K, Ipts[:, mask], Wpts[:, mask]) if guess is None else guess
+    huber_px = pixel_sigma = None
+    gn = gauss_newton(K, start, Ipts, Wpts, mask=mask)
+    if robust:
+        pixel_sigma = max(1.4826 * float(np.nanmedian(np.abs(gn.residuals[:, mask]))), 1e-12)
+        huber_px = HUBER_K * pixel_sigma
+        gn = gauss_newton(K, start, Ipts, Wpts, mask=mask, huber_px=huber_px, pixel_sigma=pixel_sigma)
+    graph = graph_pose(K, start, Ipts, Wpts, mask=mask, pixel_sigma=pixel_sigma, robust=robust)
+    converged, message = gn.converged, "ok" if gn.converged else f"Gauss-Newton: {gn.message}"
+    if guess is not None and gn.converged and on_target_plane(Wpts):
+        converged, message = _compare_with_linear_start(K, Ipts, Wpts, mask, huber_px, gn)
+    check = cross_check(gn, graph)
+    if not check.agree:
+        message = ("" if message == "ok" else message + "; ") + (
+            f"Gauss-Newton and GTSAM disagree by {check.translation_m:.3g} m and "
+            f"{check.rotation_deg:.3g} deg (GN converged: {gn.converged}, GTSAM converged: {graph.converged}"
+            + (f": {graph.message}" if graph.message else "") + ")")
+    return PoseEstimate(
+        T_WC=gn.T_WC,
+        params=gn.params,
+        cov=graph.cov,
+        sigma_xyz_m=graph.sigma_xyz_m,
+        sigma_rpy_rad=graph.sigma_rpy_rad,
+        sigma_px=graph.sigma_px,
+        converged=converged,
+        iterations=gn.iterations,
+        reprojection_rms_px=gn.residual_rms_px,
+        residuals=Ipts - project(K, gn.T_WC, Wpts),
+        mask=mask,
+        junctions=None,
+        cross_check=check,
+        start_T_WC=start,
+        message=message,
+        gn=gn,
+        graph=graph,
+    )
+
+
+def _compare_with_linear_start(K, Ipts, Wpts, mask, huber_px, gn):
+    """Whether GN from the homography start finds a clearly lower cost than from the guess."""
+    try:
+        linear = pose_from_homography(K, Ipts[:, mask], Wpts[:, mask])
+        other = gauss_newton(K, linear, Ipts, Wpts, mask=mask, huber_px=huber_px)
+    except InputError:
+        return True, "ok"  # no usable homography start: nothing to compare with
+    mine = reprojection_cost(gn.residuals[:, mask], huber_px)
+    theirs = reprojection_cost(other.residuals[:, mask], huber_px)
+    dt, dr = pose_difference(gn.T_WC, other.T_WC)
+    elsewhere = dt > AGREE_TRANSLATION_M or dr > AGREE_ROTATION_DEG  # not the same minimum
+    if other.converged and elsewhere and theirs < mine * (1 - _COST_MARGIN):
+        return False, (
+            f"Gauss-Newton from the guess stopped in a local minimum (cost {mine:.6g}) "
+            f"{dt:.3g} m and {dr:.3g} deg from a better one (cost {theirs:.6g}) found from "
+            f"the homography start: the guess is too far off; retry with guess=None")
+    return True, "ok"
+
+
+def pose_difference(T_a, T_b):
+    """Distance (m) between two camera positions and angle (degrees) of their relative rotation.
+
+    The angle comes from ``atan2`` of the skew and symmetric parts, accurate for tiny angles
+    (``arccos`` of the trace loses half the digits there).
+
+    Parameters
+    ----------
+    T_a, T_b : (4, 4) array_like
+        Camera poses T_WC (trusted: rigid transforms).
+
+    Returns
+    -------
+    translation_m : float
+        ``|t_a - t_b|``, metres.
+    rotation_deg : float
+        Angle of ``C_a^T C_b``, degrees in [0, 180].
+    """
+    R = np.asarray(T_a)[:3, :3].T @ np.asarray(T_b)[:3, :3]
+    s = 0.5 * np.linalg.norm([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    angle = np.degrees(np.arctan2(s, 0.5 * (np.trace(R) - 1.0)))
+    return float(np.linalg.norm(np.asarray(T_a)[:3, 3] - np.asarray(T_b)[:3, 3])), float(angle)
+
+
+def cross_check(gn: GNResult, graph: GraphResult) -> CrossCheck:
+    """Compare the Gauss-Newton and GTSAM poses.
+
+    Parameters
+    ----------
+    gn : GNResult
+        The Gauss-Newton solution.
+    graph : GraphResult
+        The GTSAM solution from the same start.
+
+    Returns
+    -------
+    CrossCheck
+        Their difference; ``agree`` needs both converged and the difference within
+        :data:`AGREE_TRANSLATION_M` and :data:`AGREE_ROTATION_DEG`.
+    """
+    dt, dr = pose_difference(gn.T_WC, graph.T_WC)
+    agree = gn.converged and graph.converged and dt <= AGREE_TRANSLATION_M and dr <= AGREE_ROTATION_DEG
+    return CrossCheck(translation_m=dt, rotation_deg=dr, agree=bool(agree))

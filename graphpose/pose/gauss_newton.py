@@ -1,0 +1,410 @@
+"""Camera pose from 2-D/3-D correspondences by Gauss-Newton over the six Euler parameters.
+
+The cost is the sum of squared reprojection errors (pixels) over the trusted junctions,
+
+    E(theta) = 1/2 sum_j || u_j - pi(K, T_WC(theta), p_j) ||^2,
+
+with ``theta = (x, y, z, roll, pitch, yaw)`` as in :mod:`graphpose.camera`. Each step solves
+the 6 x 6 normal equations with the exact analytic Jacobian (:func:`find_jacobian`,
+:func:`projection_jacobians`). Step control is Levenberg-Marquardt damping: the plain
+Gauss-Newton step is tried first and, when it raises the cost or puts a point behind the
+camera, it is damped (``(J^T J + lambda diag(J^T J)) delta = J^T r`` with ``r`` measured
+minus predicted) until the cost falls, so a poor start cannot make it diverge.
+
+Gimbal lock: the Euler parameterisation is singular at pitch = +-90 degrees (roll and yaw turn
+about the same axis and the normal equations lose rank). A camera that faces the board looks
+along the target's +z, so its pitch is small (roll is near 0, or near 180 degrees for a
+target frame with z out of the board), far from the singularity. Near it the roll and yaw
+variances blow up; exactly at it the solve stops and reports not converged.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._checks import (
+    MIN_DEPTH,
+    as_float_array,
+    as_points,
+    check_correspondences,
+    check_in_front,
+    check_K,
+    check_transform,
+)
+from ..camera import T_from_params, params_from_T
+from ..errors import ConvergenceError, InputError
+
+#: Default iteration cap (damped and undamped steps both count).
+MAX_ITERATIONS = 100
+#: Convergence: the undamped Gauss-Newton step is below this (metres and radians, inf-norm).
+STEP_TOL = 1e-9
+#: A step promising a decrease below this fraction of the cost is within the cost's rounding.
+_COST_RTOL = 1e-12
+#: Undamped steps taken below the cost's rounding noise before stopping anyway.
+_MAX_POLISH_STEPS = 5
+#: The damping factor above which a stuck search gives up.
+_LAMBDA_MAX = 1e10
+
+
+@dataclass(frozen=True)
+class GNResult:
+    """The outcome of :func:`gauss_newton`.
+
+    Attributes
+    ----------
+    T_WC : (4, 4) ndarray
+        Camera pose in the target frame at the last accepted iterate.
+    params : (6,) ndarray
+        The same pose as ``(x, y, z, roll, pitch, yaw)``, metres and radians.
+    converged : bool
+        True when, before the iteration cap, the undamped step fell below the tolerance (or
+        stayed above it for several steps whose promised decrease was below the cost's
+        rounding noise).
+    iterations : int
+        Steps tried (accepted or rejected).
+    residuals : (2, n) ndarray
+        Measured minus predicted pixels at the solution, NaN for points left out by the mask.
+    residual_rms_px : float
+        RMS of the used residuals over both coordinates, pixels.
+    sigma_px : float
+        Pixel noise behind ``cov``: ``pixel_sigma`` if given, else estimated from the residuals
+        as ``sqrt(sum r^2 / (2m - 6))`` over the m used points (with a Huber kernel, the
+        weighted sum).
+    cov : (6, 6) ndarray
+        ``sigma_px^2 (J^T W J)^-1`` at the solution, in (x, y, z, roll, pitch, yaw) units
+        m and rad; NaN when the normal matrix is singular.
+    mask : (n,) ndarray of bool
+        The points used.
+    message : str
+        Why the iterations stopped.
+    """
+
+    T_WC: np.ndarray
+    params: np.ndarray
+    converged: bool
+    iterations: int
+    residuals: np.ndarray
+    residual_rms_px: float
+    sigma_px: float
+    cov: np.ndarray
+    mask: np.ndarray
+    message: str
+
+
+def find_jacobian(K, Twc, Wpt) -> np.ndarray:
+    """Jacobian of one target point's image projection with respect to the pose parameters.
+
+    Parameters
+    ----------
+    K : (3, 3) array_like
+        Intrinsics, pixels.
+    Twc : (4, 4) array_like
+        Camera pose in the target frame.
+    Wpt : (3, 1) or (3,) array_like
+        The target point, metres.
+
+    Returns
+    -------
+    J : (2, 6) ndarray
+        ``d(u, v) / d(x, y, z, roll, pitch, yaw)``, pixels per metre and pixels per radian.
+
+    Raises
+    ------
+    InputError
+        If an argument is malformed or the point is not in front of the camera.
+    """
+    K = check_K(K)
+    T = check_transform(Twc, "Twc")
+    W = as_float_array(Wpt, "Wpt")
+    W = as_points(W[:, None] if W.shape == (3,) else W, 3, "Wpt")
+    if W.shape[1] != 1:
+        raise InputError(f"Wpt must be a single point (3, 1), got {W.shape[1]} points")
+    return projection_jacobians(K, T, W)
+
+
+def projection_jacobians(K, T_WC, Wpts) -> np.ndarray:
+    """Stacked Jacobians of the projections of many target points, vectorised.
+
+    Parameters
+    ----------
+    K : (3, 3) array_like
+        Intrinsics, pixels.
+    T_WC : (4, 4) array_like
+        Camera pose in the target frame.
+    Wpts : (3, n) array_like
+        Target points, metres.
+
+    Returns
+    -------
+    J : (2n, 6) ndarray
+        Rows ``2j`` and ``2j + 1`` are ``du_j`` and ``dv_j`` with respect to
+        (x, y, z, roll, pitch, yaw); pixels per metre and per radian.
+
+    Raises
+    ------
+    InputError
+        If an argument is malformed or a point is not in front of the camera.
+    """
+    K = check_K(K)
+    T = check_transform(T_WC)
+    W = as_points(Wpts, 3, "Wpts")
+    p = params_from_T(T)
+    _, depth, J = _project(K, p, W, jacobian=True)
+    check_in_front(depth, "T_WC")
+    return J
+
+
+def _rotation_and_partials(rpy):
+    """``C = Cz(yaw) Cy(pitch) Cx(roll)`` and its three partial derivatives, as (4, 3, 3).
+
+    Entry 0 is C; entries 1, 2, 3 are ``Cz Cy dCx``, ``Cz dCy Cx`` and ``dCz Cy Cx``
+    (d/droll, d/dpitch, d/dyaw), multiplied out so one call builds them all.
+    """
+    cr, sr = math.cos(rpy[0]), math.sin(rpy[0])
+    cp, sp = math.cos(rpy[1]), math.sin(rpy[1])
+    cy, sy = math.cos(rpy[2]), math.sin(rpy[2])
+    spcr, spsr = sp * cr, sp * sr
+    return np.array([
+        [[cy * cp, cy * spsr - sy * cr, cy * spcr + sy * sr],
+         [sy * cp, sy * spsr + cy * cr, sy * spcr - cy * sr],
+         [-sp, cp * sr, cp * cr]],
+        [[0.0, cy * spcr + sy * sr, -cy * spsr + sy * cr],
+         [0.0, sy * spcr - cy * sr, -sy * spsr - cy * cr],
+         [0.0, cp * cr, -cp * sr]],
+        [[-cy * sp, cy * cp * sr, cy * cp * cr],
+         [-sy * sp, sy * cp * sr, sy * cp * cr],
+         [-cp, -spsr, -spcr]],
+        [[-sy * cp, -sy * spsr - cy * cr, -sy * spcr + cy * sr],
+         [cy * cp, cy * spsr - sy * cr, cy * spcr + sy * sr],
+         [0.0, 0.0, 0.0]],
+    ])
+
+
+def _project(K, p, W, jacobian):
+    """Projections (2, n), depths (n,) and, if asked, the stacked Jacobian (2n, 6).
+
+    The chain rule: ``p_C = C^T (p_W - t)``, so ``dp_C/dt = -C^T`` and
+    ``dp_C/d(angle) = (dC/d(angle))^T (p_W - t)``; then ``u = (K p_C)_0 / z_C`` gives
+    ``du/dp_C = (fx, s, cx - u) / z_C`` and ``dv/dp_C = (0, fy, cy - v) / z_C``.
+    """
+    R = _rotation_and_partials(p[3:])
+    d = W - p[:3, None]
+    n = d.shape[1]
+    # Rows 0-2: p_C = C^T d; rows 3k+3 .. 3k+5: dC_k^T d, the derivative of p_C by angle k.
+    A = R.transpose(0, 2, 1).reshape(12, 3) @ d
+    z = A[2]
+    uv = (K[:2] @ A[:3]) / z
+    if not jacobian:
+        return uv, z, None
+    G = np.zeros((n, 2, 3))  # d(u, v) / d(p_C) per point
+    G[:, 0, 0] = K[0, 0] / z
+    G[:, 0, 1] = K[0, 1] / z
+    G[:, 0, 2] = (K[0, 2] - uv[0]) / z
+    G[:, 1, 1] = K[1, 1] / z
+    G[:, 1, 2] = (K[1, 2] - uv[1]) / z
+    D = np.empty((n, 3, 6))  # d(p_C) / d(params) per point
+    D[:, :, :3] = -R[0].T
+    D[:, :, 3:] = A[3:].reshape(3, 3, n).transpose(2, 1, 0)
+    return uv, z, (G @ D).reshape(2 * n, 6)
+
+
+def gauss_newton(K, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel_sigma=None,
+                 max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL) -> GNResult:
+    """Refine a camera pose by damped Gauss-Newton on the reprojection error.
+
+    Parameters
+    ----------
+    K : (3, 3) array_like
+        Intrinsics, pixels.
+    T_guess : (4, 4) array_like
+        Starting pose T_WC.
+    Ipts : (2, n) array_like
+        Observed junctions (u, v), pixels.
+    Wpts : (3, n) array_like
+        Matching target points, metres.
+    mask : (n,) array_like of bool, optional
+        Points to use (e.g. ``Junctions.trusted``); all by default. At least 4.
+    huber_px : float, optional
+        If given, a Huber kernel on each point's 2-D reprojection error with this threshold
+        in pixels (iteratively reweighted); plain least squares otherwise.
+    pixel_sigma : float, optional
+        Known pixel noise for the covariance; estimated from the residuals when None.
+    max_iterations : int
+        Iteration cap.
+    tol : float
+        Convergence when the undamped step's largest entry is below ``tol`` (m, rad).
+
+    Returns
+    -------
+    GNResult
+        ``converged`` is False (with ``message``) when the cap was hit or the damped search
+        could not lower the cost; the pose is then the best iterate found.
+
+    Raises
+    ------
+    InputError
+        On malformed input (see :func:`graphpose.camera.check_correspondences`), a
+        malformed guess, a non-positive ``huber_px`` or ``pixel_sigma``, or a used point behind the camera at
+        the guess.
+    """
+    K, Ipts, Wpts, mask = check_correspondences(K, Ipts, Wpts, mask)
+    T_guess = check_transform(T_guess, "T_guess")
+    for name, value in (("huber_px", huber_px), ("pixel_sigma", pixel_sigma)):
+        if value is not None and not (np.isfinite(value) and value > 0):
+            raise InputError(f"{name} must be a positive number of pixels, got {value!r}")
+    return _solve(K, params_from_T(T_guess), Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
+
+
+def _weights(r, huber_px):
+    """Per-residual weights (2m,) of the Huber kernel on each point's 2-D error norm."""
+    if huber_px is None:
+        return None
+    e = np.hypot(r[0::2], r[1::2])
+    w = np.where(e <= huber_px, 1.0, huber_px / np.maximum(e, 1e-300))
+    return np.repeat(w, 2)
+
+
+def reprojection_cost(residuals, huber_px=None) -> float:
+    """The cost Gauss-Newton minimises, from reprojection residuals.
+
+    Parameters
+    ----------
+    residuals : (2, m) ndarray
+        Measured minus predicted pixels of the used points (trusted: no NaN).
+    huber_px : float, optional
+        Huber threshold on each point's 2-D error norm, pixels; plain least squares if None.
+
+    Returns
+    -------
+    float
+        ``1/2 sum e_j^2`` (plain), or ``sum rho(e_j)`` with the Huber ``rho``
+        (``e^2 / 2`` up to the threshold ``k``, ``k (e - k / 2)`` beyond), pixels squared.
+    """
+    if huber_px is None:
+        return 0.5 * float(np.sum(residuals * residuals))
+    e = np.hypot(residuals[0], residuals[1])
+    return float(np.sum(np.where(e <= huber_px, 0.5 * e * e, huber_px * (e - 0.5 * huber_px))))
+
+
+def _cost(r, huber_px):
+    """:func:`reprojection_cost` of the stacked residual vector (2m,) ``(u0, v0, u1, ...)``."""
+    return reprojection_cost(r.reshape(-1, 2).T, huber_px)
+
+
+def _residual(K, p, I, W, jacobian):
+    uv, z, J = _project(K, p, W, jacobian)
+    return (I - uv).T.ravel(), z, J
+
+
+def _solve(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol) -> GNResult:
+    I, W = Ipts[:, mask], Wpts[:, mask]
+    r, depth, J = _residual(K, p, I, W, True)
+    check_in_front(depth, "the guess", np.flatnonzero(mask))
+    cost = _cost(r, huber_px)
+    lam, converged, message, it, polish_steps = 0.0, False, "iteration cap reached", 0, 0
+    while it < max_iterations:
+        it += 1
+        w = _weights(r, huber_px)
+        Jw = J if w is None else J * w[:, None]
+        H = Jw.T @ J
+        g = Jw.T @ r  # r = measured - predicted, so the step solves H delta = +J^T r
+        try:
+            delta_gn = np.linalg.solve(H, g)
+        except np.linalg.LinAlgError:
+            message = "normal equations singular (gimbal lock or degenerate points)"
+            break
+        if np.max(np.abs(delta_gn)) < tol:
+            converged, message = True, "converged"
+            break
+        # When the decrease a step promises (1/2 g^T delta) is below the cost's rounding
+        # noise, comparing costs can no longer judge it; the step itself, computed from the
+        # gradient, is still accurate (it matters along weakly observed directions), so it
+        # is taken undamped as long as the cost does not visibly rise.
+        polishing = 0.5 * (g @ delta_gn) <= _COST_RTOL * cost
+        if polishing:
+            polish_steps += 1
+            if polish_steps > _MAX_POLISH_STEPS:
+                converged, message = True, "converged (step at the rounding limit)"
+                break
+        delta = delta_gn if lam == 0.0 or polishing else np.linalg.solve(H + lam * np.diag(np.diag(H)), g)
+        p_new = p + delta
+        r_new, z_new, J_new = _residual(K, p_new, I, W, True)
+        cost_new = _cost(r_new, huber_px) if np.all(z_new > MIN_DEPTH) else np.inf
+        if cost_new < cost or (polishing and cost_new <= cost * (1.0 + 100 * _COST_RTOL)):
+            p, r, J, cost = p_new, r_new, J_new, cost_new
+            lam = 0.0 if lam < 1e-6 else lam / 10.0
+        else:
+            lam = 1e-4 if lam == 0.0 else lam * 10.0
+            if lam > _LAMBDA_MAX:
+                message = "damped steps cannot lower the cost"
+                break
+    return _result(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, J, r, converged, it, message)
+
+
+def _result(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, J, r, converged, it, message) -> GNResult:
+    T = T_from_params(p)
+    params = params_from_T(T)  # angles back into their principal ranges
+    if np.max(np.abs(params - p)) > 1e-9:
+        # Same pose, but the Jacobian belongs to the parameters it is reported in.
+        r, _, J = _residual(K, params, Ipts[:, mask], Wpts[:, mask], True)
+    m = int(np.count_nonzero(mask))
+    residuals = np.full((2, mask.size), np.nan)
+    residuals[:, mask] = r.reshape(m, 2).T
+    w = _weights(r, huber_px)
+    Jw = J if w is None else J * w[:, None]
+    chi2 = float(r @ r) if w is None else float(r @ (w * r))
+    sigma = np.sqrt(chi2 / (2 * m - 6)) if pixel_sigma is None else float(pixel_sigma)
+    try:
+        cov = sigma**2 * np.linalg.inv(Jw.T @ J)
+    except np.linalg.LinAlgError:
+        cov = np.full((6, 6), np.nan)
+    return GNResult(
+        T_WC=T,
+        params=params,
+        converged=bool(converged),
+        iterations=it,
+        residuals=residuals,
+        residual_rms_px=float(np.sqrt(np.mean(r * r))),
+        sigma_px=float(sigma),
+        cov=cov,
+        mask=mask.copy(),
+        message=message,
+    )
+
+
+def pose_estimate_nls(K, Twcg, Ipts, Wpts) -> np.ndarray:
+    """Camera pose T_WC by Gauss-Newton from the guess ``Twcg``, using every point.
+
+    Parameters
+    ----------
+    K : (3, 3) array_like
+        Intrinsics, pixels.
+    Twcg : (4, 4) array_like
+        Initial guess of T_WC.
+    Ipts : (2, n) array_like
+        Observed image points (u, v), pixels; n >= 4.
+    Wpts : (3, n) array_like
+        Matching target points, metres.
+
+    Returns
+    -------
+    Twc : (4, 4) ndarray
+        The refined pose.
+
+    Raises
+    ------
+    InputError
+        On malformed input (see :func:`gauss_newton`).
+    ConvergenceError
+        If the iterations do not converge.
+    """
+    result = gauss_newton(K, Twcg, Ipts, Wpts, max_iterations=MAX_ITERATIONS)
+    if not result.converged:
+        raise ConvergenceError(
+            f"Gauss-Newton did not converge after {result.iterations} iterations: {result.message} "
+            f"(residual RMS {result.residual_rms_px:.3g} px)"
+        )
+    return result.T_WC

@@ -1,0 +1,305 @@
+"""Camera pose and its covariance from a GTSAM factor graph: the independent second solver.
+
+The graph has one ``Pose3`` variable ``X(0)`` (the camera pose T_WC, GTSAM's own convention:
+the camera looks along its +z with x right and y down, as in :mod:`graphpose.camera`), one
+``Point3`` variable ``L(j)`` per junction, one ``GenericProjectionFactorCal3_S2`` per trusted
+junction and one very tight ``PriorFactorPoint3`` per landmark that pins it to its target
+position. A tight prior rather than ``NonlinearEquality`` keeps the linearised system
+non-singular, so ``Marginals`` works. Levenberg-Marquardt minimises the same reprojection
+cost as :mod:`graphpose.pose.gauss_newton`; the pipeline holds the two against each other.
+
+Covariance conventions
+----------------------
+GTSAM's Pose3 tangent vector is ``xi = (omega, v)``: a body-frame rotation increment (rad)
+then a body-frame translation increment (m), with ``T (+) xi = T Exp(xi)``. To first order
+``dC = C [omega]x`` and ``dt = C v``. With ``C = Cz(yaw) Cy(pitch) Cx(roll)``,
+
+    C^T dC = [ e_x droll + Cx^T e_y dpitch + (Cy Cx)^T e_z dyaw ]x,
+
+so ``omega = M d(rpy)`` with ``M = [e_x, Cx^T e_y, (Cy Cx)^T e_z]`` (det M = cos pitch, the
+gimbal lock). The parameter covariance in (x, y, z, roll, pitch, yaw) is ``A Sigma_xi A^T``
+with ``A = [[0, C], [M^-1, 0]]`` (:func:`params_from_tangent_jacobian`,
+:func:`params_cov_from_tangent`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import gtsam
+import numpy as np
+from gtsam.symbol_shorthand import L, X
+
+from .._checks import check_correspondences, check_in_front, check_transform
+from ..camera import params_from_T, project, to_camera
+from ..errors import InputError
+
+#: Standard deviation (metres) of the prior that pins each target point: far below anything
+#: the pixels can resolve (about 1e-6 px at 1 m), yet finite so the marginals exist.
+LANDMARK_SIGMA_M = 1e-8
+#: Huber threshold in units of the pixel sigma (95 % efficiency under Gaussian noise).
+HUBER_K = 1.345
+#: Levenberg-Marquardt stopping tolerances on the cost change. LM brings the pose near the
+#: minimum from afar; the undamped steps after it (cheaper than LM iterations) finish.
+_RELATIVE_TOL = 1e-6
+_ABSOLUTE_TOL = 1e-12
+_MAX_ITERATIONS = 100
+#: Undamped Gauss-Newton steps after Levenberg-Marquardt (see step 6 of the graph's solve):
+#: at most this many, until the pose step (rad, m) is below _POLISH_STEP.
+_POLISH_ITERATIONS = 10
+_POLISH_STEP = 1e-10
+
+
+@dataclass(frozen=True)
+class GraphResult:
+    """The outcome of :func:`graph_pose`.
+
+    Attributes
+    ----------
+    T_WC : (4, 4) ndarray
+        Camera pose in the target frame (the optimised ``Pose3``).
+    params : (6,) ndarray
+        ``(x, y, z, roll, pitch, yaw)``, metres and radians.
+    cov : (6, 6) ndarray
+        Covariance of ``params`` (m, rad), mapped from the tangent covariance.
+    cov_tangent : (6, 6) ndarray
+        GTSAM's marginal covariance of ``X(0)``: body-frame rotation (rad) then body-frame
+        translation (m), scaled by ``sigma_px^2`` when the pixel sigma was estimated.
+    sigma_px : float
+        Pixel noise used for the covariance: given, or estimated from the residuals as
+        ``sqrt(chi2 / (2m - 6))`` (robustly, from the median, when ``robust``).
+    converged : bool
+        True when Levenberg-Marquardt stopped on its tolerances before the iteration cap,
+        the Gauss-Newton steps after it shrank below 1e-10, and every used point is in
+        front of the camera.
+    iterations : int
+        Levenberg-Marquardt iterations.
+    residuals : (2, n) ndarray
+        Measured minus predicted pixels at the solution, NaN for masked points.
+    residual_rms_px : float
+        RMS of the used residuals, pixels.
+    mask : (n,) ndarray of bool
+        The junctions with a projection factor.
+    message : str
+        Empty, or why GTSAM failed (then ``converged`` is False and ``cov`` is NaN).
+    """
+
+    T_WC: np.ndarray
+    params: np.ndarray
+    cov: np.ndarray
+    cov_tangent: np.ndarray
+    sigma_px: float
+    converged: bool
+    iterations: int
+    residuals: np.ndarray
+    residual_rms_px: float
+    mask: np.ndarray
+    message: str = ""
+
+    @property
+    def sigma_xyz_m(self) -> np.ndarray:
+        """1-sigma of x, y, z in metres, shape (3,)."""
+        return np.sqrt(np.diag(self.cov)[:3])
+
+    @property
+    def sigma_rpy_rad(self) -> np.ndarray:
+        """1-sigma of roll, pitch, yaw in radians, shape (3,)."""
+        return np.sqrt(np.diag(self.cov)[3:])
+
+    @property
+    def sigma_translation_mm(self) -> np.ndarray:
+        """1-sigma of the camera position along the body axes in millimetres, shape (3,)."""
+        return 1e3 * np.sqrt(np.diag(self.cov_tangent)[3:])
+
+    @property
+    def sigma_rotation_deg(self) -> np.ndarray:
+        """1-sigma of the rotation about the body axes in degrees, shape (3,)."""
+        return np.degrees(np.sqrt(np.diag(self.cov_tangent)[:3]))
+
+
+def graph_pose(K, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=False,
+               huber_k: float = HUBER_K) -> GraphResult:
+    """Solve the camera pose with a GTSAM factor graph and return its marginal covariance.
+
+    Parameters
+    ----------
+    K : (3, 3) array_like
+        Intrinsics, pixels (fx, fy, skew, cx, cy go into ``Cal3_S2``).
+    T_guess : (4, 4) array_like
+        Starting pose T_WC.
+    Ipts : (2, n) array_like
+        Observed junctions (u, v), pixels.
+    Wpts : (3, n) array_like
+        Matching target points, metres.
+    mask : (n,) array_like of bool, optional
+        Junctions to use (at least 4); all by default.
+    pixel_sigma : float, optional
+        Isotropic pixel noise (px). If None it is estimated from the residuals of a solve with
+        unit sigma and the covariance is scaled by its square.
+    robust : bool
+        Wrap the pixel noise in a Huber kernel with threshold ``huber_k * pixel_sigma``; with
+        no ``pixel_sigma``, a plain solve first estimates it robustly (1.4826 x the median
+        absolute residual).
+    huber_k : float
+        Huber threshold in sigmas.
+
+    Returns
+    -------
+    GraphResult
+
+    Raises
+    ------
+    InputError
+        On malformed input (see :func:`graphpose.camera.check_correspondences`), a
+        non-positive ``pixel_sigma`` or ``huber_k``, or a used point behind the camera at the
+        guess.
+    """
+    K, Ipts, Wpts, mask = check_correspondences(K, Ipts, Wpts, mask)
+    T_guess = check_transform(T_guess, "T_guess")
+    for name, value in (("pixel_sigma", pixel_sigma), ("huber_k", huber_k)):
+        if value is not None and not (np.isfinite(value) and value > 0):
+            raise InputError(f"{name} must be a positive number, got {value!r}")
+    check_in_front(to_camera(T_guess, Wpts[:, mask])[2], "the guess", np.flatnonzero(mask))
+    if robust and pixel_sigma is None:
+        plain = _solve(K, T_guess, Ipts, Wpts, mask, 1.0, None)
+        r = Ipts[:, mask] - project(K, plain[0], Wpts[:, mask])
+        pixel_sigma = max(1.4826 * float(np.median(np.abs(r))), 1e-12)
+    sigma = 1.0 if pixel_sigma is None else float(pixel_sigma)
+    T, cov_tangent, converged, iterations, message = _solve(
+        K, T_guess, Ipts, Wpts, mask, sigma, huber_k if robust else None)
+    residuals = np.full((2, mask.size), np.nan)
+    residuals[:, mask] = Ipts[:, mask] - project(K, T, Wpts[:, mask])
+    used = residuals[:, mask]
+    if pixel_sigma is None:
+        m = used.shape[1]
+        sigma = math.sqrt(float(np.sum(used**2)) / (2 * m - 6))
+        cov_tangent = sigma**2 * cov_tangent
+    return GraphResult(
+        T_WC=T,
+        params=params_from_T(T),
+        cov=params_cov_from_tangent(T, cov_tangent),
+        cov_tangent=cov_tangent,
+        sigma_px=sigma,
+        converged=converged,
+        iterations=iterations,
+        residuals=residuals,
+        residual_rms_px=float(np.sqrt(np.mean(used**2))),
+        mask=mask.copy(),
+        message=message,
+    )
+
+
+def _solve(K, T_guess, Ipts, Wpts, mask, sigma, huber_k):
+    """Build and optimise the graph.
+
+    Returns (T_WC, tangent covariance, converged, iterations, failure message or "").
+    """
+    # 1. Create the factor graph and the camera calibration (pixels).
+    graph = gtsam.NonlinearFactorGraph()
+    calibration = gtsam.Cal3_S2(K[0, 0], K[1, 1], K[0, 1], K[0, 2], K[1, 2])
+    # 2. Noise models. Pixel measurement noise: isotropic over (u, v), pixels, optionally
+    #    with a Huber kernel whose threshold is in sigmas.
+    pixel_noise = gtsam.noiseModel.Isotropic.Sigma(2, sigma)
+    if huber_k is not None:
+        pixel_noise = gtsam.noiseModel.Robust.Create(
+            gtsam.noiseModel.mEstimator.Huber.Create(huber_k), pixel_noise)
+    #    Landmark pin: isotropic over the target point's (x, y, z), metres.
+    landmark_noise = gtsam.noiseModel.Isotropic.Sigma(3, LANDMARK_SIGMA_M)
+    # 3. One projection factor per trusted junction, one tight prior per target point.
+    initial = gtsam.Values()
+    initial.insert(X(0), gtsam.Pose3(T_guess))
+    for j in np.flatnonzero(mask):
+        graph.add(gtsam.GenericProjectionFactorCal3_S2(
+            Ipts[:, j], pixel_noise, X(0), L(j), calibration))
+        graph.add(gtsam.PriorFactorPoint3(L(j), Wpts[:, j], landmark_noise))
+        # 4. Initial values: the guessed pose and the exact target points.
+        initial.insert(L(j), Wpts[:, j])
+    # 5. Optimise with Levenberg-Marquardt from the guess.
+    params = gtsam.LevenbergMarquardtParams()
+    params.setRelativeErrorTol(_RELATIVE_TOL)
+    params.setAbsoluteErrorTol(_ABSOLUTE_TOL)
+    params.setMaxIterations(_MAX_ITERATIONS)
+    optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
+    try:
+        return _optimise(graph, optimizer, Wpts, mask)
+    except RuntimeError as exc:
+        # From a far-off guess the linearised system can become indeterminate (GTSAM's
+        # IndeterminateSystemException): that is a failed solve, reported, not a crash.
+        nan = np.full((6, 6), np.nan)
+        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+        return np.asarray(T_guess, dtype=float), nan, False, int(optimizer.iterations()), (
+            lines[0] if lines else type(exc).__name__)
+
+
+def _optimise(graph, optimizer, Wpts, mask):
+    """Steps 5-7 of :func:`_solve`; GTSAM may raise RuntimeError on an indeterminate system."""
+    result = optimizer.optimize()
+    # 6. Polish with undamped Gauss-Newton steps. Levenberg-Marquardt stops when the cost
+    #    stops falling visibly, which along weakly observed directions (tilt against sideways
+    #    translation) can leave 1e-7 m; the steps, computed from the gradient, stay accurate
+    #    below the cost's rounding noise. They converge linearly (rate 0.01-0.2 with 1 px
+    #    noise), so they run until the pose step is below _POLISH_STEP; if they never get
+    #    there, the result is reported as not converged.
+    polished = False
+    for _ in range(_POLISH_ITERATIONS):
+        delta = graph.linearize(result).optimize()
+        result = result.retract(delta)
+        if np.max(np.abs(delta.at(X(0)))) < _POLISH_STEP:
+            polished = True
+            break
+    # 7. Marginal covariance of the pose: tangent order (rotation rad, translation m), body frame.
+    cov = gtsam.Marginals(graph, result).marginalCovariance(X(0))
+    T = result.atPose3(X(0)).matrix()
+    # The projection factors do not enforce cheirality: a solution with a point behind the
+    # camera is a failure, not a pose.
+    in_front = np.all(to_camera(T, Wpts[:, mask])[2] > 0)
+    converged = (optimizer.iterations() < _MAX_ITERATIONS and np.isfinite(optimizer.error())
+                 and polished and in_front)
+    return T, np.asarray(cov), bool(converged), int(optimizer.iterations()), ""
+
+
+def params_from_tangent_jacobian(T_WC) -> np.ndarray:
+    """Jacobian of the pose parameters by GTSAM's Pose3 tangent vector at T_WC.
+
+    Parameters
+    ----------
+    T_WC : (4, 4) ndarray
+        The pose at which to linearise (trusted).
+
+    Returns
+    -------
+    A : (6, 6) ndarray
+        ``d(x, y, z, roll, pitch, yaw) / d(omega, v)``: ``dt = C v``, ``d(rpy) = M^-1 omega``
+        with ``M = [e_x, Cx^T e_y, (Cy Cx)^T e_z]`` (see the module docstring). Singular at
+        pitch = +-90 degrees.
+    """
+    C = T_WC[:3, :3]
+    roll, pitch, _ = params_from_T(T_WC)[3:]
+    cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
+    M = np.array([[1.0, 0.0, -sp], [0.0, cr, sr * cp], [0.0, -sr, cr * cp]])
+    A = np.zeros((6, 6))
+    A[:3, 3:] = C
+    A[3:, :3] = np.linalg.inv(M)
+    return A
+
+
+def params_cov_from_tangent(T_WC, cov_tangent) -> np.ndarray:
+    """Covariance of the pose parameters from a covariance on GTSAM's Pose3 tangent space.
+
+    Parameters
+    ----------
+    T_WC : (4, 4) ndarray
+        The pose the tangent covariance belongs to (trusted).
+    cov_tangent : (6, 6) ndarray
+        Covariance of ``(omega, v)``: body-frame rotation (rad) then body-frame translation
+        (m), as GTSAM's ``Marginals`` give it for a ``Pose3``.
+
+    Returns
+    -------
+    cov : (6, 6) ndarray
+        Covariance of ``(x, y, z, roll, pitch, yaw)`` in m and rad, ``A cov_tangent A^T``
+        with ``A`` from :func:`params_from_tangent_jacobian`; infinite or NaN at gimbal lock.
+    """
+    A = params_from_tangent_jacobian(T_WC)
+    return A @ cov_tangent @ A.T

@@ -1,0 +1,520 @@
+"""The command line as a user runs it (subprocesses), and the files it writes.
+
+Every subprocess pays Python's and GTSAM's start-up (about a second), so the runs are few and
+each checks several things.
+"""
+
+import argparse
+import io
+import json
+import re
+import struct
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from graphpose import (
+    Board,
+    InputError,
+    T_from_params,
+    load_cases,
+    params_from_T,
+    project,
+)
+from graphpose.cli import main
+from graphpose.cli.options import Progress, parse_bounds, parse_K, parse_positive
+from graphpose.cli.records import result_record
+from graphpose.io.cases import load_pose
+from graphpose.io.files import atomic_write, dumps_json, encode_png, write_json
+from tests.conftest import REPO, real_file
+
+BUNDLED = REPO / "graphpose" / "data" / "cases.json"
+KEYS = {"image", "converged", "T_WC", "xyz_m", "rpy_deg", "sigma_xyz_mm", "sigma_rpy_deg",
+        "reprojection_rms_px", "junctions", "trusted", "cross_check", "error"}
+
+
+def graphpose(*args, cwd=None):
+    """Run ``python -m graphpose ARGS``; returns the CompletedProcess (text, captured)."""
+    return subprocess.run([sys.executable, "-m", "graphpose", *map(str, args)], cwd=cwd,
+                          capture_output=True, text=True, timeout=300)
+
+
+def pose_error(T, T_ref):
+    """Translation (m) and rotation angle (deg) between two poses."""
+    T, R = np.asarray(T, float), np.asarray(T_ref, float)
+    cos = np.clip((np.trace(R[:3, :3].T @ T[:3, :3]) - 1) / 2, -1, 1)
+    return np.linalg.norm(T[:3, 3] - R[:3, 3]), np.degrees(np.arccos(cos))
+
+
+def png_size(path):
+    """(width, height) from a PNG file's header; fails unless the file is a PNG."""
+    data = Path(path).read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and data[12:16] == b"IHDR"
+    return struct.unpack(">II", data[16:24])
+
+
+def one_error_line(result, code, *fragments):
+    assert result.returncode == code, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert "Traceback" not in result.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], lines[0]
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def bundled():
+    if not BUNDLED.is_file():
+        pytest.fail(f"the bundled example {BUNDLED} is missing")
+    return load_cases(BUNDLED)
+
+
+@pytest.fixture(scope="module")
+def blank_png(tmp_path_factory):
+    """A plain grey 640 x 480 PNG: a readable image with no board in it."""
+    path = tmp_path_factory.mktemp("blank") / "blank.png"
+    path.write_bytes(encode_png(np.full((480, 640), 128, np.uint8)))
+    return path
+
+
+# --- the default run ------------------------------------------------------------------------
+
+
+def test_script_without_arguments_runs_the_bundled_example(bundled):
+    result = subprocess.run([sys.executable, str(REPO / "scripts" / "estimate.py")], cwd=REPO,
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    out = result.stdout
+    for case in bundled.cases:
+        assert case.image.name in out
+    for label in ("T_WC", "position (m)", "1-sigma (mm)", "angles (deg)", "1-sigma (deg)",
+                  "px RMS", "GN vs GTSAM", "converged"):
+        assert out.count(label) >= len(bundled.cases), label
+    assert "NOT converged" not in out and "DISAGREE" not in out
+    assert f"{len(bundled.cases)} images: {len(bundled.cases)} estimated, 0 failed" in out
+    # The synthetic images know their true pose: the printed error against it is small.
+    errors = re.findall(r"error vs truth\s+([\d.]+) mm, ([\d.]+) deg", out)
+    assert len(errors) == len(bundled.cases)
+    for mm, deg in errors:
+        assert float(mm) < 1.5 and float(deg) < 0.05  # measured at most 0.32 mm and 0.014 deg
+
+
+def test_module_json_and_overlay_folder(bundled, tmp_path):
+    out_json, folder = tmp_path / "out.json", tmp_path / "overlays"
+    result = graphpose("estimate", "--cases", BUNDLED, "--json", out_json, "--overlay", f"{folder}/", "-q")
+    assert result.returncode == 0, result.stderr
+    assert result.stdout == "" and result.stderr == ""
+    records = json.loads(out_json.read_text())
+    assert len(records) == len(bundled.cases)
+    for record, case in zip(records, bundled.cases):
+        assert KEYS <= set(record)
+        assert record["image"] == str(case.image) and record["error"] is None and record["converged"]
+        T = np.array(record["T_WC"])
+        assert T.shape == (4, 4)
+        metres, degrees = pose_error(T, case.true_T_WC)
+        assert metres < 1.5e-3 and degrees < 0.05  # measured at most 0.32 mm and 0.014 deg
+        np.testing.assert_allclose(record["xyz_m"], T[:3, 3])
+        assert len(record["rpy_deg"]) == 3 and len(record["sigma_xyz_mm"]) == 3
+        assert all(s > 0 for s in record["sigma_xyz_mm"] + record["sigma_rpy_deg"])
+        n = len(record["trusted"])
+        assert np.array(record["junctions"]).shape == (2, n) and n == bundled.board.n
+        assert all(isinstance(t, bool) for t in record["trusted"])
+        assert set(record["cross_check"]) == {"translation_m", "rotation_deg", "agree"}
+        assert record["vs_truth"]["translation_mm"] == pytest.approx(1000 * metres, abs=1e-6)
+        assert png_size(folder / f"{case.image.stem}.overlay.png") == (640, 480)
+    assert not list(tmp_path.glob(".*.tmp")) and not list(folder.glob(".*.tmp"))
+
+
+def test_real_cases_target_01_matches_its_reference(tmp_path):
+    cases_file = real_file("cases.json")
+    result = graphpose("estimate", "--cases", cases_file, "--json", tmp_path / "real.json", "-q")
+    assert result.returncode == 0, result.stderr
+    records = json.loads((tmp_path / "real.json").read_text())
+    cases = load_cases(cases_file).cases
+    assert len(records) == 6 and all(r["converged"] and r["error"] is None for r in records)
+    first = next(r for r in records if r["image"].endswith("target_01.png"))
+    metres, degrees = pose_error(first["T_WC"], cases[0].ref_T_WC)
+    assert metres < 0.01 and degrees < 0.5  # the goal
+    assert metres < 0.005 and degrees < 0.4  # regression guard: measured 3.2 mm and 0.30 deg
+    assert first["vs_reference"]["translation_mm"] == pytest.approx(1000 * metres, abs=1e-6)
+
+
+def test_one_image_with_options_guess_overlay_and_json(bundled, tmp_path):
+    case = bundled.cases[0]
+    guess = tmp_path / "guess.json"
+    guess.write_text(json.dumps({"T_WC": case.guess_T_WC.tolist()}))
+    bounds = ",".join(f"{u:g},{v:g}" for u, v in case.bounds.T)
+    K = bundled.K
+    overlay, out_json = tmp_path / "pose.png", tmp_path / "pose.json"
+    result = graphpose("estimate", case.image, "--bounds", bounds,
+                       "--K", f"{K[0, 0]},{K[1, 1]},{K[0, 2]},{K[1, 2]}", "--board", "8x6x0.0635",
+                       "--guess", guess, "--overlay", overlay, "--json", out_json)
+    assert result.returncode == 0, result.stderr
+    assert f"{case.image}  (converged" in result.stdout
+    (record,) = json.loads(out_json.read_text())
+    assert record["image"] == str(case.image)
+    metres, degrees = pose_error(record["T_WC"], case.true_T_WC)
+    assert metres < 1.5e-3 and degrees < 0.05  # measured at most 0.32 mm and 0.014 deg
+    assert png_size(overlay) == (640, 480)
+
+
+def test_json_to_stdout(bundled):
+    case = bundled.cases[1]
+    bounds = ",".join(f"{u:g},{v:g}" for u, v in case.bounds.T)
+    result = graphpose("estimate", case.image, "--bounds", bounds, "--json", "-")
+    assert result.returncode == 0, result.stderr
+    (record,) = json.loads(result.stdout)
+    assert KEYS <= set(record) and record["converged"]
+
+
+# --- errors: one line on stderr and the exit code -----------------------------------------
+
+
+BOUNDS = "100,100,540,100,540,380,100,380"
+
+
+@pytest.mark.parametrize("args, fragments", [
+    (["estimate", "img.png", "--bounds", "1,2,3"], ["--bounds", "8 numbers", "'1,2,3'"]),
+    (["estimate", "img.png", "--bounds", "1,2,3,4,5,6,7,x"], ["--bounds", "numbers"]),
+    (["estimate", "img.png", "--bounds", BOUNDS, "--K", "500,500,320"], ["--K", "4 or 5 numbers"]),
+    (["estimate", "img.png", "--bounds", BOUNDS, "--K", "-500,500,320,240"], ["--K", "focal lengths"]),
+    (["estimate", "img.png", "--bounds", BOUNDS, "--board", "8x6"], ["--board", "COLSxROWSxSQUARE_M"]),
+    (["estimate", "img.png"], ["IMAGE needs --bounds"]),
+    (["estimate", "--cases", "c.json", "--bounds", BOUNDS], ["--bounds goes with IMAGE"]),
+    (["estimate", "--frobnicate"], ["unrecognized arguments: --frobnicate"]),
+    (["estimate", "img.png", "--bounds", BOUNDS, "--overlay", "out.jpg"], ["--overlay", ".png"]),
+    (["nonsense"], ["invalid choice"]),
+    (["estimate", "img.png", "--cases", "c.json"], ["either IMAGE or --cases"]),
+    (["estimate", "img.png", "--bounds", BOUNDS, "--guess", "g.json", "--no-guess"], ["contradict"]),
+    (["estimate", "--cases", str(BUNDLED), "--guess", "g.json"], ["--guess goes with IMAGE"]),
+    (["estimate", "--cases", str(BUNDLED), "--overlay", "many.png"], ["need a folder", "many.png"]),
+    (["estimate", "--cases", str(BUNDLED), "--json", "no/such/folder/out.json"], ["--json", "does not exist"]),
+    (["estimate", "--cases", "no/such/cases.json"], ["case file not found"]),
+])
+def test_usage_errors_in_process(args, fragments, capsys):
+    # Argument errors never reach the pipeline, so the same main() runs in this process.
+    assert main(args) == 2
+    line = capsys.readouterr().err.strip()
+    assert "\n" not in line and line.startswith("graphpose")
+    for fragment in fragments:
+        assert fragment in line, line
+
+
+def test_malformed_values_as_a_user_sees_them():
+    one_error_line(graphpose("estimate", "img.png", "--bounds", BOUNDS, "--board", "8by6"),
+                   2, "graphpose estimate: error: argument --board", "'8by6'")
+    one_error_line(graphpose("estimate", "img.png", "--bounds", "1,2,3,4"),
+                   2, "graphpose estimate: error: argument --bounds", "8 numbers", "'1,2,3,4'")
+    one_error_line(graphpose("estimate", "img.png", "--bounds", BOUNDS, "--K", "500,0,320,240"),
+                   2, "graphpose estimate: error: argument --K", "focal lengths must be positive")
+
+
+def test_missing_and_unreadable_image_and_guess(tmp_path):
+    one_error_line(graphpose("estimate", tmp_path / "nope.png", "--bounds", BOUNDS),
+                   2, "not found", "nope.png")
+    junk = tmp_path / "junk.png"
+    junk.write_bytes(b"this is not a png")
+    one_error_line(graphpose("estimate", junk, "--bounds", BOUNDS), 2, "cannot read", "junk.png")
+    bad_guess = tmp_path / "guess.json"
+    bad_guess.write_text("[[1, 0], [0, 1]]")
+    one_error_line(graphpose("estimate", junk, "--bounds", BOUNDS, "--guess", bad_guess),
+                   2, "guess.json", "(4, 4)")
+
+
+def test_no_board_found_exits_1(blank_png, tmp_path):
+    out_json = tmp_path / "out.json"
+    line = one_error_line(graphpose("estimate", blank_png, "--bounds", BOUNDS, "--json", out_json,
+                                    "--overlay", tmp_path / "o.png"), 1)
+    assert "blank.png" in line
+    (record,) = json.loads(out_json.read_text())
+    assert record["error"] and not record["converged"] and record["T_WC"] is None
+    assert not (tmp_path / "o.png").exists()  # no picture of a pose that does not exist
+
+
+def test_no_convergence_exits_1(bundled, tmp_path, monkeypatch, capsys):
+    # Gauss-Newton capped at one iteration cannot converge: the estimate is unreliable and
+    # must say so, with exit code 1, no report, a JSON record and the picture.
+    import functools
+
+    from graphpose.pose import estimate as pipeline
+
+    monkeypatch.setattr(pipeline, "gauss_newton", functools.partial(pipeline.gauss_newton, max_iterations=1))
+    case = bundled.cases[0]
+    bounds = ",".join(f"{u:g},{v:g}" for u, v in case.bounds.T)
+    out_json = tmp_path / "out.json"
+    code = main(["estimate", str(case.image), "--bounds", bounds, "--json", str(out_json),
+                 "--overlay", str(tmp_path / "o.png")])
+    captured = capsys.readouterr()
+    assert code == 1
+    assert captured.out == ""  # an unreliable pose is not reported as a result
+    (line,) = captured.err.strip().splitlines()
+    assert line.startswith("graphpose: error: ") and case.image.name in line
+    assert "no reliable pose" in line and "iteration cap reached" in line
+    (record,) = json.loads(out_json.read_text())
+    assert record["error"] and "no reliable pose" in record["error"]
+    assert not record["converged"] and record["iterations"] == 1
+    assert png_size(tmp_path / "o.png") == (640, 480)  # the picture shows what went wrong
+
+
+def test_a_failed_overlay_write_is_that_images_error_and_the_batch_goes_on(bundled, tmp_path, capsys):
+    doc = {"K": bundled.K.tolist(), "cases": [
+        {"image": str(c.image), "bounds": c.bounds.tolist()} for c in bundled.cases[:2]]}
+    cases_file = tmp_path / "cases.json"
+    cases_file.write_text(json.dumps(doc))
+    folder = tmp_path / "pictures"
+    (folder / f"{bundled.cases[0].image.stem}.overlay.png").mkdir(parents=True)  # cannot be replaced
+    out_json = tmp_path / "out.json"
+    code = main(["estimate", "--cases", str(cases_file), "--json", str(out_json), "--overlay", str(folder), "-q"])
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and "cannot write" in line and bundled.cases[0].image.stem in line
+    first, second = json.loads(out_json.read_text())
+    assert "cannot write" in first["error"] and first["T_WC"] is not None
+    assert second["error"] is None and second["converged"]
+    assert png_size(folder / f"{bundled.cases[1].image.stem}.overlay.png") == (640, 480)
+
+
+def test_an_overlay_folder_that_cannot_be_made_is_an_input_error(bundled, tmp_path, capsys):
+    case = bundled.cases[1]
+    bounds = ",".join(f"{u:g},{v:g}" for u, v in case.bounds.T)
+    (tmp_path / "taken").write_text("a file where the folder should go")
+    out_json = tmp_path / "out.json"
+    code = main(["estimate", str(case.image), "--bounds", bounds, "--json", str(out_json),
+                 "--overlay", f"{tmp_path / 'taken'}/", "-q"])
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and "--overlay: cannot create folder" in line and "taken" in line
+    (record,) = json.loads(out_json.read_text())
+    assert "cannot create folder" in record["error"] and record["T_WC"] is not None
+
+
+def test_batch_goes_on_past_a_bad_image(bundled, blank_png, tmp_path):
+    good = bundled.cases[2]
+    doc = {"K": bundled.K.tolist(), "cases": [
+        {"image": str(good.image), "bounds": good.bounds.tolist()},
+        {"image": "missing.png", "bounds": good.bounds.tolist()},
+        {"image": str(blank_png), "bounds": good.bounds.tolist()},
+    ]}
+    cases_file = tmp_path / "cases.json"
+    cases_file.write_text(json.dumps(doc))
+    result = graphpose("estimate", "--cases", cases_file, "--json", tmp_path / "out.json",
+                       "--overlay", tmp_path / "pictures")
+    assert result.returncode == 2  # the worst: a missing file is bad input
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 2 and "missing.png" in lines[0] and "blank.png" in lines[1]
+    assert "3 images: 1 estimated, 2 failed" in result.stdout
+    records = json.loads((tmp_path / "out.json").read_text())
+    assert [r["error"] is None for r in records] == [True, False, False]
+    assert records[0]["converged"] and "not found" in records[1]["error"]
+    assert [p.name for p in (tmp_path / "pictures").iterdir()] == [f"{good.image.stem}.overlay.png"]
+
+
+# --- pieces, in process ----------------------------------------------------------------------
+
+
+def test_no_arguments_means_estimate_on_the_bundled_example(monkeypatch):
+    import graphpose.cli.estimate as estimate
+
+    seen = []
+    monkeypatch.setattr(estimate, "run", lambda args: seen.append(args) or 0)
+    assert main([]) == 0
+    (args,) = seen
+    assert args.command == "estimate" and args.image is None and args.cases is None
+    assert estimate.DEFAULT_CASES == BUNDLED
+
+
+def test_every_subcommand_follows_the_protocol():
+    import importlib
+
+    from graphpose.cli import SUBCOMMANDS, build_parser
+
+    parser = build_parser()
+    for name in SUBCOMMANDS:
+        module = importlib.import_module(f"graphpose.cli.{name}")
+        assert callable(module.add_parser) and callable(module.run)
+        assert main([name, "--help"]) == 0
+    assert parser.parse_args(["estimate"]).command == "estimate"
+
+
+def test_help_names_the_defaults(capsys):
+    assert main(["estimate", "--help"]) == 0
+    text = capsys.readouterr().out
+    assert "564.9,564.3,337.3,226.5" in text and "8x6x0.0635" in text and "project's" in text
+
+
+def test_typed_values():
+    np.testing.assert_array_equal(parse_bounds("1,2, 3,4,5,6,7,8"), [[1, 3, 5, 7], [2, 4, 6, 8]])
+    np.testing.assert_array_equal(parse_bounds("-1.5,2,3,-4e1,5,6,7,8")[:, :2], [[-1.5, 3], [2, -40]])
+    np.testing.assert_array_equal(parse_K("500,510,320,240"),
+                                  [[500, 0, 320], [0, 510, 240], [0, 0, 1]])
+
+
+def test_negative_lists_are_values_not_options(monkeypatch):
+    import graphpose.cli.estimate as estimate
+
+    seen = []
+    monkeypatch.setattr(estimate, "run", lambda args: seen.append(args) or 0)
+    assert main(["estimate", "a.png", "--bounds", "-3,-2.5,400,1,400,300,-1e1,300", "-q"]) == 0
+    np.testing.assert_array_equal(seen[0].bounds, [[-3, 400, 400, -10], [-2.5, 1, 300, 300]])
+    assert seen[0].quiet
+
+
+def test_progress_bar_only_on_a_terminal():
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    stream = Terminal()
+    bar = Progress(4, stream, width=8)
+    bar.show(2, "b.png")
+    assert stream.getvalue() == "\r[####....] 2/4 b.png"
+    bar.clear()
+    assert stream.getvalue().endswith("\r" + " " * 20 + "\r")
+    quiet = io.StringIO()
+    Progress(4, quiet).show(1, "a.png")
+    assert quiet.getvalue() == ""
+    single = Terminal()
+    Progress(1, single).show(0, "a.png")
+    assert single.getvalue() == ""
+
+
+def test_atomic_write_leaves_old_file_or_nothing(tmp_path):
+    target = tmp_path / "out.json"
+    write_json(target, {"a": np.array([1.0, np.nan]), "b": np.bool_(True)})
+    assert json.loads(target.read_text()) == {"a": [1.0, None], "b": True}
+    (tmp_path / "dir").mkdir()
+    with pytest.raises(InputError, match="cannot write"):
+        atomic_write(tmp_path / "dir", b"x")  # replacing a folder fails
+    with pytest.raises(InputError, match="cannot write"):
+        atomic_write(tmp_path / "nowhere" / "out.json", b"x")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dir", "out.json"]
+
+
+def test_json_text_round_trip_with_one_matrix_row_per_line():
+    value = [{"name": "a b", "T": np.eye(4), "empty": {}, "none": [], "nested": [{"x": [1, 2]}, "s"],
+              "ok": np.bool_(False), "nan": float("nan")}]
+    text = dumps_json(value)
+    assert json.loads(text) == [{"name": "a b", "T": np.eye(4).tolist(), "empty": {}, "none": [],
+                                 "nested": [{"x": [1, 2]}, "s"], "ok": False, "nan": None}]
+    assert '"T": [[1.0, 0.0, 0.0, 0.0],\n' in text and text.count("[0.0, 0.0, 0.0, 1.0]") == 1
+
+
+def test_png_round_trip(tmp_path):
+    from skimage.io import imread
+
+    rgb = np.random.default_rng(3).integers(0, 256, (5, 7, 3), dtype=np.uint8)
+    path = tmp_path / "x.png"
+    path.write_bytes(encode_png(rgb))
+    np.testing.assert_array_equal(imread(path), rgb)
+    assert png_size(path) == (7, 5)
+    with pytest.raises(InputError, match="uint8"):
+        encode_png(rgb.astype(float))
+
+
+def test_load_pose_forms(tmp_path):
+    T = T_from_params([0.1, 0.2, -1.0, 0.1, -0.2, 0.3])
+    plain, wrapped = tmp_path / "plain.json", tmp_path / "wrapped.json"
+    plain.write_text(json.dumps(T.tolist()))
+    wrapped.write_text(json.dumps({"T_WC": T.tolist()}))
+    np.testing.assert_allclose(load_pose(plain), T)
+    np.testing.assert_allclose(load_pose(wrapped), T)
+    wrapped.write_text(json.dumps([{"image": "a.png", "T_WC": T.tolist()}]))  # --json of one image
+    np.testing.assert_allclose(load_pose(wrapped), T)
+    for text, message in [('{"pose": 1}', "without the key T_WC"), ("[[1, 2]", "cannot read"),
+                          ('[["a"]]', "4 x 4"), (json.dumps((2 * T).tolist()), "not a rotation")]:
+        plain.write_text(text)
+        with pytest.raises(InputError, match=message):
+            load_pose(plain)
+    with pytest.raises(InputError, match="not found"):
+        load_pose(tmp_path / "none.json")
+
+
+def test_result_record_of_a_failure_and_of_an_estimate():
+    record = result_record("a.png", None, "no board")
+    assert KEYS <= set(record) and record["error"] == "no board" and record["T_WC"] is None
+    T = T_from_params([0.1, 0.2, -1.0, 0.0, 0.0, np.pi / 2])
+    estimate = SimpleNamespace(
+        T_WC=T, params=params_from_T(T), converged=True, iterations=4, sigma_xyz_m=np.array([1e-3, 2e-3, 3e-3]),
+        sigma_rpy_rad=np.radians([0.1, 0.2, 0.3]), reprojection_rms_px=0.2, mask=np.array([True, False]),
+        junctions=SimpleNamespace(points=np.array([[1.0, np.nan], [2.0, np.nan]]),
+                                  trusted=np.array([True, False])),
+        cross_check=SimpleNamespace(translation_m=1e-6, rotation_deg=1e-4, agree=np.True_))
+    record = result_record("a.png", estimate)
+    json.dumps(record, allow_nan=False)
+    np.testing.assert_allclose(record["xyz_m"], [0.1, 0.2, -1.0])
+    np.testing.assert_allclose(record["rpy_deg"], [0.0, 0.0, 90.0], atol=1e-12)
+    np.testing.assert_allclose(record["sigma_xyz_mm"], [1, 2, 3])
+    np.testing.assert_allclose(record["sigma_rpy_deg"], [0.1, 0.2, 0.3])
+    assert record["junctions"] == [[1.0, None], [2.0, None]] and record["trusted"] == [True, False]
+    assert record["cross_check"]["agree"] is True and record["error"] is None
+
+
+def test_an_estimate_from_points_has_no_junctions_to_write_or_report():
+    from graphpose.cli.estimate import format_report
+    from graphpose.pose.estimate import estimate_pose_from_points
+
+    K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
+    T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
+    W = Board().world_points()
+    mask = np.arange(48) != 7
+    estimate = estimate_pose_from_points(K, project(K, T, W), W, mask=mask)
+    assert estimate.junctions is None
+    record = result_record("points", estimate)
+    json.dumps(record, allow_nan=False)
+    assert record["junctions"] is None and record["trusted"] == mask.tolist()
+    np.testing.assert_allclose(record["xyz_m"], [0.2, 0.15, -1.0], atol=1e-9)
+    report = format_report("points", estimate, record)
+    assert "over 48 junctions, 47 trusted" in report and "converged" in report
+
+
+@pytest.mark.parametrize("exception, code, message", [
+    (KeyboardInterrupt, 130, "graphpose: interrupted"),
+    (BrokenPipeError, 1, ""),
+])
+def test_interrupt_and_closed_pipe(monkeypatch, capsys, exception, code, message):
+    import graphpose.cli.estimate as estimate
+    from graphpose import cli
+
+    def run(args):
+        raise exception
+
+    redirected = []
+    monkeypatch.setattr(estimate, "run", run)
+    # Stand-ins for pointing stdout's descriptor at /dev/null, which would blind pytest's capture.
+    monkeypatch.setattr(cli.sys, "stdout", SimpleNamespace(fileno=lambda: 101))
+    monkeypatch.setattr(cli.os, "open", lambda path, flags: ("opened", path))
+    monkeypatch.setattr(cli.os, "dup2", lambda fd, target: redirected.append((fd, target)))
+    assert main(["estimate"]) == code
+    assert capsys.readouterr().err.strip() == message
+    assert redirected == ([(("opened", cli.os.devnull), 101)] if exception is BrokenPipeError else [])
+
+
+def test_usage_errors_name_the_subcommand_as_typed(capsys):
+    assert main(["render-sequence", "--frames", "x"]) == 2
+    assert capsys.readouterr().err.startswith("graphpose render-sequence: error: argument --frames")
+
+
+def test_a_case_file_without_cases_is_an_input_error(tmp_path, capsys):
+    cases_file = tmp_path / "cases.json"
+    cases_file.write_text(json.dumps({"K": np.eye(3).tolist(), "cases": []}))
+    assert main(["estimate", "--cases", str(cases_file)]) == 2
+    assert capsys.readouterr().err.strip() == f"graphpose: error: case file {cases_file} has no cases"
+
+
+def test_parse_K_takes_a_fifth_number_as_the_skew():
+    np.testing.assert_array_equal(parse_K("500,510,320,240,1.5"), [[500, 1.5, 320], [0, 510, 240], [0, 0, 1]])
+    with pytest.raises(argparse.ArgumentTypeError, match="4 or 5 numbers"):
+        parse_K("500,510,320,240,1.5,2")
+
+
+@pytest.mark.parametrize("text", ["0", "-1", "nan", "inf", "abc", ""])
+def test_parse_positive_refuses(text):
+    with pytest.raises(argparse.ArgumentTypeError, match="expected a positive number"):
+        parse_positive(text)
+
+
+def test_parse_positive_accepts():
+    assert parse_positive("2.5") == 2.5 and parse_positive("1e-3") == 1e-3

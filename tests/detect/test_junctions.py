@@ -1,0 +1,269 @@
+"""Tests of graphpose.detect.junctions: real images, synthetic truth, trust, refinement, errors."""
+
+import numpy as np
+import pytest
+
+from graphpose import (
+    Board,
+    BoardNotFoundError,
+    InputError,
+    Junctions,
+    cross_junctions,
+    extract_junctions,
+    refine_junctions,
+)
+from graphpose.camera import K_from_params, project
+from graphpose.pose.gauss_newton import pose_estimate_nls
+from graphpose.synth.render import loose_polygon, random_pose, render
+
+K = K_from_params(564.9, 564.3, 337.3, 226.5)
+#: OpenCV findChessboardCornersSB (CALIB_CB_ACCURACY) reprojection RMS on targets 01-06, px.
+#: Copied from issue 2, which set them as the goal (our junctions must fit a pinhole pose at
+#: least as well); not measured by this test. scripts/bench_junctions.py measures OpenCV
+#: itself, side by side, in each run.
+OPENCV_SB_RMS = [0.072, 0.128, 0.103, 0.191, 0.156, 0.063]
+
+
+def pose_rms(K, guess, points, board=Board()):
+    """RMS distance, px, between the junctions and the reprojection of the fitted pose."""
+    W = board.world_points()
+    T = pose_estimate_nls(K, guess, points, W)
+    return np.sqrt(np.mean(np.sum((project(K, T, W) - points) ** 2, axis=0)))
+
+
+@pytest.fixture(scope="module")
+def real_junctions(real_images):
+    return [(case, image, extract_junctions(image, case.bounds)) for case, image in real_images]
+
+
+def synthetic(seed, noise=2.0, blur=1.0, inset=False, **kw):
+    rng = np.random.default_rng(seed)
+    R = render(K, random_pose(rng, K), noise_sigma=noise, blur_sigma=blur, rng=rng, **kw)
+    return R, loose_polygon(R, rng, inset=inset)
+
+
+# ----------------------------------------------------------------------------- real images
+
+
+def test_real_images_give_48_trusted_junctions_in_row_major_order(real_junctions):
+    board = Board()
+    for case, _, J in real_junctions:
+        assert isinstance(J, Junctions)
+        assert J.points.shape == (2, 48) and J.trusted.shape == (48,) and J.residual.shape == (48,)
+        assert J.trusted.all(), case.image.name
+        grid = J.points.reshape(2, board.rows, board.cols)
+        # Row-major: the first junction is the one nearest the polygon's first vertex, rows
+        # run from it towards the second vertex and columns towards the fourth.
+        assert np.argmin(np.hypot(*(J.points - case.bounds[:, :1]))) == 0
+        along_row = np.diff(grid, axis=2).reshape(2, -1)
+        along_col = np.diff(grid, axis=1).reshape(2, -1)
+        first_edge = case.bounds[:, 1] - case.bounds[:, 0]
+        last_edge = case.bounds[:, 3] - case.bounds[:, 0]
+        assert np.all(first_edge @ along_row > 0) and np.all(last_edge @ along_col > 0)
+        # Neighbours are about one square apart, never two.
+        steps = np.hypot(*along_row)
+        assert steps.max() < 1.5 * np.median(steps)
+
+
+def test_real_images_match_reference_junctions_within_1_px(real_junctions):
+    checked = 0
+    for case, _, J in real_junctions:
+        if case.ref_junctions is not None:
+            mean_px = np.mean(np.hypot(*(J.points - case.ref_junctions)))
+            assert mean_px < 1.0  # the goal from the issue
+            assert mean_px < 0.5  # regression guard: measured 0.22 and 0.30 px
+            checked += 1
+    assert checked == 2
+
+
+def test_real_images_fit_a_pose_at_least_as_well_as_opencv(real_cases, real_junctions):
+    for (case, _, J), limit in zip(real_junctions, OPENCV_SB_RMS):
+        assert pose_rms(real_cases.K, case.guess_T_WC, J.points) <= limit, case.image.name
+
+
+def test_cross_junctions_is_extract_junctions_points(real_cases, real_images, real_junctions):
+    case, image, J = real_junctions[1]
+    np.testing.assert_array_equal(cross_junctions(image, case.bounds, Board().world_points()), J.points)
+
+
+def test_colour_16_bit_and_8_bit_images_agree(real_images):
+    case, image = real_images[0]
+    grey8 = np.rint(image * 255).astype(np.uint8)
+    reference = extract_junctions(grey8, case.bounds).points
+    colour = np.repeat(grey8[:, :, None], 3, axis=2)
+    deep = grey8.astype(np.uint16) * 257
+    for variant in (colour, deep, grey8.astype(float) / 255.0):
+        np.testing.assert_allclose(extract_junctions(variant, case.bounds).points, reference, atol=1e-6)
+
+
+# ------------------------------------------------------------------------------ synthetic
+
+
+@pytest.mark.parametrize("noise, blur, limit", [(2.0, 1.0, 0.03), (6.0, 2.0, 0.07)])
+def test_synthetic_rms_error_against_truth(noise, blur, limit):
+    errors = []
+    for seed in range(6):
+        R, poly = synthetic(100 + seed, noise, blur, inset=bool(seed % 2))
+        J = extract_junctions(R.image, poly)
+        assert J.trusted.all()
+        errors.append(np.sum((J.points - R.junctions) ** 2, axis=0))
+    assert np.sqrt(np.mean(np.concatenate(errors))) < limit
+
+
+def test_noise_free_synthetic_image_is_exact():
+    R, poly = synthetic(7, noise=0.0, blur=1.0, quantize=False)
+    J = extract_junctions(R.image, poly)
+    assert np.max(np.hypot(*(J.points - R.junctions))) < 0.01
+
+
+def test_polygon_inside_the_margin_or_outside_the_sheet_gives_the_same_junctions():
+    rng = np.random.default_rng(11)
+    R = render(K, random_pose(rng, K), rng=rng)
+    inset = extract_junctions(R.image, loose_polygon(R, rng, inset=True)).points
+    outside = extract_junctions(R.image, loose_polygon(R, rng, offset_px=(2.0, 5.0)) + [[-3.0], [0.0]]).points
+    np.testing.assert_allclose(inset, outside, atol=0.01)  # the re-centring stops within 0.02 px steps
+
+
+def test_larger_board_and_other_grid():
+    board = Board(5, 4, 0.08)
+    rng = np.random.default_rng(12)
+    R = render(K, random_pose(rng, K, board), board, rng=rng)
+    J = extract_junctions(R.image, loose_polygon(R, rng), board)
+    assert J.points.shape == (2, 20) and J.trusted.all()
+    assert np.sqrt(np.mean(np.sum((J.points - R.junctions) ** 2, axis=0))) < 0.03
+    np.testing.assert_allclose(cross_junctions(R.image, loose_polygon(R, rng), board.world_points()),
+                               R.junctions, atol=0.1)
+
+
+@pytest.mark.parametrize("half", [6, 10])
+def test_occluded_junction_is_not_trusted(half):
+    # A grey sticker over the inner part of junction 20 (squares ~39 px): the smaller one
+    # leaves the fit a worse residual, the larger one leaves no saddle at all.
+    R, poly = synthetic(13)
+    image = R.image.copy()
+    u, v = np.rint(R.junctions[:, 20]).astype(int)
+    image[v - half:v + half + 1, u - half:u + half + 1] = 128
+    J = extract_junctions(image, poly)
+    assert not J.trusted[20]
+    assert J.trusted.sum() == 47
+    assert np.hypot(*(J.points[:, 20] - R.junctions[:, 20])) < 0.5
+
+
+# ---------------------------------------------------------------------------- refinement
+
+
+def test_refine_junctions_recovers_perturbed_positions():
+    R, _ = synthetic(21)
+    rng = np.random.default_rng(22)
+    start = R.junctions + rng.uniform(-1.5, 1.5, R.junctions.shape)
+    points, trusted, residual = refine_junctions(R.image, start, 10.0)
+    assert points.shape == (2, 48) and trusted.shape == (48,) and residual.shape == (48,)
+    assert trusted.all() and np.all(np.isfinite(residual))
+    assert np.sqrt(np.mean(np.sum((points - R.junctions) ** 2, axis=0))) < 0.03
+
+
+def test_refine_junctions_away_from_any_junction_is_not_trusted():
+    R, _ = synthetic(23)
+    flat = np.array([[5.0, 630.0], [5.0, 470.0]])  # image corners: background, no junction
+    _, trusted, _ = refine_junctions(R.image, flat, np.array([6.0, 6.0]))
+    assert not trusted.any()
+
+
+# --------------------------------------------------------------------------------- errors
+
+
+@pytest.fixture(scope="module")
+def small_case():
+    return synthetic(31)
+
+
+@pytest.mark.parametrize(
+    "poly, message",
+    [
+        (np.zeros((4, 2)), r"shape \(2, 4\)"),
+        (np.zeros((2, 3)), r"shape \(2, 4\)"),
+        (np.array([[np.nan, 1, 2, 3], [0, 1, 2, 3]]), "NaN"),
+        (np.array([[900.0, 1200, 1200, 900], [100, 100, 300, 300]]), "off the"),
+        (np.array([[100.0, 100, 300, 300], [100, 300, 300, 100]]), "clockwise"),
+        (np.array([[100.0, 300, 100, 300], [100, 100, 300, 300]]), "convex|clockwise|degenerate"),
+        (np.array([[100.0, 101, 101, 100], [100, 100, 101, 101]]), "degenerate"),
+        ([[100, 300, 300], [100, 100, 300, 300]], "bounds must be a rectangular array of real numbers"),
+    ],
+)
+def test_bad_polygon_raises_input_error(small_case, poly, message):
+    R, _ = small_case
+    with pytest.raises(InputError, match=message):
+        extract_junctions(R.image, poly)
+
+
+@pytest.mark.parametrize(
+    "image, message",
+    [(np.zeros((0, 0)), "empty"), (np.zeros((4, 4, 4, 4)), "2-D"), (np.full((480, 640), np.nan), "NaN"),
+     (np.zeros((1, 4000)), r"at least 5 x 5 pixels, got shape \(1, 4000\)"),
+     (np.zeros((4000, 4), np.uint8), r"at least 5 x 5 pixels")],
+)
+def test_bad_image_raises_input_error(small_case, image, message):
+    _, poly = small_case
+    with pytest.raises(InputError, match=message):
+        extract_junctions(image, poly)
+
+
+def test_wpts_not_a_grid_raises_input_error(small_case):
+    R, poly = small_case
+    W = Board().world_points()
+    with pytest.raises(InputError, match="grid"):
+        cross_junctions(R.image, poly, W[:, ::-1])
+    with pytest.raises(InputError, match="Wpts"):
+        cross_junctions(R.image, poly, W[:2])
+
+
+@pytest.mark.parametrize("kind", ["blank", "noise"])
+def test_image_without_a_board_raises_board_not_found(small_case, kind):
+    R, poly = small_case
+    rng = np.random.default_rng(5)
+    image = np.full(R.image.shape, 0.5) if kind == "blank" else rng.uniform(0, 1, R.image.shape)
+    with pytest.raises(BoardNotFoundError):
+        extract_junctions(image, poly)
+
+
+def test_polygon_starting_on_a_column_raises_board_not_found(small_case):
+    # Starting at the second vertex puts the board's 6-junction columns along the first edge.
+    R, poly = small_case
+    with pytest.raises(BoardNotFoundError):
+        extract_junctions(R.image, np.roll(poly, -1, axis=1))
+
+
+def test_polygon_around_part_of_the_board_raises_board_not_found(small_case):
+    R, _ = small_case
+    J = R.junctions.reshape(2, 6, 8)
+    corners = np.stack([J[:, 0, 0], J[:, 0, 4], J[:, 5, 4], J[:, 5, 0]], axis=1)
+    part = corners + [[-5, 5, 5, -5], [-5, -5, 5, 5]]
+    with pytest.raises(BoardNotFoundError):
+        extract_junctions(R.image, part)
+
+
+def test_bad_options_raise_input_error(small_case):
+    R, poly = small_case
+    with pytest.raises(InputError, match="window"):
+        extract_junctions(R.image, poly, window=0.9)
+    with pytest.raises(InputError, match="smooth_sigma"):
+        extract_junctions(R.image, poly, smooth_sigma=-1.0)
+    with pytest.raises(InputError, match="half_width"):
+        refine_junctions(R.image, R.junctions, 1.0)
+    with pytest.raises(InputError, match="half_width"):
+        refine_junctions(R.image, R.junctions, np.ones(3) * 5)
+    with pytest.raises(InputError, match="points"):
+        refine_junctions(R.image, R.junctions.T, 5.0)
+    with pytest.raises(InputError, match="NaN"):
+        refine_junctions(R.image, np.full((2, 3), np.nan), 5.0)
+    with pytest.raises(InputError, match="half_width must be a rectangular array of real numbers"):
+        refine_junctions(R.image, R.junctions, "wide")
+
+
+def test_junctions_that_fix_no_homography_mean_no_board():
+    from graphpose.detect.grid import fit_homography
+
+    one_row = np.array([[0.0, 1, 2, 3, 4, 5], [0, 0, 0, 0, 0, 0]])
+    pixels = np.array([[10.0, 20, 30, 40, 50, 60], [5, 6, 7, 8, 9, 10]])
+    with pytest.raises(BoardNotFoundError, match="do not fix a homography"):
+        fit_homography(one_row, pixels)

@@ -1,0 +1,110 @@
+import numpy as np
+import pytest
+
+from graphpose import Board, InputError
+from graphpose.camera import T_from_params, project, to_camera
+from graphpose.pose.gauss_newton import gauss_newton
+from graphpose.pose.homography import (
+    homography_dlt,
+    on_target_plane,
+    pose_from_homography,
+)
+
+K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
+WPTS = Board().world_points()
+
+
+def random_pose(rng):
+    """Camera 0.6-1.5 m in front of the board, tilted up to 35 degrees, turned +-20 about its axis."""
+    centre = WPTS.mean(axis=1)
+    params = [0, 0, 0, rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6), rng.uniform(-0.35, 0.35)]
+    C = T_from_params(params)[:3, :3]
+    T = np.eye(4)
+    T[:3, :3] = C
+    T[:3, 3] = centre - rng.uniform(0.6, 1.5) * C[:, 2]
+    return T
+
+
+def test_exact_points_give_the_exact_pose():
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        T = random_pose(rng)
+        np.testing.assert_allclose(pose_from_homography(K, project(K, T, WPTS), WPTS), T, atol=1e-8)
+
+
+def test_homography_maps_source_to_destination():
+    rng = np.random.default_rng(1)
+    src = rng.uniform(-1, 1, (2, 10))
+    H_true = np.array([[1.2, 0.1, 3.0], [-0.2, 0.9, -1.0], [1e-3, 2e-3, 1.0]])
+    dst_h = H_true @ np.vstack([src, np.ones(10)])
+    H = homography_dlt(src, dst_h[:2] / dst_h[2])
+    np.testing.assert_allclose(H / H[2, 2], H_true, atol=1e-9)
+
+
+def test_noisy_points_start_gauss_newton_at_the_same_minimum():
+    rng = np.random.default_rng(2)
+    for _ in range(20):
+        T = random_pose(rng)
+        I = project(K, T, WPTS) + rng.normal(0, 0.5, (2, 48))
+        T0 = pose_from_homography(K, I, WPTS)
+        assert np.all(to_camera(T0, WPTS)[2] > 0)
+        assert np.linalg.norm(T0[:3, 3] - T[:3, 3]) < 0.05
+        from_lin = gauss_newton(K, T0, I, WPTS)
+        from_truth = gauss_newton(K, T, I, WPTS)
+        assert from_lin.converged and from_truth.converged
+        # Both stop within rounding of the cost's minimum: far inside the 1e-6 m cross-check.
+        np.testing.assert_allclose(from_lin.T_WC, from_truth.T_WC, atol=1e-7)
+
+
+def test_four_points_are_enough():
+    T = random_pose(np.random.default_rng(3))
+    W = WPTS[:, [0, 7, 40, 47]]
+    np.testing.assert_allclose(pose_from_homography(K, project(K, T, W), W), T, atol=1e-8)
+
+
+def test_result_is_a_rotation_with_board_in_front():
+    T = pose_from_homography(K, project(K, T_from_params([0.2, 0.1, -0.9, 0.2, -0.1, 0.3]), WPTS)
+                             + np.random.default_rng(4).normal(0, 2.0, (2, 48)), WPTS)
+    C = T[:3, :3]
+    np.testing.assert_allclose(C.T @ C, np.eye(3), atol=1e-12)
+    assert np.linalg.det(C) == pytest.approx(1.0)
+    assert np.all(to_camera(T, WPTS)[2] > 0)
+
+
+def test_collinear_points_are_refused():
+    W = WPTS[:, :8]  # one row of the board
+    I = project(K, T_from_params([0.2, 0.1, -0.9, 0.0, 0.0, 0.0]), W)
+    with pytest.raises(InputError, match="collinear"):
+        pose_from_homography(K, I, W)
+
+
+def test_off_plane_points_are_refused():
+    W = WPTS.copy()
+    W[2, 5] = 0.01
+    with pytest.raises(InputError, match="z = 0"):
+        pose_from_homography(K, project(K, T_from_params([0.2, 0.1, -0.9, 0, 0, 0]), W), W)
+
+
+def test_on_target_plane_tolerance_is_relative_to_the_extent():
+    W = WPTS.copy()
+    assert on_target_plane(W)
+    W[2, 5] = 0.9e-6  # extent 0.4445 m < 1 m: the tolerance is 1e-6 m
+    assert on_target_plane(W)
+    W[2, 5] = -1.1e-6
+    assert not on_target_plane(W)
+    W[:2] *= 10  # extent 4.445 m: the tolerance is 4.445e-6 m
+    assert on_target_plane(W)
+
+
+@pytest.mark.parametrize(
+    "K_, I_, W_, match",
+    [
+        (K, np.zeros((2, 3)), WPTS[:, :3], "at least 4"),
+        (K, np.zeros((2, 48)), WPTS[:, :40], "same number"),
+        (np.zeros((3, 3)), np.zeros((2, 48)), WPTS, "K"),
+        (K, np.full((2, 48), np.nan), WPTS, "NaN"),
+    ],
+)
+def test_bad_input_is_refused(K_, I_, W_, match):
+    with pytest.raises(InputError, match=match):
+        pose_from_homography(K_, I_, W_)

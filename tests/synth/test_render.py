@@ -1,0 +1,380 @@
+"""Tests of the synthetic renderer: exact areas, exact truth, statistics, poses, data files."""
+
+import importlib.util
+import json
+
+import numpy as np
+import pytest
+from scipy.ndimage import correlate1d
+from skimage.io import imread
+from skimage.measure import points_in_poly
+
+from graphpose.board import Board
+from graphpose.camera import K_from_params, T_from_params, project
+from graphpose.errors import InputError
+from graphpose.synth.render import (
+    Rendering,
+    _black_squares_world,
+    _coverage,
+    _kernel,
+    _Light,
+    image_gradients,
+    junction_information,
+    loose_polygon,
+    perturb_pose,
+    polygon_coverage,
+    random_pose,
+    render,
+    render_ideal,
+)
+from tests.conftest import REPO
+
+K_REAL = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
+
+
+def shoelace(P):
+    x, y = P
+    return 0.5 * (np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def fronto(u0, v0, f=500.0, square_px=40.0, board=Board()):
+    """K and T_WC of a fronto-parallel view putting junction 0 at (u0, v0), squares square_px wide."""
+    Z = f * board.square_m / square_px
+    return K_from_params(f, f, u0, v0), T_from_params([0.0, 0.0, -Z, 0.0, 0.0, 0.0])
+
+
+# ------------------------------------------------------------------ exact area
+
+
+def test_coverage_axis_aligned_square_is_exact():
+    # x in [1.5, 4.25]: pixel 2 and 3 full, pixel 4 ([3.5, 4.5]) three quarters; y in [0.0, 2.5].
+    P = np.array([[1.5, 4.25, 4.25, 1.5], [0.0, 0.0, 2.5, 2.5]])
+    A = polygon_coverage(P, (7, 5))
+    assert A.sum() == pytest.approx(2.75 * 2.5, abs=1e-12)
+    assert np.allclose(A[1:3, 2:4], 1.0, atol=1e-12)
+    assert A[0, 2] == pytest.approx(0.5, abs=1e-12)  # row 0 spans [-0.5, 0.5]: half covered
+    assert A[1, 4] == pytest.approx(0.75, abs=1e-12)
+    assert A[3, 2] == pytest.approx(0.0, abs=1e-12)  # row 3 spans [2.5, 3.5]: untouched
+    assert np.allclose(polygon_coverage(P[:, ::-1], (7, 5)), A, atol=1e-12)  # orientation-free
+
+
+def test_coverage_rotated_square_matches_area_and_brute_force():
+    angle = 0.37
+    R = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    P = np.array([[9.3], [8.1]]) + R @ np.array([[-5.0, 5.0, 5.0, -5.0], [-3.0, -3.0, 3.0, 3.0]])
+    A = polygon_coverage(P, (20, 18))
+    assert A.sum() == pytest.approx(60.0, abs=1e-10)
+    assert A.min() >= -1e-12 and A.max() <= 1 + 1e-12
+    n = 64  # n x n point samples per pixel: error <~ perimeter / n per pixel
+    g = (np.arange(18 * n) + 0.5) / n - 0.5, (np.arange(20 * n) + 0.5) / n - 0.5
+    V, U = np.meshgrid(*g, indexing="ij")
+    inside = points_in_poly(np.c_[U.ravel(), V.ravel()], P.T).reshape(18, n, 20, n).mean(axis=(1, 3))
+    assert np.abs(inside - A).max() < 2.0 / n
+
+
+def test_coverage_clips_to_the_image():
+    P = np.array([[-3.0, 2.0, 2.0, -3.0], [1.0, 1.0, 30.0, 30.0]])  # covers u in [-0.5, 2], v in [1, 9.5]
+    A = polygon_coverage(P, (6, 10))
+    assert A.sum() == pytest.approx(2.5 * 8.5, abs=1e-12)
+
+
+def test_dark_area_equals_projected_black_squares():
+    board = Board()
+    T = random_pose(np.random.default_rng(1), K_REAL, board)
+    levels = dict(background=200.0, white=200.0, black=50.0, gradient=0.0)
+    for blur in (0.0, 1.0):  # blur moves grey around but keeps its total
+        I = render_ideal(K_REAL, T, board, blur_sigma=blur, supersample=2, **levels)
+        dark = np.sum(200.0 - I) / 150.0
+        exact = sum(abs(shoelace(project(K_REAL, T, Q))) for Q in _black_squares_world(board))
+        assert dark == pytest.approx(exact, rel=1e-6)
+
+
+def test_blur_free_fronto_parallel_edge_values():
+    K, T = fronto(100.3, 80.0)
+    I = render_ideal(K, T, blur_sigma=0.0, gradient=0.0, white=200.0, black=40.0, background=60.0)
+    # Row 100 runs between junction rows 0 and 1: the square left of u = 100.3 is white
+    # (square (0, 1)), the one right of it black; pixel 100 spans [99.5, 100.5].
+    assert I[100, 99] == pytest.approx(200.0, abs=1e-9)
+    assert I[100, 100] == pytest.approx(0.8 * 200.0 + 0.2 * 40.0, abs=1e-9)
+    assert I[100, 101] == pytest.approx(40.0, abs=1e-9)
+    # The upper-left square is black, as on the real target.
+    assert I[60, 80] == pytest.approx(40.0, abs=1e-9)
+    # Sheet edge: the left margin ends at u = 100.3 - 1.5 * 40 = 40.3.
+    assert I[100, 40] == pytest.approx(0.8 * 60.0 + 0.2 * 200.0, abs=1e-9)
+
+
+def _blur_integrate(fine, sigma, S, reach):
+    """Blur a dense fine image (h*S, w*S) and integrate it over pixels, giving (h, w): the
+    dense twin of the renderer's sparse path."""
+    k = _kernel(sigma, S, reach)
+    rows = sum(correlate1d(fine[:, b::S], k[:, b], axis=1, mode="constant") for b in range(S))
+    return sum(correlate1d(rows[b::S, :], k[:, b], axis=0, mode="constant") for b in range(S))
+
+
+def test_sparse_blur_equals_dense_fine_grid_reference():
+    # The renderer blurs sparse coverage entries and moves the light's v-part past a column
+    # sum; here the same image is made the plain way: dense fine grid over the whole image
+    # (plus the kernel's reach), times the light, blurred and integrated per pixel.
+    board, size, S, sigma = Board(3, 3), (200, 160), 3, 0.8
+    K = K_from_params(564.9, 564.3, 100.0, 80.0)
+    T = random_pose(np.random.default_rng(8), K, board, size, distance=(1.3, 1.6))
+    levels = dict(background=50.0, white=210.0, black=30.0)
+    light = _Light(*size, 0.3, np.deg2rad(60.0))
+    reach = int(np.ceil(5.0 * sigma)) + 1
+    origin = np.array([[-reach - 0.5], [-reach - 0.5]])
+    corners = [board.sheet_corners(0.5), *_black_squares_world(board)]
+    polys = [(project(K, T, Q) - origin) * S for Q in corners]
+    gains = [160.0] + [-180.0] * (len(polys) - 1)
+    h, w = (size[1] + 2 * reach) * S, (size[0] + 2 * reach) * S
+    u = (np.arange(w) + 0.5) / S - reach - 0.5
+    v = (np.arange(h) + 0.5) / S - reach - 0.5
+    fine = _coverage(polys, h, w, gains) * light(u[None, :], v[:, None])
+    blurred = _blur_integrate(fine, sigma, S, reach)[reach:-reach, reach:-reach]
+    U, V = np.meshgrid(np.arange(size[0]), np.arange(size[1]))
+    expected = 50.0 * light(U, V) + blurred
+    settings = dict(blur_sigma=sigma, supersample=S, gradient=0.3, light_angle_deg=60.0)
+    I = render_ideal(K, T, board, size, **settings, **levels)
+    assert np.abs(I - expected).max() < 1e-9
+
+
+# ------------------------------------------------------------------ exact truth
+
+
+@pytest.mark.parametrize("u0, v0", [(120.5, 90.0), (121.0, 90.5)])
+def test_noise_free_render_is_point_symmetric_about_each_junction(u0, v0):
+    board = Board()
+    K, T = fronto(u0, v0, square_px=30.0)
+    I = render_ideal(K, T, board, (480, 320), gradient=0.0, blur_sigma=1.0, supersample=3)
+    hw = 8
+    for u, v in project(K, T, board.world_points()).T:
+        a, b = int(round(2 * u)), int(round(2 * v))  # pixel p maps to 2j - p
+        rows, cols = np.arange(int(v) - hw, int(v) + hw + 1), np.arange(int(u) - hw, int(u) + hw + 1)
+        patch = I[np.ix_(rows, cols)]
+        mirror = I[np.ix_(b - rows, a - cols)]
+        assert np.abs(patch - mirror).max() < 1e-9
+        assert np.ptp(patch) > 100  # the window does see the junction
+
+
+def test_whole_pixel_shift_of_principal_point_shifts_image():
+    K, T = fronto(150.2, 100.7)
+    I = render_ideal(K, T, gradient=0.0, blur_sigma=1.3)
+    K2 = K.copy()
+    K2[0, 2] += 1.0
+    K2[1, 2] -= 2.0
+    J = render_ideal(K2, T, gradient=0.0, blur_sigma=1.3)
+    assert np.allclose(J[:-2, 1:], I[2:, :-1], atol=1e-9)
+
+
+def test_supersampling_2_4_and_8_agree_on_junction_positions():
+    # The junction displacement between two renders is the least-squares translation of the
+    # window's pattern: (I_S - I_8) projected on the gradient dI/d(u, v).
+    board, size = Board(3, 3), (240, 200)
+    K = K_from_params(564.9, 564.3, 120.0, 100.0)
+    rng = np.random.default_rng(3)
+    hw = 6
+    for _ in range(2):
+        T = random_pose(rng, K, board, size, distance=(1.1, 1.4))
+        ref = render_ideal(K, T, board, size, supersample=8)
+        gu, gv = image_gradients(K, T, board, size, supersample=8)
+        for S, tol in ((2, 0.002), (4, 0.0005)):
+            coarse = render_ideal(K, T, board, size, supersample=S)
+            for u, v in np.rint(project(K, T, board.world_points())).astype(int).T:
+                window = slice(v - hw, v + hw + 1), slice(u - hw, u + hw + 1)
+                G = np.stack([gu[window].ravel(), gv[window].ravel()], axis=1)
+                shift = np.linalg.lstsq(G, (coarse - ref)[window].ravel(), rcond=None)[0]
+                assert np.hypot(*shift) < tol
+
+
+def test_image_gradients_match_a_translated_camera():
+    K, T = fronto(150.3, 100.6)
+    gu, _ = image_gradients(K, T, gradient=0.0, delta=0.1)
+    eps = 0.1 * -T[2, 3] / K[0, 0]  # metres; moving the camera by +x moves the image by -f x / Z
+    Tp, Tm = T.copy(), T.copy()
+    Tp[0, 3] += eps
+    Tm[0, 3] -= eps
+    d = (render_ideal(K, Tm, gradient=0.0) - render_ideal(K, Tp, gradient=0.0)) / 0.2
+    assert np.abs(d - gu).max() < 1e-9 * np.abs(gu).max()
+
+
+def test_image_gradients_match_the_analytic_edge_derivative():
+    # Vertical edge at u = 150.3 (white left, black right, contrast 180): a shift of the
+    # image by du changes pixel u by 180 * mean of the Gaussian over the pixel's span.
+    K, T = fronto(150.3, 100.6)
+    x = np.linspace(-0.5, 0.5, 4001)
+    density = [np.mean(np.exp(-0.5 * (150.3 - u - x) ** 2)) / np.sqrt(2 * np.pi) for u in range(146, 155)]
+    expected = 180 * np.array(density)
+    for S, tol in ((4, 0.01), (8, 0.002)):
+        gu, _ = image_gradients(K, T, gradient=0.0, supersample=S)
+        assert np.abs(gu[108, 146:155] - expected).max() < tol * max(expected)
+
+
+def test_junction_information_is_symmetric_and_scales_with_noise():
+    K, T = fronto(150.5, 100.5)
+    F1 = junction_information(K, T, noise_sigma=1.0, half_width=5, gradient=0.0)
+    F2 = junction_information(K, T, noise_sigma=2.0, half_width=5, gradient=0.0)
+    assert F1.shape == (48, 2, 2)
+    assert np.allclose(F1, np.swapaxes(F1, 1, 2))
+    assert np.all(np.linalg.eigvalsh(F1) > 0)
+    assert np.allclose(F2, F1 / 4)
+    # Fronto-parallel and axis-aligned: u and v are equally well determined.
+    assert np.allclose(F1[:, 0, 0], F1[:, 1, 1], rtol=1e-6)
+
+
+# ------------------------------------------------------------------ render, noise
+
+
+def test_render_fields_and_noise_statistics():
+    T = T_from_params([0.2, 0.1, -1.0, 0.1, 0.2, 0.3])
+    ideal = render_ideal(K_REAL, T)
+    r = render(K_REAL, T, noise_sigma=2.0, rng=np.random.default_rng(7), quantize=False)
+    assert isinstance(r, Rendering) and r.image.dtype == np.float64
+    residual = r.image - ideal
+    assert residual.mean() == pytest.approx(0.0, abs=0.02)
+    assert residual.std() == pytest.approx(2.0, rel=0.01)
+    q = render(K_REAL, T, noise_sigma=2.0, rng=7)
+    assert q.image.dtype == np.uint8 and q.image.shape == (480, 640)
+    assert np.array_equal(q.image, np.clip(np.rint(r.image), 0, 255).astype(np.uint8))
+    assert np.allclose(q.junctions, project(K_REAL, T, Board().world_points()))
+    assert (q.blur_sigma, q.noise_sigma, q.size) == (1.0, 2.0, (640, 480))
+    # Outline: clockwise on screen, first vertex nearest junction 0.
+    assert shoelace(q.outline) > 0
+    assert np.argmin(np.hypot(*(q.outline - q.junctions[:, :1]))) == 0
+
+
+def test_render_is_deterministic():
+    T = T_from_params([0.2, 0.1, -1.0, 0.1, 0.2, 0.3])
+    assert np.array_equal(render_ideal(K_REAL, T), render_ideal(K_REAL, T))
+    assert np.array_equal(render(K_REAL, T, rng=3).image, render(K_REAL, T, rng=3).image)
+
+
+def test_board_partly_outside_the_image_renders_the_visible_part():
+    K, T = fronto(-100.0, 50.0)  # the left two-thirds of the board is off the image
+    I = render_ideal(K, T, gradient=0.0, blur_sigma=0.0, background=60.0, white=200.0, black=40.0)
+    full = render_ideal(K_from_params(500.0, 500.0, 300.0, 50.0), T, size=(1040, 480), gradient=0.0,
+                        blur_sigma=0.0, background=60.0, white=200.0, black=40.0)
+    assert np.allclose(I, full[:, 400:], atol=1e-9)
+
+
+# ------------------------------------------------------------------ poses and polygons
+
+
+def test_random_pose_keeps_the_sheet_in_view():
+    rng = np.random.default_rng(11)
+    board = Board()
+    for _ in range(30):
+        T = random_pose(rng, K_REAL, board, (640, 480))
+        r = render(K_REAL, T, board, noise_sigma=0.0, blur_sigma=0.0, gradient=0.0)
+        uv = r.outline
+        assert np.all((uv >= 8) & (uv <= np.array([[631], [471]])))
+        width = np.hypot(*(uv[:, 1] - uv[:, 0]))
+        assert 200 < width < 520
+        assert T[2, 3] < 0 and shoelace(uv) > 0
+        assert np.argmin(np.hypot(*(uv - r.junctions[:, :1]))) == 0
+
+
+def test_loose_polygon_and_inset():
+    T = random_pose(np.random.default_rng(2), K_REAL)
+    r = render(K_REAL, T, rng=2)
+    loose = loose_polygon(r, np.random.default_rng(5))
+    assert loose.shape == (2, 4)
+    assert np.all(np.abs(loose - r.outline) <= 4.0) and np.any(np.abs(loose - r.outline) > 0.5)
+    inner = loose_polygon(r, np.random.default_rng(5), offset_px=(0.0, 0.0), inset=True)
+    squares = project(K_REAL, T, np.array([[-1, 8, 8, -1], [-1, -1, 6, 6], [0, 0, 0, 0]]) * 0.0635)
+    for P in (inner,):
+        for k in range(4):  # each vertex lies between the squares' corner and the sheet's
+            a, b = np.linalg.norm(P[:, k] - squares[:, k]), np.linalg.norm(P[:, k] - r.outline[:, k])
+            total = np.linalg.norm(r.outline[:, k] - squares[:, k])
+            assert a + b == pytest.approx(total, rel=1e-9) and min(a, b) > 0.2 * total
+
+
+def test_perturb_pose_moves_by_the_requested_amounts():
+    T = random_pose(np.random.default_rng(4), K_REAL)
+    G = perturb_pose(np.random.default_rng(4), T)
+    angle = np.degrees(np.arccos((np.trace(T[:3, :3].T @ G[:3, :3]) - 1) / 2))
+    assert 8.0 <= angle <= 12.0
+    assert 0.15 <= np.linalg.norm(G[:3, 3] - T[:3, 3]) <= 0.25
+
+
+# ------------------------------------------------------------------ errors
+
+
+@pytest.mark.parametrize(
+    "call, match",
+    [
+        (lambda T: render_ideal(np.eye(2), T), "K must have shape"),
+        (lambda T: render_ideal(K_REAL, np.eye(3)), "T_WC must have shape"),
+        (lambda T: render_ideal(K_REAL, T, size=(640,)), "size must be"),
+        (lambda T: render_ideal(K_REAL, T, size=(640, 0)), "height must be a positive integer"),
+        (lambda T: render_ideal(K_REAL, T, board="8x6"), "board must be"),
+        (lambda T: render_ideal(K_REAL, T, gradient=1.0), "gradient must be in"),
+        (lambda T: render_ideal(K_REAL, T, blur_sigma=-1.0), "blur_sigma must be"),
+        (lambda T: render_ideal(K_REAL, T, margin=float("nan")), "margin must be"),
+        (lambda T: render_ideal(K_REAL, T, white="bright"), "white must be a number"),
+        (lambda T: render_ideal(K_REAL, T, supersample=0), "supersample must be"),
+        (lambda T: render(K_REAL, T, noise_sigma=-2.0), "noise_sigma must be"),
+        (lambda T: render_ideal(K_REAL, T_from_params([0, 0, 1.0, 0, 0, 0])), "in front of the camera"),
+        (lambda T: random_pose(0, K_REAL, distance=(0.1, 0.1)), "no pose in"),
+        (lambda T: random_pose(0, K_REAL, distance=(1.0, 0.5)), "distance must be"),
+        (lambda T: random_pose(0, K_REAL, max_tilt_deg=90), "max_tilt_deg must be below"),
+        (lambda T: random_pose(0, K_REAL, max_tries=0), "max_tries must be"),
+        (lambda T: loose_polygon(render(K_REAL, T, rng=0), 0, offset_px=(3, -3)), "offset_px must be"),
+        (lambda T: junction_information(K_REAL, T, half_width=0), "half_width must be"),
+        (lambda T: junction_information(K_REAL, T, noise_sigma=0.0), "noise_sigma must be positive"),
+        (lambda T: junction_information(K_REAL, T, delta=0.0), "delta must be positive"),
+        (lambda T: polygon_coverage(np.zeros((2, 2)), (4, 4)), "at least 3"),
+        (lambda T: perturb_pose(0, np.eye(3)), "T_WC must have shape"),
+        (lambda T: random_pose(0, K_REAL, distance=1.0), r"distance must be a pair \(near, far\) metres, got 1.0"),
+        (lambda T: random_pose(0, K_REAL, distance=(0.0, 1.0)), "distance must be .* low > 0"),
+        (lambda T: random_pose(0, K_REAL, distance=(1.0, 2.0, 3.0)), "distance must be a pair"),
+        (lambda T: loose_polygon(render(K_REAL, T, rng=0), 0, offset_px=4.0), "offset_px must be a pair"),
+        (lambda T: loose_polygon(render(K_REAL, T, rng=0), 0, offset_px="34"), "offset_px must be a pair"),
+        (lambda T: perturb_pose(0, T, angle_deg=(12.0, 8.0)), "angle_deg must be .* low <= high"),
+        (lambda T: perturb_pose(0, T, angle_deg=10.0), "angle_deg must be a pair"),
+        (lambda T: perturb_pose(0, T, offset_m=(-0.1, 0.2)), "offset_m must be .* low >= 0"),
+        (lambda T: perturb_pose(0, T, offset_m=(0.1, np.inf)), "offset_m must be"),
+    ],
+)
+def test_input_errors(call, match):
+    T = T_from_params([0.2, 0.1, -1.0, 0.0, 0.0, 0.0])
+    with pytest.raises(InputError, match=match):
+        call(T)
+
+
+# ------------------------------------------------------------------ bundled data
+
+
+def test_bundled_data_regenerates_identically(tmp_path):
+    spec = importlib.util.spec_from_file_location("make_data", REPO / "scripts" / "make_data.py")
+    make_data = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(make_data)
+    fresh = make_data.make(tmp_path)
+    stored = json.loads((REPO / "graphpose" / "data" / "cases.json").read_text())
+    assert [c["image"] for c in fresh["cases"]] == [c["image"] for c in stored["cases"]]
+    for key in ("K", "image_size", "square_m", "world_points"):
+        assert np.array_equal(fresh[key], stored[key])
+    assert fresh["grid"] == stored["grid"]
+    for new, old in zip(fresh["cases"], stored["cases"]):
+        for key in ("true_T_WC", "true_junctions", "guess_T_WC", "bounds"):
+            np.testing.assert_allclose(new[key], old[key], rtol=0, atol=1e-10)
+        assert np.array_equal(imread(tmp_path / new["image"]), imread(REPO / "graphpose" / "data" / old["image"]))
+
+
+def test_bundled_truth_is_consistent():
+    from graphpose.io.cases import load_cases
+
+    cases = load_cases(REPO / "graphpose" / "data" / "cases.json")
+    for case in cases.cases:
+        assert np.allclose(case.true_junctions, project(cases.K, case.true_T_WC, cases.board.world_points()))
+        assert imread(case.image).shape == (480, 640)
+
+
+def test_sheet_just_outside_the_image_renders_background():
+    # Sheets beyond the right edge: a few pixels off (inside the blur kernel's reach, where no
+    # fine cell of the window is fully covered, which once broke the sparse path) and far off.
+    K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
+    for x in (-0.75, -2.0):
+        T = T_from_params([x, 0.0, -1.2, 0.0, 0.0, 0.0])
+        assert project(K, T, Board().sheet_corners(0.5))[0].min() > 640
+        ideal = render_ideal(K, T, blur_sigma=1.0, gradient=0.0)
+        assert ideal.dtype == np.float64 and ideal.shape == (480, 640)
+        np.testing.assert_allclose(ideal, 60.0, atol=1e-6)
