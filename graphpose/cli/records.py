@@ -1,14 +1,77 @@
-"""The command line's JSON records: one format for ``estimate`` and ``track``."""
+"""The command line's JSON records: one format, one set of units, for every subcommand.
+
+Every record, whether one image of ``graphpose estimate`` or one frame of ``graphpose
+track``, carries the same pose block:
+
+==========================  =================================================================
+``status``                  ``estimate``: ``"ok"`` or ``"failed"``; ``track``: ``"tracked"``,
+                            ``"detected"`` or ``"lost"``
+``message``                 why there is no pose (or a note on how it was found); ``null``
+                            when there is nothing to say
+``T_WC``                    4 x 4 camera pose in the target frame (metres)
+``xyz_m``                   camera position x, y, z, metres
+``rpy_deg``                 roll, pitch, yaw, degrees (``C = Cz(yaw) Cy(pitch) Cx(roll)``)
+``sigma_xyz_m``             1-sigma of x, y, z, metres
+``sigma_rpy_deg``           1-sigma of roll, pitch, yaw, degrees
+``reprojection_rms_px``     RMS reprojection residual of the junctions used, pixels
+``junctions_used``          how many junctions the pose rests on
+==========================  =================================================================
+
+Units are in the key's name: lengths in metres, angles in degrees, image positions in
+pixels. Without a pose every value of the block but ``status`` and ``message`` is ``null``;
+non-finite numbers are written as ``null`` (JSON has no NaN).
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..camera import params_from_T
 from ..io.files import to_jsonable
+
+#: The keys every record has, in order.
+POSE_KEYS = ("status", "message", "T_WC", "xyz_m", "rpy_deg", "sigma_xyz_m", "sigma_rpy_deg",
+             "reprojection_rms_px", "junctions_used")
+
+
+def pose_block(status: str, message, T_WC=None, cov=None, reprojection_rms_px=None, junctions_used=None) -> dict:
+    """The pose keys of a record (see the module docstring).
+
+    Parameters
+    ----------
+    status : str
+        The record's status word.
+    message : str or None
+        Why there is no pose, or a note; empty strings become None.
+    T_WC : (4, 4) array_like or None
+        The pose; None when there is none.
+    cov : (6, 6) array_like or None
+        Covariance of ``(x, y, z, roll, pitch, yaw)``, metres and radians.
+    reprojection_rms_px : float or None
+        Pixels.
+    junctions_used : int or None
+        Junctions behind the pose.
+    """
+    block = dict.fromkeys(POSE_KEYS)
+    block.update(status=status, message=message or None)
+    if T_WC is None:
+        return block
+    params = params_from_T(T_WC)
+    sigma = None if cov is None else np.sqrt(np.diag(np.asarray(cov, dtype=float)))
+    block.update(
+        T_WC=np.asarray(T_WC),
+        xyz_m=params[:3],
+        rpy_deg=np.degrees(params[3:]),
+        sigma_xyz_m=None if sigma is None else sigma[:3],
+        sigma_rpy_deg=None if sigma is None else np.degrees(sigma[3:]),
+        reprojection_rms_px=None if reprojection_rms_px is None else float(reprojection_rms_px),
+        junctions_used=None if junctions_used is None else int(junctions_used),
+    )
+    return block
 
 
 def result_record(image, estimate=None, error=None) -> dict:
-    """One image's result as a JSON-ready dict (the ``--json`` format of the command line).
+    """One image's result (``graphpose estimate --json``) as a JSON-ready dict.
 
     Parameters
     ----------
@@ -22,33 +85,27 @@ def result_record(image, estimate=None, error=None) -> dict:
     Returns
     -------
     record : dict
-        Keys ``image``, ``converged``, ``iterations``, ``T_WC`` (4 x 4), ``xyz_m`` (3),
-        ``rpy_deg`` (3, roll pitch yaw), ``sigma_xyz_mm`` (3), ``sigma_rpy_deg`` (3),
-        ``reprojection_rms_px``, ``junctions`` (2 x n pixels, null where a junction was not
-        measured; null altogether for an estimate from given points, which has no
-        ``junctions``), ``trusted`` (n booleans: the junctions' flags, or the estimate's
-        ``mask`` without junctions), ``cross_check`` (``translation_m``, ``rotation_deg``,
-        ``agree``) and ``error``. Without an estimate every key but ``image``, ``converged``
-        (false) and ``error`` is null.
+        ``image``, then the pose block of the module docstring (``status`` ``"ok"`` when
+        there is no ``error``, else ``"failed"``; the pose is kept even then when there is
+        one, for instance an unreliable one), then ``converged``, ``iterations``,
+        ``junctions`` (2 x n pixels, null where a junction was not measured; null
+        altogether for an estimate from given points), ``trusted`` (n booleans: the
+        junctions' flags, or the estimate's ``mask`` without junctions) and
+        ``cross_check`` (``translation_m``, ``rotation_deg``, ``agree``).
     """
-    record = {"image": str(image), "converged": False, "iterations": None, "T_WC": None,
-              "xyz_m": None, "rpy_deg": None, "sigma_xyz_mm": None, "sigma_rpy_deg": None,
-              "reprojection_rms_px": None, "junctions": None, "trusted": None,
-              "cross_check": None, "error": error}
+    status = "failed" if error else "ok"
+    record = {"image": str(image)}
     if estimate is None:
-        return record
-    params = np.asarray(estimate.params)
+        record.update(pose_block(status, error))
+        record.update(converged=False, iterations=None, junctions=None, trusted=None, cross_check=None)
+        return to_jsonable(record)
     check = estimate.cross_check
     junctions = estimate.junctions
+    record.update(pose_block(status, error, estimate.T_WC, estimate.cov, estimate.reprojection_rms_px,
+                             int(np.count_nonzero(estimate.mask))))
     record.update(
         converged=bool(estimate.converged),
         iterations=int(estimate.iterations),
-        T_WC=np.asarray(estimate.T_WC),
-        xyz_m=params[:3],
-        rpy_deg=np.degrees(params[3:]),
-        sigma_xyz_mm=1000.0 * np.asarray(estimate.sigma_xyz_m),
-        sigma_rpy_deg=np.degrees(estimate.sigma_rpy_rad),
-        reprojection_rms_px=float(estimate.reprojection_rms_px),
         junctions=None if junctions is None else np.asarray(junctions.points),
         trusted=np.asarray(estimate.mask if junctions is None else junctions.trusted, dtype=bool),
         cross_check={"translation_m": float(check.translation_m),
@@ -56,3 +113,25 @@ def result_record(image, estimate=None, error=None) -> dict:
     )
     return to_jsonable(record)
 
+
+def frame_record(frame, path) -> dict:
+    """One tracked frame (``graphpose track --json``) as a JSON-ready dict.
+
+    Parameters
+    ----------
+    frame : FrameResult
+        The tracker's answer for the frame (:class:`graphpose.track.results.FrameResult`).
+    path : str or Path
+        The frame's file.
+
+    Returns
+    -------
+    record : dict
+        ``index``, ``file``, ``timestamp`` (seconds), then the pose block of the module
+        docstring (``status`` the frame's: tracked, detected or lost).
+    """
+    record = {"index": int(frame.index), "file": str(path), "timestamp": float(frame.timestamp)}
+    has = frame.T_WC is not None
+    record.update(pose_block(frame.status, frame.message, frame.T_WC if has else None, frame.cov,
+                             frame.reprojection_rms_px if has else None, frame.junctions if has else None))
+    return to_jsonable(record)

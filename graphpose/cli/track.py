@@ -28,6 +28,7 @@ from .options import (
     parse_positive,
     target_from_args,
 )
+from .records import frame_record
 
 _EXAMPLES = """\
 examples:
@@ -115,7 +116,7 @@ def run(args) -> int:
         write_tum(args.tum, [f.timestamp for f in found], [f.T_WC for f in found],
                   header=f"graphpose track: camera pose T_WC in the target frame; {len(frames) - len(found)} "
                   f"lost frames have no line")
-    records = {"frames": [_record(f, files[f.index]) for f in frames], "smoothed": bool(args.smooth),
+    records = {"frames": [frame_record(f, files[f.index]) for f in frames], "smoothed": bool(args.smooth),
                "motion": args.motion, "target": args.target, "K": K, "board": f"{board.cols}x{board.rows}x{board.square_m}"}
     if args.json == "-":
         sys.stdout.write(dumps_json(records))
@@ -144,27 +145,6 @@ def _read_polygons(path: Path) -> list:
     if not isinstance(doc, list):
         raise InputError(f"--polygons {path} must hold a JSON list (one 2 x 4 polygon or null per frame)")
     return [None if p is None else as_float_array(p, f"--polygons {path} entry {k}") for k, p in enumerate(doc)]
-
-
-def _record(f, path) -> dict:
-    """One frame as a JSON-ready dict; lost frames carry nulls."""
-    from ..camera import params_from_T
-
-    has = f.T_WC is not None
-    sigma = f.sigma if has else None
-    return {
-        "index": f.index,
-        "file": str(path),
-        "timestamp": float(f.timestamp),
-        "status": f.status,
-        "T_WC": f.T_WC if has else None,
-        "params": params_from_T(f.T_WC) if has else None,
-        "sigma_xyz_m": sigma[:3] if has else None,
-        "sigma_rpy_rad": sigma[3:] if has else None,
-        "junctions": int(f.junctions),
-        "reprojection_rms_px": float(f.reprojection_rms_px) if has else None,
-        "message": f.message,
-    }
 
 
 def _summary(track, frames) -> str:

@@ -22,7 +22,6 @@ from graphpose import (
     InputError,
     T_from_params,
     load_cases,
-    params_from_T,
     project,
 )
 from graphpose.cli import main
@@ -33,8 +32,8 @@ from graphpose.io.files import atomic_write, dumps_json, encode_png, write_json
 from tests.conftest import REPO, real_file
 
 BUNDLED = REPO / "graphpose" / "data" / "cases.json"
-KEYS = {"image", "converged", "T_WC", "xyz_m", "rpy_deg", "sigma_xyz_mm", "sigma_rpy_deg",
-        "reprojection_rms_px", "junctions", "trusted", "cross_check", "error"}
+KEYS = {"image", "status", "message", "converged", "T_WC", "xyz_m", "rpy_deg", "sigma_xyz_m", "sigma_rpy_deg",
+        "reprojection_rms_px", "junctions_used", "junctions", "trusted", "cross_check"}
 
 
 def graphpose(*args, cwd=None):
@@ -113,14 +112,14 @@ def test_module_json_and_overlay_folder(bundled, tmp_path):
     assert len(records) == len(bundled.cases)
     for record, case in zip(records, bundled.cases):
         assert KEYS <= set(record)
-        assert record["image"] == str(case.image) and record["error"] is None and record["converged"]
+        assert record["image"] == str(case.image) and record["message"] is None and record["converged"]
         T = np.array(record["T_WC"])
         assert T.shape == (4, 4)
         metres, degrees = pose_error(T, case.true_T_WC)
         assert metres < 1.5e-3 and degrees < 0.05  # measured at most 0.32 mm and 0.014 deg
         np.testing.assert_allclose(record["xyz_m"], T[:3, 3])
-        assert len(record["rpy_deg"]) == 3 and len(record["sigma_xyz_mm"]) == 3
-        assert all(s > 0 for s in record["sigma_xyz_mm"] + record["sigma_rpy_deg"])
+        assert len(record["rpy_deg"]) == 3 and len(record["sigma_xyz_m"]) == 3
+        assert all(s > 0 for s in record["sigma_xyz_m"] + record["sigma_rpy_deg"])
         n = len(record["trusted"])
         assert np.array(record["junctions"]).shape == (2, n) and n == bundled.board.n
         assert all(isinstance(t, bool) for t in record["trusted"])
@@ -136,7 +135,7 @@ def test_real_cases_target_01_matches_its_reference(tmp_path):
     assert result.returncode == 0, result.stderr
     records = json.loads((tmp_path / "real.json").read_text())
     cases = load_cases(cases_file).cases
-    assert len(records) == 6 and all(r["converged"] and r["error"] is None for r in records)
+    assert len(records) == 6 and all(r["converged"] and r["message"] is None for r in records)
     first = next(r for r in records if r["image"].endswith("target_01.png"))
     metres, degrees = pose_error(first["T_WC"], cases[0].ref_T_WC)
     assert metres < 0.01 and degrees < 0.5  # the goal
@@ -232,7 +231,7 @@ def test_no_board_found_exits_1(blank_png, tmp_path):
                                     "--overlay", tmp_path / "o.png"), 1)
     assert "blank.png" in line
     (record,) = json.loads(out_json.read_text())
-    assert record["error"] and not record["converged"] and record["T_WC"] is None
+    assert record["message"] and not record["converged"] and record["T_WC"] is None
     assert not (tmp_path / "o.png").exists()  # no picture of a pose that does not exist
 
 
@@ -256,7 +255,7 @@ def test_no_convergence_exits_1(bundled, tmp_path, monkeypatch, capsys):
     assert line.startswith("graphpose: error: ") and case.image.name in line
     assert "no reliable pose" in line and "iteration cap reached" in line
     (record,) = json.loads(out_json.read_text())
-    assert record["error"] and "no reliable pose" in record["error"]
+    assert record["message"] and "no reliable pose" in record["message"]
     assert not record["converged"] and record["iterations"] == 1
     assert png_size(tmp_path / "o.png") == (640, 480)  # the picture shows what went wrong
 
@@ -273,8 +272,8 @@ def test_a_failed_overlay_write_is_that_images_error_and_the_batch_goes_on(bundl
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and "cannot write" in line and bundled.cases[0].image.stem in line
     first, second = json.loads(out_json.read_text())
-    assert "cannot write" in first["error"] and first["T_WC"] is not None
-    assert second["error"] is None and second["converged"]
+    assert "cannot write" in first["message"] and first["T_WC"] is not None
+    assert second["message"] is None and second["converged"]
     assert png_size(folder / f"{bundled.cases[1].image.stem}.overlay.png") == (640, 480)
 
 
@@ -288,7 +287,7 @@ def test_an_overlay_folder_that_cannot_be_made_is_an_input_error(bundled, tmp_pa
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and "--overlay: cannot create folder" in line and "taken" in line
     (record,) = json.loads(out_json.read_text())
-    assert "cannot create folder" in record["error"] and record["T_WC"] is not None
+    assert "cannot create folder" in record["message"] and record["T_WC"] is not None
 
 
 def test_batch_goes_on_past_a_bad_image(bundled, blank_png, tmp_path):
@@ -307,8 +306,8 @@ def test_batch_goes_on_past_a_bad_image(bundled, blank_png, tmp_path):
     assert len(lines) == 2 and "missing.png" in lines[0] and "blank.png" in lines[1]
     assert "3 images: 1 estimated, 2 failed" in result.stdout
     records = json.loads((tmp_path / "out.json").read_text())
-    assert [r["error"] is None for r in records] == [True, False, False]
-    assert records[0]["converged"] and "not found" in records[1]["error"]
+    assert [r["message"] is None for r in records] == [True, False, False]
+    assert records[0]["converged"] and "not found" in records[1]["message"]
     assert [p.name for p in (tmp_path / "pictures").iterdir()] == [f"{good.image.stem}.overlay.png"]
 
 
@@ -434,11 +433,12 @@ def test_load_pose_forms(tmp_path):
 
 def test_result_record_of_a_failure_and_of_an_estimate():
     record = result_record("a.png", None, "no board")
-    assert KEYS <= set(record) and record["error"] == "no board" and record["T_WC"] is None
+    assert KEYS <= set(record) and record["message"] == "no board" and record["T_WC"] is None
     T = T_from_params([0.1, 0.2, -1.0, 0.0, 0.0, np.pi / 2])
     estimate = SimpleNamespace(
-        T_WC=T, params=params_from_T(T), converged=True, iterations=4, sigma_xyz_m=np.array([1e-3, 2e-3, 3e-3]),
-        sigma_rpy_rad=np.radians([0.1, 0.2, 0.3]), reprojection_rms_px=0.2, mask=np.array([True, False]),
+        T_WC=T, converged=True, iterations=4,
+        cov=np.diag(np.concatenate([[1e-3, 2e-3, 3e-3], np.radians([0.1, 0.2, 0.3])]) ** 2),
+        reprojection_rms_px=0.2, mask=np.array([True, False]),
         junctions=SimpleNamespace(points=np.array([[1.0, np.nan], [2.0, np.nan]]),
                                   trusted=np.array([True, False])),
         cross_check=SimpleNamespace(translation_m=1e-6, rotation_deg=1e-4, agree=np.True_))
@@ -446,10 +446,11 @@ def test_result_record_of_a_failure_and_of_an_estimate():
     json.dumps(record, allow_nan=False)
     np.testing.assert_allclose(record["xyz_m"], [0.1, 0.2, -1.0])
     np.testing.assert_allclose(record["rpy_deg"], [0.0, 0.0, 90.0], atol=1e-12)
-    np.testing.assert_allclose(record["sigma_xyz_mm"], [1, 2, 3])
+    np.testing.assert_allclose(record["sigma_xyz_m"], [1e-3, 2e-3, 3e-3])
     np.testing.assert_allclose(record["sigma_rpy_deg"], [0.1, 0.2, 0.3])
     assert record["junctions"] == [[1.0, None], [2.0, None]] and record["trusted"] == [True, False]
-    assert record["cross_check"]["agree"] is True and record["error"] is None
+    assert record["cross_check"]["agree"] is True and record["message"] is None
+    assert record["status"] == "ok" and record["junctions_used"] == 1
 
 
 def test_an_estimate_from_points_has_no_junctions_to_write_or_report():

@@ -412,7 +412,7 @@ def test_cli_render_sequence_then_track(tmp_path, capsys):
     assert np.max(np.abs(est.poses[:, :3, 3] - truth.poses[:, :3, 3])) < 1e-3
     frames = json.loads(out.read_text())["frames"]
     assert frames[0]["status"] == "detected" and "tracked" in [f["status"] for f in frames[1:]]
-    assert all(f["junctions"] == 48 and len(f["sigma_xyz_m"]) == 3 for f in frames)
+    assert all(f["junctions_used"] == 48 and len(f["sigma_xyz_m"]) == 3 for f in frames)
 
 
 def test_cli_track_usage_errors(tmp_path, capsys):
