@@ -248,3 +248,130 @@ def check_bounds(bounds, shape, name: str = "bounds") -> np.ndarray:
     if np.any(turns <= 0):
         raise InputError(f"{name} must be a convex quadrilateral, got {poly.round(1).tolist()}")
     return poly
+
+
+def check_number(name: str, value, minimum=None, *, strict: bool = False, maximum=None) -> float:
+    """A finite real number (not a bool or a string), within bounds, returned as float.
+
+    Parameters
+    ----------
+    name : str
+        The setting's name, for the message.
+    value : object
+        What came.
+    minimum : float, optional
+        Lower bound; ``value >= minimum`` (``>`` when ``strict``).
+    maximum : float, optional
+        Upper bound, inclusive.
+
+    Raises
+    ------
+    InputError
+        If ``value`` is not a finite real number or lies outside the bounds.
+    """
+    real = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+    if real and np.isfinite(value) \
+            and (minimum is None or (value > minimum if strict else value >= minimum)) \
+            and (maximum is None or value <= maximum):
+        return float(value)
+    bound = [] if minimum is None else [f"{'>' if strict else '>='} {minimum:g}"]
+    bound += [] if maximum is None else [f"<= {maximum:g}"]
+    raise InputError(f"{name} must be a finite number{' ' + ' and '.join(bound) if bound else ''}, got {value!r}")
+
+
+def check_range(name: str, value, what: str, minimum=None, *, strict: bool = False) -> tuple:
+    """An ordered pair ``low <= high`` of finite numbers, both ``>= minimum`` (``>`` if strict).
+
+    Parameters
+    ----------
+    name : str
+        The setting's name, for the message.
+    value : sequence of two numbers
+        What came.
+    what : str
+        What the pair means, for the message, e.g. ``"(near, far) metres"``.
+    minimum : float, optional
+        Lower bound of ``low``.
+
+    Returns
+    -------
+    (low, high) : tuple of float
+
+    Raises
+    ------
+    InputError
+        If ``value`` is not two finite numbers with ``low <= high`` and ``low`` in bounds.
+    """
+    try:
+        if isinstance(value, (str, bytes)):
+            raise TypeError
+        low, high = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a pair {what}, got {value!r}") from None
+    below = minimum is not None and (low <= minimum if strict else low < minimum)
+    if not (np.isfinite(low) and np.isfinite(high) and low <= high) or below:
+        bound = "" if minimum is None else f", low {'>' if strict else '>='} {minimum:g}"
+        raise InputError(f"{name} must be a pair {what} with low <= high{bound}, got {value!r}")
+    return low, high
+
+
+def check_count(name: str, value, minimum: int) -> int:
+    """An integer (not a bool) of at least ``minimum``, returned as int.
+
+    Raises
+    ------
+    InputError
+        If ``value`` is not an integer or is below ``minimum``.
+    """
+    if not isinstance(value, (int, np.integer)) or isinstance(value, (bool, np.bool_)) or value < minimum:
+        raise InputError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def check_size(size) -> tuple:
+    """An image size ``(width, height)`` of positive integers, pixels.
+
+    Raises
+    ------
+    InputError
+        If ``size`` is not a pair of positive integers.
+    """
+    try:
+        width, height = size
+    except (TypeError, ValueError):
+        raise InputError(f"size must be (width, height), got {size!r}") from None
+    for name, value in (("width", width), ("height", height)):
+        if not isinstance(value, (int, np.integer)) or isinstance(value, (bool, np.bool_)) or value < 1:
+            raise InputError(f"size {name} must be a positive integer, got {value!r}")
+    return int(width), int(height)
+
+
+def check_board(board):
+    """A :class:`graphpose.board.Board`, returned as it is.
+
+    Raises
+    ------
+    InputError
+        If ``board`` is anything else.
+    """
+    from .board import Board  # board.py imports this module
+
+    if not isinstance(board, Board):
+        raise InputError(f"board must be a graphpose.Board, got {type(board).__name__}")
+    return board
+
+
+def check_timestamps(t, name: str = "timestamps") -> np.ndarray:
+    """Frame times, seconds: a 1-D array, finite and strictly increasing, as float64.
+
+    Raises
+    ------
+    InputError
+        If ``t`` is not a 1-D array of real numbers, holds NaN, or does not increase.
+    """
+    t = as_float_array(t, name)
+    if t.ndim != 1:
+        raise InputError(f"{name} must be 1-D (one time per frame), got shape {t.shape}")
+    if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise InputError(f"{name}: timestamps must be finite and strictly increasing")
+    return t

@@ -47,7 +47,15 @@ import numpy as np
 from scipy.ndimage import correlate1d
 from scipy.special import ndtr
 
-from .._checks import as_points, check_K, check_transform
+from .._checks import (
+    as_points,
+    check_board,
+    check_K,
+    check_number,
+    check_range,
+    check_size,
+    check_transform,
+)
 from ..board import Board
 from ..camera import project, rot_x, rot_z, to_camera
 from ..errors import InputError
@@ -161,14 +169,14 @@ def render_ideal(
     """
     K = check_K(K)
     T_WC = check_transform(T_WC)
-    width, height = _check_size(size)
-    _check_board(board)
-    _check_number("margin", margin, 0.0)
-    _check_number("blur_sigma", blur_sigma, 0.0)
-    _check_number("light_angle_deg", light_angle_deg)
+    width, height = check_size(size)
+    check_board(board)
+    check_number("margin", margin, 0.0)
+    check_number("blur_sigma", blur_sigma, 0.0)
+    check_number("light_angle_deg", light_angle_deg)
     for name, level in (("background", background), ("white", white), ("black", black)):
-        _check_number(name, level)
-    gradient = _check_number("gradient", gradient, 0.0)
+        check_number(name, level)
+    gradient = check_number("gradient", gradient, 0.0)
     if gradient >= 1.0:
         raise InputError(f"gradient must be in [0, 1), got {gradient!r}")
     if not isinstance(supersample, (int, np.integer)) or supersample < 1:
@@ -219,7 +227,7 @@ def render(
     InputError
         As :func:`render_ideal`, or if ``noise_sigma`` is negative or not finite.
     """
-    noise_sigma = _check_number("noise_sigma", noise_sigma, 0.0)
+    noise_sigma = check_number("noise_sigma", noise_sigma, 0.0)
     rng = np.random.default_rng(rng)
     image = render_ideal(K, T_WC, board, size, **ideal)
     if noise_sigma > 0:
@@ -298,15 +306,15 @@ def random_pose(
         If an argument is invalid, or no draw fits the sheet in the image.
     """
     K = check_K(K)
-    width, height = _check_size(size)
-    _check_board(board)
-    lo, hi = _check_pair("distance", distance, "(near, far) metres", minimum=0.0, strict=True)
-    tilt_max = np.deg2rad(_check_number("max_tilt_deg", max_tilt_deg, 0.0))
-    roll_max = np.deg2rad(_check_number("max_roll_deg", max_roll_deg, 0.0))
+    width, height = check_size(size)
+    check_board(board)
+    lo, hi = check_range("distance", distance, "(near, far) metres", minimum=0.0, strict=True)
+    tilt_max = np.deg2rad(check_number("max_tilt_deg", max_tilt_deg, 0.0))
+    roll_max = np.deg2rad(check_number("max_roll_deg", max_roll_deg, 0.0))
     if tilt_max >= np.pi / 2:
         raise InputError(f"max_tilt_deg must be below 90, got {max_tilt_deg!r}")
-    _check_number("margin", margin, 0.0)
-    _check_number("border_px", border_px)
+    check_number("margin", margin, 0.0)
+    check_number("border_px", border_px)
     if not isinstance(max_tries, (int, np.integer)) or max_tries < 1:
         raise InputError(f"max_tries must be an integer >= 1, got {max_tries!r}")
     rng = np.random.default_rng(rng)
@@ -361,7 +369,7 @@ def loose_polygon(rendering: Rendering, rng, *, offset_px=(-4.0, 4.0), inset: bo
     InputError
         If ``offset_px`` is not an ordered pair of finite numbers.
     """
-    lo, hi = _check_pair("offset_px", offset_px, "(low, high) pixels")
+    lo, hi = check_range("offset_px", offset_px, "(low, high) pixels")
     rng = np.random.default_rng(rng)
     outline = rendering.outline
     if inset:
@@ -398,8 +406,8 @@ def perturb_pose(rng, T_WC, *, angle_deg=(8.0, 12.0), offset_m=(0.15, 0.25)) -> 
         ordered pair of finite numbers >= 0.
     """
     T = check_transform(T_WC).copy()
-    angle_range = _check_pair("angle_deg", angle_deg, "(low, high) degrees", minimum=0.0)
-    offset_range = _check_pair("offset_m", offset_m, "(low, high) metres", minimum=0.0)
+    angle_range = check_range("angle_deg", angle_deg, "(low, high) degrees", minimum=0.0)
+    offset_range = check_range("offset_m", offset_m, "(low, high) metres", minimum=0.0)
     rng = np.random.default_rng(rng)
     axis, direction = (v / np.linalg.norm(v) for v in rng.normal(size=(2, 3)))
     angle = np.deg2rad(rng.uniform(*angle_range))
@@ -465,9 +473,9 @@ def junction_information(
     """
     if not isinstance(half_width, (int, np.integer)) or half_width < 1:
         raise InputError(f"half_width must be an integer >= 1, got {half_width!r}")
-    if _check_number("noise_sigma", noise_sigma, 0.0) == 0:
+    if check_number("noise_sigma", noise_sigma, 0.0) == 0:
         raise InputError("noise_sigma must be positive for an information matrix")
-    if delta is not None and _check_number("delta", delta, 0.0) == 0:
+    if delta is not None and check_number("delta", delta, 0.0) == 0:
         raise InputError("delta must be positive")
     K = check_K(K)
     gu, gv = image_gradients(K, T_WC, board, size, delta=delta, **ideal)
@@ -539,7 +547,7 @@ def polygon_coverage(polygons, size) -> np.ndarray:
         If a polygon is not a finite (2, m) array with m >= 3, or size is invalid.
     """
 
-    width, height = _check_size(size)
+    width, height = check_size(size)
     if isinstance(polygons, np.ndarray) and polygons.ndim == 2:
         polygons = [polygons]
     polys = [as_points(P, 2, "polygon", 3) + 0.5 for P in polygons]
@@ -738,45 +746,3 @@ def _x_pass(row, col, values, k, S: int, h: int, w: int) -> list:
 
 
 # --------------------------------------------------------------------------- validation
-
-
-def _check_size(size) -> tuple:
-    try:
-        width, height = size
-    except (TypeError, ValueError):
-        raise InputError(f"size must be (width, height), got {size!r}") from None
-    for name, value in (("width", width), ("height", height)):
-        if not isinstance(value, (int, np.integer)) or value < 1:
-            raise InputError(f"size {name} must be a positive integer, got {value!r}")
-    return int(width), int(height)
-
-
-def _check_board(board) -> None:
-    if not isinstance(board, Board):
-        raise InputError(f"board must be a graphpose.Board, got {type(board).__name__}")
-
-
-def _check_pair(name: str, value, what: str, minimum=None, strict: bool = False) -> tuple:
-    """An ordered pair ``low <= high`` of finite numbers, both ``>= minimum`` (``>`` if strict)."""
-    try:
-        if isinstance(value, (str, bytes)):
-            raise TypeError
-        low, high = (float(v) for v in value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be a pair {what}, got {value!r}") from None
-    below = minimum is not None and (low <= minimum if strict else low < minimum)
-    if not (np.isfinite(low) and np.isfinite(high) and low <= high) or below:
-        bound = "" if minimum is None else f", low {'>' if strict else '>='} {minimum:g}"
-        raise InputError(f"{name} must be a pair {what} with low <= high{bound}, got {value!r}")
-    return low, high
-
-
-def _check_number(name: str, value, minimum=None) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be a number, got {value!r}") from None
-    if not np.isfinite(value) or (minimum is not None and value < minimum):
-        bound = "" if minimum is None else f" >= {minimum}"
-        raise InputError(f"{name} must be a finite number{bound}, got {value!r}")
-    return value

@@ -36,20 +36,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .._checks import check_K
+from .._checks import check_board, check_count, check_K, check_number, check_range, check_size
 from ..board import Board
 from ..camera import project, rot_x, rot_y, rot_z, to_camera
 from ..errors import InputError
 from ..io.files import write_json, write_png
 from ..io.tum import write_tum
-from .render import (
-    _check_board,
-    _check_number,
-    _check_size,
-    loose_polygon,
-    render,
-    render_ideal,
-)
+from .render import loose_polygon, render, render_ideal
 
 #: Border, pixels, inside which a junction counts as visible.
 VISIBLE_BORDER_PX = 8.0
@@ -279,19 +272,19 @@ def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(),
         >= 0 nor None. Also if no start time of the drawn motion shows the whole board.
     """
     K = check_K(K)
-    _check_board(board)
-    size = _check_size(size)
-    _check_count("n_frames", n_frames, 2)
-    _check_count("excursions", excursions, 0)
-    _check_count("max_subframes", max_subframes, 1)
-    _check_count("supersample", supersample, 1)
-    fps = _check_number("fps", fps, 0.0)
+    check_board(board)
+    size = check_size(size)
+    check_count("n_frames", n_frames, 2)
+    check_count("excursions", excursions, 0)
+    check_count("max_subframes", max_subframes, 1)
+    check_count("supersample", supersample, 1)
+    fps = check_number("fps", fps, 0.0)
     if fps == 0:
         raise InputError(f"fps must be a positive number, got {fps!r}")
     for name, value in (("noise_sigma", noise_sigma), ("blur_sigma", blur_sigma),
                         ("blur_threshold_px", blur_threshold_px)):
-        _check_number(name, value, 0.0)
-    distance = _check_distance(distance)
+        check_number(name, value, 0.0)
+    distance = check_range("distance", distance, "(near, far) metres", minimum=0.0, strict=True)
     rng = _generator(rng)
     motion = HandHeldMotion(rng, K, board, size, n_frames / fps, distance=distance, excursions=excursions)
     times = np.arange(n_frames) / fps
@@ -318,22 +311,6 @@ def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(),
     first = render(K, poses[0], board, size, noise_sigma=0.0, **ideal)  # for its outline
     return Sequence(np.array(images), times, np.array(poses), np.array(visible), np.array(subframes),
                     loose_polygon(first, rng), K, board, float(fps))
-
-
-def _check_count(name, value, minimum) -> None:
-    if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < minimum:
-        raise InputError(f"{name} must be an integer >= {minimum}, got {value!r}")
-
-
-def _check_distance(distance) -> tuple:
-    try:
-        near, far = distance
-    except (TypeError, ValueError):
-        raise InputError(f"distance must be (near, far) metres, got {distance!r}") from None
-    near, far = _check_number("distance near", near, 0.0), _check_number("distance far", far, 0.0)
-    if not 0 < near <= far:
-        raise InputError(f"distance must be (near, far) metres with 0 < near <= far, got {distance!r}")
-    return near, far
 
 
 def _generator(rng) -> np.random.Generator:

@@ -109,7 +109,7 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, V, X
 
-from .._checks import as_float_array, as_points, check_K
+from .._checks import as_float_array, as_points, check_K, check_number, check_timestamps
 from ..board import Board
 from ..camera import project, to_camera
 from ..detect.junctions import extract_junctions
@@ -194,10 +194,10 @@ class MotionPrior:
     def __post_init__(self):
         if self.model not in MOTION_MODELS:
             raise InputError(f"motion model must be one of {MOTION_MODELS}, got {self.model!r}")
-        _check_setting("sigma_rot_rad", self.sigma_rot_rad)
-        _check_setting("sigma_trans_m", self.sigma_trans_m)
+        check_number("sigma_rot_rad", self.sigma_rot_rad, 0.0, strict=True)
+        check_number("sigma_trans_m", self.sigma_trans_m, 0.0, strict=True)
         if self.huber is not None:
-            _check_setting("huber", self.huber)
+            check_number("huber", self.huber, 0.0, strict=True)
 
     def sigmas(self) -> np.ndarray:
         """(6,) standard deviations in GTSAM's Pose3 tangent order: rotation (rad) x3, then
@@ -468,7 +468,7 @@ def resection_factor(key, points, Wpts, K, pixel_sigma: float) -> gtsam.CustomFa
     m = points.shape[1]
     if Wpts.shape[1] != m:
         raise InputError(f"points and Wpts must hold the same number of points, got {m} and {Wpts.shape[1]}")
-    _check_setting("pixel_sigma", pixel_sigma)
+    check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
     fx, s, cx, fy, cy = K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]
     noise = gtsam.noiseModel.Isotropic.Sigma(2 * m, pixel_sigma)
 
@@ -508,17 +508,6 @@ def _constant_velocity_factor(ka, kb, kc, ratio: float, noise) -> gtsam.CustomFa
         return v2 - ratio * v1
 
     return gtsam.CustomFactor(noise, [ka, kb, kc], error)
-
-
-def _check_setting(name, value, minimum=0.0, *, strict=True, maximum=None) -> None:
-    """InputError unless ``value`` is a finite real number above ``minimum`` (or equal, when
-    not ``strict``) and at most ``maximum``."""
-    real = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
-    if real and np.isfinite(value) and (value > minimum if strict else value >= minimum) \
-            and (maximum is None or value <= maximum):
-        return
-    bound = f"{'>' if strict else '>='} {minimum:g}" + ("" if maximum is None else f" and <= {maximum:g}")
-    raise InputError(f"{name} must be a finite number {bound}, got {value!r}")
 
 
 # ============================================================================ front end
@@ -608,17 +597,17 @@ class TrackerConfig:
         n = self.min_junctions
         if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 4:
             raise InputError(f"min_junctions must be an integer >= 4, got {n!r}")
-        _check_setting("min_detected_fraction", self.min_detected_fraction, strict=False, maximum=1.0)
+        check_number("min_detected_fraction", self.min_detected_fraction, 0.0, maximum=1.0)
         for name in ("window_fraction", "gate_px", "outlier_sigmas", "outlier_floor_px", "max_rms_px",
                      "rms_factor", "max_speed", "min_pixel_sigma_px"):
-            _check_setting(name, getattr(self, name))
-        _check_setting("rms_floor_px", self.rms_floor_px, strict=False)
+            check_number(name, getattr(self, name), 0.0, strict=True)
+        check_number("rms_floor_px", self.rms_floor_px, 0.0)
         try:
             low, high = self.window_px
         except (TypeError, ValueError):
             raise InputError(f"window_px must be (low, high) pixels, got {self.window_px!r}") from None
-        _check_setting("window_px[0]", low, 2.0, strict=False)
-        _check_setting("window_px[1]", high, low, strict=False)
+        check_number("window_px[0]", low, 2.0)
+        check_number("window_px[1]", high, low)
 
 
 @dataclass(frozen=True)
@@ -805,13 +794,8 @@ def read_timestamps(path, n_frames: int | None = None) -> np.ndarray:
     t = np.array(values)
     if n_frames is not None and t.size != n_frames:
         raise InputError(f"{path} holds {t.size} timestamps for {n_frames} frames")
-    _check_timestamps(t, str(path))
+    t = check_timestamps(t, str(path))
     return t
-
-
-def _check_timestamps(t, name) -> None:
-    if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
-        raise InputError(f"{name}: timestamps must be finite and strictly increasing")
 
 
 def track_sequence(frames, K, bounds=None, *, board: Board = Board(), timestamps=None, fps: float = 30.0,
@@ -919,7 +903,7 @@ def _timestamps(timestamps, fps, n):
     t = as_float_array(timestamps, "timestamps").reshape(-1)
     if t.size != n:
         raise InputError(f"timestamps has {t.size} entries for {n} frames")
-    _check_timestamps(t, "timestamps")
+    t = check_timestamps(t, "timestamps")
     return t
 
 

@@ -309,7 +309,7 @@ def test_perturb_pose_moves_by_the_requested_amounts():
         (lambda T: render_ideal(K_REAL, T, gradient=1.0), "gradient must be in"),
         (lambda T: render_ideal(K_REAL, T, blur_sigma=-1.0), "blur_sigma must be"),
         (lambda T: render_ideal(K_REAL, T, margin=float("nan")), "margin must be"),
-        (lambda T: render_ideal(K_REAL, T, white="bright"), "white must be a number"),
+        (lambda T: render_ideal(K_REAL, T, white="bright"), "white must be a finite number"),
         (lambda T: render_ideal(K_REAL, T, supersample=0), "supersample must be"),
         (lambda T: render(K_REAL, T, noise_sigma=-2.0), "noise_sigma must be"),
         (lambda T: render_ideal(K_REAL, T_from_params([0, 0, 1.0, 0, 0, 0])), "in front of the camera"),

@@ -84,9 +84,9 @@ def test_write_sequence_round_trip(short, tmp_path):
     [({"n_frames": 1}, "n_frames"), ({"n_frames": 5.0}, "n_frames"), ({"fps": 0.0}, "fps"),
      ({"excursions": -1}, "excursions"), ({"noise_sigma": -1.0}, "noise_sigma"),
      ({"blur_sigma": float("nan")}, "blur_sigma"), ({"blur_threshold_px": -2.0}, "blur_threshold_px"),
-     ({"size": (640,)}, "size"), ({"size": (640, 0)}, "size height"), ({"distance": (1.3, 0.6)}, "near <= far"),
-     ({"distance": (0.0, 1.0)}, "near <= far"), ({"distance": 1.0}, r"distance must be \(near, far\)"),
-     ({"distance": ("a", 1.0)}, "distance near"), ({"max_subframes": 0}, "max_subframes"),
+     ({"size": (640,)}, "size"), ({"size": (640, 0)}, "size height"), ({"distance": (1.3, 0.6)}, "low <= high, low > 0"),
+     ({"distance": (0.0, 1.0)}, "low <= high, low > 0"), ({"distance": 1.0}, r"distance must be a pair \(near, far\)"),
+     ({"distance": ("a", 1.0)}, "distance must be a pair \\(near, far\\)"), ({"max_subframes": 0}, "max_subframes"),
      ({"supersample": 0}, "supersample"), ({"rng": -1}, "rng must be"), ({"board": "8x6"}, "board must be")],
 )
 def test_render_sequence_rejects(kwargs, message):
