@@ -40,3 +40,18 @@ def real_images(real_cases):
     from graphpose.image import read_image
 
     return [(case, read_image(case.image)) for case in real_cases.cases]
+
+
+# --- shared constants: the project's camera and target (appended; graphpose.camera and
+# graphpose.cli.options load no GTSAM) ---------------------------------------------------
+
+from graphpose import Board as _Board  # noqa: E402
+from graphpose.camera import K_from_params as _K_from_params  # noqa: E402
+from graphpose.cli.options import DEFAULT_K as _DEFAULT_K  # noqa: E402
+
+#: The project's camera (the ROB501 images'), (3, 3) pixels; read-only.
+PROJECT_K = _K_from_params(*_DEFAULT_K)
+PROJECT_K.setflags(write=False)
+#: The project's board's junctions (8 x 6, 63.5 mm), (3, 48) metres, row-major; read-only.
+BOARD_WPTS = _Board().world_points()
+BOARD_WPTS.setflags(write=False)

@@ -143,6 +143,17 @@ def test_real_cases_target_01_matches_its_reference(tmp_path):
     assert first["vs_reference"]["translation_mm"] == pytest.approx(1000 * metres, abs=1e-6)
 
 
+def test_readme_robust_run_on_the_real_cases_estimates_all_six(tmp_path):
+    # `graphpose estimate --cases ../shared/data/rob501/cases.json --no-guess --robust` once
+    # failed 5 of 6 images: GTSAM's robust polish stopped just above its threshold.
+    result = graphpose("estimate", "--cases", real_file("cases.json"), "--no-guess", "--robust",
+                       "--json", tmp_path / "robust.json")
+    assert result.returncode == 0, result.stderr
+    assert "6 images: 6 estimated, 0 failed" in result.stdout and "DISAGREE" not in result.stdout
+    records = json.loads((tmp_path / "robust.json").read_text())
+    assert all(r["status"] == "ok" and r["cross_check"]["agree"] for r in records)
+
+
 def test_one_image_with_options_guess_overlay_and_json(bundled, tmp_path):
     case = bundled.cases[0]
     guess = tmp_path / "guess.json"

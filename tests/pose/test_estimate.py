@@ -1,7 +1,9 @@
+import functools
+
 import numpy as np
 import pytest
 
-from graphpose import Board, InputError
+from graphpose import InputError
 from graphpose.camera import T_from_params, params_from_T, project
 from graphpose.pose.estimate import (
     AGREE_ROTATION_DEG,
@@ -13,9 +15,9 @@ from graphpose.pose.estimate import (
     estimate_pose_from_points,
     pose_difference,
 )
-
-K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
-WPTS = Board().world_points()
+from graphpose.pose.graph import HUBER_K
+from tests.conftest import BOARD_WPTS as WPTS
+from tests.conftest import PROJECT_K as K
 
 
 def assert_good(est):
@@ -40,6 +42,17 @@ def test_real_images_converge_and_solvers_agree(real_cases, real_images):
         assert_good(linear)
         dt, dr = pose_difference(est.T_WC, linear.T_WC)
         assert dt < 1e-6 and dr < 1e-5
+
+
+def test_real_images_robust_from_the_homography_start(real_cases, real_images):
+    # The README's `graphpose estimate --cases ... --no-guess --robust`: GTSAM's polish of the
+    # Huber cost once stopped after 10 reweighted steps, just above its threshold, and 5 of the
+    # 6 images failed the cross-check by 1e-9 m.
+    for case, image in real_images:
+        est = estimate_pose(image, case.bounds, real_cases.K, real_cases.board, robust=True)
+        assert_good(est)
+        plain = estimate_pose(image, case.bounds, real_cases.K, real_cases.board)
+        assert pose_difference(est.T_WC, plain.T_WC)[0] < 1e-3  # clean junctions: about the same pose
 
 
 @pytest.mark.parametrize("index", [0, 1])
@@ -123,6 +136,44 @@ def test_robust_estimate_resists_an_unflagged_outlier():
     assert_good(robust)
     assert pose_difference(robust.T_WC, clean.T_WC)[0] < 0.2 * pose_difference(plain.T_WC, clean.T_WC)[0]
     assert robust.sigma_px < 0.5 * plain.sigma_px
+
+
+def test_robust_estimates_converge_and_solvers_agree():
+    # The Huber kernel's reweighted steps converge at a rate of about 0.4; GTSAM's polish once
+    # stopped after 10 of them, short of its threshold, on 5 of these 20.
+    T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
+    for seed in range(20):
+        rng = np.random.default_rng(seed)
+        est = estimate_pose_from_points(K, project(K, T, WPTS) + rng.normal(0, 0.2, (2, 48)), WPTS, robust=True)
+        assert_good(est)
+
+
+def test_solvers_minimising_different_robust_costs_disagree(monkeypatch):
+    # The cross-check must still catch a real difference: GTSAM given twice the Huber threshold
+    # minimises another cost, whose minimum, with an outlier, lies elsewhere.
+    from graphpose.pose import estimate as pipeline
+
+    monkeypatch.setattr(pipeline, "graph_pose", functools.partial(pipeline.graph_pose, huber_k=2 * HUBER_K))
+    rng = np.random.default_rng(5)
+    T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
+    I = project(K, T, WPTS) + rng.normal(0, 0.2, (2, 48))
+    I[:, 9] += [3.0, -2.0]
+    est = estimate_pose_from_points(K, I, WPTS, robust=True)
+    assert est.gn.converged and est.graph.converged
+    assert not est.cross_check.agree and not est.ok
+    assert est.cross_check.translation_m > AGREE_TRANSLATION_M
+    assert "Gauss-Newton and GTSAM disagree" in est.message
+
+
+def test_a_robust_polish_cut_short_is_not_converged(monkeypatch):
+    # GTSAM reports not converged when its polish does not reach its threshold, and the
+    # estimate fails its cross-check rather than passing on GN's word alone.
+    monkeypatch.setattr("graphpose.pose.graph._POLISH_ITERATIONS", 2)
+    rng = np.random.default_rng(3)
+    T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
+    est = estimate_pose_from_points(K, project(K, T, WPTS) + rng.normal(0, 0.2, (2, 48)), WPTS, robust=True)
+    assert est.gn.converged and not est.graph.converged
+    assert not est.ok and "GTSAM converged: False" in est.message
 
 
 def _mirror(T, centre):
