@@ -67,11 +67,13 @@ def read_image(path) -> np.ndarray:
     Raises
     ------
     InputError
-        If the file is missing or cannot be decoded as an image.
+        If the file is missing, is a folder, or cannot be decoded as an image.
     """
     from skimage import io as skio
 
     path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{path} is a folder, not an image file")
     if not path.is_file():
         raise InputError(f"image file not found: {path}")
     try:

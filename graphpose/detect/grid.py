@@ -48,15 +48,19 @@ def locate_grid(image: np.ndarray, poly: np.ndarray, board: Board) -> np.ndarray
             f"found {cand.shape[1]} junction-like points inside the polygon, need a "
             f"{cols} x {rows} grid; is the board inside the bounds?"
         )
-    # A seed that is clutter grows a lattice that fails the checks: try the next ones.
-    error = BoardNotFoundError("no strong junction candidate inside the polygon")
+    # A seed that is clutter grows a lattice that fails the checks: try the next ones, and
+    # if all fail, report the one that came nearest to a board.
+    failures = [(-1, "no strong junction candidate inside the polygon")]
     for seed in _seeds(cand, strength, (width / 2, height / 2))[:3]:
         nodes = _grow_lattice(cand, seed, np.array([cols + 3, rows + 3]))
         try:
-            return H_img @ _choose_window(nodes, cand, canon, board)
-        except BoardNotFoundError as exc:
-            error = exc
-    raise error
+            H, failure = _choose_window(nodes, cand, canon, board)
+        except BoardNotFoundError as exc:  # the lattice fixes no homography
+            H, failure = None, (0, str(exc))
+        if H is not None:
+            return H_img @ H
+        failures.append(failure)
+    raise BoardNotFoundError(max(failures, key=lambda f: f[0])[1])
 
 
 
@@ -205,18 +209,25 @@ def _lattice_model(nodes: dict, cand: np.ndarray, step: np.ndarray) -> np.ndarra
 
 
 
-def _choose_window(nodes: dict, cand: np.ndarray, canon: np.ndarray, board: Board) -> np.ndarray:
-    """Homography grid (c, r) -> canonical of the cols x rows window of cross-junctions."""
+def _choose_window(nodes: dict, cand: np.ndarray, canon: np.ndarray, board: Board):
+    """Homography grid (c, r) -> canonical of the cols x rows window of cross-junctions.
+
+    Returns ``(H, None)``, or ``(None, (rank, message))`` saying why the lattice holds no
+    board; the rank (0-3) grows with how far the lattice got, so that of several seeds'
+    lattices the nearest miss is reported.
+    """
     cols, rows = board.cols, board.rows
     keys = np.array(list(nodes.keys()))
     pts = cand[:, list(nodes.values())]
     i0, j0 = keys.min(axis=0)
     i1, j1 = keys.max(axis=0)
     if i1 - i0 + 1 < cols or j1 - j0 + 1 < rows:
-        raise BoardNotFoundError(
-            f"found a {i1 - i0 + 1} x {j1 - j0 + 1} grid of junctions inside the polygon, "
-            f"need {cols} x {rows}; do the bounds enclose the whole board, first edge along a row?"
-        )
+        # The lattice holds the cross-junctions and the L-corners around them, so a whole
+        # board spans two more than its junctions each way.
+        return None, (0, (
+            f"the junctions found inside the polygon span {i1 - i0 + 1} x {j1 - j0 + 1}, which holds "
+            f"no {cols} x {rows} grid: does the polygon hold the whole board, its first edge along "
+            f"a row of {cols} junctions?"))
     spacing = np.median(square_sides(fit_homography(keys.T.astype(float), pts), keys.T.astype(float)))
     score = np.maximum(_chess_score(canon, pts, 0.3 * spacing), 0.0)
     best, best_score = None, -1.0
@@ -230,18 +241,26 @@ def _choose_window(nodes: dict, cand: np.ndarray, canon: np.ndarray, board: Boar
     grid = (keys[inside] - [a, b]).T.astype(float)
     found = int(inside.sum())
     crosses = int(np.sum(score[inside] > 0))
-    if found < 0.8 * board.n or crosses < 0.8 * board.n:
-        raise BoardNotFoundError(
-            f"only {found} of {board.n} grid junctions found ({crosses} look like cross-junctions)"
-        )
+    if found < 0.8 * board.n:
+        return None, (1, (
+            f"only {found} of the {cols} x {rows} = {board.n} junctions were found inside the polygon "
+            f"({crosses} of them look like cross-junctions): does the polygon hold the whole board?"))
+    if crosses < 0.8 * board.n:
+        # A complete window whose nodes are largely L-corners: the squares' outer corners
+        # fill the places of junctions the board does not have.
+        return None, (2, (
+            f"only {crosses} of the {cols} x {rows} junctions inside the polygon look like "
+            f"cross-junctions, the others like corners of the outer squares: the board has fewer "
+            f"inner junctions than {cols} x {rows} (columns along the polygon's first edge; a board "
+            f"counts inner junctions, one fewer than squares each way), or the polygon cuts part "
+            f"of it off"))
     H = fit_homography(grid, pts[:, inside])
     err = np.hypot(*(apply_homography(H, grid) - pts[:, inside]))
     if np.sqrt(np.mean(err**2)) > 0.15 * spacing:
-        raise BoardNotFoundError(
+        return None, (3, (
             f"the junction candidates do not form a planar grid (RMS {np.sqrt(np.mean(err**2)):.1f} "
-            f"canonical px off a homography, square {spacing:.1f})"
-        )
-    return H
+            f"canonical px off a homography, square {spacing:.1f})"))
+    return H, None
 
 
 

@@ -236,6 +236,21 @@ def test_missing_and_unreadable_image_and_guess(tmp_path):
                    2, "guess.json", "(4, 4)")
 
 
+def test_a_folder_given_as_image_is_called_a_folder(tmp_path, capsys):
+    assert main(["estimate", str(tmp_path), "--bounds", BOUNDS]) == 2
+    assert capsys.readouterr().err.strip() == f"graphpose: error: {tmp_path} is a folder, not an image file"
+
+
+def test_readme_polygon_over_a_corner_of_the_board(capsys):
+    # The README's example of a polygon that does not hold the board, as the user sees it.
+    image = BUNDLED.parent / "synthetic_03.png"
+    assert main(["estimate", str(image), "--bounds", "300,300,400,300,400,400,300,400"]) == 1
+    line = capsys.readouterr().err.strip()
+    assert re.fullmatch(rf"graphpose: error: {re.escape(str(image))}: only \d+ of the 8 x 6 = 48 junctions were "
+                        r"found inside the polygon \(\d+ of them look like cross-junctions\): does the polygon "
+                        r"hold the whole board\?", line), line
+
+
 def test_no_board_found_exits_1(blank_png, tmp_path):
     out_json = tmp_path / "out.json"
     line = one_error_line(graphpose("estimate", blank_png, "--bounds", BOUNDS, "--json", out_json,

@@ -12,11 +12,10 @@ from graphpose import (
     extract_junctions,
     refine_junctions,
 )
-from graphpose.camera import K_from_params, project
+from graphpose.camera import project
 from graphpose.pose.gauss_newton import pose_estimate_nls
 from graphpose.synth.render import loose_polygon, random_pose, render
-
-K = K_from_params(564.9, 564.3, 337.3, 226.5)
+from tests.conftest import PROJECT_K as K
 #: OpenCV findChessboardCornersSB (CALIB_CB_ACCURACY) reprojection RMS on targets 01-06, px.
 #: Copied from issue 2, which set them as the goal (our junctions must fit a pinhole pose at
 #: least as well); not measured by this test. scripts/bench_junctions.py measures OpenCV
@@ -238,8 +237,35 @@ def test_polygon_around_part_of_the_board_raises_board_not_found(small_case):
     J = R.junctions.reshape(2, 6, 8)
     corners = np.stack([J[:, 0, 0], J[:, 0, 4], J[:, 5, 4], J[:, 5, 0]], axis=1)
     part = corners + [[-5, 5, 5, -5], [-5, -5, 5, 5]]
-    with pytest.raises(BoardNotFoundError):
+    with pytest.raises(BoardNotFoundError, match="polygon"):
         extract_junctions(R.image, part)
+
+
+def test_polygon_over_a_corner_of_the_board_says_it_does_not_hold_the_board():
+    # The README's example: a 100 px square over the lower corner of the bundled
+    # synthetic_03.png. It once said "found a 5 x 4 grid of junctions", of a polygon that
+    # holds one junction.
+    from graphpose import bundled_cases, read_image
+
+    case = bundled_cases().cases[2]
+    bounds = np.array([[300.0, 400, 400, 300], [300, 300, 400, 400]])
+    with pytest.raises(BoardNotFoundError, match=r"only \d+ of the 8 x 6 = 48 junctions were found inside "
+                       r"the polygon \(\d+ of them look like cross-junctions\): does the polygon hold the whole board\?"):
+        extract_junctions(read_image(case.image), bounds)
+
+
+@pytest.mark.parametrize("true, spec", [((7, 5), (8, 6)), ((8, 6), (8, 8))])
+def test_board_spec_larger_than_the_board_says_so(true, spec):
+    # A complete window of the spec's size whose extra nodes are the outer squares' corners:
+    # this once read "only 48 of 48 grid junctions found".
+    rng = np.random.default_rng(1)
+    board = Board(*true, 0.0635)
+    R = render(K, random_pose(rng, K, board), board, rng=rng)
+    crosses = true[0] * true[1]
+    with pytest.raises(BoardNotFoundError, match=(
+            rf"only {crosses} of the {spec[0]} x {spec[1]} junctions inside the polygon look like "
+            rf"cross-junctions, .* the board has fewer inner junctions than {spec[0]} x {spec[1]}")):
+        extract_junctions(R.image, loose_polygon(R, rng), Board(*spec, 0.0635))
 
 
 def test_bad_options_raise_input_error(small_case):
