@@ -201,15 +201,64 @@ def estimate_pose_from_points(K, Ipts, Wpts, guess=None, mask=None, *, robust: b
     return _estimate(K, Ipts, Wpts, guess, mask, robust)
 
 
-def _estimate(K, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
-    """:func:`estimate_pose_from_points` on validated K, points, guess and mask."""
+def fit_pose(K, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False):
+    """The single-image pose fit: a start, Gauss-Newton and, with ``robust``, the outlier gate.
+
+    The pose path of :func:`estimate_pose` without its GTSAM cross-check, shared with the
+    tracker's front end (:mod:`graphpose.track.frontend`): start from ``guess``, or from the
+    homography initialiser when None; Gauss-Newton on the used points; with ``robust``, the
+    pixel sigma estimated robustly (1.4826 x the median absolute residual) and Gauss-Newton
+    again from the same start with a Huber kernel at :data:`graphpose.pose.graph.HUBER_K` of
+    those sigmas, so that outlying points are down-weighted.
+
+    Parameters
+    ----------
+    K : (3, 3) array_like
+        Intrinsics, pixels.
+    Ipts : (2, n) array_like
+        Image points (u, v), pixels.
+    Wpts : (3, n) array_like
+        Matching target points, metres (on z = 0 when ``guess`` is None).
+    guess : (4, 4) array_like, optional
+        Starting pose T_WC; the homography initialiser when None.
+    mask : (n,) array_like of bool, optional
+        Points to use; all by default. At least 4.
+    robust : bool
+        Down-weight outlying points (Huber kernel at 1.345 robust sigmas).
+
+    Returns
+    -------
+    fit : GNResult
+        The Gauss-Newton solution (check ``converged``); with ``robust``, its ``sigma_px``
+        is the robust pixel sigma the kernel was scaled by.
+    start_T_WC : (4, 4) ndarray
+        Where it started (the guess, or the homography pose).
+
+    Raises
+    ------
+    InputError
+        As :func:`estimate_pose_from_points`.
+    """
+    K, Ipts, Wpts, mask = check_correspondences(K, Ipts, Wpts, mask)
+    guess = None if guess is None else check_transform(guess, "guess")
+    return _fit(K, Ipts, Wpts, guess, mask, robust)
+
+
+def _fit(K, Ipts, Wpts, guess, mask, robust):
+    """:func:`fit_pose` on validated K, points, guess and mask."""
     start = pose_from_homography(K, Ipts[:, mask], Wpts[:, mask]) if guess is None else guess
-    huber_px = pixel_sigma = None
     gn = gauss_newton(K, start, Ipts, Wpts, mask=mask)
     if robust:
         pixel_sigma = max(1.4826 * float(np.nanmedian(np.abs(gn.residuals[:, mask]))), 1e-12)
-        huber_px = HUBER_K * pixel_sigma
-        gn = gauss_newton(K, start, Ipts, Wpts, mask=mask, huber_px=huber_px, pixel_sigma=pixel_sigma)
+        gn = gauss_newton(K, start, Ipts, Wpts, mask=mask, huber_px=HUBER_K * pixel_sigma, pixel_sigma=pixel_sigma)
+    return gn, start
+
+
+def _estimate(K, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
+    """:func:`estimate_pose_from_points` on validated K, points, guess and mask."""
+    gn, start = _fit(K, Ipts, Wpts, guess, mask, robust)
+    pixel_sigma = gn.sigma_px if robust else None  # the robust fit's own sigma (fit_pose)
+    huber_px = None if pixel_sigma is None else HUBER_K * pixel_sigma
     graph = graph_pose(K, start, Ipts, Wpts, mask=mask, pixel_sigma=pixel_sigma, robust=robust)
     converged, message = gn.converged, "ok" if gn.converged else f"Gauss-Newton: {gn.message}"
     if guess is not None and gn.converged and on_target_plane(Wpts):
