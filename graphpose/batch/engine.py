@@ -1,0 +1,276 @@
+"""Many images on a Dask cluster: groups of images as tasks, results as they arrive.
+
+Dask (``dask.distributed``) does the scheduling, the data movement and the recovery from a
+lost worker; this module only decides what a task is and keeps the cluster fed:
+
+- A task is :func:`graphpose.batch.work.estimate_images` on a group of images. The group
+  is sized from the measured time per image so that a task lasts about ``task_seconds``
+  (0.5 s by default): long beside the scheduler's cost per task (a fraction of a
+  millisecond to a few ms, see docs/batch.md), short enough that the last tasks spread
+  over every worker and that a lost worker costs little work. The first tasks hold one
+  image each, to measure; the last ones shrink so that the tail stays balanced.
+- At most about two tasks per worker thread are submitted at once (plus one), so a
+  million images never become a million futures, and a worker always has its next task.
+- A worker that dies takes its running tasks with it; the scheduler runs them again on
+  another worker, and a task's records reach the client once, when it finishes, so no
+  image is lost or repeated. A task that fails anyway (Dask gives up on a task that has
+  been running on three workers that died: ``KilledWorker``) is split and its images run
+  one a task; an image that still kills its worker gets a ``crashed`` row.
+
+Dask is imported only when a batch starts: ``import graphpose.batch`` does not load it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import logging
+import math
+import os
+import time
+import uuid
+from collections import deque
+
+import numpy as np
+
+from .._checks import check_board, check_K
+from ..board import Board
+from ..errors import GraphposeError, InputError
+from .inputs import check_polygon
+from .work import CRASHED, estimate_images, failed_record, warm_up
+
+#: Default length of a task, seconds of work.
+TASK_SECONDS = 0.5
+#: The most images one task holds.
+MAX_IMAGES_PER_TASK = 1000
+#: How long to wait for the first worker of a cluster, seconds.
+WORKER_TIMEOUT_S = 60.0
+
+
+class ClusterError(GraphposeError):
+    """The Dask cluster could not run the batch: no worker came, or the scheduler went away."""
+
+
+def estimate_many(paths, K, board: Board = Board(), *, bounds=None, robust: bool = False, client=None,
+                  workers: int | None = None, images_per_task: int | None = None,
+                  task_seconds: float = TASK_SECONDS):
+    """Estimate the camera pose in many images on a Dask cluster; records as they arrive.
+
+    Each image gets what ``graphpose estimate IMAGE --bounds POLYGON`` gives it (the same
+    pose, bit for bit), as a record of :func:`graphpose.batch.work.estimate_images`: the
+    keys of ``estimate --json``, ``status`` one of :data:`graphpose.batch.work.STATUSES`,
+    ``time_s`` and ``worker``. One image's failure is its record's status, never an
+    exception.
+
+    Parameters
+    ----------
+    paths : iterable of str or Path
+        The images, one record each. Made absolute here (``os.path.abspath``): the workers
+        read them by that path, so on a cluster of several machines it must name the same
+        file on every one (a shared file system).
+    K : (3, 3) array_like
+        Intrinsics, pixels; the images undistorted.
+    board : Board
+        The target.
+    bounds : (2, 4) array_like, dict or None
+        The board's bounding polygon in pixels (as ``estimate --bounds``): one for every
+        image; or a dict from image path (made absolute) to polygon or None; None (for the
+        image, or for all) searches the whole image, which finds the board only when little
+        else is in view.
+    robust : bool
+        Down-weight outlying junctions (as ``estimate --robust``).
+    client : distributed.Client, str or None
+        The cluster: a connected client; a scheduler address (``"tcp://host:8786"``), to
+        which a client is connected and closed again at the end; or None for a local
+        cluster of ``workers`` worker processes on 127.0.0.1, started here and stopped at
+        the end.
+    workers : int, optional
+        Worker processes of the local cluster (one thread each); default the cores this
+        process may use. Only with ``client=None``.
+    images_per_task : int, optional
+        Images in one task; default: sized to last about ``task_seconds``.
+    task_seconds : float
+        The work a task should hold, seconds (when ``images_per_task`` is None).
+
+    Returns
+    -------
+    iterator of dict
+        One record per image, in the order they finish. The cluster starts on the first
+        ``next()``; closing the iterator (or leaving a ``for`` loop early) cancels the
+        remaining work and stops a cluster started here.
+
+    Raises
+    ------
+    InputError
+        On a malformed K, board, polygon or option, or when Dask is not installed.
+    ClusterError
+        While iterating: no worker joined within :data:`WORKER_TIMEOUT_S`, or the scheduler
+        was lost.
+    """
+    K = check_K(K)
+    board = check_board(board)
+    items = _items(paths, bounds)
+    if workers is not None:
+        if client is not None:
+            raise InputError("workers sets the size of a local cluster; it goes with client=None")
+        _check_positive_int(workers, "workers")
+    if images_per_task is not None:
+        _check_positive_int(images_per_task, "images_per_task")
+    if not (isinstance(task_seconds, (int, float)) and np.isfinite(task_seconds) and task_seconds > 0):
+        raise InputError(f"task_seconds must be a positive number, got {task_seconds!r}")
+    distributed_module()  # fail now, not at the first next(), when Dask is missing
+    return _stream(items, K, board, robust, client, workers, images_per_task, float(task_seconds))
+
+
+def distributed_module():
+    """``distributed`` (Dask's), or InputError saying how to install it."""
+    try:
+        import distributed
+    except ImportError:
+        raise InputError('graphpose batch needs Dask: pip install "graphpose[batch]"') from None
+    return distributed
+
+
+def local_cluster(workers: int | None = None):
+    """A Dask ``LocalCluster`` of ``workers`` processes (default: the usable cores), one
+    thread each, listening on 127.0.0.1 only, without a dashboard."""
+    distributed = distributed_module()
+    n = workers if workers is not None else len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") \
+        else (os.cpu_count() or 1)
+    return distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                    dashboard_address=None, silence_logs=logging.ERROR)
+
+
+def _items(paths, bounds) -> list:
+    if isinstance(paths, (str, os.PathLike)):
+        raise InputError("paths must be a list of image paths, not one path")
+    paths = [os.path.abspath(os.fspath(p)) for p in paths]
+    if bounds is None:
+        return [(p, None) for p in paths]
+    if isinstance(bounds, dict):
+        table = {os.path.abspath(os.fspath(k)): v for k, v in bounds.items()}
+        return [(p, None if table.get(p) is None else check_polygon(table[p], f"bounds of {p}")) for p in paths]
+    poly = check_polygon(bounds, "bounds")
+    return [(p, poly) for p in paths]
+
+
+def _check_positive_int(value, name):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise InputError(f"{name} must be an integer >= 1, got {value!r}")
+
+
+def _stream(items, K, board, robust, client, workers, images_per_task, task_seconds):
+    """The generator behind :func:`estimate_many` (arguments checked)."""
+    if not items:
+        return
+    distributed = distributed_module()
+    owned = []
+    try:
+        if client is None:
+            cluster = local_cluster(workers)
+            owned.append(cluster)
+            client = distributed.Client(cluster)
+            owned.append(client)
+        elif isinstance(client, str):
+            try:
+                client = distributed.Client(client, timeout=WORKER_TIMEOUT_S)
+            except (OSError, TimeoutError) as exc:
+                raise ClusterError(f"cannot reach the Dask scheduler at {client}: {exc}") from None
+            owned.append(client)
+        yield from _Feeder(client, items, K, board, robust, images_per_task, task_seconds).run()
+    finally:
+        for thing in reversed(owned):
+            with contextlib.suppress(Exception):  # closing after an interrupt may fail; nothing to save
+                thing.close()
+
+
+class _Feeder:
+    """Keeps the cluster fed with tasks and hands back their records (see the module docstring)."""
+
+    def __init__(self, client, items, K, board, robust, images_per_task, task_seconds):
+        self.client, self.K, self.board, self.robust = client, K, board, robust
+        self.fixed, self.task_seconds = images_per_task, task_seconds
+        self.queue = deque(items)   # not yet submitted
+        self.singles = deque()      # images of a failed task, to run one a task
+        self.running = {}           # future -> its items
+        self.per_image = None       # seconds of work per image, smoothed
+        self.keys = (f"graphpose-batch-{uuid.uuid4().hex[:8]}-{k}" for k in itertools.count())
+        self.threads, self.counted = 1, -math.inf
+
+    def run(self):
+        from distributed import as_completed
+
+        self._count_threads(wait=True)
+        self.client.run(warm_up)  # the workers there now; one that joins later warms up on its first task
+        finished = as_completed()
+        try:
+            self._submit(finished)
+            for future in finished:
+                items = self.running.pop(future)
+                status = future.status
+                if status == "finished":
+                    records = future.result()
+                    self._learn(records)
+                    del future  # let the cluster forget the task's result
+                    yield from records
+                elif status == "error":
+                    exc = future.exception()
+                    del future
+                    if len(items) > 1:
+                        self.singles.extend(items)
+                    else:
+                        yield failed_record(items[0][0], CRASHED, f"the worker failed on this image: "
+                                            f"{type(exc).__name__}: {' '.join(str(exc).split())}")
+                else:
+                    raise ClusterError(f"the Dask scheduler dropped a task ({status}); the rows written so far "
+                                       f"are kept, run again to do the rest")
+                self._count_threads()
+                self._submit(finished)
+        finally:
+            if self.running:
+                with contextlib.suppress(Exception):  # the connection may already be gone
+                    self.client.cancel(list(self.running))
+                self.running.clear()
+
+    def _count_threads(self, wait=False):
+        """Worker threads of the cluster, asked again every few seconds (workers come and go)."""
+        now = time.monotonic()
+        if now - self.counted < 5.0:
+            return
+        if wait:
+            try:
+                self.client.wait_for_workers(1, timeout=WORKER_TIMEOUT_S)
+            except TimeoutError:
+                raise ClusterError(f"no Dask worker joined the scheduler {self.client.scheduler.address} "
+                                   f"within {WORKER_TIMEOUT_S:g} s") from None
+        self.threads = max(1, sum(self.client.nthreads().values()))
+        self.counted = now
+
+    def _submit(self, finished):
+        while (self.queue or self.singles) and len(self.running) < 2 * self.threads + 1:
+            if self.singles:
+                items = [self.singles.popleft()]
+            else:
+                n = min(self._group_size(), len(self.queue))
+                items = [self.queue.popleft() for _ in range(n)]
+            future = self.client.submit(estimate_images, items, self.K, self.board, self.robust,
+                                        key=next(self.keys), pure=False)
+            self.running[future] = items
+            finished.add(future)
+
+    def _group_size(self) -> int:
+        """Images in the next task: the fixed number, or about ``task_seconds`` of work, fewer
+        at the end so that every thread gets a share of what is left."""
+        if self.fixed is not None:
+            return self.fixed
+        if self.per_image is None:
+            return 1  # nothing measured yet
+        n = int(self.task_seconds / max(self.per_image, 1e-6))
+        tail = math.ceil(len(self.queue) / (2 * self.threads))
+        return int(np.clip(min(n, tail), 1, MAX_IMAGES_PER_TASK))
+
+    def _learn(self, records):
+        times = [r["time_s"] for r in records if r.get("time_s") is not None]
+        if times:
+            t = float(np.median(times))  # the median skips a worker's first, slower image
+            self.per_image = t if self.per_image is None else 0.7 * self.per_image + 0.3 * t

@@ -1,0 +1,141 @@
+"""One task's work: estimate the pose in a group of images, one result record per image.
+
+:func:`estimate_images` is what a Dask worker runs (and what a plain loop runs, for a
+comparison): for each image it does what ``graphpose estimate IMAGE --bounds ...`` does
+(:func:`graphpose.image.read_image`, then :func:`graphpose.pose.estimate.estimate_pose`) and
+turns the outcome into the record of :func:`graphpose.cli.records.result_record`, so the pose
+of a row is the pose that command gives for that image, bit for bit. A failure of one image
+becomes that image's row and never stops the others. The record's ``status`` says why an
+image has no usable pose (:data:`STATUSES`), where ``estimate --json`` only says ``failed``;
+two keys are added: ``time_s`` (seconds spent on the image) and ``worker`` (the Dask
+worker's address, None outside Dask).
+
+This module imports neither Dask nor GTSAM until it runs.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+
+import numpy as np
+
+from ..board import Board
+from ..cli.records import result_record
+from ..errors import BoardNotFoundError, GraphposeError
+
+#: Status words of a row, from best to worst.
+OK = "ok"                            # a converged, cross-checked pose
+NOT_CONVERGED = "not_converged"      # a pose, but not a reliable one (``message`` says why); kept
+BOARD_NOT_FOUND = "board_not_found"  # no junction grid of the board inside the polygon
+FAILED = "failed"                    # another estimation failure (too few trusted junctions, ...)
+MISSING = "missing"                  # no such file (as the worker sees the file system)
+UNREADABLE = "unreadable"            # the file is not an image the readers decode
+ERROR = "error"                      # an unexpected exception: a bug, reported with its type
+CRASHED = "crashed"                  # the worker process died on this image, again and again
+
+STATUSES = (OK, NOT_CONVERGED, BOARD_NOT_FOUND, FAILED, MISSING, UNREADABLE, ERROR, CRASHED)
+
+#: Keys a batch record adds to :func:`graphpose.cli.records.result_record`'s.
+EXTRA_KEYS = ("time_s", "worker")
+
+
+def whole_image(shape) -> np.ndarray:
+    """The polygon of the whole image, (2, 4) pixels clockwise from the upper left.
+
+    The bounds an image without its own polygon is searched with: it finds the board when
+    little else with a checkerboard-like texture is in view.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        The image's ``(height, width)``.
+    """
+    h, w = shape[:2]
+    return np.array([[0.0, w - 1.0, w - 1.0, 0.0], [0.0, 0.0, h - 1.0, h - 1.0]])
+
+
+def estimate_images(items, K, board: Board = Board(), robust: bool = False) -> list:
+    """Estimate the pose in each image of ``items``; one record per image, in order.
+
+    Parameters
+    ----------
+    items : sequence of (str, (2, 4) ndarray or None)
+        Image path (as the process running this sees it) and the board's bounding polygon in
+        pixels, or None to search the whole image (:func:`whole_image`).
+    K : (3, 3) ndarray
+        Intrinsics, pixels (checked by the caller).
+    board : Board
+        The target.
+    robust : bool
+        As :func:`graphpose.pose.estimate.estimate_pose`.
+
+    Returns
+    -------
+    list of dict
+        JSON-ready records (see the module docstring); never raises for one image's failure.
+    """
+    from ..image import read_image
+    from ..pose.estimate import estimate_pose
+
+    worker = _worker_address()
+    records = []
+    for path, bounds in items:
+        start = time.perf_counter()
+        estimate, status, message = None, OK, None
+        try:
+            if not os.path.isfile(path):
+                status, message = MISSING, f"image file not found: {path}"
+            else:
+                try:
+                    image = read_image(path)
+                except GraphposeError as exc:
+                    status, message = UNREADABLE, _one_line(exc)
+                else:
+                    poly = whole_image(image.shape) if bounds is None else bounds
+                    estimate = estimate_pose(image, poly, K, board, robust=robust)
+                    if not estimate.ok:
+                        status, message = NOT_CONVERGED, f"no reliable pose: {estimate.message}"
+        except BoardNotFoundError as exc:
+            status, message = BOARD_NOT_FOUND, _one_line(exc)
+        except GraphposeError as exc:
+            status, message = FAILED, _one_line(exc)
+        except Exception as exc:  # noqa: BLE001  (one image's bug must not stop the batch)
+            status, message = ERROR, f"{type(exc).__name__}: {_one_line(exc)}"
+        record = result_record(path, estimate, message)
+        record["status"] = status
+        record.update(time_s=time.perf_counter() - start, worker=worker)
+        records.append(record)
+    return records
+
+
+def warm_up() -> None:
+    """Import what :func:`estimate_images` needs, so that a worker's first image is not slower."""
+    from skimage import io  # noqa: F401  (read_image's reader, imported on first use)
+
+    from ..detect import junctions  # noqa: F401  (estimate_pose imports it on first use)
+    from ..pose import estimate  # noqa: F401
+
+
+def failed_record(path, status: str, message: str) -> dict:
+    """The record of an image that has no result from a worker (e.g. :data:`CRASHED`)."""
+    record = result_record(path, None, message)
+    record["status"] = status
+    record.update(time_s=None, worker=None)
+    return record
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def _worker_address():
+    """The address of the Dask worker running this, or None outside one."""
+    distributed = sys.modules.get("distributed")  # a worker has imported it; nothing else need
+    if distributed is None:
+        return None
+    try:
+        return distributed.get_worker().address
+    except ValueError:
+        return None

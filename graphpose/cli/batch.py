@@ -1,0 +1,179 @@
+"""``graphpose batch``: the camera pose in many images on a Dask cluster, one row per image.
+
+Turns the arguments into image paths (:func:`graphpose.batch.inputs.collect_images`),
+polygons, K (3, 3) and a :class:`Board`, leaves out the images the result set already
+has, runs the rest with :func:`graphpose.batch.estimate_many` (a local cluster, or the one
+at ``--scheduler``) and writes each row as it arrives (:mod:`graphpose.batch.results`).
+Exit code 0 when every image of the run has a pose, 1 when one has not (its row says why),
+2 for bad usage or input, 130 when interrupted (the rows written stay; run again to do the
+rest).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import sys
+import textwrap
+import threading
+import time
+from collections import Counter
+
+from ..errors import InputError
+from . import EXIT_FAILED, EXIT_OK
+from .options import (
+    Progress,
+    add_target_options,
+    parse_bounds,
+    parse_positive,
+    target_from_args,
+)
+
+_EXAMPLES = """\
+examples:
+  graphpose batch images/ --out results.parquet --bounds-file bounds.json
+  graphpose batch 'campaign/**/*.png' list.txt --out results.jsonl --workers 2
+  graphpose batch images/ --out /shared/results.parquet --scheduler tcp://10.0.0.5:8786
+
+INPUTS are folders (their image files), glob patterns (quote them; ** crosses folders) or
+text files (.txt, .lst, .list) listing one image path a line. Without --bounds or
+--bounds-file an image is searched whole, which finds the board only when little else is
+in view. --out ending in .parquet is a Parquet data set (a folder); .jsonl is JSON lines.
+Run again with the same --out to do only the images it does not have yet.
+On a cluster (dask scheduler; dask worker tcp://HOST:8786 on each machine) every worker
+must see the images at the same absolute paths. See docs/batch.md.
+exit codes: 0 every image has a pose, 1 some have not (see their rows), 2 bad usage or
+input, 130 interrupted."""
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``batch`` subcommand's parser to ``subparsers``."""
+    p = subparsers.add_parser(
+        "batch",
+        help="camera pose in many images on a Dask cluster; Parquet or JSON lines, resumable",
+        description=textwrap.fill(
+            "Estimate the camera pose T_WC in every image named by INPUTS, as 'graphpose estimate' "
+            "does for one, on a local Dask cluster of worker processes or an existing one; write one "
+            "row per image to RESULTS as results arrive, skipping the images RESULTS already has.", 88),
+        epilog=_EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("inputs", nargs="+", metavar="INPUTS", help="folders, glob patterns or list files of images")
+    p.add_argument("--out", required=True, metavar="RESULTS",
+                   help="results: NAME.parquet (a Parquet data set, a folder) or NAME.jsonl (JSON lines)")
+    add_target_options(p)
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--bounds", type=parse_bounds, metavar="U1,V1,U2,V2,U3,V3,U4,V4",
+                       help="the board's bounding polygon in pixels, the same in every image")
+    where.add_argument("--bounds-file", metavar="FILE",
+                       help="per-image polygons: a JSON object image path -> 2 x 4 polygon (or null: the whole "
+                       "image), or a case file; paths relative to the file's folder")
+    p.add_argument("--robust", action="store_true", help="down-weight outlying junctions (robust loss)")
+    cluster = p.add_mutually_exclusive_group()
+    cluster.add_argument("--workers", type=_positive_int, metavar="N",
+                         help="worker processes of the local cluster (default: one per core)")
+    cluster.add_argument("--scheduler", metavar="ADDRESS",
+                         help="run on the existing Dask cluster of this scheduler, e.g. tcp://HOST:8786")
+    p.add_argument("--images-per-task", type=_positive_int, metavar="N",
+                   help="images in one task (default: sized from the measured time per image, about 0.5 s of work)")
+    p.add_argument("--flush-seconds", type=parse_positive, default=5.0, metavar="S",
+                   help="Parquet: write waiting rows at least this often (default 5); all of them on exit or "
+                   "Ctrl-C, so only a hard kill loses up to S seconds of rows, done again by the next run")
+    p.add_argument("-q", "--quiet", action="store_true", help="no summary on stdout (errors still on stderr)")
+    return p
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
+    return value
+
+
+def run(args) -> int:
+    """Run ``graphpose batch`` with parsed ``args``; returns the exit code."""
+    from ..batch.engine import estimate_many
+    from ..batch.inputs import collect_images, read_bounds_file
+    from ..batch.results import open_results, results_format
+
+    results_format(args.out)  # a wrong ending fails before anything is read
+    paths = collect_images(args.inputs)
+    bounds = args.bounds
+    if args.bounds_file is not None:
+        bounds = read_bounds_file(args.bounds_file)
+        if not any(p in bounds for p in paths):
+            raise InputError(f"--bounds-file {args.bounds_file} names none of the {len(paths)} images "
+                             f"(its paths are relative to its own folder)")
+    K, board = target_from_args(args)
+    with open_results(args.out, flush_seconds=args.flush_seconds) as results, _interrupt_on_sigterm():
+        todo = [p for p in paths if p not in results.done]
+        skipped = len(paths) - len(todo)
+        counts, seconds = Counter(), 0.0
+        if todo:
+            stream = estimate_many(todo, K, board, bounds=bounds, robust=args.robust, client=args.scheduler,
+                                   workers=args.workers, images_per_task=args.images_per_task)
+            counts, seconds = _write_all(stream, results, len(todo))
+    if not args.quiet:
+        print(_summary(counts, skipped, seconds, args.out))
+    return EXIT_OK if counts["ok"] == sum(counts.values()) else EXIT_FAILED
+
+
+def _write_all(stream, results, total):
+    """Write each record of ``stream`` as it comes, with a progress bar; (status counts,
+    seconds from the first record to the last)."""
+    progress = Progress(total, sys.stderr)
+    counts, first, last = Counter(), None, None
+    quiet = logging.getLogger("distributed")
+    level = quiet.level
+    quiet.setLevel(logging.ERROR)  # a lost worker is Dask's to handle; its warnings are noise here
+    try:
+        for record in stream:
+            results.write(record)
+            counts[record["status"]] += 1
+            last = time.monotonic()
+            first = first or last
+            done = sum(counts.values())
+            rate = (done - 1) / (last - first) if last > first else 0.0
+            progress.show(done, f"{rate:.1f} images/s" if rate else "")
+    except KeyboardInterrupt:
+        progress.clear()
+        print(f"graphpose batch: stopped after {sum(counts.values())} of {total} images; the rows written stay "
+              f"in {results.path}: run again to do the rest", file=sys.stderr)
+        raise
+    finally:
+        stream.close()  # cancels what is left, stops a local cluster
+        progress.clear()
+        quiet.setLevel(level)
+    return counts, (last - first) if first is not None else 0.0
+
+
+def _summary(counts, skipped, seconds, out) -> str:
+    n = sum(counts.values())
+    failed = ", ".join(f"{k} {v}" for k, v in sorted(counts.items(), key=lambda kv: -kv[1]) if k != "ok")
+    line = f"{n} images: {counts['ok']} ok" + (f", {failed}" if failed else "")
+    line += f"; {skipped} skipped (already in {out})"
+    if n > 1 and seconds > 0:
+        line += f"; {(n - 1) / seconds:.1f} images/s"
+    return line
+
+
+class _interrupt_on_sigterm:
+    """Within ``with``: SIGTERM (a job manager's stop) acts like Ctrl-C, so rows are flushed."""
+
+    def __enter__(self):
+        self.previous = None
+        if threading.current_thread() is threading.main_thread():
+            self.previous = signal.signal(signal.SIGTERM, _raise_interrupt)
+        return self
+
+    def __exit__(self, *exc):
+        if self.previous is not None:
+            signal.signal(signal.SIGTERM, self.previous)
+
+
+def _raise_interrupt(signum, frame):
+    raise KeyboardInterrupt
