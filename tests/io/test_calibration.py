@@ -1,0 +1,279 @@
+"""Calibration files: OpenCV FileStorage YAML/XML, ROS camera_info, Kalibr camchain, JSON."""
+
+import os
+
+import numpy as np
+import pytest
+import yaml
+
+from graphpose import InputError
+from graphpose.cameras import (
+    FisheyeCamera,
+    PinholeCamera,
+    RadTanCamera,
+    check_image_size,
+)
+from graphpose.io.calibration import (
+    camera_from_dict,
+    camera_to_dict,
+    read_camera,
+    write_camera,
+)
+from tests.conftest import REPO
+
+SAMPLES = REPO.parent / "shared" / "data" / "opencv_samples"
+
+K_FISHEYE = [[300.0, 0.9, 640.0], [0.0, 310.0, 512.0], [0.0, 0.0, 1.0]]
+FISHEYE = [-0.013, -0.004, 0.0035, -0.001]
+K = [[533.5, 0.0, 341.6], [0.0, 533.5, 235.2], [0.0, 0.0, 1.0]]
+RATIONAL = [2.5, 1.2, 0.0005, -0.0004, 0.05, 2.8, 2.0, 0.3]
+
+
+def sample(name):
+    """A file of the OpenCV samples folder; skipped when absent (failed under
+    GRAPHPOSE_REQUIRE_REAL=1)."""
+    path = SAMPLES / name
+    if not path.is_file():
+        if os.environ.get("GRAPHPOSE_REQUIRE_REAL") == "1":
+            pytest.fail(f"{path} is absent and GRAPHPOSE_REQUIRE_REAL=1")
+        pytest.skip(f"{path} is absent")
+    return path
+
+
+def write(tmp_path, name, text):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def opencv_file(tmp_path, name, **entries):
+    """A file written by OpenCV's own cv::FileStorage (YAML or XML by the name)."""
+    cv2 = pytest.importorskip("cv2")
+    path = tmp_path / name
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    for key, value in entries.items():
+        fs.write(key, value)
+    fs.release()
+    return path
+
+
+# ---- the samples: every file of one camera reads to the same model -------------------------
+@pytest.mark.parametrize("files", [
+    [("left.opencv.yml", None), ("left.ros.yaml", None), ("camchain.kalibr.yaml", None),
+     ("left.ros.yaml", "left"), ("camchain.kalibr.yaml", "cam0")],
+    [("right.opencv.xml", None), ("right.ros.yaml", None), ("camchain.kalibr.yaml", "cam1")],
+])
+def test_sample_files_read_to_the_same_camera(files):
+    cams = [read_camera(sample(name), camera) for name, camera in files]
+    assert all(isinstance(c, RadTanCamera) for c in cams)
+    assert all(c == cams[0] for c in cams)  # same K, coefficients (k3 = 0 or absent), size
+    assert cams[0].size == (640, 480)
+
+
+@pytest.mark.parametrize("name", ["left.opencv.yml", "right.opencv.xml"])
+def test_sample_opencv_files_read_as_opencv_reads_them(name):
+    cv2 = pytest.importorskip("cv2")
+    path = sample(name)
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    K_cv = fs.getNode("camera_matrix").mat()
+    d_cv = fs.getNode("distortion_coefficients").mat().ravel()
+    size = (int(fs.getNode("image_width").real()), int(fs.getNode("image_height").real()))
+    fs.release()
+    camera = read_camera(path)
+    np.testing.assert_array_equal(camera.K, K_cv)
+    np.testing.assert_array_equal(camera.distortion, d_cv)
+    assert camera.size == size
+
+
+def test_sample_image_fits_its_calibration_and_another_size_is_refused():
+    from graphpose.image import read_image
+
+    camera = read_camera(sample("left.ros.yaml"))
+    image = read_image(sample("left01.jpg"))
+    check_image_size(camera, image.shape, what="left01.jpg")
+    with pytest.raises(InputError, match=r"half.png is 320 x 240 pixels but the camera is "
+                                         r"calibrated for 640 x 480"):
+        check_image_size(camera, image[::2, ::2], what="half.png")
+
+
+# ---- OpenCV FileStorage as OpenCV writes it ---------------------------------------------------
+@pytest.mark.parametrize("suffix", ["yml", "xml"])
+def test_opencv_written_fisheye_calibration(tmp_path, suffix):
+    # The keys OpenCV's calibration sample writes, with its fisheye flag.
+    path = opencv_file(
+        tmp_path, f"fisheye.{suffix}", calibration_time="Thu 01 Jan 2024", image_width=1280,
+        image_height=1024, flags=2048, fisheye_model=1, camera_matrix=np.array(K_FISHEYE),
+        distortion_coefficients=np.array(FISHEYE).reshape(4, 1), avg_reprojection_error=0.21,
+        image_points=np.zeros((3, 1, 2), np.float32))
+    assert read_camera(path) == FisheyeCamera(K_FISHEYE, FISHEYE, (1280, 1024))
+
+
+@pytest.mark.parametrize("suffix", ["yml", "xml"])
+@pytest.mark.parametrize("coefficients", [[-0.2, 0.05, 0.001, 0.002], [-0.2, 0.05, 0.001, 0.002, -0.01],
+                                          RATIONAL, RATIONAL + [0.0] * 6])
+def test_opencv_written_radtan_calibrations(tmp_path, suffix, coefficients):
+    path = opencv_file(tmp_path, f"cam.{suffix}", camera_matrix=np.array(K),
+                       distortion_coefficients=np.array([coefficients]))
+    camera = read_camera(path)
+    # 14 coefficients whose thin-prism and tilt terms are zero are the rational model.
+    assert camera == RadTanCamera(K, coefficients[:8])
+    assert camera.size is None
+
+
+def test_opencv_yaml_with_the_old_header(tmp_path):
+    text = sample("left.opencv.yml").read_text()
+    assert text.startswith("%YAML:1.0")
+    assert read_camera(write(tmp_path, "a.yaml", text)) == read_camera(sample("left.ros.yaml"))
+
+
+# ---- ROS and Kalibr ------------------------------------------------------------------------
+def ros_text(model, coefficients, K=K, size=(640, 480)):
+    return yaml.safe_dump({
+        "image_width": size[0], "image_height": size[1], "camera_name": "cam",
+        "camera_matrix": {"rows": 3, "cols": 3, "data": np.ravel(K).tolist()},
+        "distortion_model": model,
+        "distortion_coefficients": {"rows": 1, "cols": len(coefficients), "data": coefficients},
+    })
+
+
+@pytest.mark.parametrize("model, coefficients, expected", [
+    ("rational_polynomial", RATIONAL, RadTanCamera(K, RATIONAL, (640, 480))),
+    ("equidistant", FISHEYE, FisheyeCamera(K, FISHEYE, (640, 480))),
+    ("plumb_bob", RATIONAL[:5], RadTanCamera(K, RATIONAL[:5], (640, 480))),
+])
+def test_ros_models(tmp_path, model, coefficients, expected):
+    assert read_camera(write(tmp_path, "c.yaml", ros_text(model, coefficients))) == expected
+
+
+def kalibr_text(drop=(), **cam0):
+    """A camchain: cam0 a fisheye changed by ``cam0`` and without the keys ``drop``, cam1 a
+    pinhole without distortion."""
+    base = {"camera_model": "pinhole", "intrinsics": [533.5, 533.5, 341.6, 235.2],
+            "distortion_model": "equidistant", "distortion_coeffs": FISHEYE,
+            "resolution": [640, 480], "rostopic": "/cam0/image_raw"}
+    first = {k: v for k, v in {**base, **cam0}.items() if k not in drop}
+    return yaml.safe_dump({"cam0": first, "cam1": {**base, "distortion_model": "none"}})
+
+
+def test_kalibr_models_and_names(tmp_path):
+    path = write(tmp_path, "camchain.yaml", kalibr_text())
+    assert read_camera(path) == FisheyeCamera(K, FISHEYE, (640, 480))
+    assert read_camera(path, "cam1") == PinholeCamera(K, (640, 480))
+    radtan = write(tmp_path, "radtan.yaml", kalibr_text(distortion_model="radtan"))
+    assert read_camera(radtan) == RadTanCamera(K, FISHEYE, (640, 480))
+
+
+# ---- graphpose's JSON ----------------------------------------------------------------------
+@pytest.mark.parametrize("camera", [
+    PinholeCamera([[500.0, 1.5, 320.0], [0.0, 510.0, 240.0], [0, 0, 1]]),
+    RadTanCamera(K, RATIONAL, (640, 480)),
+    RadTanCamera(K, RATIONAL[:4], (640, 480)),
+    FisheyeCamera(K_FISHEYE, FISHEYE, (1280, 1024)),
+])
+def test_json_round_trip(tmp_path, camera):
+    path = tmp_path / "camera.json"
+    write_camera(path, camera)
+    back = read_camera(path)
+    assert back == camera and back.distortion.size == camera.distortion.size
+    assert camera_from_dict(camera_to_dict(camera)) == camera
+
+
+def test_write_camera_takes_a_K(tmp_path):
+    write_camera(tmp_path / "k.json", K)
+    assert read_camera(tmp_path / "k.json") == PinholeCamera(K)
+
+
+# ---- every error once ------------------------------------------------------------------------
+OPENCV_YAML = """%YAML:1.0
+---
+image_width: 640
+image_height: 480
+camera_matrix: !!opencv-matrix
+   rows: 3
+   cols: 3
+   dt: d
+   data: [ 533.5, 0., 341.6, 0., 533.5, 235.2, 0., 0., 1. ]
+distortion_coefficients: !!opencv-matrix
+   rows: 1
+   cols: {n}
+   dt: d
+   data: [ {data} ]
+"""
+
+
+def opencv_yaml(data, n=None):
+    return OPENCV_YAML.format(n=len(data.split(",")) if n is None else n, data=data)
+
+
+@pytest.mark.parametrize("name, text, message", [
+    ("six.yml", opencv_yaml("0.1, 0.1, 0, 0, 0.1, 0.1"),
+     r"six.yml: RadTanCamera got 6 distortion coefficients: 6 fits no model"),
+    ("prism.yml", opencv_yaml("0.1, 0.1, 0, 0, 0, 0, 0, 0, 0.01, 0, 0, 0"),
+     r"prism.yml: .*12 coefficients are OpenCV's thin-prism model"),
+    ("nan.yml", opencv_yaml(".Nan, 0.1, 0, 0, 0"),
+     r"nan.yml: distortion_coefficients contains NaN"),
+    ("missing.yml", OPENCV_YAML.split("distortion_coefficients")[0],
+     r"missing.yml: missing key 'distortion_coefficients' \(OpenCV FileStorage"),
+    ("shape.yml", opencv_yaml("0.1, 0.1, 0, 0, 0", n=4), r"shape.yml: distortion_coefficients is 1 x 4 but holds 5"),
+    ("fisheye5.yml", opencv_yaml("0.1, 0.1, 0, 0, 0") + "fisheye_model: 1\n",
+     r"fisheye5.yml: FisheyeCamera got 5 distortion coefficients: RadTanCamera takes 5"),
+    ("flag.yml", opencv_yaml("0.1, 0.1, 0, 0, 0") + "fisheye_model: 2\n", "fisheye_model must be 0 or 1"),
+    ("size.yml", opencv_yaml("0.1, 0.1, 0, 0, 0").replace("image_height: 480", "image_height: -1"),
+     "size.yml: image_width and image_height must be positive integers"),
+    ("skew.yml", opencv_yaml("0.1, 0.1, 0, 0, 0").replace("533.5, 0., 341.6", "533.5, 2., 341.6"),
+     "skew.yml: RadTanCamera: OpenCV's radial-tangential model has no skew"),
+    ("ros.yaml", ros_text("fisheye_thing", FISHEYE), r"ROS distortion_model 'fisheye_thing' is not supported"),
+    ("ros5.yaml", ros_text("equidistant", RATIONAL[:5]), r"ROS distortion_model equidistant takes 4 coefficients, got 5"),
+    ("rosnan.yaml", ros_text("plumb_bob", [0.1] * 5, K=[[533.5, 0, float("nan")], [0, 533.5, 235.2], [0, 0, 1]]),
+     r"rosnan.yaml: camera_matrix contains NaN"),
+    ("omni.yaml", kalibr_text(camera_model="omni", intrinsics=[0.8, 533.5, 533.5, 341.6, 235.2]),
+     r"cam0 has Kalibr camera_model 'omni' \(the unified omnidirectional model\), which is not supported"),
+    ("ds.yaml", kalibr_text(camera_model="ds"), r"'ds' \(the double sphere model\)"),
+    ("fov.yaml", kalibr_text(distortion_model="fov", distortion_coeffs=[0.9]),
+     r"Kalibr distortion_model 'fov', which is not supported"),
+    ("k5.yaml", kalibr_text(distortion_coeffs=[0.1] * 5), "takes 4 coefficients .*got 5"),
+    ("nokey.yaml", kalibr_text(drop=["intrinsics"]),
+     r"missing key 'intrinsics' \(Kalibr camchain camera cam0\)"),
+    ("list.yaml", "- 1\n- 2\n", "not a camera calibration: expected a mapping"),
+    ("other.yaml", "foo: 1\nbar: 2\n", r"no calibration format graphpose reads .*\['bar', 'foo'\]"),
+    ("bad.yaml", "a: [1, 2\n", "cannot parse .*bad.yaml as YAML"),
+    ("bad.xml", "<opencv_storage><a>", "cannot parse .*bad.xml as XML"),
+    ("root.xml", "<calibration/>", r"must be OpenCV FileStorage \(<opencv_storage>\), got <calibration>"),
+    ("model.json", '{"model": "omni", "K": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}',
+     r"model.json: camera model 'omni' is not supported; graphpose's camera models are pinhole"),
+    ("nodist.json", '{"model": "radtan", "K": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}',
+     r"missing key 'distortion' \(a radtan camera\)"),
+    ("pinhole.json", '{"model": "pinhole", "K": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "distortion": [0.1]}',
+     "a pinhole camera has no distortion"),
+    ("k.json", '{"model": "pinhole", "K": [[1, 0], [0, 1]]}', r"K must hold 9 numbers"),
+    ("text.json", '{"model": "pinhole", "K": "eye"}', r"K must be numbers"),
+    ("sizes.json", '{"model": "pinhole", "K": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "size": 640}',
+     r"size must be \[width, height\]"),
+])
+def test_bad_files_are_clear_errors(tmp_path, name, text, message):
+    path = write(tmp_path, name, text)
+    with pytest.raises(InputError, match=message):
+        read_camera(path)
+
+
+def test_missing_unreadable_and_misnamed(tmp_path):
+    with pytest.raises(InputError, match="calibration file not found: .*nope.yaml"):
+        read_camera(tmp_path / "nope.yaml")
+    (tmp_path / "latin.yaml").write_bytes(b"camera_name: \xe9\n")
+    with pytest.raises(InputError, match="cannot read calibration file .*latin.yaml"):
+        read_camera(tmp_path / "latin.yaml")
+    ros = write(tmp_path, "ros.yaml", ros_text("plumb_bob", [0.1] * 5))
+    with pytest.raises(InputError, match=r"asked for camera 'left', but .* camera_name 'cam'"):
+        read_camera(ros, "left")
+    chain = write(tmp_path, "chain.yaml", kalibr_text())
+    with pytest.raises(InputError, match=r"no camera 'cam2' in this Kalibr camchain; it holds cam0, cam1"):
+        read_camera(chain, "cam2")
+    ocv = write(tmp_path, "ocv.yml", opencv_yaml("0.1, 0.1, 0, 0, 0"))
+    with pytest.raises(InputError, match=r"holds one camera \(OpenCV FileStorage calibration\)"):
+        read_camera(ocv, "cam0")
+    js = tmp_path / "c.json"
+    write_camera(js, K)
+    with pytest.raises(InputError, match=r"holds one camera \(graphpose camera file\)"):
+        read_camera(js, "cam0")
+    with pytest.raises(InputError, match="cannot write"):
+        write_camera(tmp_path / "no" / "such" / "c.json", K)
