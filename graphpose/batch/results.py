@@ -176,7 +176,7 @@ class ParquetResults(Results):
                 raise InputError(f"results {self.path}: cannot read the part {part.name}: {exc}") from None
             self.done.update(images)
         self._schema = arrow_schema()
-        self._run = f"{time.strftime('%Y%m%dT%H%M%S')}-{uuid.uuid4().hex[:8]}"
+        self._run = uuid.uuid4().hex[:8]
 
     def write(self, record: dict) -> None:
         self._rows.append(flat_row(record))
@@ -192,7 +192,9 @@ class ParquetResults(Results):
             return
         pa, pq = _pyarrow(), _pyarrow("parquet")
         table = pa.Table.from_pylist(self._rows, schema=self._schema)
-        name = f"part-{self._run}-{self._parts:06d}.parquet"
+        stamp = time.time_ns()  # names sort in the order the parts were written, across runs
+        when = time.strftime("%Y%m%dT%H%M%S", time.gmtime(stamp // 10**9)) + f".{stamp % 10**9:09d}"
+        name = f"part-{when}-{self._run}-{self._parts:06d}.parquet"
         tmp = self.path / f".{name}.tmp"
         pq.write_table(table, tmp)
         os.replace(tmp, self.path / name)
@@ -322,7 +324,7 @@ def read_results(path) -> list:
 
 
 def _parts(folder: Path) -> list:
-    """The part files of a Parquet data set, oldest run first (names carry the time)."""
+    """The part files of a Parquet data set, oldest first (names start with the time, UTC)."""
     return sorted(p for p in folder.glob("*.parquet") if p.is_file() and not p.name.startswith((".", "_")))
 
 

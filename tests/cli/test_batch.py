@@ -1,0 +1,101 @@
+"""``graphpose batch`` as a user runs it: its options and errors, the default local cluster, and
+a second run that has nothing left to do. The cluster behaviour itself (many images, lost
+workers, stopped clients) is tested in tests/batch/."""
+
+import subprocess
+import sys
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+from graphpose import Board
+from graphpose.batch import read_results
+from graphpose.cli import main
+from graphpose.image import read_image
+from graphpose.pose.estimate import estimate_pose
+from graphpose.synth.render import loose_polygon, random_pose, render
+from tests.batch.helpers import SIZE, half_K
+
+pytest.importorskip("distributed")
+
+
+def graphpose(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "graphpose", *map(str, args)], cwd=cwd, check=False,
+                          capture_output=True, text=True, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def same_pose_images(tmp_path_factory):
+    """Three 320 x 240 images of one pose (their noise differs), one polygon for all, and the
+    single-image estimate of each."""
+    folder = tmp_path_factory.mktemp("same-pose")
+    K, board = half_K(), Board()
+    rng = np.random.default_rng(11)
+    T = random_pose(rng, K, board, SIZE)
+    poly = None
+    for k in range(3):
+        rendering = render(K, T, board, SIZE, rng=rng)
+        poly = loose_polygon(rendering, rng) if poly is None else poly
+        iio.imwrite(folder / f"frame_{k}.png", rendering.image)
+    expected = {str(p): estimate_pose(read_image(p), poly, K, board) for p in sorted(folder.glob("*.png"))}
+    return folder, K, poly, expected
+
+
+def test_importing_and_parsing_loads_no_dask_nor_pyarrow():
+    code = ("import sys, graphpose, graphpose.batch, graphpose.cli.batch; from graphpose.cli import build_parser; "
+            "build_parser(); heavy = sorted({m.split('.')[0] for m in sys.modules} & {'dask', 'distributed', "
+            "'pyarrow'}); print(heavy); sys.exit(1 if heavy else 0)")
+    done = subprocess.run([sys.executable, "-c", code], check=False, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_help_names_the_options(capsys):
+    assert main(["batch", "--help"]) == 0
+    text = capsys.readouterr().out
+    for option in ("--out", "--K", "--board", "--bounds-file", "--workers", "--scheduler", "--images-per-task",
+                   "--flush-seconds", "dask scheduler"):
+        assert option in text
+
+
+@pytest.mark.parametrize("extra, fragment", [
+    (["--out", "r.csv"], "must end in .parquet"),
+    (["--out", "nowhere/r.jsonl"], "does not exist"),
+    (["--out", "r.jsonl", "--workers", "0"], "--workers: expected a whole number >= 1"),
+    (["--out", "r.jsonl", "--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], "not allowed with"),
+    (["--out", "r.jsonl", "--bounds", "0,0,1,0,1,1,0,1", "--bounds-file", "b.json"], "not allowed with"),
+    (["--out", "r.jsonl", "--bounds-file", "b.json"], "names none of the 3 images"),
+    (["--out", "r.jsonl", "--images-per-task", "x"], "--images-per-task"),
+])
+def test_usage_errors_stop_before_any_cluster(same_pose_images, tmp_path, monkeypatch, capsys, extra, fragment):
+    folder = same_pose_images[0]
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "b.json").write_text('{"elsewhere.png": null}')
+    assert main(["batch", str(folder), *extra]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and fragment in lines[0], lines
+    assert not (tmp_path / "r.jsonl").exists()
+
+
+def test_missing_inputs_are_an_error(tmp_path, capsys):
+    assert main(["batch", str(tmp_path / "*.png"), "--out", str(tmp_path / "r.jsonl")]) == 2
+    assert "matches no file" in capsys.readouterr().err
+
+
+def test_local_cluster_run_then_a_second_run_with_nothing_left(same_pose_images, tmp_path):
+    folder, K, poly, expected = same_pose_images
+    out = tmp_path / "r.jsonl"
+    k_option = ",".join(repr(float(v)) for v in (K[0, 0], K[1, 1], K[0, 2], K[1, 2]))
+    bounds = ",".join(repr(float(x)) for x in poly.T.ravel())
+    args = ["batch", folder, "--out", out, "--K", k_option, "--bounds", bounds, "--workers", "1"]
+    first = graphpose(*args)
+    assert first.returncode == 0, first.stderr
+    assert first.stdout.startswith("3 images: 3 ok; 0 skipped"), first.stdout
+    rows = read_results(out)
+    assert sorted(r["image"] for r in rows) == sorted(expected)
+    for row in rows:
+        assert np.array_equal(np.array(row["T_WC"]), expected[row["image"]].T_WC)
+    second = graphpose(*args)
+    assert second.returncode == 0, second.stderr
+    assert second.stdout.startswith("0 images: 0 ok; 3 skipped"), second.stdout
+    assert read_results(out) == rows
