@@ -1,9 +1,8 @@
 """Camera models: OpenCV's definitions (against OpenCV itself), inverses over whole images,
-analytic Jacobians against central differences, GTSAM's calibrations against ours, checks."""
+analytic Jacobians against central differences, GTSAM's calibrations against ours, checks.
+(docs/cameras.md's examples run in tests/test_docs.py, with every page's.)"""
 
 import dataclasses
-import os
-import re
 
 import numpy as np
 import pytest
@@ -19,7 +18,6 @@ from graphpose.cameras import (
     as_camera,
     check_image_size,
 )
-from tests.conftest import REPO
 
 # The left camera of OpenCV's stereo samples (its README), and stronger lenses.
 K_SAMPLE = [[533.5, 0.0, 341.6], [0.0, 533.5, 235.2], [0.0, 0.0, 1.0]]
@@ -359,24 +357,3 @@ def test_check_image_size():
         check_image_size(camera, (600, 800), what="left01.png")
     with pytest.raises(InputError, match="height, width"):
         check_image_size(camera, (480,))
-
-
-# ---- the documentation's examples run as written -----------------------------------------------
-DOC = REPO / "docs" / "cameras.md"
-BLOCKS = re.findall(r"```python\n(.*?)```", DOC.read_text(), flags=re.DOTALL) if DOC.exists() else []
-
-
-def test_docs_have_examples():
-    assert len(BLOCKS) >= 3
-
-
-@pytest.mark.parametrize("index", range(len(BLOCKS)))
-def test_docs_example_runs(index, monkeypatch, tmp_path):
-    block = BLOCKS[index]
-    if "../shared/data" in block and not (REPO.parent / "shared" / "data").is_dir():
-        if os.environ.get("GRAPHPOSE_REQUIRE_REAL") == "1":
-            pytest.fail("the shared data folder is absent and GRAPHPOSE_REQUIRE_REAL=1")
-        pytest.skip("the shared data folder is absent")
-    monkeypatch.chdir(REPO)
-    # A fresh namespace per block: each runs on its own, as a reader would paste it.
-    exec(compile(block, f"{DOC}:block{index}", "exec"), {"__name__": "__doc_example__"})  # noqa: S102
