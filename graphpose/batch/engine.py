@@ -138,7 +138,7 @@ def local_cluster(workers: int | None = None):
     n = workers if workers is not None else len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") \
         else (os.cpu_count() or 1)
     return distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                    dashboard_address=None, silence_logs=logging.ERROR)
+                                    dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
 
 
 def _items(paths, bounds) -> list:

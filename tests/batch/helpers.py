@@ -131,12 +131,14 @@ class SubprocessCluster:
         env = dict(os.environ, DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES="0")
         dask = [sys.executable, "-m", "dask"]
         try:
-            self._start(dask + ["scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+            # --no-dashboard still serves HTTP (health, metrics): on 127.0.0.1 too, at a free port.
+            http = ["--no-dashboard", "--dashboard-address", "127.0.0.1:0"]
+            self._start(dask + ["scheduler", "--host", "127.0.0.1", "--port", "0", *http,
                                 "--scheduler-file", str(self.scheduler_file), "--idle-timeout", "600"], env, "scheduler")
             self.address = self._wait_for_address()
             for k in range(n_workers):
                 self._start(dask + ["worker", "--scheduler-file", str(self.scheduler_file), "--host", "127.0.0.1",
-                                    "--nthreads", "1", "--no-dashboard", "--name", f"w{k}", "--death-timeout", "60"],
+                                    "--nthreads", "1", *http, "--name", f"w{k}", "--death-timeout", "60"],
                             env, f"worker{k}")
             self._wait_for_workers(n_workers)
         except BaseException:
