@@ -7,10 +7,13 @@ expected and what came. Public functions call these once, at the edge; the numer
 behind them trusts its callers.
 
 Concepts: arrays of numbers (:func:`as_float_array`), point sets (:func:`as_points`),
-intrinsics (:func:`check_K`), poses (:func:`check_transform`), bounding polygons
-(:func:`check_bounds`), correspondences (:func:`check_correspondences`), points in front
-of a camera (:func:`check_in_front`), and scalar settings and ranges (:func:`check_number`,
-:func:`check_range`, :func:`check_count`, :func:`check_size`).
+images (:func:`check_image`), polygons (:func:`as_polygon`) and a board's bounding
+polygon in an image (:func:`check_bounds`), intrinsics (:func:`check_K`), poses
+(:func:`check_transform`), correspondences (:func:`check_correspondences`), points in front
+of a camera (:func:`check_in_front`), boards (:func:`check_board`), and scalar settings and
+ranges (:func:`check_number`, :func:`check_range`, :func:`check_count`, :func:`check_size`).
+Other modules raise InputError themselves only for what belongs to them alone (a file's
+syntax, a parameter no other function has).
 """
 
 from __future__ import annotations
@@ -132,6 +135,78 @@ def as_points(P, dim: int, name: str = "points", min_count: int = 1) -> np.ndarr
     return P
 
 
+def as_polygon(P, name: str = "polygon", vertices=None) -> np.ndarray:
+    """Validate a polygon in the image, (2, m) vertices (u, v) in pixels, as float64.
+
+    Parameters
+    ----------
+    P : (2, m) array_like
+        Vertices, row 0 = u, row 1 = v.
+    name : str
+        The parameter's name in messages.
+    vertices : int, optional
+        The number of vertices required (4 for a board's bounds); any m >= 3 when None.
+
+    Raises
+    ------
+    InputError
+        If it is not a finite array of real numbers of shape (2, m), m >= 3 (or
+        ``(2, vertices)``).
+    """
+    P = as_float_array(P, name)
+    if vertices is not None and P.shape != (2, vertices):
+        raise InputError(f"{name} must have shape (2, {vertices}) (u and v of {vertices} vertices), got {P.shape}")
+    if P.ndim != 2 or P.shape[0] != 2 or P.shape[1] < 3:
+        raise InputError(f"{name} must have shape (2, m) with m >= 3 vertices (u and v), got {P.shape}")
+    if not np.all(np.isfinite(P)):
+        raise InputError(f"{name} contains NaN or infinite values")
+    return P
+
+
+def check_image(image, name: str = "image", *, min_side: int = 1, colour: bool = True) -> np.ndarray:
+    """Validate an image and return it as an array of its own dtype (not converted, not copied).
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, 3|4) array_like
+        Grey, or colour with an optional alpha channel; bool, integer or float.
+    name : str
+        The parameter's name in messages ("image", "I", "frame 3").
+    min_side : int
+        Smallest height and width accepted, pixels.
+    colour : bool
+        Whether (H, W, 3|4) colour is accepted; only (H, W) when False.
+
+    Returns
+    -------
+    image : ndarray
+        ``np.asarray(image)``.
+
+    Raises
+    ------
+    InputError
+        If it is empty, has another shape, is smaller than ``min_side`` either way, is not of
+        a numeric dtype, or holds NaN or infinite values.
+    """
+    try:
+        I = np.asarray(image)
+    except (TypeError, ValueError):  # ragged nests
+        raise InputError(f"{name} must be a rectangular array of real numbers, got {_describe(image)}") from None
+    if I.dtype.kind not in "biuf":
+        raise InputError(f"{name} has unsupported dtype {I.dtype} (bool, integer or float pixels)")
+    if I.size == 0:
+        raise InputError(f"{name} is empty, shape {I.shape}")
+    grey = I.ndim == 2
+    if not (grey or (colour and I.ndim == 3 and I.shape[2] in (3, 4))):
+        form = "2-D grey or (H, W, 3|4) colour" if colour else "2-D"
+        raise InputError(f"{name} must be {form}, got shape {I.shape}")
+    if min(I.shape[:2]) < min_side:
+        raise InputError(f"{name} must be at least {min_side} x {min_side} pixels, got shape {I.shape}")
+    if I.dtype.kind == "f" and not np.all(np.isfinite(I)):
+        raise InputError(f"{name} contains NaN or infinite values")
+    return I
+
+
 def check_correspondences(K, Ipts, Wpts, mask=None):
     """Validate K, image and target points and a trust mask at a public edge.
 
@@ -213,38 +288,35 @@ def check_bounds(bounds, shape, name: str = "bounds") -> np.ndarray:
     bounds : (2, 4) array_like
         Vertices (u, v), pixels, clockwise in the image (v down) from the vertex nearest
         the board's upper-left junction.
-    shape : tuple of int
-        The image's ``(height, width)``.
+    shape : tuple of int or None
+        The image's ``(height, width)``; None leaves out the test against the image.
     name : str
         The parameter's name in messages (``"bounds"``, ``"--bounds"``, ``name``).
 
     Raises
     ------
     InputError
-        If it is not a finite 2 x 4 array, lies more than 5 % of the image diagonal off the
-        image, is degenerate, not convex, or runs counter-clockwise.
+        If it is not a finite 2 x 4 array (:func:`as_polygon`), lies more than 5 % of the
+        image diagonal off the image, is degenerate, not convex, or runs counter-clockwise.
     """
-    poly = as_float_array(bounds, name)
-    if poly.shape != (2, 4):
-        raise InputError(f"{name} must have shape (2, 4) (u and v of 4 vertices), got {poly.shape}")
-    if not np.all(np.isfinite(poly)):
-        raise InputError("{name} contains NaN or infinite values")
-    height, width = shape
-    slack = 0.05 * np.hypot(height, width)
-    outside = (poly[0] < -slack) | (poly[0] > width - 1 + slack) | \
-        (poly[1] < -slack) | (poly[1] > height - 1 + slack)
-    if np.any(outside):
-        raise InputError(
-            f"{name} vertices {np.flatnonzero(outside).tolist()} lie off the {width} x {height} image "
-            f"(more than {slack:.0f} px outside): {poly.round(1).tolist()}"
-        )
+    poly = as_polygon(bounds, name, 4)
+    if shape is not None:
+        height, width = shape
+        slack = 0.05 * np.hypot(height, width)
+        outside = (poly[0] < -slack) | (poly[0] > width - 1 + slack) | \
+            (poly[1] < -slack) | (poly[1] > height - 1 + slack)
+        if np.any(outside):
+            raise InputError(
+                f"{name} vertices {np.flatnonzero(outside).tolist()} lie off the {width} x {height} image "
+                f"(more than {slack:.0f} px outside): {poly.round(1).tolist()}"
+            )
     edges = np.roll(poly, -1, axis=1) - poly
     turns = edges[0] * np.roll(edges[1], -1) - edges[1] * np.roll(edges[0], -1)
     area = 0.5 * np.sum(poly[0] * np.roll(poly[1], -1) - np.roll(poly[0], -1) * poly[1])
     if abs(area) < 100.0:
         raise InputError(f"{name} is degenerate (area {abs(area):.1f} px^2): {poly.round(1).tolist()}")
     if area < 0:
-        raise InputError("{name} must run clockwise (in the image, v down) from the upper-left vertex")
+        raise InputError(f"{name} must run clockwise (in the image, v down) from the upper-left vertex")
     if np.any(turns <= 0):
         raise InputError(f"{name} must be a convex quadrilateral, got {poly.round(1).tolist()}")
     return poly

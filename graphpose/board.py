@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._checks import as_float_array
+from ._checks import as_float_array, as_points, check_count, check_number
 from .errors import InputError
 
 
@@ -34,12 +34,8 @@ class Board:
 
     def __post_init__(self):
         for name in ("cols", "rows"):
-            value = getattr(self, name)
-            if not isinstance(value, (int, np.integer)) or value < 2:
-                raise InputError(f"Board {name} must be an integer >= 2, got {value!r}")
-        square = as_float_array(self.square_m, "Board square_m", shape=())
-        if not np.isfinite(square) or square <= 0:
-            raise InputError(f"Board square_m must be a positive number of metres, got {self.square_m!r}")
+            check_count(f"Board {name}", getattr(self, name), 2)
+        check_number("Board square_m (metres)", self.square_m, 0.0, strict=True)
 
     @property
     def n(self) -> int:
@@ -123,11 +119,7 @@ class Board:
         InputError
             If the points are not such a grid.
         """
-        W = as_float_array(Wpts, "Wpts")
-        if W.ndim != 2 or W.shape[0] != 3 or W.shape[1] < 4:
-            raise InputError(f"Wpts must have shape (3, n) with n >= 4, got {W.shape}")
-        if not np.all(np.isfinite(W)):
-            raise InputError("Wpts contains NaN or infinite values")
+        W = as_points(Wpts, 3, "Wpts", min_count=4)
         steps = np.diff(W[0])
         square = float(np.max(steps)) if steps.size else 0.0
         if square <= 0:

@@ -9,13 +9,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ._checks import check_image
 from .errors import InputError
 
 #: ITU-R BT.601 luma weights for R, G, B.
 _LUMA = np.array([0.299, 0.587, 0.114])
 
 
-def as_grey(image) -> np.ndarray:
+def as_grey(image, *, min_side: int = 1) -> np.ndarray:
     """Convert an image to a float64 grey array scaled to [0, 1].
 
     Parameters
@@ -23,6 +24,8 @@ def as_grey(image) -> np.ndarray:
     image : (H, W), (H, W, 3) or (H, W, 4) array_like
         uint8 (scaled by 1/255), uint16 (by 1/65535), bool, or float (kept as is).
         Colour is converted with ITU-R 601 luma weights; alpha is dropped.
+    min_side : int
+        Smallest height and width accepted, pixels.
 
     Returns
     -------
@@ -33,32 +36,19 @@ def as_grey(image) -> np.ndarray:
     Raises
     ------
     InputError
-        If the array is empty, has another shape, or holds NaN or infinite values.
+        As :func:`graphpose._checks.check_image`: empty, another shape or a non-numeric
+        dtype, smaller than ``min_side``, or NaN or infinite values.
     """
-    I = np.asarray(image)
-    if I.size == 0:
-        raise InputError("image is empty")
-    if I.ndim == 3 and I.shape[2] in (3, 4):
-        return _finite(_scale(I[..., :3]) @ _LUMA)
-    if I.ndim != 2:
-        raise InputError(f"image must be 2-D grey or (H, W, 3|4) colour, got shape {I.shape}")
-    return _finite(_scale(I))
-
-
-def _scale(I: np.ndarray) -> np.ndarray:
+    I = check_image(image, min_side=min_side)
+    if I.ndim == 3:
+        I = I[..., :3]
     if I.dtype == np.uint8:
-        return I.astype(float) / 255.0
-    if I.dtype == np.uint16:
-        return I.astype(float) / 65535.0
-    if I.dtype.kind in "biuf":
-        return I.astype(float, copy=False)
-    raise InputError(f"image has unsupported dtype {I.dtype}")
-
-
-def _finite(I: np.ndarray) -> np.ndarray:
-    if not np.all(np.isfinite(I)):
-        raise InputError("image contains NaN or infinite values")
-    return I
+        I = I.astype(float) / 255.0
+    elif I.dtype == np.uint16:
+        I = I.astype(float) / 65535.0
+    else:
+        I = I.astype(float, copy=False)
+    return I @ _LUMA if I.ndim == 3 else I
 
 
 def read_image(path) -> np.ndarray:

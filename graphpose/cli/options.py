@@ -12,6 +12,7 @@ import re
 
 import numpy as np
 
+from .._checks import check_count, check_number, check_range
 from ..board import Board
 from ..camera import K_from_params
 from ..errors import InputError
@@ -71,13 +72,34 @@ def parse_board(text: str) -> Board:
 
 def parse_positive(text: str) -> float:
     """A positive finite number; ArgumentTypeError otherwise."""
+    return _checked(text, lambda: check_number("", float(text), 0.0, strict=True), "a positive number")
+
+
+def parse_non_negative(text: str) -> float:
+    """A finite number >= 0; ArgumentTypeError otherwise."""
+    return _checked(text, lambda: check_number("", float(text), 0.0), "a number >= 0")
+
+
+def parse_count(minimum: int):
+    """Parser of an integer >= ``minimum``; ArgumentTypeError otherwise."""
+    return lambda text: _checked(text, lambda: check_count("", int(text), minimum), f"an integer >= {minimum}")
+
+
+def parse_distance(text: str) -> tuple:
+    """``"NEAR,FAR"`` metres, ``0 < NEAR <= FAR``; ArgumentTypeError otherwise."""
     try:
-        value = float(text)
+        near, far = (float(v) for v in text.split(","))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
-    if not (np.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
+        raise argparse.ArgumentTypeError(f"expected NEAR,FAR in metres, got {text!r}") from None
+    return _checked(text, lambda: check_range("", (near, far), "", 0.0, strict=True), "0 < NEAR <= FAR")
+
+
+def _checked(text: str, check, expected: str):
+    """``check()``, with its ValueError (InputError included) as argparse's 'expected ..., got TEXT'."""
+    try:
+        return check()
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
 
 
 def _numbers(text, counts, name, form) -> np.ndarray:

@@ -13,10 +13,16 @@ import sys
 import textwrap
 from pathlib import Path
 
-import numpy as np
-
 from . import EXIT_OK
-from .options import Progress, add_target_options, parse_positive, target_from_args
+from .options import (
+    Progress,
+    add_target_options,
+    parse_count,
+    parse_distance,
+    parse_non_negative,
+    parse_positive,
+    target_from_args,
+)
 
 _EXAMPLES = """\
 examples:
@@ -40,53 +46,18 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.set_defaults(command="render")  # the module that runs it (graphpose/cli/render.py)
     p.add_argument("out_dir", type=Path, metavar="OUT_DIR", help="folder to write (created if absent)")
-    p.add_argument("--frames", type=_integer(2), default=300, help="number of frames (default 300)")
-    p.add_argument("--seed", type=_integer(0), default=0, help="random seed, >= 0 (default 0)")
+    p.add_argument("--frames", type=parse_count(2), default=300, help="number of frames (default 300)")
+    p.add_argument("--seed", type=parse_count(0), default=0, help="random seed, >= 0 (default 0)")
     p.add_argument("--fps", type=parse_positive, default=30.0, help="frame rate (default 30)")
-    p.add_argument("--noise", type=_non_negative, default=2.0, help="Gaussian noise, grey levels of 255 (default 2)")
-    p.add_argument("--blur", type=_non_negative, default=1.0, help="optical blur sigma, pixels (default 1)")
-    p.add_argument("--distance", type=_pair, default=(0.6, 1.3), metavar="NEAR,FAR",
+    p.add_argument("--noise", type=parse_non_negative, default=2.0,
+                   help="Gaussian noise, grey levels of 255 (default 2)")
+    p.add_argument("--blur", type=parse_non_negative, default=1.0, help="optical blur sigma, pixels (default 1)")
+    p.add_argument("--distance", type=parse_distance, default=(0.6, 1.3), metavar="NEAR,FAR",
                    help="range of the board centre's distance, metres (default 0.6,1.3)")
-    p.add_argument("--excursions", type=_integer(0), default=2, help="whip pans out of view (default 2)")
+    p.add_argument("--excursions", type=parse_count(0), default=2, help="whip pans out of view (default 2)")
     add_target_options(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no summary on stdout")
     return p
-
-
-def _integer(minimum: int):
-    """Parser of an integer >= ``minimum``; ArgumentTypeError otherwise."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            value = None
-        if value is None or value < minimum:
-            raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got {text!r}")
-        return value
-
-    return parse
-
-
-def _non_negative(text: str) -> float:
-    """A finite number >= 0; ArgumentTypeError otherwise."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not (np.isfinite(value) and value >= 0):
-        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}")
-    return value
-
-
-def _pair(text: str) -> tuple:
-    try:
-        near, far = (float(v) for v in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected NEAR,FAR in metres, got {text!r}") from None
-    if not (np.isfinite(far) and 0 < near <= far):
-        raise argparse.ArgumentTypeError(f"expected 0 < NEAR <= FAR, got {text!r}")
-    return near, far
 
 
 def run(args) -> int:

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._checks import check_bounds
+from .._checks import check_bounds, check_number
 from ..board import Board
-from ..errors import BoardNotFoundError, InputError
+from ..errors import BoardNotFoundError
 from .grid import apply_homography, fit_homography, locate_grid, square_sides
 from .refine import (
     MAX_RADIUS,
@@ -57,7 +57,7 @@ class Junctions:
     residual : (n,) ndarray of float64
         RMS residual of the saddle quadric under its fit weights (which sit on the two
         edges near the junction), in grey units of the image scaled to [0, 1] (as
-        :func:`graphpose.io.as_grey`); NaN where the fit failed.
+        :func:`graphpose.image.as_grey`); NaN where the fit failed.
     square_px : (n,) ndarray of float64
         Local square side at each junction, pixels (the smaller height of the parallelogram
         spanned by the grid steps there).
@@ -80,7 +80,7 @@ def cross_junctions(I, bpoly, Wpts) -> np.ndarray:
     Parameters
     ----------
     I : (H, W) or (H, W, 3|4) array_like
-        The image; colour and 16-bit images are converted by :func:`graphpose.io.as_grey`.
+        The image; colour and 16-bit images are converted by :func:`graphpose.image.as_grey`.
     bpoly : (2, 4) array_like
         Bounding polygon of the board, pixels, clockwise from the upper left; its first
         vertex is the one nearest the upper-left junction and its first edge runs along a
@@ -148,14 +148,10 @@ def extract_junctions(I, bounds, board: Board = Board(), *, window: float = WIND
     >>> J.points.shape, J.trusted.all()                                # doctest: +SKIP
     ((2, 48), True)
     """
-    image, scale = grey_and_scale(I)
-    if min(image.shape) < _MIN_SIDE:
-        raise InputError(f"image must be at least {_MIN_SIDE} x {_MIN_SIDE} pixels, got shape {image.shape}")
+    image, scale = grey_and_scale(I, _MIN_SIDE)
     poly = check_bounds(bounds, image.shape)
-    if not 0 < window <= 0.7:
-        raise InputError(f"window must be a fraction of the square in (0, 0.7], got {window!r}")
-    if not np.isfinite(smooth_sigma) or smooth_sigma < 0:
-        raise InputError(f"smooth_sigma must be >= 0 pixels, got {smooth_sigma!r}")
+    window = check_number("window (a fraction of the square)", window, 0.0, strict=True, maximum=0.7)
+    smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
     H_grid = locate_grid(image, poly, board)
     grid = board.grid_indices().astype(float)
     coarse = apply_homography(H_grid, grid)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from .._checks import as_float_array, as_points
+from .._checks import as_float_array, as_points, check_image, check_number
 from ..errors import InputError
 from ..image import as_grey
 from .saddle import fit_quadrics
@@ -43,7 +43,7 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
     Parameters
     ----------
     I : (H, W) or (H, W, 3|4) array_like
-        The image (converted as by :func:`graphpose.io.as_grey`).
+        The image (converted as by :func:`graphpose.image.as_grey`).
     points : (2, m) array_like
         Predicted positions (u, v), pixels; each should be within about a third of the
         window radius of its junction.
@@ -79,22 +79,22 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
         raise InputError(f"half_width must be >= 2 px, a scalar or one per point ({P.shape[1]}), "
                          f"got {radius!r}")
     radius = np.broadcast_to(radius, P.shape[1:]).astype(float)
-    if not np.isfinite(smooth_sigma) or smooth_sigma < 0:
-        raise InputError(f"smooth_sigma must be >= 0 pixels, got {smooth_sigma!r}")
+    smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
     points, trusted, residual = refine_points(image, P, radius, smooth_sigma)
     return points, trusted, residual * scale
 
 
 
-def grey_and_scale(I):
-    """Grey pixels and the factor that scales them to [0, 1], as :func:`graphpose.io.as_grey`.
+def grey_and_scale(I, min_side: int = 1):
+    """Grey pixels and the factor that scales them to [0, 1], as :func:`graphpose.image.as_grey`.
 
     An 8-bit grey image is used as it is (every step but the residual is invariant to the
-    grey scale), which spares converting the whole image for the few pixels read.
+    grey scale), which spares converting the whole image for the few pixels read. Both are
+    checked by :func:`graphpose._checks.check_image`, at least ``min_side`` pixels each way.
     """
-    if isinstance(I, np.ndarray) and I.dtype == np.uint8 and I.ndim == 2 and I.size:
-        return I, 1.0 / 255.0
-    return as_grey(I), 1.0
+    if isinstance(I, np.ndarray) and I.dtype == np.uint8 and I.ndim == 2:
+        return check_image(I, min_side=min_side), 1.0 / 255.0
+    return as_grey(I, min_side=min_side), 1.0
 
 
 

@@ -28,7 +28,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .._checks import as_float_array
+from .._checks import as_float_array, check_image
 from ..errors import InputError, SaddleError
 
 
@@ -84,11 +84,7 @@ def saddle_point(I) -> np.ndarray:
     >>> saddle_point((u - 4.3) * (v - 3.6)).ravel().round(6)
     array([4.3, 3.6])
     """
-    P = as_float_array(I, "I")
-    if P.ndim != 2 or min(P.shape) < 3:
-        raise InputError(f"I must be a 2-D patch of at least 3 x 3 pixels, got shape {P.shape}")
-    if not np.all(np.isfinite(P)):
-        raise InputError("I contains NaN or infinite values")
+    P = as_float_array(check_image(I, "I", min_side=3, colour=False), "I")
     points, saddle, inside, coeffs, _ = fit_quadrics(P[None], None)
     if not saddle[0]:
         a, b, g = coeffs[:3, 0]

@@ -1,10 +1,23 @@
-"""Reading images and case files.
+"""Reading case files and pose files.
 
-A case file is the JSON format of ``../shared/data/rob501/cases.json``: ``K`` (3 x 3),
-optional ``square_m`` and ``grid`` (``{"cols": 8, "rows": 6}``), and ``cases``, each with
-``image`` (a path relative to the file), ``bounds`` (2 x 4 polygon) and optionally
-``guess_T_WC``, ``ref_junctions`` (2 x n) and ``ref_T_WC`` (estimates from elsewhere), and
-``true_T_WC`` and ``true_junctions`` (exact, for images made by :mod:`graphpose.synth.render`).
+A case file is the JSON format of ``../shared/data/rob501/cases.json``:
+
+``K``
+    3 x 3 intrinsics, pixels (required).
+``square_m``
+    Side of a square, metres (optional, 0.0635).
+``grid``
+    The board's inner junctions (optional, 8 x 6): ``{"cols": 8, "rows": 6}`` or
+    ``[8, 6]`` (cols, then rows); either count may be left out of the object. Counts are
+    JSON integers >= 2: ``8.9``, ``8.0``, ``"8"`` and ``true`` are refused.
+``cases``
+    A list of objects, each with ``image`` (a path relative to the file), ``bounds`` (the
+    2 x 4 polygon: a list of the u row and the v row) and optionally ``guess_T_WC`` (4 x 4),
+    ``ref_junctions`` (2 x n) and ``ref_T_WC`` (estimates from elsewhere), and
+    ``true_T_WC`` and ``true_junctions`` (exact, for images made by
+    :mod:`graphpose.synth.render`).
+
+Every error names the file and the field.
 """
 
 from __future__ import annotations
@@ -15,7 +28,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .._checks import as_float_array, as_points, check_K, check_transform
+from .._checks import (
+    as_float_array,
+    as_points,
+    as_polygon,
+    check_count,
+    check_K,
+    check_number,
+    check_transform,
+)
 from ..board import Board
 from ..errors import InputError
 from .files import read_json
@@ -58,27 +79,38 @@ def load_cases(path) -> CaseFile:
         raise InputError(f"case file {path} must hold a JSON object, got {type(doc).__name__}")
     try:
         K = check_K(doc["K"])
-        grid = doc.get("grid", {})
-        if not isinstance(grid, dict):
-            raise InputError(f'case file {path}: grid must be an object like {{"cols": 8, "rows": 6}}, got {grid!r}')
-        board = Board(int(grid.get("cols", 8)), int(grid.get("rows", 6)), float(doc.get("square_m", 0.0635)))
+        board = _board(doc, path)
         if not isinstance(doc["cases"], list) or not all(isinstance(c, dict) for c in doc["cases"]):
             raise InputError(f"case file {path}: cases must be a list of objects")
         cases = [_case(c, path.parent) for c in doc["cases"]]
     except KeyError as exc:
         raise InputError(f"case file {path} lacks the field {exc}") from None
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"case file {path}: {exc}") from None
+    except InputError as exc:
+        text = str(exc)
+        raise InputError(text if text.startswith(f"case file {path}") else f"case file {path}: {text}") from None
     return CaseFile(K, board, cases)
+
+
+def _board(doc: dict, path: Path) -> Board:
+    """The board of a case file: ``grid`` as an object or a [cols, rows] list, and ``square_m``."""
+    default = Board()
+    grid = doc.get("grid", {})
+    if isinstance(grid, list) and len(grid) == 2:
+        grid = {"cols": grid[0], "rows": grid[1]}
+    if not isinstance(grid, dict):
+        raise InputError(
+            f'case file {path}: grid must be an object {{"cols": 8, "rows": 6}} or a list [8, 6], got {grid!r}')
+    cols = check_count("grid cols", grid.get("cols", default.cols), 2)
+    rows = check_count("grid rows", grid.get("rows", default.rows), 2)
+    square_m = check_number("square_m (metres)", doc.get("square_m", default.square_m), 0.0, strict=True)
+    return Board(cols, rows, square_m)
 
 
 def _case(entry: dict, folder: Path) -> Case:
     image = entry["image"]
     if not isinstance(image, str):
         raise InputError(f"a case's image must be a path string, got {image!r}")
-    bounds = as_float_array(entry["bounds"], f"bounds of {image}")
-    if bounds.shape != (2, 4):
-        raise InputError(f"bounds of {image} must be 2 x 4, got {bounds.shape}")
+    bounds = as_polygon(entry["bounds"], f"bounds of {image}", 4)
 
     def optional(key, check):
         return None if entry.get(key) is None else check(f"{key} of {image}", entry[key])
@@ -107,7 +139,7 @@ def load_pose(path) -> np.ndarray:
     Returns
     -------
     T_WC : (4, 4) ndarray of float64
-        Validated by :func:`graphpose.camera.check_transform`.
+        Validated by :func:`graphpose._checks.check_transform`.
 
     Raises
     ------

@@ -129,7 +129,7 @@ def estimate_pose(image, bounds, K, board: Board = Board(), guess=None, *, robus
     Parameters
     ----------
     image : (H, W) or (H, W, 3|4) array_like
-        The undistorted image (see :func:`graphpose.io.as_grey`).
+        The undistorted image (see :func:`graphpose.image.as_grey`).
     bounds : (2, 4) array_like
         Bounding polygon of the board, pixels, clockwise from the upper left (see
         :func:`graphpose.detect.junctions.extract_junctions`).

@@ -32,6 +32,7 @@ from .._checks import (
     check_correspondences,
     check_in_front,
     check_K,
+    check_number,
     check_transform,
 )
 from ..camera import T_from_params, params_from_T
@@ -246,15 +247,14 @@ def gauss_newton(K, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel_sigm
     Raises
     ------
     InputError
-        On malformed input (see :func:`graphpose.camera.check_correspondences`), a
+        On malformed input (see :func:`graphpose._checks.check_correspondences`), a
         malformed guess, a non-positive ``huber_px`` or ``pixel_sigma``, or a used point behind the camera at
         the guess.
     """
     K, Ipts, Wpts, mask = check_correspondences(K, Ipts, Wpts, mask)
     T_guess = check_transform(T_guess, "T_guess")
-    for name, value in (("huber_px", huber_px), ("pixel_sigma", pixel_sigma)):
-        if value is not None and not (np.isfinite(value) and value > 0):
-            raise InputError(f"{name} must be a positive number of pixels, got {value!r}")
+    huber_px = None if huber_px is None else check_number("huber_px", huber_px, 0.0, strict=True)
+    pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
     return _solve(K, params_from_T(T_guess), Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
 
 

@@ -31,9 +31,13 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, X
 
-from .._checks import check_correspondences, check_in_front, check_transform
+from .._checks import (
+    check_correspondences,
+    check_in_front,
+    check_number,
+    check_transform,
+)
 from ..camera import params_from_T, project, to_camera
-from ..errors import InputError
 
 #: Standard deviation (metres) of the prior that pins each target point: far below anything
 #: the pixels can resolve (about 1e-6 px at 1 m), yet finite so the marginals exist.
@@ -156,15 +160,14 @@ def graph_pose(K, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=Fa
     Raises
     ------
     InputError
-        On malformed input (see :func:`graphpose.camera.check_correspondences`), a
+        On malformed input (see :func:`graphpose._checks.check_correspondences`), a
         non-positive ``pixel_sigma`` or ``huber_k``, or a used point behind the camera at the
         guess.
     """
     K, Ipts, Wpts, mask = check_correspondences(K, Ipts, Wpts, mask)
     T_guess = check_transform(T_guess, "T_guess")
-    for name, value in (("pixel_sigma", pixel_sigma), ("huber_k", huber_k)):
-        if value is not None and not (np.isfinite(value) and value > 0):
-            raise InputError(f"{name} must be a positive number, got {value!r}")
+    pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
+    huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
     check_in_front(to_camera(T_guess, Wpts[:, mask])[2], "the guess", np.flatnonzero(mask))
     if robust and pixel_sigma is None:
         plain = _solve(K, T_guess, Ipts, Wpts, mask, 1.0, None)

@@ -48,8 +48,9 @@ from scipy.ndimage import correlate1d
 from scipy.special import ndtr
 
 from .._checks import (
-    as_points,
+    as_polygon,
     check_board,
+    check_count,
     check_K,
     check_number,
     check_range,
@@ -179,8 +180,7 @@ def render_ideal(
     gradient = check_number("gradient", gradient, 0.0)
     if gradient >= 1.0:
         raise InputError(f"gradient must be in [0, 1), got {gradient!r}")
-    if not isinstance(supersample, (int, np.integer)) or supersample < 1:
-        raise InputError(f"supersample must be an integer >= 1, got {supersample!r}")
+    check_count("supersample", supersample, 1)
     sheet = board.sheet_corners(margin)
     if np.any(to_camera(T_WC, sheet)[2] <= 0):
         raise InputError("the board sheet is not entirely in front of the camera (a corner has depth <= 0)")
@@ -315,8 +315,7 @@ def random_pose(
         raise InputError(f"max_tilt_deg must be below 90, got {max_tilt_deg!r}")
     check_number("margin", margin, 0.0)
     check_number("border_px", border_px)
-    if not isinstance(max_tries, (int, np.integer)) or max_tries < 1:
-        raise InputError(f"max_tries must be an integer >= 1, got {max_tries!r}")
+    check_count("max_tries", max_tries, 1)
     rng = np.random.default_rng(rng)
     sheet = board.sheet_corners(margin)
     centre_W = np.array([(board.cols - 1) / 2, (board.rows - 1) / 2, 0.0]) * board.square_m
@@ -471,12 +470,10 @@ def junction_information(
         As :func:`render_ideal`, or if ``half_width`` or ``noise_sigma`` or ``delta`` is
         not positive.
     """
-    if not isinstance(half_width, (int, np.integer)) or half_width < 1:
-        raise InputError(f"half_width must be an integer >= 1, got {half_width!r}")
-    if check_number("noise_sigma", noise_sigma, 0.0) == 0:
-        raise InputError("noise_sigma must be positive for an information matrix")
-    if delta is not None and check_number("delta", delta, 0.0) == 0:
-        raise InputError("delta must be positive")
+    check_count("half_width", half_width, 1)
+    noise_sigma = check_number("noise_sigma", noise_sigma, 0.0, strict=True)
+    if delta is not None:
+        check_number("delta", delta, 0.0, strict=True)
     K = check_K(K)
     gu, gv = image_gradients(K, T_WC, board, size, delta=delta, **ideal)
     centres = np.rint(project(K, T_WC, board.world_points())).astype(int)
@@ -550,7 +547,7 @@ def polygon_coverage(polygons, size) -> np.ndarray:
     width, height = check_size(size)
     if isinstance(polygons, np.ndarray) and polygons.ndim == 2:
         polygons = [polygons]
-    polys = [as_points(P, 2, "polygon", 3) + 0.5 for P in polygons]
+    polys = [as_polygon(P, "polygon") + 0.5 for P in polygons]
     return _coverage(polys, height, width)
 
 

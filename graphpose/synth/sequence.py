@@ -36,7 +36,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .._checks import check_board, check_count, check_K, check_number, check_range, check_size
+from .._checks import (
+    check_board,
+    check_count,
+    check_K,
+    check_number,
+    check_range,
+    check_size,
+)
 from ..board import Board
 from ..camera import project, rot_x, rot_y, rot_z, to_camera
 from ..errors import InputError
@@ -278,9 +285,7 @@ def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(),
     check_count("excursions", excursions, 0)
     check_count("max_subframes", max_subframes, 1)
     check_count("supersample", supersample, 1)
-    fps = check_number("fps", fps, 0.0)
-    if fps == 0:
-        raise InputError(f"fps must be a positive number, got {fps!r}")
+    fps = check_number("fps", fps, 0.0, strict=True)
     for name, value in (("noise_sigma", noise_sigma), ("blur_sigma", blur_sigma),
                         ("blur_threshold_px", blur_threshold_px)):
         check_number(name, value, 0.0)
@@ -304,7 +309,7 @@ def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(),
         image += rng.normal(0.0, noise_sigma, image.shape)
         images.append(np.clip(np.rint(image), 0, 255).astype(np.uint8))
         poses.append(T)
-        visible.append(_visible(K, T, W, size))
+        visible.append(visible_junctions(K, T, W, size))
         subframes.append(m)
         if progress is not None:
             progress(k, n_frames)
@@ -328,7 +333,25 @@ def _ideal(K, T, board, size, ideal, background, sheet) -> np.ndarray:
     return render_ideal(K, T, board, size, **ideal)
 
 
-def _visible(K, T, W, size) -> int:
+def visible_junctions(K, T, W, size) -> int:
+    """How many junctions a camera sees at least :data:`VISIBLE_BORDER_PX` inside its image.
+
+    Parameters
+    ----------
+    K : (3, 3) ndarray
+        Intrinsics, pixels (trusted).
+    T : (4, 4) ndarray
+        Camera pose T_WC (trusted).
+    W : (3, n) ndarray
+        The junctions' target points, metres.
+    size : (int, int)
+        Image ``(width, height)``, pixels.
+
+    Returns
+    -------
+    int
+        Junctions in front of the camera and inside the image's border.
+    """
     uv = project(K, T, W)
     ok = to_camera(T, W)[2] > 0
     ok &= (uv[0] >= VISIBLE_BORDER_PX) & (uv[0] <= size[0] - 1 - VISIBLE_BORDER_PX)

@@ -14,7 +14,7 @@ import numpy as np
 from skimage import draw
 from skimage.measure import points_in_poly
 
-from .._checks import as_points, check_K
+from .._checks import as_polygon, check_K
 from ..board import Board
 from ..camera import project, to_camera
 from ..image import as_grey
@@ -40,7 +40,7 @@ def draw_overlay(image, estimate, K, board: Board = Board(), *, bounds=None, lab
     Parameters
     ----------
     image : (H, W) or (H, W, 3|4) array_like
-        The image the estimate came from (any dtype :func:`graphpose.io.as_grey` takes).
+        The image the estimate came from (any dtype :func:`graphpose.image.as_grey` takes).
     estimate : PoseEstimate
         Result of :func:`graphpose.pose.estimate.estimate_pose`; uses ``T_WC``, ``params``,
         ``mask`` (the trusted junctions), ``junctions.points`` (none are marked when
@@ -69,7 +69,7 @@ def draw_overlay(image, estimate, K, board: Board = Board(), *, bounds=None, lab
     K = check_K(K)
     grey = as_grey(image)
     if bounds is not None:
-        bounds = as_points(bounds, 2, "bounds", min_count=3)
+        bounds = as_polygon(bounds, "bounds")
     # Dimmed grey keeps the board readable while the saturated marks stand out on black and white.
     canvas = np.repeat((40.0 + 170.0 * np.clip(grey, 0.0, 1.0))[..., None], 3, axis=2)
     T = np.asarray(estimate.T_WC, dtype=float)

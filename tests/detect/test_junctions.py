@@ -16,6 +16,7 @@ from graphpose.camera import project
 from graphpose.pose.gauss_newton import pose_estimate_nls
 from graphpose.synth.render import loose_polygon, random_pose, render
 from tests.conftest import PROJECT_K as K
+
 #: OpenCV findChessboardCornersSB (CALIB_CB_ACCURACY) reprojection RMS on targets 01-06, px.
 #: Copied from issue 2, which set them as the goal (our junctions must fit a pinhole pose at
 #: least as well); not measured by this test. scripts/bench_junctions.py measures OpenCV

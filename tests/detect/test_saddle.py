@@ -109,7 +109,8 @@ def test_saddle_outside_the_patch_raises():
 
 @pytest.mark.parametrize(
     "bad, message",
-    [(np.zeros((0, 0)), "at least 3 x 3"), (np.zeros(9), "2-D"), (np.zeros((2, 5)), "at least 3 x 3"),
+    [(np.zeros((0, 0)), "I is empty"), (np.zeros(9), "I must be 2-D"), (np.zeros((3, 3, 3)), "2-D"),
+     (np.zeros((2, 5)), "at least 3 x 3"),
      (np.full((5, 5), np.nan), "NaN"), ([[1, 2, 3], [4, 5]], "I must be a rectangular array of real numbers")],
 )
 def test_bad_patch_raises_input_error(bad, message):

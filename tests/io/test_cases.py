@@ -3,35 +3,8 @@ import json
 import numpy as np
 import pytest
 
-from graphpose import Board, InputError, T_from_params, as_grey, load_cases, read_image
-
-
-def test_as_grey_scales_dtypes():
-    assert as_grey(np.full((2, 2), 255, np.uint8)).max() == 1.0
-    assert as_grey(np.full((2, 2), 65535, np.uint16)).max() == 1.0
-    rgb = np.zeros((2, 2, 3), np.uint8)
-    rgb[..., 1] = 255
-    np.testing.assert_allclose(as_grey(rgb), 0.587)
-    rgba = np.concatenate([rgb, np.full((2, 2, 1), 7, np.uint8)], axis=2)
-    np.testing.assert_allclose(as_grey(rgba), 0.587)
-
-
-@pytest.mark.parametrize(
-    "image, message",
-    [(np.zeros((0, 0)), "empty"), (np.full((2, 2), np.nan), "NaN"), (np.zeros((2, 2, 2)), "shape")],
-)
-def test_as_grey_rejects(image, message):
-    with pytest.raises(InputError, match=message):
-        as_grey(image)
-
-
-def test_read_image_errors(tmp_path):
-    with pytest.raises(InputError, match="not found"):
-        read_image(tmp_path / "missing.png")
-    junk = tmp_path / "junk.png"
-    junk.write_bytes(b"not a png")
-    with pytest.raises(InputError, match="cannot read"):
-        read_image(junk)
+from graphpose import Board, InputError, T_from_params, load_cases
+from graphpose.io.cases import load_pose
 
 
 def test_real_images_load(real_images):
@@ -39,18 +12,6 @@ def test_real_images_load(real_images):
     for case, image in real_images:
         assert image.shape == (480, 640)
         assert case.bounds.shape == (2, 4)
-
-
-@pytest.mark.parametrize(
-    "image", [np.zeros((2, 2), complex), np.array([["a", "b"]]), np.zeros((2, 2), "datetime64[s]")])
-def test_as_grey_rejects_unsupported_dtypes(image):
-    with pytest.raises(InputError, match="unsupported dtype"):
-        as_grey(image)
-
-
-def test_as_grey_keeps_floats_and_maps_bools():
-    np.testing.assert_array_equal(as_grey(np.array([[0.25, 1.5]], np.float32)), [[0.25, 1.5]])
-    assert as_grey(np.array([[True, False]])).tolist() == [[1.0, 0.0]]
 
 
 K = [[500.0, 0.0, 320.0], [0.0, 500.0, 240.0], [0.0, 0.0, 1.0]]
@@ -89,11 +50,13 @@ def test_load_cases_reads_every_field(tmp_path):
     ({"K": K, "cases": {"image": "a.png"}}, "cases must be a list of objects"),
     ({"K": K, "cases": ["a.png"]}, "cases must be a list of objects"),
     ({"K": "abc", "cases": []}, "K must be a rectangular array"),
-    ({"K": K, "grid": [8, 6], "cases": []}, "grid must be an object"),
-    ({"K": K, "grid": {"cols": "many"}, "cases": []}, "many"),
-    ({"K": K, "square_m": -1, "cases": []}, "square_m must be a positive number"),
+    ({"K": K, "grid": "8x6", "cases": []}, r"grid must be an object \{\"cols\": 8, \"rows\": 6\} or a list \[8, 6\]"),
+    ({"K": K, "grid": [8, 6, 2], "cases": []}, "grid must be an object"),
+    ({"K": K, "grid": {"cols": "many"}, "cases": []}, "grid cols must be an integer >= 2, got 'many'"),
+    ({"K": K, "square_m": -1, "cases": []}, r"square_m \(metres\) must be a finite number > 0, got -1"),
     ({"K": K, "cases": [{"image": 3, "bounds": BOUNDS}]}, "image must be a path string"),
-    ({"K": K, "cases": [{"image": "a.png", "bounds": [[0, 1, 2, 3]]}]}, r"bounds of a.png must be 2 x 4, got \(1, 4\)"),
+    ({"K": K, "cases": [{"image": "a.png", "bounds": [[0, 1, 2, 3]]}]},
+     r"case file .*: bounds of a.png must have shape \(2, 4\) \(u and v of 4 vertices\), got \(1, 4\)"),
     ({"K": K, "cases": [{"image": "a.png", "bounds": [[0, 1], [2]]}]}, "bounds of a.png must be a rectangular array"),
     ({"K": K, "cases": [{"image": "a.png", "bounds": BOUNDS, "ref_junctions": [1, 2]}]},
      r"ref_junctions of a.png must have shape \(2, N\)"),
@@ -109,12 +72,44 @@ def test_load_cases_rejects(tmp_path, doc, message):
         load_cases(_write(tmp_path, doc))
 
 
+@pytest.mark.parametrize("grid, field, value", [
+    ([8.9, 6], "cols", "8.9"), ({"cols": 8.9, "rows": 6}, "cols", "8.9"), ({"rows": 6.5}, "rows", "6.5"),
+    ([8, 0], "rows", "0"), ({"cols": -8}, "cols", "-8"), ([8.0, 6], "cols", "8.0"), (["8", 6], "cols", "'8'"),
+    ({"cols": True}, "cols", "True"), ([1, 6], "cols", "1"),
+])
+def test_load_cases_refuses_counts_that_are_not_integers_of_at_least_2(tmp_path, grid, field, value):
+    # `grid: [8.9, 6]` was once read as 8 columns (and `{"cols": 8.9}` likewise).
+    path = _write(tmp_path, {"K": K, "grid": grid, "cases": []})
+    with pytest.raises(InputError) as info:
+        load_cases(path)
+    assert str(info.value) == f"case file {path}: grid {field} must be an integer >= 2, got {value}"
+
+
+@pytest.mark.parametrize("grid", [[9, 7], {"cols": 9, "rows": 7}])
+def test_load_cases_reads_the_grid_as_a_list_or_an_object(tmp_path, grid):
+    assert load_cases(_write(tmp_path, {"K": K, "grid": grid, "cases": []})).board == Board(9, 7)
+    assert load_cases(_write(tmp_path, {"K": K, "grid": {"rows": 5}, "cases": []})).board == Board(8, 5)
+    assert load_cases(_write(tmp_path, {"K": K, "cases": []})).board == Board()
+
+
 def test_load_cases_missing_file(tmp_path):
     with pytest.raises(InputError, match="case file not found"):
         load_cases(tmp_path / "none.json")
 
 
-def test_as_grey_passes_float64_grey_through_without_a_copy():
-    image = np.random.default_rng(0).random((4, 5))
-    assert as_grey(image) is image
-    assert as_grey(image.astype(np.float32)).dtype == np.float64
+def test_load_pose_forms(tmp_path):
+    T = T_from_params([0.1, 0.2, -1.0, 0.1, -0.2, 0.3])
+    plain, wrapped = tmp_path / "plain.json", tmp_path / "wrapped.json"
+    plain.write_text(json.dumps(T.tolist()))
+    wrapped.write_text(json.dumps({"T_WC": T.tolist()}))
+    np.testing.assert_allclose(load_pose(plain), T)
+    np.testing.assert_allclose(load_pose(wrapped), T)
+    wrapped.write_text(json.dumps([{"image": "a.png", "T_WC": T.tolist()}]))  # --json of one image
+    np.testing.assert_allclose(load_pose(wrapped), T)
+    for text, message in [('{"pose": 1}', "without the key T_WC"), ("[[1, 2]", "cannot read"),
+                          ('[["a"]]', "4 x 4"), (json.dumps((2 * T).tolist()), "not a rotation")]:
+        plain.write_text(text)
+        with pytest.raises(InputError, match=message):
+            load_pose(plain)
+    with pytest.raises(InputError, match="not found"):
+        load_pose(tmp_path / "none.json")

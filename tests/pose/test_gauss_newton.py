@@ -4,8 +4,9 @@ import sys
 import numpy as np
 import pytest
 
-from graphpose import Board, ConvergenceError, InputError
+from graphpose import ConvergenceError, InputError
 from graphpose.camera import C_from_rpy, T_from_params, params_from_T, project
+from graphpose.pose.estimate import pose_difference
 from graphpose.pose.gauss_newton import (
     find_jacobian,
     gauss_newton,
@@ -14,10 +15,10 @@ from graphpose.pose.gauss_newton import (
     reprojection_cost,
 )
 from graphpose.pose.homography import pose_from_homography
+from graphpose.synth.render import perturb_pose
+from tests.conftest import BOARD_WPTS as WPTS
+from tests.conftest import PROJECT_K as K
 from tests.conftest import real_file
-
-K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
-WPTS = Board().world_points()
 
 
 def random_pose(rng, distance=(0.6, 1.5), max_tilt_deg=35.0):
@@ -39,28 +40,12 @@ def random_pose(rng, distance=(0.6, 1.5), max_tilt_deg=35.0):
 
 def perturb(rng, T, max_deg, max_m):
     """T with its rotation turned by up to max_deg about a random axis and moved up to max_m."""
-    axis = rng.normal(size=3)
-    axis /= np.linalg.norm(axis)
-    a = np.radians(rng.uniform(0, max_deg))
-    S = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    R = np.eye(3) + np.sin(a) * S + (1 - np.cos(a)) * S @ S
-    d = rng.normal(size=3)
-    out = T.copy()
-    out[:3, :3] = T[:3, :3] @ R
-    out[:3, 3] += rng.uniform(0, max_m) * d / np.linalg.norm(d)
-    return out
+    return perturb_pose(rng, T, angle_deg=(0.0, max_deg), offset_m=(0.0, max_m))
 
 
 #: Guesses drawn per pose in the basin test before giving up (a draw is refused when it puts
 #: a point behind the camera, which at 30 degrees and 0.5 m happens for a few per cent).
 MAX_GUESS_DRAWS = 20
-
-
-def pose_error(T, T_ref):
-    """Translation (m) and rotation angle (degrees) between two poses."""
-    dR = T[:3, :3].T @ T_ref[:3, :3]
-    angle = np.degrees(np.arccos(np.clip((np.trace(dR) - 1) / 2, -1, 1)))
-    return np.linalg.norm(T[:3, 3] - T_ref[:3, 3]), angle
 
 
 def numeric_jacobian(K, p, W, h=1e-6):
@@ -172,7 +157,7 @@ def test_huber_kernel_resists_an_outlier():
     plain = gauss_newton(K, T, I, WPTS)
     robust = gauss_newton(K, T, I, WPTS, huber_px=0.3)
     assert robust.converged
-    assert pose_error(robust.T_WC, T)[0] < 0.3 * pose_error(plain.T_WC, T)[0]
+    assert pose_difference(robust.T_WC, T)[0] < 0.3 * pose_difference(plain.T_WC, T)[0]
 
 
 def test_iteration_cap_reports_non_convergence():
@@ -219,7 +204,7 @@ def test_convergence_basin_reaches_the_linear_initialiser_pose():
                 continue
         else:
             pytest.fail(f"no guess in {MAX_GUESS_DRAWS} draws had the whole board in front of the camera")
-        dt, dr = pose_error(res.T_WC, T_lin)
+        dt, dr = pose_difference(res.T_WC, T_lin)
         if res.converged and dt < 1e-6 and dr < 1e-5:
             good += 1
         elif res.converged:

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from graphpose import Board, InputError
+from graphpose import InputError
 from graphpose.camera import T_from_params, project, to_camera
 from graphpose.pose.gauss_newton import gauss_newton
 from graphpose.pose.homography import (
@@ -9,9 +9,8 @@ from graphpose.pose.homography import (
     on_target_plane,
     pose_from_homography,
 )
-
-K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
-WPTS = Board().world_points()
+from tests.conftest import BOARD_WPTS as WPTS
+from tests.conftest import PROJECT_K as K
 
 
 def random_pose(rng):

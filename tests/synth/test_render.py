@@ -12,6 +12,7 @@ from skimage.measure import points_in_poly
 from graphpose.board import Board
 from graphpose.camera import K_from_params, T_from_params, project
 from graphpose.errors import InputError
+from graphpose.pose.estimate import pose_difference
 from graphpose.synth.render import (
     Rendering,
     _black_squares_world,
@@ -27,9 +28,8 @@ from graphpose.synth.render import (
     render,
     render_ideal,
 )
+from tests.conftest import PROJECT_K as K_REAL
 from tests.conftest import REPO
-
-K_REAL = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
 
 
 def shoelace(P):
@@ -290,9 +290,9 @@ def test_loose_polygon_and_inset():
 def test_perturb_pose_moves_by_the_requested_amounts():
     T = random_pose(np.random.default_rng(4), K_REAL)
     G = perturb_pose(np.random.default_rng(4), T)
-    angle = np.degrees(np.arccos((np.trace(T[:3, :3].T @ G[:3, :3]) - 1) / 2))
+    metres, angle = pose_difference(G, T)
     assert 8.0 <= angle <= 12.0
-    assert 0.15 <= np.linalg.norm(G[:3, 3] - T[:3, 3]) <= 0.25
+    assert 0.15 <= metres <= 0.25
 
 
 # ------------------------------------------------------------------ errors
@@ -319,9 +319,9 @@ def test_perturb_pose_moves_by_the_requested_amounts():
         (lambda T: random_pose(0, K_REAL, max_tries=0), "max_tries must be"),
         (lambda T: loose_polygon(render(K_REAL, T, rng=0), 0, offset_px=(3, -3)), "offset_px must be"),
         (lambda T: junction_information(K_REAL, T, half_width=0), "half_width must be"),
-        (lambda T: junction_information(K_REAL, T, noise_sigma=0.0), "noise_sigma must be positive"),
-        (lambda T: junction_information(K_REAL, T, delta=0.0), "delta must be positive"),
-        (lambda T: polygon_coverage(np.zeros((2, 2)), (4, 4)), "at least 3"),
+        (lambda T: junction_information(K_REAL, T, noise_sigma=0.0), "noise_sigma must be a finite number > 0"),
+        (lambda T: junction_information(K_REAL, T, delta=0.0), "delta must be a finite number > 0"),
+        (lambda T: polygon_coverage(np.zeros((2, 2)), (4, 4)), "m >= 3 vertices"),
         (lambda T: perturb_pose(0, np.eye(3)), "T_WC must have shape"),
         (lambda T: random_pose(0, K_REAL, distance=1.0), r"distance must be a pair \(near, far\) metres, got 1.0"),
         (lambda T: random_pose(0, K_REAL, distance=(0.0, 1.0)), "distance must be .* low > 0"),
@@ -371,7 +371,7 @@ def test_bundled_truth_is_consistent():
 def test_sheet_just_outside_the_image_renders_background():
     # Sheets beyond the right edge: a few pixels off (inside the blur kernel's reach, where no
     # fine cell of the window is fully covered, which once broke the sparse path) and far off.
-    K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
+    K = K_REAL
     for x in (-0.75, -2.0):
         T = T_from_params([x, 0.0, -1.2, 0.0, 0.0, 0.0])
         assert project(K, T, Board().sheet_corners(0.5))[0].min() > 640

@@ -3,11 +3,15 @@ import json
 import numpy as np
 import pytest
 
-from graphpose import Board, InputError, K_from_params, project
+from graphpose import Board, InputError, project
 from graphpose.io.tum import read_tum
-from graphpose.synth.sequence import HandHeldMotion, render_sequence, write_sequence
-
-K = K_from_params(564.9, 564.3, 337.3, 226.5)
+from graphpose.synth.sequence import (
+    HandHeldMotion,
+    render_sequence,
+    visible_junctions,
+    write_sequence,
+)
+from tests.conftest import PROJECT_K as K
 
 
 @pytest.fixture(scope="module")
@@ -44,9 +48,7 @@ def test_motion_is_smooth_and_excursions_leave_view():
     steps = np.linalg.norm(np.diff(poses[:, :3, 3], axis=0), axis=1)
     assert steps.max() < 0.03  # < 0.9 m/s
     W = Board().world_points()
-    from graphpose.synth.sequence import _visible
-
-    visible = np.array([_visible(K, T, W, (640, 480)) for T in poses])
+    visible = np.array([visible_junctions(K, T, W, (640, 480)) for T in poses])
     out = np.flatnonzero(visible == 0)
     assert out.size >= 4
     # Two separate runs of out-of-view frames, full view before and after each.

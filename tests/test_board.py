@@ -1,0 +1,81 @@
+"""The checkerboard target: junction grid, sheet, parsing, and recovery from its points."""
+
+import json
+
+import numpy as np
+import pytest
+
+from graphpose import Board, InputError
+from tests.conftest import REAL_DIR
+
+
+def test_board_world_points_and_parse():
+    b = Board()
+    W = b.world_points()
+    assert W.shape == (3, 48)
+    np.testing.assert_allclose(W[:, 9], [0.0635, 0.0635, 0.0])
+    assert Board.parse("9x7x0.03") == Board(9, 7, 0.03)
+    assert Board.from_world_points(W) == b
+    with pytest.raises(InputError, match="COLSxROWS"):
+        Board.parse("8x6")
+    with pytest.raises(InputError, match="grid"):
+        Board.from_world_points(W[:, ::-1])
+
+
+def test_grid_indices_are_row_major():
+    np.testing.assert_array_equal(Board(3, 2).grid_indices(), [[0, 1, 2, 0, 1, 2], [0, 0, 0, 1, 1, 1]])
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"cols": 1}, "Board cols must be an integer >= 2, got 1"),
+        ({"rows": 2.0}, "Board rows must be an integer >= 2, got 2.0"),
+        ({"cols": True}, "Board cols must be an integer >= 2, got True"),
+        ({"square_m": 0.0}, r"Board square_m \(metres\) must be a finite number > 0, got 0.0"),
+        ({"square_m": -0.1}, "square_m .* must be a finite number > 0"),
+        ({"square_m": np.inf}, "square_m .* must be a finite number > 0"),
+        ({"square_m": "0.1"}, "square_m .* must be a finite number > 0, got '0.1'"),
+        ({"square_m": [0.1, 0.2]}, r"square_m .* must be a finite number > 0, got \[0.1, 0.2\]"),
+    ],
+)
+def test_board_rejects(kwargs, message):
+    with pytest.raises(InputError, match=message):
+        Board(**kwargs)
+
+
+def test_board_from_world_points_rejects_a_partial_grid():
+    W = Board().world_points()
+    with pytest.raises(InputError, match="47 points is not a full row-major grid"):
+        Board.from_world_points(W[:, :47])  # last row one junction short
+    with pytest.raises(InputError, match="starting at the upper-left junction"):
+        Board.from_world_points(W + [[0.01], [0.0], [0.0]])
+    with pytest.raises(InputError, match=r"Wpts must have shape \(3, N\)"):
+        Board.from_world_points(W[:2])
+    with pytest.raises(InputError, match="Wpts needs at least 4 points"):
+        Board.from_world_points(W[:, :3])
+    with pytest.raises(InputError, match="NaN"):
+        Board.from_world_points(np.where(W == W[0, 5], np.nan, W))
+    with pytest.raises(InputError, match="Wpts must be a rectangular array"):
+        Board.from_world_points([[0.0, 1.0], [0.0]])
+
+
+def test_sheet_corners_border_the_squares_clockwise():
+    b = Board(4, 3, 0.5)
+    np.testing.assert_array_equal(b.sheet_corners(0.0), [[-0.5, 2.0, 2.0, -0.5], [-0.5, -0.5, 1.5, 1.5], [0, 0, 0, 0]])
+    np.testing.assert_array_equal(
+        b.sheet_corners(), [[-0.75, 2.25, 2.25, -0.75], [-0.75, -0.75, 1.75, 1.75], [0, 0, 0, 0]])
+    per_corner = b.sheet_corners([0.0, 1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(per_corner[:2], [[-0.5, 2.5, 3.0, -2.0], [-0.5, -1.0, 2.5, 3.0]])
+
+
+@pytest.mark.parametrize("margin", [-0.1, np.nan, [0.5, 0.5], "wide"])
+def test_sheet_corners_rejects_bad_margin(margin):
+    with pytest.raises(InputError, match="margin must be"):
+        Board().sheet_corners(margin)
+
+
+def test_real_world_points_match_board(real_cases):
+    W = np.asarray(json.loads((REAL_DIR / "cases.json").read_text())["world_points"])
+    assert real_cases.board == Board()
+    np.testing.assert_allclose(Board.from_world_points(W).world_points(), W, atol=1e-12)

@@ -1,0 +1,71 @@
+"""Images in: as_grey's conversions and read_image's files."""
+
+import numpy as np
+import pytest
+
+from graphpose import InputError, as_grey, read_image
+from graphpose.io.files import encode_png
+
+
+def test_as_grey_scales_dtypes():
+    assert as_grey(np.full((2, 2), 255, np.uint8)).max() == 1.0
+    assert as_grey(np.full((2, 2), 65535, np.uint16)).max() == 1.0
+    rgb = np.zeros((2, 2, 3), np.uint8)
+    rgb[..., 1] = 255
+    np.testing.assert_allclose(as_grey(rgb), 0.587)
+    rgba = np.concatenate([rgb, np.full((2, 2, 1), 7, np.uint8)], axis=2)
+    np.testing.assert_allclose(as_grey(rgba), 0.587)
+
+
+@pytest.mark.parametrize(
+    "image, message",
+    [(np.zeros((0, 0)), "empty"), (np.full((2, 2), np.nan), "NaN"), (np.zeros((2, 2, 2)), "shape")],
+)
+def test_as_grey_rejects(image, message):
+    with pytest.raises(InputError, match=message):
+        as_grey(image)
+
+
+def test_read_image_errors(tmp_path):
+    with pytest.raises(InputError, match="not found"):
+        read_image(tmp_path / "missing.png")
+    junk = tmp_path / "junk.png"
+    junk.write_bytes(b"not a png")
+    with pytest.raises(InputError, match="cannot read"):
+        read_image(junk)
+
+
+@pytest.mark.parametrize(
+    "image", [np.zeros((2, 2), complex), np.array([["a", "b"]]), np.zeros((2, 2), "datetime64[s]")])
+def test_as_grey_rejects_unsupported_dtypes(image):
+    with pytest.raises(InputError, match="unsupported dtype"):
+        as_grey(image)
+
+
+def test_as_grey_keeps_floats_and_maps_bools():
+    np.testing.assert_array_equal(as_grey(np.array([[0.25, 1.5]], np.float32)), [[0.25, 1.5]])
+    assert as_grey(np.array([[True, False]])).tolist() == [[1.0, 0.0]]
+
+
+def test_as_grey_passes_float64_grey_through_without_a_copy():
+    image = np.random.default_rng(0).random((4, 5))
+    assert as_grey(image) is image
+    assert as_grey(image.astype(np.float32)).dtype == np.float64
+
+
+def test_as_grey_refuses_an_image_smaller_than_asked():
+    with pytest.raises(InputError, match=r"image must be at least 5 x 5 pixels, got shape \(4, 9\)"):
+        as_grey(np.zeros((4, 9)), min_side=5)
+
+
+def test_read_image_reads_grey_in_0_1(tmp_path):
+    path = tmp_path / "a.png"
+    path.write_bytes(encode_png(np.array([[0, 255], [51, 102]], np.uint8)))
+    np.testing.assert_allclose(read_image(path), [[0.0, 1.0], [0.2, 0.4]])
+
+
+def test_read_image_of_a_folder_says_it_is_a_folder(tmp_path):
+    # It once said "image file not found" of a folder that is there.
+    with pytest.raises(InputError) as info:
+        read_image(tmp_path)
+    assert str(info.value) == f"{tmp_path} is a folder, not an image file"
