@@ -22,6 +22,8 @@ Dask is imported only when a batch starts: ``import graphpose.batch`` does not l
 
 from __future__ import annotations
 
+import asyncio
+import concurrent.futures
 import contextlib
 import itertools
 import logging
@@ -45,6 +47,10 @@ TASK_SECONDS = 0.5
 MAX_IMAGES_PER_TASK = 1000
 #: How long to wait for the first worker of a cluster, seconds.
 WORKER_TIMEOUT_S = 60.0
+
+
+#: What Future.result() raises for a cancelled task (concurrent.futures' in current Dask).
+_CANCELLED = (concurrent.futures.CancelledError, asyncio.CancelledError)
 
 
 class ClusterError(GraphposeError):
@@ -206,24 +212,9 @@ class _Feeder:
         try:
             self._submit(finished)
             for future in finished:
-                items = self.running.pop(future)
-                status = future.status
-                if status == "finished":
-                    records = future.result()
-                    self._learn(records)
-                    del future  # let the cluster forget the task's result
-                    yield from records
-                elif status == "error":
-                    exc = future.exception()
-                    del future
-                    if len(items) > 1:
-                        self.singles.extend(items)
-                    else:
-                        yield failed_record(items[0][0], CRASHED, f"the worker failed on this image: "
-                                            f"{type(exc).__name__}: {' '.join(str(exc).split())}")
-                else:
-                    raise ClusterError(f"the Dask scheduler dropped a task ({status}); the rows written so far "
-                                       f"are kept, run again to do the rest")
+                records = self._records(future, self.running.pop(future))
+                del future  # let the cluster forget the task's result
+                yield from records
                 self._count_threads()
                 self._submit(finished)
         finally:
@@ -231,6 +222,22 @@ class _Feeder:
                 with contextlib.suppress(Exception):  # the connection may already be gone
                     self.client.cancel(list(self.running))
                 self.running.clear()
+
+    def _records(self, future, items) -> list:
+        """The finished task's records; none when its images go back to run one a task."""
+        try:
+            records = future.result()  # waits if the result was lost with a worker and is redone
+        except _CANCELLED:
+            raise ClusterError("the Dask scheduler dropped a task (cancelled); the rows written so far "
+                               "are kept, run again to do the rest") from None
+        except Exception as exc:  # noqa: BLE001  (the task failed: KilledWorker, or a worker-side fault)
+            if len(items) > 1:
+                self.singles.extend(items)
+                return []
+            return [failed_record(items[0][0], CRASHED, f"the worker failed on this image: "
+                                  f"{type(exc).__name__}: {' '.join(str(exc).split())}")]
+        self._learn(records)
+        return records
 
     def _count_threads(self, wait=False):
         """Worker threads of the cluster, asked again every few seconds (workers come and go)."""

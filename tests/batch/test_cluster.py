@@ -116,6 +116,16 @@ def test_client_stopped_by_sigterm_flushes_its_rows_and_resumes(images, cluster,
     check_rows(read_results(out), images)
 
 
+def kill_a_busy_worker(client, stream):
+    """The stream's first row, after which a worker with tasks in hand is killed (SIGKILL)."""
+    first = next(stream)
+    pids = client.run(os.getpid)
+    busy = [address for address, keys in client.processing().items() if keys]
+    assert busy, "the run ended before a worker could be killed"
+    os.kill(pids[busy[0]], signal.SIGKILL)
+    return first
+
+
 def test_a_worker_killed_mid_run_on_the_cluster(images, cluster):
     # allowed-failures 0: the killed worker's tasks fail (KilledWorker) and the batch runs their
     # images again one a task, on the other worker or the restarted one.
@@ -123,13 +133,25 @@ def test_a_worker_killed_mid_run_on_the_cluster(images, cluster):
         client.wait_for_workers(2, timeout=60)
         stream = estimate_many(images.all_paths, images.K, images.board, bounds=images.bounds, client=client,
                                images_per_task=4)
-        rows = [next(stream)]
-        pids = client.run(os.getpid)
-        busy = [address for address, keys in client.processing().items() if keys]
-        assert busy, "the run ended before a worker could be killed"
-        os.kill(pids[busy[0]], signal.SIGKILL)
-        rows += list(stream)
+        rows = [kill_a_busy_worker(client, stream), *stream]
         check_rows(rows, images)
+        client.wait_for_workers(2, timeout=60)
+
+
+def test_an_image_whose_own_task_kills_its_worker_gets_a_crashed_row(images, cluster):
+    # One image a task: a task that fails (allowed-failures 0) cannot be split, so its image
+    # gets a row that says why, and the others go on.
+    with distributed.Client(cluster.address) as client:
+        client.wait_for_workers(2, timeout=60)
+        paths = images.paths[:40]
+        stream = estimate_many(paths, images.K, images.board, bounds=images.bounds, client=client,
+                               images_per_task=1)
+        rows = [kill_a_busy_worker(client, stream), *stream]
+        crashed = [r["image"] for r in rows if r["status"] == "crashed"]
+        assert crashed and all("KilledWorker" in r["message"] for r in rows if r["status"] == "crashed")
+        check_rows([r for r in rows if r["status"] != "crashed"], images,
+                   [p for p in paths if p not in crashed])
+        assert sorted(r["image"] for r in rows) == sorted(paths)
         client.wait_for_workers(2, timeout=60)
 
 
