@@ -1,0 +1,157 @@
+"""Find the board in an image and label its junctions: candidates, lattices, identity.
+
+:func:`find_board` searches the whole image (or, given bounds, starts inside them), grows
+lattices of cross-junctions from the strongest candidates (:mod:`.lattice`), and labels
+each with board indices from the evidence of its edges (:mod:`.identify`). The largest
+lattice that can be labelled is the board. Without bounds, a second lattice that can be
+labelled as a board of its own (half the board's junctions or more, away from the first)
+makes the image ambiguous and is refused: bounds must say which board is meant.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..board import Board
+from ..errors import BoardNotFoundError
+from .identify import identify
+from .lattice import grow_lattices
+from .search import find_candidates
+
+#: Bounds are grown by this fraction of their size (and 4 px) before they select seeds.
+BOUNDS_SLACK = 0.1
+#: Seeds tried for a second board once one is labelled (the strongest come first).
+SECOND_BOARD_SEEDS = 8
+
+
+@dataclass(frozen=True)
+class FoundBoard:
+    """A board found and labelled, before sub-pixel refinement.
+
+    Attributes
+    ----------
+    points : (2, n) ndarray of float64
+        Coarse positions (u, v) of the board's junctions, row-major; NaN where unseen.
+    seen : (n,) ndarray of bool
+        Junctions on the lattice.
+    step_px : (n,) ndarray of float64
+        Local lattice step (pixels) at each seen junction; NaN elsewhere.
+    orientation_ambiguous : bool
+        See :class:`graphpose.detect.identify.Identity`.
+    """
+
+    points: np.ndarray
+    seen: np.ndarray
+    step_px: np.ndarray
+    orientation_ambiguous: bool
+
+
+def find_board(image: np.ndarray, board: Board, bounds=None) -> FoundBoard:
+    """Find and label the board's junctions in a grey image.
+
+    Parameters
+    ----------
+    image : (H, W) ndarray
+        Grey image (uint8 or float).
+    board : Board
+        The board spec.
+    bounds : (2, 4) ndarray, optional
+        Checked outline of the board, clockwise from the corner nearest junction 0: seeds
+        are taken inside it (grown by :data:`BOUNDS_SLACK`) and its first vertex fixes the
+        orientation. Growth and labels come from the image, so bounds a little off change
+        nothing.
+
+    Returns
+    -------
+    FoundBoard
+
+    Raises
+    ------
+    BoardNotFoundError
+        No lattice of cross-junctions, none that can be labelled (the message of the
+        largest says why), or two boards and no bounds to choose.
+    """
+    region = None if bounds is None else _grow(bounds)
+    try:
+        return _search(image, board, bounds, region, level=1)
+    except BoardNotFoundError as coarse:
+        # Squares under about 12 pixels hide at half resolution: look at the full image.
+        try:
+            return _search(image, board, bounds, region, level=0)
+        except BoardNotFoundError as fine:
+            raise max((coarse, fine), key=lambda e: getattr(e, "junctions_seen", 0)) from None
+
+
+def _search(image, board, bounds, region, level) -> FoundBoard:
+    """:func:`find_board` at one search level."""
+    cands = find_candidates(image, region, level=level)
+    where = "inside the bounds" if bounds is not None else "in the image"
+    if cands.points.shape[1] < 4:
+        raise _refusal(f"no checkerboard {where}: {cands.points.shape[1]} junction-like points", 0)
+    labelled, refused, after = [], [], 0
+    for lattice in grow_lattices(cands, max_nodes=8 * board.n):
+        if labelled:
+            after += 1
+            if after > SECOND_BOARD_SEEDS:
+                break
+        if lattice is None or (labelled and _overlaps(lattice, labelled[0][0])):
+            continue
+        try:
+            identity = identify(lattice, cands, board, bounds)
+        except BoardNotFoundError as exc:
+            refused.append(_refusal(str(exc), len(lattice.keys)))
+            continue
+        labelled.append((lattice, identity))
+        if bounds is not None:
+            break
+    if not labelled:
+        if refused:
+            raise max(refused, key=lambda e: e.junctions_seen)
+        raise _refusal(f"no checkerboard {where}: {cands.points.shape[1]} junction-like points but no "
+                       "grid of cross-junctions among them", 0)
+    labelled.sort(key=lambda li: -len(li[0].keys))
+    if len(labelled) > 1 and len(labelled[1][0].keys) >= board.n // 2:
+        a, b = (li[0].points.mean(axis=1) for li in labelled[:2])
+        raise _refusal(f"two checkerboards in the image, around ({a[0]:.0f}, {a[1]:.0f}) and "
+                       f"({b[0]:.0f}, {b[1]:.0f}) px; give bounds to say which one", board.n)
+    lattice, identity = labelled[0]
+    return _found(lattice, identity, board)
+
+
+def _refusal(message: str, seen: int) -> BoardNotFoundError:
+    """A BoardNotFoundError that remembers how many junctions its lattice held (the most
+    telling refusal is the one about the largest lattice)."""
+    exc = BoardNotFoundError(message)
+    exc.junctions_seen = seen
+    return exc
+
+
+def _found(lattice, identity, board) -> FoundBoard:
+    from .lattice import step_lengths
+
+    nodes = lattice.as_dict()
+    points = np.full((2, board.n), np.nan)
+    step = np.full(board.n, np.nan)
+    points[:, identity.index] = lattice.points
+    step[identity.index] = step_lengths(nodes, [tuple(k) for k in lattice.keys])
+    seen = np.zeros(board.n, dtype=bool)
+    seen[identity.index] = True
+    return FoundBoard(points, seen, step, identity.orientation_ambiguous)
+
+
+def _grow(bounds) -> np.ndarray:
+    """Bounds pushed out from their centroid by BOUNDS_SLACK of their size plus 4 pixels."""
+    P = np.asarray(bounds, dtype=float)
+    centre = P.mean(axis=1, keepdims=True)
+    d = P - centre
+    size = np.hypot(*d)
+    return centre + d * (1 + BOUNDS_SLACK + 4.0 / np.maximum(size, 1e-9))
+
+
+def _overlaps(lattice, other) -> bool:
+    """Does ``lattice`` lie mostly within the bounding box of ``other`` (the same board again)?"""
+    lo, hi = other.points.min(axis=1), other.points.max(axis=1)
+    inside = np.all((lattice.points >= lo[:, None]) & (lattice.points <= hi[:, None]), axis=0)
+    return inside.mean() > 0.5

@@ -1,0 +1,340 @@
+"""Which board junction is each lattice node: identity from evidence, or a refusal.
+
+A board of ``cols x rows`` inner junctions is bounded on every side: beyond its outermost
+line of junctions lie the outer squares, and beyond them the margin, with no further
+cross-junctions. For each of the lattice's four sides this module samples, on the search's
+smoothed image, the outer band (a quarter of a square beyond the last line of
+nodes, inside the outer squares even where a printer cut them short) and the band beyond
+it (1.3 and 1.6 squares out). The side is
+
+- an ``"edge"`` when the outer band alternates dark and light in step with the lattice's
+  squares and the band beyond does not (a margin, a table, the wall);
+- ``"continues"`` when both bands alternate: the board goes on there, its junctions
+  unseen (blurred, or cut by the image edge);
+- ``"unknown"`` when the outer band does not alternate (covered, off the image), too
+  few samples fall inside the image, or the squares alternate again two or three
+  squares out (the plain band was something lying across the board, not its edge).
+
+Labels follow from the edges. Along each board axis the lattice's extent must equal the
+board's count when both edges are seen, may be smaller when one is (the labels count from
+that edge; the junctions beyond the seen part are not seen), and cannot be fixed when
+neither is. The lattice maps to the board by one of four rotations (the keys are right-
+handed, as the board seen from its front); each rotation whose extents and edges fit is a
+candidate labelling.
+
+Orientation (stated in ``docs/conventions.md`` too): junction 0's outer corner square is
+dark. A board whose pattern is unchanged by a half turn (``cols + rows`` even) or a
+quarter turn (square boards) cannot be oriented from the image alone, and its four corner
+squares share one colour, which is then not checked (a board printed with light corners
+is found as well). Labellings that differ only by such a symmetry are the same physical
+ambiguity: without bounds the one whose junction 0 lies nearest the image's upper-left
+corner is chosen and ``orientation_ambiguous`` is set; with bounds, the bounds' first
+vertex names junction 0's corner. Labellings that differ otherwise (a small corner of a
+board could be any corner) are refused.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..board import Board
+from ..errors import BoardNotFoundError
+from .lattice import Lattice
+from .search import Candidates, sample
+
+#: Proper rotations M of lattice keys to board (c, r) = M (i, j) + t.
+ROTATIONS = (np.array([[1, 0], [0, 1]]), np.array([[0, -1], [1, 0]]),
+             np.array([[-1, 0], [0, -1]]), np.array([[0, 1], [-1, 0]]))
+#: Depth of the outer-band samples beyond the last line of nodes, squares.
+OUTER_DEPTH = 0.25
+#: Depths of the beyond-band samples, squares.
+BEYOND_DEPTHS = (1.3, 1.6)
+#: Depths farther out where a board hidden behind a bar would show its squares again.
+RESUME_DEPTHS = (2.3, 2.6, 3.3, 3.6)
+#: The outer band alternates when its agreement with the lattice's colours exceeds this.
+ALTERNATES = 0.5
+#: The band beyond is plain when its agreement is below this.
+PLAIN = 0.35
+#: Sides, as (lattice axis, direction).
+SIDES = ((0, -1), (0, 1), (1, -1), (1, 1))
+
+
+@dataclass(frozen=True)
+class Identity:
+    """The board labels of a lattice.
+
+    Attributes
+    ----------
+    index : (M,) ndarray of int
+        Row-major board index ``cols * r + c`` of each lattice node, in lattice order.
+    rotation : (2, 2) ndarray of int
+        ``M`` of ``(c, r) = M (i, j) + offset``.
+    offset : (2,) ndarray of int
+    orientation_ambiguous : bool
+        True when the labelling was chosen among labellings the board's symmetry makes
+        indistinguishable, by the rule that junction 0 is the one nearest the image's
+        upper-left corner.
+    sides : dict
+        Evidence per lattice side ``(axis, direction)``: ``"edge"``, ``"continues"`` or
+        ``"unknown"``.
+    """
+
+    index: np.ndarray
+    rotation: np.ndarray
+    offset: np.ndarray
+    orientation_ambiguous: bool
+    sides: dict
+
+
+def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> Identity:
+    """Label a lattice with board junction indices, or refuse.
+
+    Parameters
+    ----------
+    lattice : Lattice
+        Grown by :func:`graphpose.detect.lattice.grow_lattices`.
+    cands : Candidates
+        The search the lattice grew from (its smoothed image is sampled).
+    board : Board
+        The spec: ``cols x rows`` inner junctions.
+    bounds : (2, 4) ndarray, optional
+        The board's outline, clockwise from the corner nearest junction 0; it fixes the
+        orientation among the labellings the evidence allows.
+
+    Returns
+    -------
+    Identity
+
+    Raises
+    ------
+    BoardNotFoundError
+        If the lattice is larger than the board, a board of another size is seen whole,
+        the edges that would fix the labels are hidden, or the visible part fits several
+        places on the board. The message says which.
+    """
+    nodes = lattice.as_dict()
+    dark_parity, mid, contrast = _square_colours(cands, nodes)
+    sides = {side: _side(cands, nodes, side, dark_parity, mid, contrast) for side in SIDES}
+    keys = lattice.keys
+    lo, hi = keys.min(axis=0), keys.max(axis=0)
+    extent = hi - lo + 1
+    symmetric = (board.cols + board.rows) % 2 == 0
+    found, reasons = [], []
+    for M in ROTATIONS:
+        fit = _fit_rotation(M, lo, hi, extent, sides, board)
+        if isinstance(fit, tuple):
+            reasons.append((M, *fit))
+            continue
+        if not symmetric and not _colours_agree(M, fit, keys[0], dark_parity):
+            reasons.append((M, "colour", None))
+            continue
+        found.append((M, fit))
+    if not found:
+        raise BoardNotFoundError(_refusal(reasons, extent, board, sides))
+    H = _lattice_homography(keys, lattice.points)
+    if bounds is not None:
+        M, t = min(found, key=lambda f: _bounds_mismatch(f, H, board, bounds))
+        ambiguous = False
+    else:
+        if len(found) > 1 and not all(_symmetric_pair(found[0], f, board) for f in found[1:]):
+            raise BoardNotFoundError(
+                f"the visible part of the board ({extent[0]} x {extent[1]} junctions) fits "
+                f"{len(found)} places on the {board.cols} x {board.rows} board; give the bounds "
+                "or show more of the board (two opposite edges of each axis)")
+        M, t = min(found, key=lambda f: _corner_distance(f, H, board))
+        ambiguous = len(found) > 1
+    cr = keys @ M.T + t
+    return Identity(cr[:, 1] * board.cols + cr[:, 0], M, t, ambiguous, sides)
+
+
+def board_to_lattice(identity: Identity, board: Board) -> np.ndarray:
+    """Lattice keys (n, 2) of every board junction, row-major (inverse of the labelling)."""
+    c, r = np.meshgrid(np.arange(board.cols), np.arange(board.rows))
+    cr = np.column_stack([c.ravel(), r.ravel()])
+    return (cr - identity.offset) @ identity.rotation  # M is orthogonal: M^-1 = M^T
+
+
+# ------------------------------------------------------------------------------ evidence
+
+
+def _square_colours(cands, nodes):
+    """(dark parity of ``i + j`` of a square's upper-left key, mid grey, dark-light contrast)."""
+    keys = [(i, j) for (i, j) in nodes if (i + 1, j) in nodes and (i, j + 1) in nodes and (i + 1, j + 1) in nodes]
+    if not keys:
+        raise BoardNotFoundError("the junctions found enclose no whole square of the board")
+    centres = np.array([nodes[(i, j)] + nodes[(i + 1, j)] + nodes[(i, j + 1)] + nodes[(i + 1, j + 1)]
+                        for i, j in keys]).T / 4
+    value = sample(cands, centres)
+    parity = np.array([(i + j) % 2 for i, j in keys])
+    even = np.median(value[parity == 0]) if np.any(parity == 0) else np.nan
+    odd = np.median(value[parity == 1]) if np.any(parity == 1) else np.nan
+    if not np.isfinite(even):
+        even = 2 * np.mean(value) - odd
+    if not np.isfinite(odd):
+        odd = 2 * np.mean(value) - even
+    return (0 if even < odd else 1), 0.5 * (even + odd), max(abs(odd - even), 1e-12)
+
+
+def _side(cands, nodes, side, dark_parity, mid, contrast) -> str:
+    """Evidence on one lattice side (see the module docstring)."""
+    axis, direction = side
+    other = 1 - axis
+    extreme = (min if direction < 0 else max)(key[axis] for key in nodes)
+    inward = -direction
+
+    def key(a, b):
+        return (a, b) if axis == 0 else (b, a)
+
+    outer, beyond, expect = [], [], []
+    depths = BEYOND_DEPTHS + RESUME_DEPTHS
+    for b in sorted(k[other] for k in nodes if k[axis] == extreme):
+        corners = [key(extreme, b), key(extreme, b + 1), key(extreme + inward, b), key(extreme + inward, b + 1)]
+        if not all(c in nodes for c in corners):
+            continue
+        edge = 0.5 * (nodes[corners[0]] + nodes[corners[1]])
+        step = edge - 0.5 * (nodes[corners[2]] + nodes[corners[3]])  # one square outwards
+        outer.append(edge + OUTER_DEPTH * step)
+        beyond.append([edge + d * step for d in depths])
+        square = np.array(key(extreme + (direction - 1) // 2, b))  # upper-left key of the outer square
+        expect.append(1.0 if (square.sum() % 2) == dark_parity else -1.0)
+    if len(outer) < 2:
+        return "unknown"
+    outer = np.array(outer).T
+    beyond = np.array(beyond)  # (m, depths, 2)
+    expect = np.array(expect)
+    height, width = cands.shape
+    inside = _inside(outer, height, width) & np.all([_inside(beyond[:, d].T, height, width)
+                                                      for d in range(len(BEYOND_DEPTHS))], axis=0)
+    if inside.sum() < 2:
+        return "unknown"
+    darkness = lambda P: np.clip((mid - sample(cands, P)) / (0.5 * contrast), -1.0, 1.0)  # noqa: E731
+    agree_outer = np.mean(darkness(outer[:, inside]) * expect[inside])
+    # Square k beyond the outer one has the outer square's colour times (-1)^k.
+    agree = []
+    for d, depth in enumerate(depths):
+        there = inside & _inside(beyond[:, d].T, height, width)
+        sign = -1.0 if int(np.floor(depth)) % 2 else 1.0
+        agree.append(np.mean(darkness(beyond[there, d].T) * sign * expect[there]) if there.sum() >= 2 else np.nan)
+    agree = np.array(agree)
+    agree_beyond = np.mean(agree[:len(BEYOND_DEPTHS)])
+    if agree_outer < ALTERNATES:
+        return "unknown"
+    if agree_beyond > ALTERNATES:
+        return "continues"
+    if agree_beyond >= PLAIN or np.nanmax(np.append(agree[len(BEYOND_DEPTHS):], -1.0)) > ALTERNATES:
+        return "unknown"
+    return "edge"
+
+
+def _inside(P, height, width):
+    return (P[0] >= 0) & (P[1] >= 0) & (P[0] <= width - 1) & (P[1] <= height - 1)
+
+
+# ----------------------------------------------------------------------------- labelling
+
+
+def _fit_rotation(M, lo, hi, extent, sides, board):
+    """Offset t of ``(c, r) = M (i, j) + t`` that the edges fix, or the reason there is none."""
+    t = np.zeros(2, dtype=int)
+    axes = [0 if M[row, 0] != 0 else 1 for row in (0, 1)]
+    counts = (board.cols, board.rows)
+    for row in (0, 1):
+        if extent[axes[row]] > counts[row]:
+            return ("too large", row)
+    for row in (0, 1):
+        axis, count = axes[row], counts[row]
+        sign = int(M[row, axis])
+        low_side, high_side = (axis, -sign), (axis, sign)  # board coordinate -1 and count
+        low_edge, high_edge = sides[low_side] == "edge", sides[high_side] == "edge"
+        if low_edge and high_edge and extent[axis] != count:
+            return ("size", row)
+        low_key = lo[axis] if sign > 0 else hi[axis]
+        high_key = hi[axis] if sign > 0 else lo[axis]
+        if low_edge:
+            t[row] = -sign * low_key
+        elif high_edge:
+            t[row] = count - 1 - sign * high_key
+        else:
+            return ("hidden", row)
+    return t
+
+
+def _colours_agree(M, t, key, dark_parity) -> bool:
+    """Does the lattice square at ``key`` have the colour the board has there?"""
+    i, j = key
+    c, r = np.floor(M @ np.array([i + 0.5, j + 0.5]) + t).astype(int)
+    return ((i + j) % 2 == dark_parity) == ((c + r) % 2 == 0)
+
+
+def _symmetric_pair(a, b, board) -> bool:
+    """Do labellings a and b differ by a symmetry of the board (a rotation onto itself)?"""
+    (Ma, ta), (Mb, tb) = a, b
+    c, r = np.meshgrid(np.arange(board.cols), np.arange(board.rows))
+    cr = np.vstack([c.ravel(), r.ravel()])
+    mapped = Mb @ (Ma.T @ (cr - ta[:, None])) + tb[:, None]  # board -> lattice (a) -> board (b)
+    return bool(np.all((mapped[0] >= 0) & (mapped[0] < board.cols) & (mapped[1] >= 0) & (mapped[1] < board.rows)))
+
+
+def _lattice_homography(keys, points):
+    from ..pose.homography import homography_dlt
+
+    return homography_dlt(keys.T.astype(float), points)
+
+
+def _corners_in_image(fit, H, board):
+    """Image positions (2, 4) of junctions 0, cols-1, n-1 and (rows-1) cols under a labelling."""
+    M, t = fit
+    cr = np.array([[0, board.cols - 1, board.cols - 1, 0], [0, 0, board.rows - 1, board.rows - 1]])
+    ij = M.T @ (cr - t[:, None])
+    q = H @ np.vstack([ij, np.ones(4)])
+    return q[:2] / q[2]
+
+
+def _corner_distance(fit, H, board) -> float:
+    """Distance of junction 0 from the image's upper-left corner under a labelling."""
+    return float(np.hypot(*_corners_in_image(fit, H, board)[:, 0]))
+
+
+def _bounds_mismatch(fit, H, board, bounds) -> float:
+    """Sum of distances between the bounds' vertices and the board's corner junctions."""
+    return float(np.sum(np.hypot(*(_corners_in_image(fit, H, board) - np.asarray(bounds, dtype=float)))))
+
+
+def _refusal(reasons, extent, board, sides) -> str:
+    """The most telling reason no rotation fits, in words.
+
+    ``reasons`` holds ``(M, kind, board axis)`` per rotation: a lattice larger than the
+    board along an axis (``"too large"``), edges seen on both sides of an axis at the wrong
+    distance (``"size"``), no edge seen on either side (``"hidden"``) or square colours
+    that do not fit (``"colour"``).
+    """
+    spec = f"{board.cols} x {board.rows}"
+    a, b = int(extent[0]), int(extent[1])
+    if (a > b) != (board.cols > board.rows):
+        a, b = b, a  # say it in the spec's orientation
+    if all(sides[s] == "edge" for s in SIDES):
+        return f"found a {a} x {b} board of junctions; the board spec says {spec}"
+    fitting = [r for r in reasons if r[1] != "too large"]
+    if not fitting:
+        return (f"found a grid of {a} x {b} junctions, larger than the {spec} board spec "
+                "(a bigger board, or the spec is wrong)")
+    for kind in ("size", "hidden", "colour"):
+        hit = [r for r in fitting if r[1] == kind]
+        if not hit:
+            continue
+        def along(r):  # the lattice's extents along the board's c and r under rotation r[0]
+            return [int(extent[0 if r[0][k, 0] != 0 else 1]) for k in (0, 1)]
+
+        M, _, row = min(hit, key=lambda r: abs(along(r)[0] - board.cols) + abs(along(r)[1] - board.rows))
+        along = along((M,))
+        if kind == "size":
+            return (f"found a board of {along[0]} x {along[1]} junctions between its edges; "
+                    f"the board spec says {spec}")
+        if kind == "hidden":
+            name = "columns" if row == 0 else "rows"
+            return (f"two opposite edges of the board are hidden (off the image, covered or blurred), "
+                    f"so its {name} cannot be labelled ({along[0]} x {along[1]} junctions seen)")
+        return "the board's square colours do not fit the spec's pattern at any orientation"
+    return f"the junctions seen cannot be placed on the {spec} board"

@@ -1,0 +1,191 @@
+"""Junction candidates anywhere in the image, and the ring test that judges them.
+
+The whole image is searched at one scale: by default at half resolution (``level=1``: a
+2 x 2 mean halves the image), where a Gaussian of 1 pixel (2 pixels of the full image)
+smooths it, and the saddle response ``Ixy^2 - Ixx Iyy`` (the negative Hessian
+determinant) is high at cross-junctions, about four times lower at L-corners and near
+zero on edges. A junction looks the same at every scale up to blur, so this one scale
+serves squares from about 12 pixels (6 at half resolution, where the Gaussian spans a
+sixth of a square) to a third of the image; ``level=0`` searches the full image for
+smaller squares (from about 7 pixels). The lattice and the ring test, not this response,
+decide what is a junction.
+
+Its local maxima above a fraction of a typical strong peak are the candidates. Each comes
+with the direction of its bright sectors' bisector, ``theta``: the two lines of a
+cross-junction split the plane into two bright and two dark sectors, and whatever the
+perspective the bisectors of the bright pair and of the dark pair are perpendicular. One
+step along a grid line swaps bright and dark, so neighbours along a line have ``theta``
+90 degrees apart and diagonal neighbours the same ``theta``: the parity that
+:mod:`graphpose.detect.lattice` checks.
+
+Coordinates follow :mod:`graphpose.camera`: full-image pixels ``(u, v)``, 2 x N arrays.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+#: Gaussian scale of the saddle response at half resolution, pixels (2 full-image pixels).
+RESPONSE_SIGMA = 1.0
+#: A candidate's response must exceed this fraction of a typical strong peak (the 16th).
+RELATIVE_THRESHOLD = 0.03
+#: Ring samples of the ring test.
+_RING = np.arange(16) * (np.pi / 8)
+
+
+@dataclass(frozen=True)
+class Candidates:
+    """Junction candidates of one image.
+
+    Attributes
+    ----------
+    points : (2, N) ndarray of float64
+        Positions (u, v), full-image pixels, to about half a pixel.
+    theta : (N,) ndarray of float64
+        Direction of the bisector of the bright sectors, radians in (-pi/2, pi/2].
+    strength : (N,) ndarray of float64
+        Saddle response at the peak (arbitrary units), for ordering seeds.
+    smooth : ndarray of float32
+        The smoothed image at the search's level that the response came from;
+        :func:`sample` and :func:`ring_test` read it at full-image coordinates.
+    level : int
+        0 for the full image, 1 for half resolution.
+    shape : tuple of int
+        The full image's ``(height, width)``.
+    """
+
+    points: np.ndarray
+    theta: np.ndarray
+    strength: np.ndarray
+    smooth: np.ndarray
+    level: int
+    shape: tuple
+
+    def to_level(self, points) -> np.ndarray:
+        """Full-image pixel coordinates (2, N) as coordinates (x, y) of :attr:`smooth`."""
+        s = 2 ** self.level
+        return (np.asarray(points, dtype=float) - 0.5 * (s - 1)) / s
+
+
+def find_candidates(image: np.ndarray, region=None, *, level: int = 1) -> Candidates:
+    """Junction candidates anywhere in a grey image.
+
+    Parameters
+    ----------
+    image : (H, W) ndarray
+        Grey image, any real dtype (uint8 is read as it is: every step is invariant to a
+        positive grey scale).
+    region : (2, K) ndarray, optional
+        A polygon (u, v) in full-image pixels; candidates outside it are dropped.
+    level : {1, 0}
+        Search at half resolution (default) or on the full image (small squares).
+
+    Returns
+    -------
+    Candidates
+        Possibly empty.
+    """
+    a = _half(image) if level == 1 else image.astype(np.float32, copy=False)
+    S = ndimage.gaussian_filter(a, RESPONSE_SIGMA, truncate=3.0)
+    Ixx = S[1:-1, 2:] - 2 * S[1:-1, 1:-1] + S[1:-1, :-2]
+    Iyy = S[2:, 1:-1] - 2 * S[1:-1, 1:-1] + S[:-2, 1:-1]
+    Ixy = 0.25 * (S[2:, 2:] - S[2:, :-2] - S[:-2, 2:] + S[:-2, :-2])
+    r = Ixy * Ixy - Ixx * Iyy
+    ys, xs, value = _peaks(r)
+    # The bright bisector is the principal direction of positive curvature.
+    theta = 0.5 * np.arctan2(2 * Ixy[ys, xs], Ixx[ys, xs] - Iyy[ys, xs])
+    dx, dy = _subpixel(r, ys, xs)
+    # Interior pixel (y, x) of r is pixel (y + 1, x + 1) of the level, whose centre is
+    # full-image s (x + 1) + (s - 1) / 2 for the level's scale s.
+    s = 2 ** level
+    points = np.vstack([s * (xs + dx + 1) + 0.5 * (s - 1), s * (ys + dy + 1) + 0.5 * (s - 1)])
+    if region is not None and points.shape[1]:
+        from skimage.measure import points_in_poly
+
+        keep = points_in_poly(points.T, np.asarray(region, dtype=float).T)
+        points, theta, value = points[:, keep], theta[keep], value[keep]
+    return Candidates(points, theta.astype(float), value.astype(float), S, level, tuple(image.shape[:2]))
+
+
+def sample(cands: Candidates, points: np.ndarray) -> np.ndarray:
+    """Bilinear samples of the candidates' smoothed image at full-image points (2, N)."""
+    x, y = cands.to_level(points)
+    return ndimage.map_coordinates(cands.smooth, [y, x], order=1, mode="nearest")
+
+
+def ring_test(cands: Candidates, points: np.ndarray, radius) -> tuple:
+    """Cross-junction ring test of the ChESS kind, on the candidates' smoothed image.
+
+    Sixteen samples on a circle: at a cross-junction opposite samples agree (point
+    symmetry) and samples a quarter-turn apart disagree; an L-corner breaks the first, an
+    edge the second, flat ground both.
+
+    Parameters
+    ----------
+    cands : Candidates
+        Whose smoothed image is read.
+    points : (2, m) ndarray
+        Centres, full-image pixels.
+    radius : float or (m,) ndarray
+        Ring radius, full-image pixels: about a third of the local square keeps the ring
+        inside the four squares around a junction and outside a thin white margin.
+
+    Returns
+    -------
+    score : (m,) ndarray
+        ``(sum - 2 diff) / (sum + diff)`` of the ChESS sum and diff responses, in
+        [-2, 1]; above 0 the ring looks like a cross-junction.
+    theta : (m,) ndarray
+        Direction of the bright sectors' bisector, radians.
+    contrast : (m,) ndarray
+        Peak-to-peak grey range on the ring, in the image's grey units.
+    """
+    X, Y = cands.to_level(points)
+    rad = np.broadcast_to(np.asarray(radius, dtype=float), X.shape)[:, None] / 2 ** cands.level
+    x = X[:, None] + rad * np.cos(_RING)
+    y = Y[:, None] + rad * np.sin(_RING)
+    ring = ndimage.map_coordinates(cands.smooth, [y.ravel(), x.ravel()], order=1, mode="nearest").reshape(x.shape)
+    ring = ring - ring.mean(axis=1, keepdims=True)
+    total = np.abs(ring[:, 0:4] + ring[:, 8:12] - ring[:, 4:8] - ring[:, 12:16]).sum(axis=1)
+    diff = np.abs(ring[:, 0:8] - ring[:, 8:16]).sum(axis=1)
+    # The second angular harmonic of the ring points along the bright bisector.
+    theta = 0.5 * np.arctan2(ring @ np.sin(2 * _RING), ring @ np.cos(2 * _RING))
+    score = (total - 2 * diff) / np.maximum(total + diff, 1e-12)
+    return score, theta, np.ptp(ring, axis=1)
+
+
+def _half(image: np.ndarray) -> np.ndarray:
+    """2 x 2 mean of the image as float32, odd last rows and columns dropped."""
+    h, w = image.shape[0] // 2 * 2, image.shape[1] // 2 * 2
+    a = image[:h, :w].astype(np.float32, copy=False)
+    return 0.25 * (a[0::2, 0::2] + a[1::2, 0::2] + a[0::2, 1::2] + a[1::2, 1::2])
+
+
+def _peaks(r: np.ndarray):
+    """Rows, columns and values of the 3 x 3 local maxima of ``r`` above the threshold."""
+    local = ndimage.maximum_filter(r, size=3)
+    ys, xs = np.nonzero((r >= local) & (r > 0))
+    value = r[ys, xs]
+    if value.size == 0:
+        return ys, xs, value
+    # Relative to a typical strong peak rather than the strongest, which may be clutter.
+    typical = np.partition(value, max(value.size - 16, 0))[max(value.size - 16, 0)]
+    keep = value > RELATIVE_THRESHOLD * typical
+    return ys[keep], xs[keep], value[keep]
+
+
+def _subpixel(r: np.ndarray, ys: np.ndarray, xs: np.ndarray):
+    """Parabolic sub-pixel offsets (dx, dy) of peaks of ``r``, each within half a pixel."""
+    h, w = r.shape
+    xm, xp = np.maximum(xs - 1, 0), np.minimum(xs + 1, w - 1)
+    ym, yp = np.maximum(ys - 1, 0), np.minimum(ys + 1, h - 1)
+    c = r[ys, xs]
+    dxx = r[ys, xp] - 2 * c + r[ys, xm]
+    dyy = r[yp, xs] - 2 * c + r[ym, xs]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dx = np.where(dxx < 0, -0.5 * (r[ys, xp] - r[ys, xm]) / dxx, 0.0)
+        dy = np.where(dyy < 0, -0.5 * (r[yp, xs] - r[ym, xs]) / dyy, 0.0)
+    return np.clip(dx, -0.5, 0.5), np.clip(dy, -0.5, 0.5)

@@ -1,0 +1,199 @@
+"""Finding and labelling the board without a polygon: candidates, lattices, identity.
+
+Every scene is rendered with exact truth (graphpose.synth.scenes); a result is right when
+each junction it reports seen lies on the true junction of the same label (or, for a
+board whose pattern a half turn maps onto itself, of the label the documented rule
+gives), and a refusal is a BoardNotFoundError that says why.
+"""
+
+import numpy as np
+import pytest
+
+from graphpose import Board, BoardNotFoundError, K_from_params
+from graphpose.camera import T_from_params
+from graphpose.detect.find import find_board
+from graphpose.detect.lattice import grow_lattices, peel, predict
+from graphpose.detect.search import find_candidates, ring_test
+from graphpose.synth.render import render
+from graphpose.synth.scenes import random_scene
+
+K = K_from_params(564.9, 564.3, 337.3, 226.5)
+
+
+def half_turn(board: Board) -> np.ndarray:
+    """Label permutation of a half turn: junction k <-> n - 1 - k."""
+    return np.arange(board.n)[::-1]
+
+
+def label_error(found, truth: np.ndarray, perm=None) -> float:
+    """Largest distance (px) between seen junctions and the true junctions of their labels."""
+    idx = np.arange(truth.shape[1]) if perm is None else perm
+    return float(np.max(np.hypot(*(found.points[:, found.seen] - truth[:, idx[found.seen]]))))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_candidates_lie_on_every_junction_of_a_board_at_any_rotation(seed):
+    R = random_scene(seed, K, Board(), max_roll_deg=180.0).rendering
+    cands = find_candidates(R.image)
+    d = np.min(np.hypot(*(cands.points[:, :, None] - R.junctions[:, None, :])), axis=0)
+    assert d.max() < 1.5, d.max()
+
+
+def test_ring_test_tells_junctions_from_corners_and_edges():
+    R = render(K, T_from_params([0.22, 0.16, -1.0, 0.0, 0.0, 0.1]), Board(), rng=2, margin=1.0)
+    cands = find_candidates(R.image)
+    square = 0.0635 * 565 / 1.0
+    junction = ring_test(cands, R.junctions, 0.35 * square)[0]
+    corners = ring_test(cands, R.outline, 0.35 * square)[0]  # sheet corners: L-shaped
+    mid_edge = 0.5 * (R.junctions[:, 0] + R.junctions[:, 1])  # on a square's edge
+    edge = ring_test(cands, mid_edge[:, None], 0.35 * square)[0]
+    assert junction.min() > 0.5 and corners.max() < 0 and edge.max() < 0
+
+
+def test_predict_extrapolates_a_straight_line_and_completes_a_parallelogram():
+    line = {(0, 0): (0.0, 0.0), (1, 0): (10.0, 1.0), (2, 0): (20.0, 2.0)}
+    (u, v), step = predict(line, (3, 0))
+    assert (u, v) == pytest.approx((30.0, 3.0)) and step == pytest.approx(np.hypot(10, 1))
+    square = {(0, 0): (0.0, 0.0), (1, 0): (10.0, 0.0), (0, 1): (0.0, 10.0)}
+    assert predict(square, (1, 1))[0] == pytest.approx((10.0, 10.0))
+    assert predict({(0, 0): (0.0, 0.0)}, (5, 5)) is None
+
+
+def test_peel_drops_strays_with_fewer_than_two_neighbours():
+    nodes = {(i, j): np.zeros(2) for i in range(3) for j in range(3)}
+    nodes[(5, 0)] = nodes[(3, 0)] = np.zeros(2)  # (3, 0) has one neighbour, (5, 0) none
+    assert set(peel(nodes)) == {(i, j) for i in range(3) for j in range(3)}
+
+
+def test_lattice_of_a_clean_board_holds_every_junction_right_handed():
+    R = random_scene(3, K, Board()).rendering
+    cands = find_candidates(R.image)
+    lattice = next(lat for lat in grow_lattices(cands) if lat is not None)
+    assert len(lattice.keys) == 48
+    extent = lattice.keys.max(axis=0) - lattice.keys.min(axis=0) + 1
+    assert sorted(extent) == [6, 8]
+    # Right-handed: the key step (1, 0) turned by +90 degrees in (u, v) is the step (0, 1).
+    nodes = lattice.as_dict()
+    i, j = lattice.keys[np.argmin(np.abs(lattice.keys - lattice.keys.mean(axis=0)).sum(axis=1))]
+    a, b = nodes[(i + 1, j)] - nodes[(i, j)], nodes[(i, j + 1)] - nodes[(i, j)]
+    assert a[0] * b[1] - a[1] * b[0] > 0
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_an_asymmetric_board_is_labelled_as_the_truth_at_any_rotation(seed):
+    # 9 x 6 junctions = 10 x 7 squares: a half turn changes the pattern, so the square
+    # colours fix junction 0 (its outer corner square is dark) whatever the roll.
+    board = Board(9, 6, 0.03)
+    scene = random_scene(seed, K, board, distance=(0.45, 1.0))
+    found = find_board(scene.image, board)
+    assert not found.orientation_ambiguous
+    assert found.seen.all() and label_error(found, scene.rendering.junctions) < 1.5
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_a_symmetric_board_is_flagged_and_labelled_by_the_upper_left_rule(seed):
+    board = Board()
+    scene = random_scene(100 + seed, K, board)
+    found = find_board(scene.image, board)
+    truth = scene.rendering.junctions
+    assert found.orientation_ambiguous and found.seen.all()
+    # The rule: of the two labellings a half turn relates, junction 0 is the one nearer
+    # the image's upper-left corner.
+    rule = np.arange(board.n) if np.hypot(*truth[:, 0]) <= np.hypot(*truth[:, -1]) else half_turn(board)
+    assert label_error(found, truth, rule) < 1.5
+
+
+def test_bounds_fix_the_orientation_of_a_symmetric_board():
+    board = Board()
+    scene = random_scene(7, K, board, max_roll_deg=180.0)
+    found = find_board(scene.image, board, scene.rendering.outline)
+    assert not found.orientation_ambiguous
+    assert label_error(found, scene.rendering.junctions) < 1.5
+
+
+def test_bounds_a_little_off_do_not_move_the_labels():
+    board = Board()
+    scene = random_scene(8, K, board)
+    rng = np.random.default_rng(0)
+    base = find_board(scene.image, board, scene.rendering.outline)
+    for _ in range(5):
+        jitter = scene.rendering.outline + rng.uniform(-6, 6, (2, 4))
+        moved = find_board(scene.image, board, jitter)
+        np.testing.assert_array_equal(moved.seen, base.seen)
+        np.testing.assert_allclose(moved.points, base.points)
+
+
+@pytest.mark.parametrize("spec", [Board(7, 5), Board(9, 6), Board(8, 5)])
+def test_a_board_spec_that_does_not_match_the_image_is_refused(spec):
+    scene = random_scene(11, K, Board())
+    with pytest.raises(BoardNotFoundError, match="found a 8 x 6 board of junctions; the board spec says"):
+        find_board(scene.image, spec)
+
+
+def test_a_board_cut_by_the_image_edge_keeps_its_labels_from_the_edge_that_is_seen():
+    board = Board(9, 6, 0.03)
+    for seed in range(6):
+        scene = random_scene(200 + seed, K, board, occluders=("edge",), distance=(0.45, 0.9))
+        try:
+            found = find_board(scene.image, board)
+        except BoardNotFoundError as exc:
+            assert "hidden" in str(exc) or "fits" in str(exc)
+            continue
+        assert label_error(found, scene.rendering.junctions) < 1.5
+        assert not np.any(found.seen & ~scene.visible)  # off-image junctions are not seen
+        assert np.all(np.isnan(found.points[:, ~found.seen]))
+
+
+def test_both_edges_of_an_axis_hidden_is_refused_with_the_reason():
+    # A board that overflows the image on both sides: nothing fixes its columns.
+    board = Board(14, 3, 0.05)
+    R = render(K, T_from_params([0.325, 0.05, -0.45, 0.0, 0.0, 0.05]), board, rng=4)
+    assert R.junctions[0].min() < 0 and R.junctions[0].max() > 640
+    with pytest.raises(BoardNotFoundError, match="two opposite edges of the board are hidden"):
+        find_board(R.image, board)
+
+
+def test_two_boards_without_bounds_are_refused():
+    # Two halves of one picture, a whole board in each.
+    board = Board(5, 4, 0.03)
+    half = K_from_params(564.9, 564.3, 160.0, 240.0)
+    left = render(half, T_from_params([0.06, 0.045, -0.6, 0.0, 0.0, 0.2]), board, (320, 480), rng=5).image
+    right = render(half, T_from_params([0.06, 0.045, -0.7, 0.0, 0.0, -0.3]), board, (320, 480), rng=6).image
+    with pytest.raises(BoardNotFoundError, match="two checkerboards"):
+        find_board(np.hstack([left, right]), board)
+
+
+@pytest.mark.parametrize("occluder", ["bar", "blob", "reflection"])
+def test_occluded_boards_are_labelled_right_or_refused(occluder):
+    board = Board()
+    for seed in range(10):
+        scene = random_scene(300 + seed, K, board, occluders=(occluder,))
+        try:
+            found = find_board(scene.image, board)
+        except BoardNotFoundError:
+            continue
+        truth = scene.rendering.junctions
+        errors = [label_error(found, truth, perm) for perm in (None, half_turn(board))]
+        # Coarse positions: a partly covered junction may be a pixel or two off; a wrong
+        # label would be a whole square (tens of pixels) off.
+        assert min(errors) < 4.0, (seed, errors)
+
+
+def test_clutter_beside_the_board_changes_nothing():
+    board = Board(9, 6, 0.03)
+    for seed in range(5):
+        scene = random_scene(400 + seed, K, board, clutter=("text", "grid"), distance=(0.6, 1.0))
+        found = find_board(scene.image, board)
+        assert found.seen.all() and label_error(found, scene.rendering.junctions) < 1.5
+
+
+def test_small_squares_are_found_at_full_resolution():
+    board = Board()
+    scene = random_scene(12, K, board, distance=(2.8, 3.2))  # squares of about 12 px
+    found = find_board(scene.image, board)
+    assert found.seen.all()
+
+
+def test_a_blank_image_holds_no_board():
+    with pytest.raises(BoardNotFoundError, match="no checkerboard"):
+        find_board(np.full((240, 320), 128, dtype=np.uint8), Board())
