@@ -209,7 +209,9 @@ def _side(cands, nodes, side, dark_parity, mid, contrast) -> str:
                                                       for d in range(len(BEYOND_DEPTHS))], axis=0)
     if inside.sum() < 2:
         return "unknown"
-    darkness = lambda P: np.clip((mid - sample(cands, P)) / (0.5 * contrast), -1.0, 1.0)  # noqa: E731
+    def darkness(P):  # +1 for the dark squares' grey, -1 for the light ones'
+        return np.clip((mid - sample(cands, P)) / (0.5 * contrast), -1.0, 1.0)
+
     agree_outer = np.mean(darkness(outer[:, inside]) * expect[inside])
     # Square k beyond the outer one has the outer square's colour times (-1)^k.
     agree = []
