@@ -133,7 +133,8 @@ def main(quick: bool = False) -> dict:
     import cv2
 
     from graphpose import Board, K_from_params, project, render_sequence, track_sequence
-    from graphpose.track.tracker import LOST, TrackerConfig
+    from graphpose.track.config import TrackerConfig
+    from graphpose.track.results import LOST
 
     K = K_from_params(564.9, 564.3, 337.3, 226.5)
     board = Board()
@@ -285,12 +286,8 @@ def main(quick: bool = False) -> dict:
 
 def _compare_forms(K, board, frames):
     """The tracked frames' junctions replayed into each back-end form and motion prior: one block."""
-    from graphpose.track.tracker import (
-        MOTION_MODELS,
-        TARGET_FORMS,
-        MotionPrior,
-        SequenceGraph,
-    )
+    from graphpose.track.backend import SequenceGraph
+    from graphpose.track.config import MOTION_MODELS, TARGET_FORMS, MotionPrior
 
     rows = []
     for model in MOTION_MODELS:

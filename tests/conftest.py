@@ -55,3 +55,15 @@ PROJECT_K.setflags(write=False)
 #: The project's board's junctions (8 x 6, 63.5 mm), (3, 48) metres, row-major; read-only.
 BOARD_WPTS = _Board().world_points()
 BOARD_WPTS.setflags(write=False)
+
+
+# --- a rendered clip for the tracker's tests (appended; tests/track, tests/cli) -----------
+
+
+@pytest.fixture(scope="session")
+def track_clip():
+    """45 rendered frames of the project's board (:func:`graphpose.render_sequence`, cheap
+    rendering), with one whip pan out of view and back."""
+    from graphpose.synth.sequence import render_sequence
+
+    return render_sequence(PROJECT_K, 45, rng=4, excursions=1, supersample=1)

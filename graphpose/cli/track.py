@@ -1,10 +1,13 @@
 """``graphpose track``: the camera trajectory over a sequence of frames of the board.
 
 Turns the arguments into typed values (frame files, bounds (2, 4), K (3, 3), :class:`Board`,
-timestamps), calls :func:`graphpose.track.tracker.track_sequence` once, and writes the trajectory
-in TUM format (``--tum``), per-frame results as JSON (``--json``) and a summary on stdout.
-Exit code 0 when at least one frame has a pose, 1 when every frame was lost (see
-:mod:`graphpose.cli`).
+timestamps, a true trajectory), calls :func:`graphpose.track.tracker.track_sequence` once, and
+writes the trajectory in TUM format (``--tum``), per-frame results as JSON (``--json``), a
+picture (``--plot``) and a summary on stdout. A frame file that cannot be read is a lost
+frame, not an error. The true trajectory (``--truth``, or the ``truth.tum`` that
+``graphpose render-sequence`` leaves beside its frames) is drawn in the picture and measured
+against in the summary. Exit code 0 when at least one frame has a pose, 1 when every frame
+was lost (see :mod:`graphpose.cli`).
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ import numpy as np
 from .._checks import as_float_array
 from ..errors import InputError
 from ..io.files import read_json
-from ..track.tracker import MOTION_MODELS, TARGET_FORMS
+from ..track.config import MOTION_MODELS, TARGET_FORMS
 from . import EXIT_FAILED, EXIT_OK
 from .options import (
     Progress,
@@ -34,15 +37,19 @@ _EXAMPLES = """\
 examples:
   graphpose render-sequence seq/ --frames 120
   graphpose track seq/ --bounds "$(python -c 'import json; b=json.load(open("seq/bounds.json"))["bounds"]; print(",".join(f"{u},{v}" for u, v in zip(*b)))')" \\
-      --tum est.tum --json est.json --smooth
+      --tum est.tum --json est.json --smooth --plot track.png    # seq/truth.tum is drawn and measured
   graphpose track frames/*.png --bounds 166,254,455,136,541,347,259,477 --timestamps times.txt --tum est.tum
+  graphpose track frames/ --truth mocap.tum --plot track.png
   evo_ape tum seq/truth.tum est.tum          # absolute trajectory error (no alignment needed)
 
 FRAMES is one folder (its image files in name order; other files are ignored) or image files
 in the order given. --bounds is the board's polygon in the FIRST frame, (u, v) pixels,
 clockwise from the corner nearest the upper-left junction. The TUM file has one line
 'timestamp tx ty tz qx qy qz qw' per frame with a pose (camera in the target frame); a lost
-frame has no line. exit codes: 0 success, 1 every frame lost, 2 bad usage or input."""
+frame has no line. A frame file that cannot be read is reported lost. --truth poses are matched
+to the frames by timestamp (within 10 ms and half a frame interval); a folder written by
+'graphpose render-sequence' brings its own truth.tum, one pose per frame. exit codes: 0
+success, 1 every frame lost, 2 bad usage or input."""
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -75,12 +82,18 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="how the fixed target points enter the graph (default resection: one factor "
                    "a frame; frame_landmarks: pinned landmark copies with GTSAM's projection factors, "
                    "all C++ with --motion wnoa)")
+    p.add_argument("--robust", action="store_true",
+                   help="Huber loss in each frame's own pose fit, as 'graphpose estimate --robust' "
+                   "(down-weights outlying junctions)")
     p.add_argument("--smooth", action="store_true", help="smooth the whole trajectory in batch at the end")
     p.add_argument("--tum", metavar="OUT.txt", help="write the trajectory in TUM format")
     p.add_argument("--json", metavar="OUT.json", help="write per-frame results as JSON ('-': stdout, no summary)")
     p.add_argument("--plot", metavar="OUT.png",
-                   help="draw the trajectory and the per-frame reprojection RMS (needs the plot extra: "
-                   "pip install -e \".[plot]\")")
+                   help="draw the trajectory, with the truth where known, and the per-frame reprojection "
+                   "RMS (needs the plot extra: pip install -e \".[plot]\")")
+    p.add_argument("--truth", type=Path, metavar="TRUTH.tum",
+                   help="the true trajectory (TUM), drawn by --plot and measured against in the summary "
+                   "(default: FRAMES/truth.tum of a folder written by graphpose render-sequence)")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary on stdout")
     return p
 
@@ -89,13 +102,9 @@ def run(args) -> int:
     """Run ``graphpose track`` with parsed ``args``; returns the exit code."""
     from ..io.files import dumps_json, write_json
     from ..io.tum import write_tum
-    from ..track.tracker import (
-        MotionPrior,
-        TrackerConfig,
-        list_frames,
-        read_timestamps,
-        track_sequence,
-    )
+    from ..track.config import MotionPrior, TrackerConfig
+    from ..track.frames import frame_timestamps, list_frames, read_timestamps
+    from ..track.tracker import track_sequence
 
     files = _frame_files(args.frames, list_frames)
     timestamps = None if args.timestamps is None else read_timestamps(args.timestamps, len(files))
@@ -103,9 +112,10 @@ def run(args) -> int:
     for path, name in ((args.tum, "--tum"), (args.json, "--json"), (args.plot, "--plot")):
         if path not in (None, "-") and not Path(path).resolve().parent.is_dir():
             raise InputError(f"{name}: folder {Path(path).resolve().parent} does not exist")
+    truth, truth_note = _truth(args, len(files), frame_timestamps(timestamps, args.fps, len(files)))
     K, board = target_from_args(args)
     progress = Progress(len(files), sys.stderr)
-    config = TrackerConfig(motion=MotionPrior(args.motion), target=args.target)
+    config = TrackerConfig(motion=MotionPrior(args.motion), target=args.target, robust=args.robust)
     track = track_sequence(files, K, args.bounds, board=board, timestamps=timestamps, fps=args.fps,
                            polygons=polygons, config=config, smooth=args.smooth,
                            progress=lambda k, n: progress.show(k + 1, files[k].name))
@@ -125,10 +135,55 @@ def run(args) -> int:
     if args.plot is not None:
         from ..viz.plot import plot_track
 
-        plot_track(track, args.plot, board=board, title=f"graphpose track: {len(frames)} frames")
+        plot_track(track, args.plot, board=board, truth=truth,
+                   title=f"graphpose track: {len(frames)} frames" + (", truth in grey" if truth is not None else ""))
     if not args.quiet and args.json != "-":
-        print(_summary(track, frames))
+        print(_summary(track, frames, truth, truth_note))
     return EXIT_OK if found else EXIT_FAILED
+
+
+def _truth(args, n, timestamps):
+    """The true pose of every frame, (n, 4, 4) with NaN where unknown, and where it came from;
+    (None, "") without a truth. ``--truth`` is matched by timestamp; a folder written by
+    ``graphpose render-sequence`` (its ``truth.tum`` and ``bounds.json``,
+    :func:`graphpose.synth.sequence.write_sequence`) holds one true pose per frame, in order."""
+    from ..io.tum import read_tum
+
+    path, own = args.truth, False
+    folder = args.frames[0] if len(args.frames) == 1 and args.frames[0].is_dir() else None
+    if path is None and folder is not None and (folder / "bounds.json").is_file() and (folder / "truth.tum").is_file():
+        path, own = folder / "truth.tum", True
+    if path is None:
+        return None, ""
+    truth = read_tum(path)
+    if own and len(truth) == n:
+        return truth.poses, f"{path} (the rendered sequence's own, one pose per frame)"
+    poses = _match_by_time(truth, timestamps)
+    matched = int(np.sum(np.isfinite(poses[:, 0, 0])))
+    if matched == 0:
+        raise InputError(f"{'--truth ' if not own else ''}{path}: none of its {len(truth)} poses has the "
+                         f"timestamp of a frame (frames at {timestamps[0]:.6f}-{timestamps[-1]:.6f} s; "
+                         f"give the frames' own times with --timestamps or --fps)")
+    return poses, f"{path} ({matched} of {n} frames matched by timestamp)"
+
+
+def _match_by_time(truth, timestamps) -> np.ndarray:
+    """Truth poses at the frames' timestamps: the nearest within 10 ms and half the shortest
+    frame interval, else NaN."""
+    step = np.min(np.diff(timestamps)) if timestamps.size > 1 else np.inf
+    tolerance = min(0.01, 0.5 * step)
+    order = np.argsort(truth.timestamps)
+    times, poses = truth.timestamps[order], truth.poses[order]
+    out = np.full((timestamps.size, 4, 4), np.nan)
+    if times.size == 0:
+        return out
+    right = np.clip(np.searchsorted(times, timestamps), 1, max(times.size - 1, 1))
+    left = right - 1
+    nearest = np.where(np.abs(times[np.minimum(right, times.size - 1)] - timestamps) < np.abs(times[left] - timestamps),
+                       np.minimum(right, times.size - 1), left)
+    close = np.abs(times[nearest] - timestamps) <= tolerance
+    out[close] = poses[nearest[close]]
+    return out
 
 
 def _frame_files(paths, list_frames) -> list:
@@ -147,7 +202,7 @@ def _read_polygons(path: Path) -> list:
     return [None if p is None else as_float_array(p, f"--polygons {path} entry {k}") for k, p in enumerate(doc)]
 
 
-def _summary(track, frames) -> str:
+def _summary(track, frames, truth=None, truth_note="") -> str:
     status = track.status
     counts = ", ".join(f"{s} {int(np.sum(status == s))}" for s in ("tracked", "detected", "lost"))
     found = [f for f in frames if f.T_WC is not None]
@@ -162,7 +217,25 @@ def _summary(track, frames) -> str:
     lost = np.flatnonzero(status == "lost")
     if lost.size:
         lines.append("lost frames: " + _ranges(lost))
+    unreadable = [f.index for f in frames if f.message.startswith("unreadable frame file")]
+    if unreadable:
+        lines.append(f"unreadable frame files (lost): {_ranges(np.array(unreadable))}; see the JSON messages")
+    if truth is not None:
+        lines.append(f"truth: {truth_note}; " + _truth_error(frames, truth))
     return "\n".join(lines)
+
+
+def _truth_error(frames, truth) -> str:
+    """RMS position and rotation error of the frames with a pose and a true pose."""
+    from ..pose.estimate import pose_difference
+
+    errors = [pose_difference(f.T_WC, truth[f.index]) for f in frames
+              if f.T_WC is not None and np.all(np.isfinite(truth[f.index]))]
+    if not errors:
+        return "no frame with a pose has a true pose"
+    d = np.array(errors)
+    return (f"error RMS {1000 * np.sqrt(np.mean(d[:, 0] ** 2)):.3f} mm, {np.sqrt(np.mean(d[:, 1] ** 2)):.4f} deg "
+            f"over {len(d)} frames")
 
 
 def _ranges(idx) -> str:

@@ -25,14 +25,15 @@ def plot_track(track, path, *, board: Board = Board(), truth=None, title: str = 
 
     Parameters
     ----------
-    track : graphpose.track.tracker.Track
+    track : graphpose.track.results.Track
         The tracked sequence; its best poses (smoothed when available) are drawn.
     path : str or Path
         Output PNG, written whole or not at all.
     board : Board
         The target, drawn as a line in the two views of the path.
     truth : (N, 4, 4) array_like, optional
-        True poses T_WC of the same N frames (NaN rows allowed), drawn in grey beneath.
+        True poses T_WC of the same N frames (NaN rows where unknown), drawn in grey beneath
+        the track; the panels say "truth" only when it is drawn.
     title : str
         A title over the picture.
 
@@ -86,7 +87,8 @@ def _positions(ax, t, poses, truth):
         if truth is not None:
             ax.plot(t, truth[:, i, 3], color=colour, lw=3, alpha=0.3)
         ax.plot(t, poses[:, i, 3], color=colour, lw=1, label=axis)
-    ax.set(xlabel="time (s)", ylabel="position (m)", title="camera position (faint: truth)")
+    ax.set(xlabel="time (s)", ylabel="position (m)",
+           title="camera position" + (" (faint: truth)" if truth is not None else ""))
     ax.legend(loc="best", fontsize="small")
 
 

@@ -1,4 +1,5 @@
-"""The trajectory picture (graphpose.viz.plot, the plot extra) and graphpose track --plot."""
+"""The trajectory picture (graphpose.viz.plot, the plot extra); ``graphpose track --plot`` in
+tests/cli/test_track.py."""
 
 import sys
 
@@ -6,13 +7,11 @@ import numpy as np
 import pytest
 from skimage.io import imread
 
-from graphpose import InputError, K_from_params, render_sequence, write_sequence
+from graphpose import InputError
 from graphpose.camera import T_from_params
-from graphpose.cli import main
-from graphpose.track.tracker import FrameResult, Track, TrackerConfig
+from graphpose.track.config import TrackerConfig
+from graphpose.track.results import FrameResult, Track
 from graphpose.viz.plot import plot_track
-
-K = K_from_params(564.9, 564.3, 337.3, 226.5)
 
 
 def small_track(n=12, lost=(5, 6)):
@@ -67,14 +66,3 @@ def test_plot_track_without_matplotlib_says_how_to_get_it(tmp_path, monkeypatch)
     monkeypatch.setitem(sys.modules, "matplotlib", None)  # makes "import matplotlib..." fail
     with pytest.raises(InputError, match=r"pip install -e \"\.\[plot\]\""):
         plot_track(small_track(), tmp_path / "x.png")
-
-
-def test_track_command_draws_the_picture(tmp_path, capsys):
-    seq = render_sequence(K, 6, rng=3, excursions=0)
-    folder = write_sequence(seq, tmp_path / "seq")
-    bounds = ",".join(f"{u:.3f},{v:.3f}" for u, v in seq.bounds.T)
-    out = tmp_path / "track.png"
-    assert main(["track", str(folder), "--bounds", bounds, "--plot", str(out), "-q"]) == 0
-    assert imread(out).shape[:2] == (750, 1100)
-    assert main(["track", str(folder), "--bounds", bounds, "--plot", str(tmp_path / "no" / "x.png")]) == 2
-    assert "--plot: folder" in capsys.readouterr().err

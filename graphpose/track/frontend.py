@@ -1,0 +1,323 @@
+"""The tracker's front end: one frame's junctions and its own pose, before the back end.
+
+Per frame (:class:`FrontEnd`; thresholds in :class:`graphpose.track.config.TrackerConfig`):
+
+1. **Predict** the pose from the last two frames with a constant body-frame twist
+   (:func:`constant_velocity_prediction`), and every junction's pixel position from it.
+2. **Refine** the predictions with the saddle fit (:func:`graphpose.detect.refine.refine_junctions`);
+   drop the untrusted fits and the fits that wandered more than ``gate_px`` from their
+   prediction.
+3. **Fit** the frame's own pose with the single-image pipeline's fit,
+   :func:`graphpose.pose.estimate.fit_pose`: from the prediction, Gauss-Newton and, with
+   ``robust``, its Huber gate on outlying junctions; the same input checks as
+   :func:`graphpose.pose.estimate.estimate_pose`.
+4. **Fall back** to full extraction (:func:`graphpose.detect.junctions.extract_junctions`, then
+   ``fit_pose`` from the homography) when too few junctions survive, when the motion is too
+   fast to predict, or after a loss. Polygons are tried in turn: the caller's polygon for the
+   frame, the predicted outline, the outline of the last frame whose junctions were all in
+   the image and two enlargements of it, the whole image. A detection must trust most of
+   the junctions (a mostly untrusted grid can be labelled one square off, and no residual
+   shows it).
+5. **Refuse** a frame whose fit does not converge or leaves much more residual than the
+   sequence's usual (heavy motion blur, a grid labelled one square off): such a frame, and
+   one where nothing is found, is lost. No pose is guessed.
+
+The back end (:mod:`graphpose.track.backend`) then takes the frame's junctions with the fit
+as its starting pose, and its estimate comes back through :meth:`FrontEnd.accept` to
+predict the next frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..board import Board
+from ..camera import project, to_camera
+from ..detect.junctions import extract_junctions
+from ..detect.refine import refine_junctions
+from ..errors import BoardNotFoundError, InputError
+from ..pose.estimate import fit_pose
+from .config import TrackerConfig
+from .results import DETECTED, LOST, TRACKED
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """What the front end found in one frame.
+
+    Attributes
+    ----------
+    status : {"tracked", "detected", "lost"}
+        Followed from the prediction, found by full extraction, or nothing usable.
+    points : (2, m) ndarray or None
+        The junctions kept, pixels (u, v); None when lost.
+    ids : (m,) ndarray of int or None
+        Their board indices (row-major).
+    fit : GNResult or None
+        The frame's own pose fit of those junctions (:func:`graphpose.pose.estimate.fit_pose`).
+    message : str
+        Why the frame was lost, or why it fell back to extraction; empty otherwise.
+    """
+
+    status: str
+    points: np.ndarray | None = None
+    ids: np.ndarray | None = None
+    fit: object = None
+    message: str = ""
+
+
+class FrontEnd:
+    """Per-frame junction work of the tracker, with the state it keeps between frames.
+
+    Parameters
+    ----------
+    K : (3, 3) ndarray
+        Intrinsics, pixels (trusted: checked by the caller).
+    board : Board
+        The target.
+    config : TrackerConfig
+        Thresholds.
+    """
+
+    def __init__(self, K, board: Board, config: TrackerConfig):
+        self.K, self.board, self.config = K, board, config
+        self._W = board.world_points()
+        self._sheet = board.sheet_corners()
+        self._recent = []  # (k, timestamp, T_WC) of the last two frames with a pose, consecutive
+        self._outline = None  # sheet outline of the last frame whose junctions were all in view
+        self._rms = []  # fit RMS of every frame with a pose
+
+    def measure(self, k: int, timestamp: float, image: np.ndarray, polygon=None) -> Measurement:
+        """Junctions and single-frame fit of frame ``k``.
+
+        Parameters
+        ----------
+        k : int
+            Frame index.
+        timestamp : float
+            Seconds.
+        image : (H, W) ndarray
+            The frame, grey (:meth:`graphpose.track.frames.FrameSource.load`).
+        polygon : (2, 4) ndarray, optional
+            The caller's bounding polygon for this frame (checked), tried first when the
+            frame needs full extraction.
+
+        Returns
+        -------
+        Measurement
+            Lost when nothing usable was found; an error of the junction or pose code on a
+            degenerate frame fails that attempt only, never the sequence.
+        """
+        prediction = self._predict(k, timestamp)
+        found, status, message = None, LOST, ""
+        if prediction is not None:
+            found, message = _attempt(self._track, image, prediction)
+            status = TRACKED if found is not None else LOST
+        if found is None:
+            for poly in self._detection_polygons(polygon, prediction, image.shape[:2]):
+                found, why = _attempt(self._detect, image, poly)
+                if found is not None:
+                    status = DETECTED
+                    break
+                message = f"{message}; {why}" if message else why
+        if found is None:
+            return Measurement(LOST, message=message or "no polygon to search")
+        points, ids, fit = found
+        self._rms.append(fit.residual_rms_px)
+        return Measurement(status, points, ids, fit, message if status == DETECTED else "")
+
+    def accept(self, k: int, timestamp: float, T_WC, shape) -> None:
+        """Take the back end's pose of frame ``k`` (image ``shape`` (H, W)) for the next predictions."""
+        self._recent = (self._recent + [(k, timestamp, T_WC)])[-2:]
+        # The anchor of re-detection after a loss: the newest frame with the whole grid of
+        # junctions in the image, whether or not the sheet's margin was cut by the border
+        # (the detection polygons are clipped to the image).
+        if _inside(project(self.K, T_WC, self._W), shape):
+            self._outline = project(self.K, T_WC, self._sheet)
+
+    def lose(self) -> None:
+        """Frame without a pose: the next one cannot be predicted."""
+        self._recent = []
+
+    # ----------------------------------------------------------------- prediction
+    def _predict(self, k, t):
+        """Constant-velocity prediction from the last two frames, or None after a loss."""
+        if not self._recent or self._recent[-1][0] != k - 1:
+            return None
+        _, t1, T1 = self._recent[-1]
+        if len(self._recent) < 2:
+            return T1
+        _, t0, T0 = self._recent[0]
+        return constant_velocity_prediction(T0, T1, (t - t1) / (t1 - t0))
+
+    def _detection_polygons(self, polygon, prediction, shape):
+        """Polygons to search, most specific first: the caller's, the predicted outline, the
+        last whole grid's outline and two enlargements of it, then the whole image."""
+        polys = [polygon] if polygon is not None else []
+        if prediction is not None:
+            polys.append(project(self.K, prediction, self._sheet))
+        if self._outline is not None:
+            centre = self._outline.mean(axis=1, keepdims=True)
+            polys += [centre + f * (self._outline - centre) for f in (1.0, 1.4, 2.0)]
+        h, w = shape
+        if polygon is None or self._outline is not None:
+            polys.append(np.array([[0.0, w - 1.0, w - 1.0, 0.0], [0.0, 0.0, h - 1.0, h - 1.0]]))
+        return [np.clip(P, 0.0, [[w - 1.0], [h - 1.0]]) for P in polys]
+
+    # ----------------------------------------------------------------- junctions
+    def _track(self, image, T_pred):
+        """Refine predicted junctions; ((points, ids, fit), "") or (None, why)."""
+        cfg = self.config
+        if np.any(to_camera(T_pred, self._W)[2] <= 0):
+            return None, "prediction puts the board behind the camera"
+        uv = project(self.K, T_pred, self._W)
+        side = _square_px(self.K, T_pred, self._W, uv, self.board.square_m)
+        speed = np.median(np.hypot(*(uv - project(self.K, self._recent[-1][2], self._W))) / side)
+        if speed > cfg.max_speed:
+            return None, f"predicted motion {speed:.2f} squares a frame is too fast to track"
+        radius = np.clip(cfg.window_fraction * side, *cfg.window_px)
+        h, w = image.shape
+        inside = (uv[0] - radius >= 0) & (uv[0] + radius <= w - 1) & (uv[1] - radius >= 0) & (uv[1] + radius <= h - 1)
+        ids = np.flatnonzero(inside)
+        if ids.size < cfg.min_junctions:
+            return None, f"only {ids.size} predicted junctions in the image"
+        points, trusted, _ = refine_junctions(image, uv[:, ids], radius[ids])
+        keep = trusted & (np.hypot(*(points - uv[:, ids])) < cfg.gate_px)
+        if np.count_nonzero(keep) < cfg.min_junctions:
+            return None, (f"only {np.count_nonzero(keep)} of {ids.size} junctions refined within "
+                          f"{cfg.gate_px:g} px of their prediction (need {cfg.min_junctions})")
+        return self._fit(points[:, keep], ids[keep], T_pred)
+
+    def _detect(self, image, polygon):
+        """Full extraction inside a polygon; ((points, ids, fit), "") or (None, why)."""
+        try:
+            J = extract_junctions(image, polygon, self.board)
+        except (BoardNotFoundError, InputError) as exc:
+            return None, f"extraction failed: {exc}"
+        ids = np.flatnonzero(J.trusted)
+        need = max(self.config.min_junctions, int(np.ceil(self.config.min_detected_fraction * self.board.n)))
+        if ids.size < need:
+            return None, f"extraction trusted only {ids.size} of {self.board.n} junctions (need {need})"
+        return self._fit(J.points[:, ids], ids, None)
+
+    def _fit(self, points, ids, guess):
+        """The single-image fit (from ``guess``, or the homography when None) and the frame's
+        checks; ((points, ids, fit), "") or (None, why)."""
+        cfg = self.config
+        try:
+            fit, _ = fit_pose(self.K, points, self._W[:, ids], guess, robust=cfg.robust)
+        except InputError as exc:
+            return None, f"pose fit failed: {exc}"
+        if not fit.converged:
+            return None, f"pose fit did not converge: {fit.message}"
+        limit = cfg.max_rms_px
+        if len(self._rms) >= 5:
+            limit = min(limit, max(cfg.rms_factor * float(np.median(self._rms)), cfg.rms_floor_px))
+        if fit.residual_rms_px > limit:
+            return None, f"fit residual {fit.residual_rms_px:.3f} px RMS exceeds {limit:.3f} px"
+        return (points, ids, fit), ""
+
+
+def constant_velocity_prediction(T0, T1, ratio: float) -> np.ndarray:
+    """The pose one interval after ``T1`` if the body-frame twist from ``T0`` to ``T1`` holds.
+
+    Parameters
+    ----------
+    T0, T1 : (4, 4) ndarray
+        Poses T_WC of two consecutive frames (trusted: rigid transforms).
+    ratio : float
+        The next frame interval over the one from ``T0`` to ``T1``.
+
+    Returns
+    -------
+    (4, 4) ndarray
+        ``T1 Exp(ratio Log(T0^-1 T1))``, with the exact SE(3) exponential and logarithm
+        (GTSAM's ``Pose3.Expmap``/``Logmap``, the twist rotation first).
+    """
+    R0, t0, R1, t1 = T0[:3, :3], T0[:3, 3], T1[:3, :3], T1[:3, 3]
+    D = np.eye(4)
+    D[:3, :3] = R0.T @ R1
+    D[:3, 3] = R0.T @ (t1 - t0)
+    return T1 @ _se3_exp(ratio * _se3_log(D))
+
+
+def _hat(w):
+    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+
+
+def _so3_log(R):
+    """Rotation vector (3,) of a rotation matrix, accurate from 0 to pi."""
+    s = 0.5 * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    sin = float(np.linalg.norm(s))
+    cos = 0.5 * (np.trace(R) - 1.0)
+    theta = math.atan2(sin, cos)
+    if theta < 1e-4:
+        return s * (1.0 + theta * theta / 6.0)  # theta / sin(theta)
+    if math.pi - theta < 1e-3:
+        # Near pi the skew part vanishes; the axis a is in the symmetric part:
+        # (R + R^T) / 2 = cos(theta) I + (1 - cos(theta)) a a^T.
+        A = (0.5 * (R + R.T) - cos * np.eye(3)) / (1.0 - cos)
+        i = int(np.argmax(np.diag(A)))
+        axis = A[:, i] / math.sqrt(A[i, i])
+        return theta * (axis if axis @ s >= 0 else -axis)
+    return s * (theta / sin)
+
+
+def _se3_coefficients(theta):
+    """``sin(t)/t``, ``(1 - cos t)/t^2``, ``(t - sin t)/t^3`` (series near 0)."""
+    if theta < 1e-4:
+        t2 = theta * theta
+        return 1.0 - t2 / 6.0, 0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0
+    half = math.sin(0.5 * theta)
+    return math.sin(theta) / theta, 2.0 * half * half / theta**2, (theta - math.sin(theta)) / theta**3
+
+
+def _se3_log(T):
+    """Twist (omega, v) (6,) of a rigid transform: ``T = Exp(omega, v)``."""
+    omega = _so3_log(T[:3, :3])
+    theta = float(np.linalg.norm(omega))
+    W = _hat(omega)
+    if theta < 1e-4:
+        c = 1.0 / 12.0 + theta * theta / 720.0
+    else:
+        c = (1.0 - 0.5 * theta * math.cos(0.5 * theta) / math.sin(0.5 * theta)) / theta**2
+    V_inv = np.eye(3) - 0.5 * W + c * (W @ W)
+    return np.r_[omega, V_inv @ T[:3, 3]]
+
+
+def _se3_exp(xi):
+    """Rigid transform (4, 4) of a twist (omega, v): rotation first, as GTSAM's Pose3."""
+    omega, v = xi[:3], xi[3:]
+    theta = float(np.linalg.norm(omega))
+    a, b, c = _se3_coefficients(theta)
+    W = _hat(omega)
+    W2 = W @ W
+    T = np.eye(4)
+    T[:3, :3] = np.eye(3) + a * W + b * W2
+    T[:3, 3] = (np.eye(3) + b * W + c * W2) @ v
+    return T
+
+
+def _attempt(method, *args):
+    """``method(*args)`` of the front end; an InputError from the junction or pose code (a
+    degenerate frame its own checks did not foresee) fails this attempt, so the frame falls
+    back to the next one or is lost, never the sequence."""
+    try:
+        return method(*args)
+    except InputError as exc:
+        return None, f"{method.__name__.strip('_')} failed: {exc}"
+
+
+def _square_px(K, T_WC, Wpts, uv, square_m) -> np.ndarray:
+    """Local square side at each junction, pixels: the shorter projected grid step."""
+    du = project(K, T_WC, Wpts + [[square_m], [0.0], [0.0]]) - uv
+    dv = project(K, T_WC, Wpts + [[0.0], [square_m], [0.0]]) - uv
+    return np.minimum(np.hypot(*du), np.hypot(*dv))
+
+
+def _inside(uv, shape) -> bool:
+    h, w = shape
+    return bool(np.all((uv[0] >= 0) & (uv[0] <= w - 1) & (uv[1] >= 0) & (uv[1] <= h - 1)))

@@ -1,0 +1,110 @@
+"""The tracker's front end: graphpose.track.frontend."""
+
+import gtsam
+import numpy as np
+import pytest
+
+from graphpose import Board, InputError, T_from_params, track_sequence
+from graphpose.pose.estimate import fit_pose
+from graphpose.synth.sequence import render_sequence
+from graphpose.track import frontend
+from graphpose.track.config import TrackerConfig
+from graphpose.track.frontend import FrontEnd, constant_velocity_prediction
+from graphpose.track.results import DETECTED, LOST, TRACKED
+from tests.conftest import BOARD_WPTS as W
+from tests.conftest import PROJECT_K as K
+
+
+@pytest.mark.parametrize("angle", [0.0, 1e-9, 1e-5, 1e-3, 0.05, 1.0, 3.0, np.pi - 1e-6])
+def test_constant_velocity_prediction_is_gtsams_exp_and_log(angle):
+    # T1 Exp(r Log(T0^-1 T1)) with GTSAM's Pose3 maps, for relative rotations from none to
+    # almost half a turn (the closed forms switch to series near 0 and to the symmetric part
+    # near pi).
+    rng = np.random.default_rng(int(angle * 1e3) + 1)
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    T0 = T_from_params([0.2, 0.1, -0.9, 0.3, -0.2, 0.1])
+    T1 = T0 @ gtsam.Pose3.Expmap(np.r_[angle * axis, rng.normal(0, 0.02, 3)]).matrix()
+    for ratio in (1.0, 0.5, 2.5):
+        twist = gtsam.Pose3.Logmap(gtsam.Pose3(np.linalg.inv(T0) @ T1))
+        expected = T1 @ gtsam.Pose3.Expmap(ratio * twist).matrix()
+        np.testing.assert_allclose(constant_velocity_prediction(T0, T1, ratio), expected, atol=1e-9)
+
+
+def _first_two(clip, config=None):
+    front = FrontEnd(K, Board(), config or TrackerConfig())
+    first = front.measure(0, clip.timestamps[0], clip.images[0], clip.bounds)
+    front.accept(0, clip.timestamps[0], first.fit.T_WC, clip.images[0].shape)
+    second = front.measure(1, clip.timestamps[1], clip.images[1])
+    return first, second
+
+
+def test_detects_then_tracks_with_the_single_image_fit(track_clip):
+    first, second = _first_two(track_clip)
+    assert (first.status, second.status) == (DETECTED, TRACKED)
+    assert first.points.shape == (2, first.ids.size) and first.ids.size >= 44
+    # The single-image pipeline's fit, from the homography for a detection.
+    fit, _ = fit_pose(K, first.points, W[:, first.ids])
+    np.testing.assert_allclose(first.fit.T_WC, fit.T_WC, atol=1e-12)
+    assert first.fit.sigma_px == fit.sigma_px
+    for found, k in ((first, 0), (second, 1)):
+        assert np.linalg.norm(found.fit.T_WC[:3, 3] - track_clip.T_WC[k][:3, 3]) < 5e-4
+
+
+def test_robust_setting_is_the_pipelines_robust_fit(track_clip):
+    first, _ = _first_two(track_clip, TrackerConfig(robust=True))
+    fit, _ = fit_pose(K, first.points, W[:, first.ids], robust=True)
+    np.testing.assert_allclose(first.fit.T_WC, fit.T_WC, atol=1e-12)
+    assert first.fit.sigma_px == fit.sigma_px  # the robust sigma (1.4826 x median |residual|)
+    plain, _ = fit_pose(K, first.points, W[:, first.ids])
+    assert first.fit.sigma_px != plain.sigma_px
+
+
+def test_no_board_is_lost_with_the_reasons():
+    front = FrontEnd(K, Board(), TrackerConfig())
+    found = front.measure(0, 0.0, np.full((480, 640), 128, np.uint8))
+    assert found.status == LOST and found.points is None and found.fit is None
+    assert "extraction failed" in found.message
+
+
+def test_input_errors_of_the_junction_and_pose_code_fail_the_attempt_not_the_sequence(track_clip, monkeypatch):
+    def refuse(*args, **kwargs):
+        raise InputError("degenerate")
+
+    # A refinement that fails once tracking started: each frame falls back to full extraction.
+    monkeypatch.setattr(frontend, "refine_junctions", refuse)
+    track = track_sequence(track_clip.images[:3], K, track_clip.bounds)
+    assert list(track.status) == [DETECTED, DETECTED, DETECTED]
+    assert all("track failed: degenerate" in f.message for f in track.frames[1:])
+    # The single-image fit failing from the homography start: every attempt fails, every
+    # frame is lost, and says why.
+    monkeypatch.setattr("graphpose.pose.estimate.pose_from_homography", refuse)
+    track = track_sequence(track_clip.images[:2], K, track_clip.bounds)
+    assert list(track.status) == [LOST, LOST]
+    assert all("pose fit failed: degenerate" in f.message for f in track.frames)
+
+
+@pytest.fixture(scope="module")
+def help_example():
+    """The sequence of 'graphpose render-sequence --frames 60 --seed 3 --excursions 1' (cheap
+    rendering): the board leaves the view in a whip pan and comes back large, near the image
+    border, the sheet's white margin cut by it."""
+    return render_sequence(K, 60, rng=3, excursions=1, supersample=1)
+
+
+def test_the_board_is_found_again_after_a_pan_when_the_sheet_was_cut_by_the_border(help_example):
+    # Re-detection after a loss searches around the last frame whose junctions were all in
+    # the image. It used to take only frames whose whole SHEET (margin included) was in the
+    # image: here that was frame 11, the board has moved far since, and the whole-image
+    # search cannot find a board this large in this perspective, so every frame after the
+    # pan was lost although the board was in view and sharp.
+    seq = help_example
+    track = track_sequence(seq.images, K, timestamps=seq.timestamps)
+    status = track.status
+    last_out = np.flatnonzero(seq.out_of_view)[-1]
+    back = np.flatnonzero((np.arange(len(seq)) > last_out) & seq.in_view & (seq.subframes == 1))
+    assert back.size >= 10
+    assert not np.any(status[back] == LOST), dict(zip(back.tolist(), status[back]))
+    found = track.found
+    err = np.linalg.norm(track.poses("online")[found, :3, 3] - seq.T_WC[found, :3, 3], axis=1)
+    assert np.max(err) < 1e-3
