@@ -1,0 +1,191 @@
+"""The documentation is true: its Python examples run, its links resolve, the README stays a
+guide, the command line is documented in full, and the benchmark page is what its JSON says.
+
+Every ```python block of README.md and docs/*.md runs on its own in a fresh interpreter from
+the repository's root, as a reader would paste it. A block that reads ../shared data is
+skipped when that data is absent (failed under GRAPHPOSE_REQUIRE_REAL=1, as in conftest).
+"""
+
+import importlib.util
+import json
+import os
+import re
+import subprocess
+import sys
+
+import pytest
+
+from tests.conftest import REPO
+
+PAGES = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
+README_MAX_LINES = 300
+SHARED = re.compile(r"\.\./shared/[\w./-]+")
+
+
+def _blocks():
+    """(page, line, code) of every ```python block."""
+    out = []
+    for page in PAGES:
+        text = page.read_text()
+        for match in re.finditer(r"^```python\n(.*?)^```", text, re.S | re.M):
+            out.append((page, text[: match.start()].count("\n") + 1, match.group(1)))
+    return out
+
+
+BLOCKS = _blocks()
+
+
+def _name(block):
+    page, line, _ = block
+    return f"{page.relative_to(REPO)}:{line}"
+
+
+def test_there_are_examples_to_run():
+    assert len(BLOCKS) >= 10
+    assert any(page.name == "README.md" for page, _, _ in BLOCKS)
+
+
+@pytest.mark.parametrize("block", BLOCKS, ids=_name)
+def test_python_example_runs_on_its_own(block):
+    page, line, code = block
+    for path in SHARED.findall(code):
+        if not (REPO / path).exists():
+            message = f"{path} is absent"
+            if os.environ.get("GRAPHPOSE_REQUIRE_REAL") == "1":
+                pytest.fail(f"{message} and GRAPHPOSE_REQUIRE_REAL=1")
+            pytest.skip(message)
+    env = dict(os.environ, MPLBACKEND="Agg")
+    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, env=env,
+                          timeout=120)
+    assert done.returncode == 0, f"{_name(block)} failed:\n{done.stderr[-3000:]}"
+
+
+# --- the README is a guide ---------------------------------------------------------------
+
+
+def test_readme_is_short():
+    lines = (REPO / "README.md").read_text().count("\n")
+    assert lines <= README_MAX_LINES, f"README.md has {lines} lines; move detail into docs/"
+
+
+def test_readme_has_no_timings():
+    """Times belong in docs/benchmarks.md, measured; the README only links to it."""
+    text = (REPO / "README.md").read_text()
+    found = re.findall(r"\b\d+(?:\.\d+)?\s*(?:ms|milliseconds?|seconds?|s|µs|us)\b(?![-.\w])", text)
+    assert not found, f"timings in README.md: {found}"
+    assert "docs/benchmarks.md" in text
+
+
+def test_readme_first_commands_are_the_documented_ones():
+    """The first two shell commands: set up and run the default; set up and test (what CI runs)."""
+    text = (REPO / "README.md").read_text()
+    commands = re.findall(r"^```sh\n(.*?)^```", text, re.S | re.M)[:2]
+    assert commands == [
+        "python3 -m venv .venv && . .venv/bin/activate && pip install -e . && python scripts/estimate.py\n",
+        'python3 -m venv .venv && . .venv/bin/activate && pip install -e ".[test]" && python -m pytest -q\n',
+    ]
+    assert "python -m pytest -q" in (REPO / ".ci" / "run").read_text()
+
+
+def _local_links(page):
+    """Targets of the page's relative markdown links (no scheme, anchors dropped)."""
+    targets = re.findall(r"\]\(([^)\s]+)\)", page.read_text())
+    return [t.split("#")[0] for t in targets if not re.match(r"^[a-z]+:", t) and not t.startswith("#")]
+
+
+def test_readme_links_to_docs_pages_that_exist():
+    links = [t for t in _local_links(REPO / "README.md") if t.startswith("docs/")]
+    assert {"docs/index.md", "docs/conventions.md", "docs/cli.md", "docs/benchmarks.md"} <= set(links)
+    missing = [t for t in links if not (REPO / t).exists()]
+    assert not missing, f"README.md links to missing files: {missing}"
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(REPO)))
+def test_local_links_resolve(page):
+    missing = [t for t in _local_links(page) if t and not (page.parent / t).exists()]
+    assert not missing, f"{page.relative_to(REPO)} links to missing files: {missing}"
+
+
+# --- the command line is documented in full ------------------------------------------------
+
+
+def _docs_text():
+    return "\n".join(p.read_text() for p in PAGES)
+
+
+def test_every_subcommand_and_option_is_documented():
+    import argparse
+
+    from graphpose.cli import build_parser
+
+    parser = build_parser()
+    text = _docs_text()
+    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    seen = set()
+    for name, sub in action.choices.items():
+        if id(sub) in seen:  # an alias
+            continue
+        seen.add(id(sub))
+        assert f"graphpose {name}" in text, f"subcommand {name} is not documented in docs/"
+        for option in sub._actions:
+            for string in option.option_strings:
+                if string.startswith("--") and string != "--help":
+                    assert f"`{string}" in text, f"graphpose {name} {string} is not documented in docs/"
+
+
+def test_json_record_keys_are_those_of_records_docstring():
+    """docs/cli.md's pose-block table has every key of graphpose/cli/records.py's docstring."""
+    from graphpose.cli import records
+
+    keys = re.findall(r"^``(\w+)``\s", records.__doc__, re.M)
+    assert keys == list(records.POSE_KEYS)
+    cli = (REPO / "docs" / "cli.md").read_text()
+    for key in keys:
+        assert f"| `{key}` |" in cli, f"docs/cli.md does not describe the record key {key}"
+
+
+# --- the benchmark page is generated -----------------------------------------------------------
+
+
+def _bench():
+    spec = importlib.util.spec_from_file_location("bench", REPO / "scripts" / "bench.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_benchmark_page_is_rendered_from_its_json():
+    doc = json.loads((REPO / "docs" / "benchmarks.json").read_text())
+    page = (REPO / "docs" / "benchmarks.md").read_text()
+    assert page == _bench().render_page(doc), "docs/benchmarks.md was edited by hand: python scripts/bench.py --render"
+    assert ("Quick run" in page) == doc["quick"]
+    for key in ("date", "machine", "versions", "commit"):
+        assert doc[key]
+
+
+def test_benchmark_page_shows_every_figure_beside_its_peer_and_goal():
+    bench = _bench()
+    doc = {"format": 1, "quick": False, "date": "d", "python": "3", "commit": "c", "command": "python scripts/bench.py",
+           "machine": {"node": "n", "cpu": "c", "arch": "a", "cores": 2, "load_before": None},
+           "versions": {"graphpose": "0"},
+           "sections": [{"name": "pose", "seconds": 1.0, "goal": "Why.",
+                         "figures": [{"figure": "GN", "unit": "ms", "fmt": ".2f", "graphpose": 0.5, "peer_name": "LM",
+                                      "peer": 0.25, "ratio": 2.0, "goal": "< 1 ms", "met": True},
+                                     {"figure": "NEES", "unit": "", "fmt": ".2f", "graphpose": None, "peer_name": None,
+                                      "peer": None, "ratio": None, "goal": "4.5-7.5", "met": False}],
+                         "blocks": [{"title": "T", "text": "x {a:.1f} {b:.2f}", "values": {"a": 1.25, "b": None},
+                                     "columns": ["a", "b"], "formats": [".1f", ""], "rows": [[2.25, None]]}]}]}
+    page = bench.render_page(doc)
+    assert "| pose | GN | 0.50 ms | LM: 0.25 ms | 2.00 | < 1 ms | yes |" in page
+    assert "| pose | NEES | n/a |  |  | 4.5-7.5 | no |" in page
+    assert "x 1.2 n/a" in page and "| 2.2 | n/a |" in page
+    assert "Quick run" not in page
+
+
+def test_benchmark_without_opencv_says_how_to_install_it():
+    code = ("import runpy, sys; sys.modules['cv2'] = None; sys.argv = ['scripts/bench.py', '--quick']; "
+            "runpy.run_path('scripts/bench.py', run_name='__main__')")
+    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1 and 'pip install -e ".[bench]"' in done.stderr
+    assert "Traceback" not in done.stderr
