@@ -9,9 +9,13 @@ processes started and their imports done before the clock starts):
 
 - ``loop``: :func:`graphpose.batch.work.estimate_images` in this process, one image after
   another: the work alone;
-- ``workers_1``, ``workers_2``: :func:`graphpose.batch.estimate_many` on a LocalCluster of 1
-  and 2 single-threaded worker processes, images grouped automatically; the ratio of the two
-  (goal >= 1.8 on an idle 2-core machine: the client and the scheduler share the cores);
+- ``workers_1``, ``workers_2``: :func:`graphpose.batch.estimate_many` on the local cluster of
+  ``graphpose batch`` (:func:`graphpose.batch.local_cluster`) with 1 and 2 single-threaded
+  worker processes, images grouped automatically; the ratio of the two (goal >= 1.8 on an idle
+  2-core machine: the client and the scheduler share the cores);
+- ``workers_1_dask_default_environment``: 1 worker of a plain ``distributed.LocalCluster``,
+  whose workers get Dask's ``MALLOC_TRIM_THRESHOLD_`` (see
+  :data:`graphpose.batch.engine.WORKER_ENVIRONMENT`);
 - ``overhead_ms_per_image``: the 1-worker time per image minus the loop's;
 - ``one_image_per_task``: 1 worker, every image its own task; the difference from the loop is
   the cost of one task (submit, schedule, run, send back, receive);
@@ -132,6 +136,8 @@ def time_noops(client, n):
 def main(quick: bool = False) -> dict:
     from distributed import Client, LocalCluster
 
+    from graphpose.batch import local_cluster
+
     n_files, n_paths, n_noops = (12, 300, 1000) if quick else (40, 3000, 5000)
     figures = {"quick": quick, "machine": {"cores": os.cpu_count(), "load_average_1_5_15": list(os.getloadavg()),
                                            "python": platform.python_version(), "platform": platform.platform()},
@@ -143,9 +149,13 @@ def main(quick: bool = False) -> dict:
         figures["loop"] = {"seconds": loop_s, "images_per_s": n_paths / loop_s, "ms_per_image": 1e3 * loop_s / n_paths}
         figures["image_file_kb"] = float(np.mean([os.path.getsize(p) for p in paths[:n_files]]) / 1024)
         figures["client_us_per_row"] = time_rows(rows, Path(tmp))
+        with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                          dashboard_address="127.0.0.1:0") as cluster, Client(cluster) as client:
+            seconds, seen = time_cluster(client, paths, bounds, K, board)
+            figures["workers_1_dask_default_environment"] = {"seconds": seconds, "images_per_s": n_paths / seconds,
+                                                             **seen}
         for n in (1, 2):
-            with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                              dashboard_address="127.0.0.1:0") as cluster, Client(cluster) as client:
+            with local_cluster(n) as cluster, Client(cluster) as client:
                 seconds, seen = time_cluster(client, paths, bounds, K, board)
                 figures[f"workers_{n}"] = {"seconds": seconds, "images_per_s": n_paths / seconds, **seen}
                 if n == 1:

@@ -137,14 +137,27 @@ def distributed_module():
     return distributed
 
 
+#: Dask's nanny sets these in a worker process's environment; None leaves one unset. Dask sets
+#: MALLOC_TRIM_THRESHOLD_=65536 to hand freed memory back to the system sooner, but any fixed
+#: value also stops glibc from raising its mmap threshold, so every image-sized array is then a
+#: fresh mmap whose pages are faulted in: the estimate took about twice as long in such a worker
+#: as in a plain process (docs/batch.md). Dask's one thread per BLAS/OpenMP stays.
+WORKER_ENVIRONMENT = {"MALLOC_TRIM_THRESHOLD_": None}
+
+
 def local_cluster(workers: int | None = None):
     """A Dask ``LocalCluster`` of ``workers`` processes (default: the usable cores), one
-    thread each, listening on 127.0.0.1 only, without a dashboard."""
+    thread each, listening on 127.0.0.1 only (its HTTP server at a free port), with the
+    worker environment of :data:`WORKER_ENVIRONMENT`."""
+    import dask
+
     distributed = distributed_module()
     n = workers if workers is not None else len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") \
         else (os.cpu_count() or 1)
-    return distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                    dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
+    environ = {f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in WORKER_ENVIRONMENT.items()}
+    with dask.config.set(environ):  # read by each nanny as it is made, and kept for its restarts
+        return distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                        dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
 
 
 def _items(paths, bounds) -> list:

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from graphpose import Board, InputError
-from graphpose.batch import estimate_many
+from graphpose.batch import estimate_many, local_cluster
 from graphpose.batch.work import STATUSES, estimate_images, whole_image
 from tests.batch.helpers import check_rows, make_image_set
 
@@ -26,13 +26,21 @@ def images(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def client():
-    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                       dashboard_address="127.0.0.1:0")
+    cluster = local_cluster(2)  # what graphpose batch starts: a distributed.LocalCluster
+    assert isinstance(cluster, distributed.LocalCluster)
     try:
         with distributed.Client(cluster) as c:
             yield c
     finally:
         cluster.close()
+
+
+def test_local_cluster_workers_single_threaded_without_a_malloc_trim_threshold(client):
+    names = ("MALLOC_TRIM_THRESHOLD_", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+    seen = client.run(lambda: [os.environ.get(k) for k in names])
+    assert list(seen.values()) == [[None, "1", "1"]] * 2
+    assert sorted(client.nthreads().values()) == [1, 1]
+    assert all(address.startswith("tcp://127.0.0.1:") for address in seen)
 
 
 def test_every_image_once_with_the_single_image_pose(images, client):
