@@ -220,7 +220,11 @@ class _Feeder:
         from distributed import as_completed
 
         self._count_threads(wait=True)
-        self.client.run(warm_up)  # the workers there now; one that joins later warms up on its first task
+        try:  # the workers there now; one that joins later warms up on its first task
+            self.client.run(warm_up)
+        except Exception as exc:  # noqa: BLE001  (whatever a worker raised, e.g. ModuleNotFoundError)
+            raise ClusterError(f"a Dask worker cannot run graphpose ({type(exc).__name__}: {exc}); every "
+                               f"worker needs graphpose installed, with the batch extra") from None
         finished = as_completed()
         try:
             self._submit(finished)

@@ -105,9 +105,13 @@ def run(args) -> int:
     bounds = args.bounds
     if args.bounds_file is not None:
         bounds = read_bounds_file(args.bounds_file)
-        if not any(p in bounds for p in paths):
+        named = sum(p in bounds for p in paths)
+        if not named:
             raise InputError(f"--bounds-file {args.bounds_file} names none of the {len(paths)} images "
                              f"(its paths are relative to its own folder)")
+        if named < len(paths) and not args.quiet:
+            print(f"graphpose batch: --bounds-file names {named} of the {len(paths)} images; the other "
+                  f"{len(paths) - named} are searched whole", file=sys.stderr)
     K, board = target_from_args(args)
     with open_results(args.out, flush_seconds=args.flush_seconds) as results, _interrupt_on_sigterm():
         todo = [p for p in paths if p not in results.done]

@@ -62,6 +62,7 @@ def test_command_line_on_the_cluster_every_image_once(images, cluster, tmp_path)
     assert {r["worker"] for r in rows if r["status"] == "ok"} <= set(_workers(cluster))
     assert f"{len(images.all_paths)} images: {len(images.paths)} ok" in done.stdout
     assert "0 skipped" in done.stdout
+    assert f"--bounds-file names {len(images.paths)} of the {len(images.all_paths)} images" in done.stderr
 
 
 def wait_for(condition, proc, timeout=120.0):
