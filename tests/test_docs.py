@@ -87,6 +87,28 @@ def test_readme_first_commands_are_the_documented_ones():
     assert "python -m pytest -q" in (REPO / ".ci" / "run").read_text()
 
 
+def _numbers_and_skeleton(text):
+    """The numbers of ``text`` (value, unit of its last digit) and the text with them blanked."""
+    pattern = re.compile(r"-?\d+(?:\.(\d+))?(?:e-?\d+)?")
+    numbers = [(float(m.group(0)), 10.0 ** -len(m.group(1) or "")) for m in pattern.finditer(text)]
+    return numbers, pattern.sub("#", text)
+
+
+def test_readme_first_run_output_is_what_the_first_run_prints():
+    """The README's sample is the first image's report: the same lines, the same numbers up to
+    the last digit or two (a detector tweak moves the fifth decimal) or 20 % of a small figure."""
+    readme = (REPO / "README.md").read_text()
+    sample = re.search(r"^```text\n(.*?)^```", readme, re.DOTALL | re.MULTILINE).group(1)
+    done = subprocess.run([sys.executable, "scripts/estimate.py"], cwd=REPO, capture_output=True, text=True,
+                          timeout=120, check=False)
+    assert done.returncode == 0, done.stderr
+    printed = done.stdout[: len(done.stdout.split("\n\n")[0]) + 1]
+    (shown, shown_skeleton), (real, real_skeleton) = _numbers_and_skeleton(sample), _numbers_and_skeleton(printed)
+    assert shown_skeleton == real_skeleton
+    for (a, unit), (b, _) in zip(shown, real):
+        assert abs(a - b) <= max(2.5 * unit, 0.2 * abs(b)), f"README shows {a}, the run prints {b}:\n{printed}"
+
+
 def _local_links(page):
     """Targets of the page's relative markdown links (no scheme, anchors dropped)."""
     targets = re.findall(r"\]\(([^)\s]+)\)", page.read_text())
