@@ -88,8 +88,8 @@ def _search(image, board, bounds, region, level) -> FoundBoard:
     """:func:`find_board` at one search level."""
     cands = find_candidates(image, region, level=level)
     where = "inside the bounds" if bounds is not None else "in the image"
-    if cands.points.shape[1] < 4:
-        raise _refusal(f"no checkerboard {where}: {cands.points.shape[1]} junction-like points", 0)
+    if cands.seed.sum() < 1 or cands.points.shape[1] < 4:
+        raise _refusal(f"no checkerboard {where}: {int(cands.seed.sum())} junction-like points", 0)
     labelled, refused, after = [], [], 0
     for lattice in grow_lattices(cands, max_nodes=8 * board.n):
         if labelled:
@@ -109,7 +109,7 @@ def _search(image, board, bounds, region, level) -> FoundBoard:
     if not labelled:
         if refused:
             raise max(refused, key=lambda e: e.junctions_seen)
-        raise _refusal(f"no checkerboard {where}: {cands.points.shape[1]} junction-like points but no "
+        raise _refusal(f"no checkerboard {where}: {int(cands.seed.sum())} junction-like points but no "
                        "grid of cross-junctions among them", 0)
     labelled.sort(key=lambda li: -len(li[0].keys))
     if len(labelled) > 1 and len(labelled[1][0].keys) >= board.n // 2:

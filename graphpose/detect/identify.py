@@ -136,6 +136,7 @@ def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> 
     H = _lattice_homography(keys, lattice.points)
     if bounds is not None:
         M, t = min(found, key=lambda f: _bounds_mismatch(f, H, board, bounds))
+        _check_bounds_order((M, t), H, board, bounds)
         ambiguous = False
     else:
         if len(found) > 1 and not all(_symmetric_pair(found[0], f, board) for f in found[1:]):
@@ -302,6 +303,24 @@ def _corner_distance(fit, H, board) -> float:
 def _bounds_mismatch(fit, H, board, bounds) -> float:
     """Sum of distances between the bounds' vertices and the board's corner junctions."""
     return float(np.sum(np.hypot(*(_corners_in_image(fit, H, board) - np.asarray(bounds, dtype=float)))))
+
+
+def _check_bounds_order(fit, H, board, bounds) -> None:
+    """Refuse bounds whose vertices do not run round the board from junction 0's corner.
+
+    Each vertex must lie nearer its own corner junction (0, cols - 1, n - 1, (rows - 1)
+    cols, in that order) than any other: bounds started a corner late, or drawn round
+    one corner of the board, would otherwise name the wrong corner junction 0.
+    """
+    corners = _corners_in_image(fit, H, board)
+    P = np.asarray(bounds, dtype=float)
+    nearest = np.argmin(np.hypot(P[0][:, None] - corners[0][None], P[1][:, None] - corners[1][None]), axis=1)
+    if not np.array_equal(nearest, np.arange(4)):
+        k = int(np.flatnonzero(nearest != np.arange(4))[0])
+        raise BoardNotFoundError(
+            f"the bounds do not outline the board found: their vertex {k} lies nearest the board's "
+            f"corner {int(nearest[k])}; give the board's outline clockwise from the corner nearest "
+            "junction 0, its first edge along a row")
 
 
 def _refusal(reasons, extent, board, sides) -> str:

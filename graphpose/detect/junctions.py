@@ -1,8 +1,10 @@
 """Cross-junctions of the checkerboard, to sub-pixel accuracy, in row-major order.
 
-Coarse localisation (:mod:`.grid`) finds the grid through the bounds' homography;
-refinement (:mod:`.refine`) fits a saddle at every junction; this module decides which
-junctions to trust and returns them as :class:`Junctions`.
+The board is found and labelled anywhere in the image, or inside optional bounds
+(:mod:`.find`: candidates, lattices, and labels from the board's edges); refinement
+(:mod:`.refine`) fits a saddle at every junction seen; this module decides which junctions
+to trust and returns them as :class:`Junctions`. Junctions the image does not show (off
+the image, covered) are NaN and untrusted: never guessed.
 
 Coordinates follow :mod:`graphpose.camera`: ``(u, v)`` pixels, 0-based, 2 x N arrays.
 """
@@ -16,7 +18,8 @@ import numpy as np
 from .._checks import check_bounds, check_number
 from ..board import Board
 from ..errors import BoardNotFoundError
-from .grid import apply_homography, fit_homography, locate_grid, square_sides
+from .find import find_board
+from .grid import apply_homography, fit_homography, square_sides
 from .refine import (
     MAX_RADIUS,
     SMOOTH_SIGMA,
@@ -37,6 +40,8 @@ _GRID_TOLERANCE = 0.08
 #: (the six real images stay within 0.85-1.14 of their medians).
 _RESIDUAL_RATIO = 1.5
 
+#: Fewest trusted junctions a result may rest on (a pose needs six, not all on one line).
+MIN_TRUSTED = 6
 
 
 @dataclass(frozen=True)
@@ -46,14 +51,15 @@ class Junctions:
     Attributes
     ----------
     points : (2, n) ndarray of float64
-        Junction positions (u, v), pixels, row-major from the upper-left junction.
+        Junction positions (u, v), pixels, row-major from junction 0 (see
+        ``orientation_ambiguous``); NaN for junctions the image does not show.
     trusted : (n,) ndarray of bool
         True where the saddle fit converged to a saddle inside its window, the window lies
         inside the image, a ring around the point looks like a cross-junction, its fit
         residual is at most 1.5 times the board's median, and the point agrees with the
         homography fitted to the trusted junctions (within 8 % of the square or 1.5 px).
-        Untrusted points are still the best estimate available (refined, or predicted by
-        the grid where refinement failed); a pose should use the trusted ones.
+        Untrusted points that were seen are still the best estimate available (refined, or
+        predicted by the grid where refinement failed); a pose should use the trusted ones.
     residual : (n,) ndarray of float64
         RMS residual of the saddle quadric under its fit weights (which sit on the two
         edges near the junction), in grey units of the image scaled to [0, 1] (as
@@ -64,6 +70,13 @@ class Junctions:
     homography : (3, 3) ndarray of float64
         Grid-to-image homography fitted to the trusted junctions: grid ``(c, r, 1)`` maps to
         ``(u, v, 1)`` up to scale.
+    seen : (n,) ndarray of bool
+        Junctions the image shows (on the board's lattice); the others are NaN.
+    orientation_ambiguous : bool
+        True when the board's pattern is unchanged by a half (or quarter) turn and no
+        bounds said which corner is junction 0: the labels then follow the rule that
+        junction 0 is the corner junction nearest the image's upper-left corner
+        (``docs/conventions.md``), and the pose is one of two (or four) that fit equally.
     """
 
     points: np.ndarray
@@ -71,21 +84,21 @@ class Junctions:
     residual: np.ndarray
     square_px: np.ndarray
     homography: np.ndarray
-
+    seen: np.ndarray
+    orientation_ambiguous: bool = False
 
 
 def cross_junctions(I, bpoly, Wpts) -> np.ndarray:
-    """Cross-junctions of a checkerboard image, row-major from the upper left.
+    """Cross-junctions of a checkerboard image, row-major from junction 0.
 
     Parameters
     ----------
     I : (H, W) or (H, W, 3|4) array_like
         The image; colour and 16-bit images are converted by :func:`graphpose.image.as_grey`.
-    bpoly : (2, 4) array_like
-        Bounding polygon of the board, pixels, clockwise from the upper left; its first
-        vertex is the one nearest the upper-left junction and its first edge runs along a
-        row of the board. It may be loose: a few pixels outside the sheet or inside its
-        white margin.
+    bpoly : (2, 4) array_like or None
+        Bounding polygon of the board, pixels, clockwise from the corner nearest junction 0
+        (a few pixels off is fine: it only narrows the search and names junction 0's
+        corner); None searches the whole image.
     Wpts : (3, n) array_like
         The junctions' target-frame points, metres, a full row-major grid as made by
         :meth:`graphpose.board.Board.world_points` (only their grid layout is used).
@@ -100,24 +113,33 @@ def cross_junctions(I, bpoly, Wpts) -> np.ndarray:
     InputError
         If the image, polygon or ``Wpts`` is malformed (see :func:`extract_junctions`).
     BoardNotFoundError
-        If the grid of junctions cannot be found inside the polygon.
+        If the board cannot be found and labelled, or part of it is hidden: this function
+        returns all n junctions or none (:func:`extract_junctions` returns partial boards).
     """
-    return extract_junctions(I, bpoly, Board.from_world_points(Wpts)).points
+    J = extract_junctions(I, bpoly, Board.from_world_points(Wpts))
+    if not J.seen.all():
+        raise BoardNotFoundError(
+            f"only {int(J.seen.sum())} of the {J.seen.size} junctions are in view (the others are "
+            "hidden or off the image); cross_junctions returns all of them or none: use "
+            "extract_junctions for a partial board")
+    return J.points
 
 
-
-def extract_junctions(I, bounds, board: Board = Board(), *, window: float = WINDOW_FRACTION,
+def extract_junctions(I, bounds=None, board: Board = Board(), *, window: float = WINDOW_FRACTION,
                       smooth_sigma: float = SMOOTH_SIGMA) -> Junctions:
-    """Find and refine all cross-junctions of a checkerboard inside a bounding polygon.
+    """Find, label and refine the cross-junctions of a checkerboard.
 
     Parameters
     ----------
     I : (H, W) or (H, W, 3|4) array_like
         The image (uint8, uint16, bool or float; colour converted to grey).
-    bounds : (2, 4) array_like
-        Bounding polygon, pixels, as in :func:`cross_junctions`.
+    bounds : (2, 4) array_like, optional
+        The board's outline, pixels, clockwise from the corner nearest junction 0: it
+        narrows the search and fixes which corner is junction 0. A loose outline (a few
+        pixels inside the margin or outside the sheet) gives the same result. Without it
+        the whole image is searched.
     board : Board
-        The target's junction grid (``cols`` along the polygon's first edge).
+        The board spec: ``cols x rows`` inner junctions.
     window : float
         Refinement window radius as a fraction of the local square side, in (0, 0.7].
     smooth_sigma : float
@@ -126,48 +148,54 @@ def extract_junctions(I, bounds, board: Board = Board(), *, window: float = WIND
     Returns
     -------
     Junctions
-        Points (2, n) row-major, trust mask, fit residuals, local square sizes and the
-        grid-to-image homography.
+        Points (2, n) row-major (NaN where unseen), trust mask, fit residuals, local
+        square sizes, the grid-to-image homography, the seen mask and the orientation flag.
 
     Raises
     ------
     InputError
         If the image is empty, smaller than 5 x 5 pixels, not 2-D grey or colour, or holds
-        NaN; if ``bounds`` is not a finite 2 x 4 array, is degenerate, not convex, counter-clockwise, or lies off the
-        image; if ``window`` or ``smooth_sigma`` is out of range.
+        NaN; if ``bounds`` is not a finite 2 x 4 array, is degenerate, not convex,
+        counter-clockwise, or lies off the image; if ``window`` or ``smooth_sigma`` is out of
+        range.
     BoardNotFoundError
-        If no ``cols x rows`` grid of cross-junctions is found inside the polygon, or fewer
-        than half of the junctions can be refined and trusted.
+        With the reason: no board; a board of another size than the spec; two boards and
+        no bounds; a partial board whose labels its visible edges cannot fix; fewer than
+        six junctions refined and trusted.
 
     Examples
     --------
-    >>> from graphpose import read_image, load_cases, extract_junctions
-    >>> cases = load_cases("../shared/data/rob501/cases.json")        # doctest: +SKIP
-    >>> case = cases.cases[0]                                          # doctest: +SKIP
-    >>> J = extract_junctions(read_image(case.image), case.bounds)     # doctest: +SKIP
-    >>> J.points.shape, J.trusted.all()                                # doctest: +SKIP
-    ((2, 48), True)
+    >>> from graphpose import bundled_cases, read_image, extract_junctions
+    >>> case = bundled_cases().cases[0]
+    >>> J = extract_junctions(read_image(case.image))
+    >>> J.points.shape, bool(J.trusted.all()), J.orientation_ambiguous
+    ((2, 48), True, True)
     """
     image, scale = grey_and_scale(I, _MIN_SIDE)
-    poly = check_bounds(bounds, image.shape)
+    poly = None if bounds is None else check_bounds(bounds, image.shape)
     window = check_number("window (a fraction of the square)", window, 0.0, strict=True, maximum=0.7)
     smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
-    H_grid = locate_grid(image, poly, board)
+    found = find_board(image, board, poly)
+    seen = found.seen
     grid = board.grid_indices().astype(float)
-    coarse = apply_homography(H_grid, grid)
-    square = square_sides(H_grid, grid)
-    radius = np.minimum(window * square, MAX_RADIUS)
-    points, ok, residual = refine_points(image, coarse, radius, smooth_sigma)
-    return _judge(points, ok, residual * scale, square, grid, board)
+    square = np.full(board.n, np.nan)
+    square[seen] = square_sides(fit_homography(grid[:, seen], found.points[:, seen]), grid[:, seen])
+    radius = np.minimum(window * square[seen], MAX_RADIUS)
+    points = np.full((2, board.n), np.nan)
+    ok = np.zeros(board.n, dtype=bool)
+    residual = np.full(board.n, np.nan)
+    points[:, seen], ok[seen], residual[seen] = refine_points(image, found.points[:, seen], radius, smooth_sigma)
+    return _judge(points, ok, residual * scale, square, grid, seen, found.orientation_ambiguous)
 
 
-
-def _judge(points, ok, residual, square, grid, board) -> Junctions:
+def _judge(points, ok, residual, square, grid, seen, ambiguous) -> Junctions:
     """Fit the grid homography to the refined points and decide what to trust."""
-    if ok.sum() < max(4, board.n // 2):
+    n_seen = int(seen.sum())
+    need = max(MIN_TRUSTED, n_seen // 2)
+    if ok.sum() < need:
         raise BoardNotFoundError(
-            f"only {int(ok.sum())} of {board.n} junctions could be refined to a saddle"
-        )
+            f"only {int(ok.sum())} of the {n_seen} junctions seen could be refined to a saddle "
+            f"(need {need})")
     # On a clean board every junction's fit residual is within ~15 % of the median;
     # a partly covered or smudged junction fits worse.
     ok = ok & (residual <= _RESIDUAL_RATIO * np.median(residual[ok]))
@@ -176,16 +204,17 @@ def _judge(points, ok, residual, square, grid, board) -> Junctions:
     for _ in range(3):
         H = fit_homography(grid[:, trusted], points[:, trusted])
         agree = ok & (np.hypot(*(apply_homography(H, grid) - points)) < limit)
-        if agree.sum() < max(4, board.n // 2):
+        if agree.sum() < need:
             raise BoardNotFoundError(
-                f"only {int(agree.sum())} of {board.n} refined junctions agree with a planar grid"
-            )
+                f"only {int(agree.sum())} of the {n_seen} junctions seen agree with a planar grid "
+                f"(need {need})")
         if np.array_equal(agree, trusted):
             break
         trusted = agree
     else:
         H = fit_homography(grid[:, trusted], points[:, trusted])
-    # Where the fit failed, the grid's prediction is the best estimate left; it stays untrusted.
-    best = np.where(ok, points, apply_homography(H, grid))
-    return Junctions(best, trusted, np.where(ok, residual, np.nan), square, H)
-
+    # Where the fit failed on a junction that was seen, the grid's prediction is the best
+    # estimate left; it stays untrusted. Unseen junctions stay NaN.
+    best = np.where(ok, points, np.where(seen, apply_homography(H, grid), np.nan))
+    return Junctions(best, trusted, np.where(ok, residual, np.nan), np.where(seen, square, np.nan), H,
+                     seen.copy(), bool(ambiguous))

@@ -82,7 +82,7 @@ def grow_lattices(cands: Candidates, *, max_seeds: int = 40, max_nodes: int = 20
     if cands.points.shape[1] < 3:
         return
     tree = cKDTree(cands.points.T)
-    taken = np.zeros(cands.points.shape[1], dtype=bool)
+    taken = ~cands.seed
     tried = 0
     for k in np.argsort(cands.strength)[::-1]:
         if tried >= max_seeds:

@@ -33,7 +33,6 @@ SMOOTH_SIGMA = 0.5
 MAX_RADIUS = 12.0
 
 
-
 def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGMA):
     """Refine predicted junction positions with the re-centred saddle fit.
 
@@ -84,7 +83,6 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
     return points, trusted, residual * scale
 
 
-
 def grey_and_scale(I, min_side: int = 1):
     """Grey pixels and the factor that scales them to [0, 1], as :func:`graphpose.image.as_grey`.
 
@@ -95,7 +93,6 @@ def grey_and_scale(I, min_side: int = 1):
     if isinstance(I, np.ndarray) and I.dtype == np.uint8 and I.ndim == 2:
         return check_image(I, min_side=min_side), 1.0 / 255.0
     return as_grey(I, min_side=min_side), 1.0
-
 
 
 def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: float,
@@ -137,7 +134,6 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
     return current, (state == 1) & inside & crosses, residual
 
 
-
 def _patches(image, base, half, sigma, radius):
     """Smoothed patches (m, 2h+1, 2h+1), squared gradients and an in-image mask (m,)."""
     height, width = image.shape
@@ -157,7 +153,6 @@ def _patches(image, base, half, sigma, radius):
     return smooth[:, 1:-1, 1:-1].astype(float), gx * gx + gy * gy, inside
 
 
-
 def _gaussian_kernel(sigma: float) -> np.ndarray:
     """Normalised Gaussian taps out to 4 sigma (a single 1 for sigma = 0)."""
     if sigma == 0:
@@ -165,7 +160,6 @@ def _gaussian_kernel(sigma: float) -> np.ndarray:
     t = int(np.ceil(4.0 * sigma))
     k = np.exp(-0.5 * (np.arange(-t, t + 1) / sigma) ** 2)
     return k / k.sum()
-
 
 
 def _convolve(a: np.ndarray, kernel: np.ndarray, axis: int) -> np.ndarray:
@@ -177,7 +171,6 @@ def _convolve(a: np.ndarray, kernel: np.ndarray, axis: int) -> np.ndarray:
         index[axis] = slice(j, j + n)
         out = out + k * a[tuple(index)]
     return out
-
 
 
 def _weights(offs, local, radius, grad2):
@@ -198,7 +191,6 @@ def _weights(offs, local, radius, grad2):
     return (taper * grad2 / np.maximum(r2, np.float32(1.0))).astype(float)
 
 
-
 def _looks_like_cross(patches, centre, radius):
     """Ring test on the smoothed patches: point-symmetric, with four alternating sectors.
 
@@ -215,10 +207,8 @@ def _looks_like_cross(patches, centre, radius):
     return ring_sum(ring) > 2.0 * ring_diff(ring)
 
 
-
 def ring_sum(ring):
     return np.abs(ring[:, 0:4] + ring[:, 8:12] - ring[:, 4:8] - ring[:, 12:16]).sum(axis=1)
-
 
 
 def ring_diff(ring):

@@ -48,6 +48,8 @@ class Candidates:
         Direction of the bisector of the bright sectors, radians in (-pi/2, pi/2].
     strength : (N,) ndarray of float64
         Saddle response at the peak (arbitrary units), for ordering seeds.
+    seed : (N,) ndarray of bool
+        Candidates that may seed a lattice (those inside the search region).
     smooth : ndarray of float32
         The smoothed image at the search's level that the response came from;
         :func:`sample` and :func:`ring_test` read it at full-image coordinates.
@@ -60,6 +62,7 @@ class Candidates:
     points: np.ndarray
     theta: np.ndarray
     strength: np.ndarray
+    seed: np.ndarray
     smooth: np.ndarray
     level: int
     shape: tuple
@@ -79,7 +82,8 @@ def find_candidates(image: np.ndarray, region=None, *, level: int = 1) -> Candid
         Grey image, any real dtype (uint8 is read as it is: every step is invariant to a
         positive grey scale).
     region : (2, K) ndarray, optional
-        A polygon (u, v) in full-image pixels; candidates outside it are dropped.
+        A polygon (u, v) in full-image pixels; only candidates inside it may seed a lattice
+        (all of them may join one).
     level : {1, 0}
         Search at half resolution (default) or on the full image (small squares).
 
@@ -102,12 +106,12 @@ def find_candidates(image: np.ndarray, region=None, *, level: int = 1) -> Candid
     # full-image s (x + 1) + (s - 1) / 2 for the level's scale s.
     s = 2 ** level
     points = np.vstack([s * (xs + dx + 1) + 0.5 * (s - 1), s * (ys + dy + 1) + 0.5 * (s - 1)])
+    seed = np.ones(points.shape[1], dtype=bool)
     if region is not None and points.shape[1]:
         from skimage.measure import points_in_poly
 
-        keep = points_in_poly(points.T, np.asarray(region, dtype=float).T)
-        points, theta, value = points[:, keep], theta[keep], value[keep]
-    return Candidates(points, theta.astype(float), value.astype(float), S, level, tuple(image.shape[:2]))
+        seed = points_in_poly(points.T, np.asarray(region, dtype=float).T)
+    return Candidates(points, theta.astype(float), value.astype(float), seed, S, level, tuple(image.shape[:2]))
 
 
 def sample(cands: Candidates, points: np.ndarray) -> np.ndarray:
