@@ -125,7 +125,7 @@ def cross_junctions(I, bpoly, Wpts) -> np.ndarray:
     return J.points
 
 
-def extract_junctions(I, bounds=None, board: Board = Board(), *, window: float = WINDOW_FRACTION,
+def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, window: float = WINDOW_FRACTION,
                       smooth_sigma: float = SMOOTH_SIGMA) -> Junctions:
     """Find, label and refine the cross-junctions of a checkerboard.
 
@@ -140,6 +140,11 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, window: float =
         the whole image is searched.
     board : Board
         The board spec: ``cols x rows`` inner junctions.
+    camera : Camera or (3, 3) array_like, optional
+        The camera (:mod:`graphpose.cameras`) when the image is raw, with lens distortion.
+        Junctions are found and refined on the raw image as it is (both steps are local);
+        only the check that they lie on a planar grid is made on undistorted positions,
+        and :attr:`Junctions.homography` then maps the grid to undistorted pixels.
     window : float
         Refinement window radius as a fraction of the local square side, in (0, 0.7].
     smooth_sigma : float
@@ -175,6 +180,13 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, window: float =
     poly = None if bounds is None else check_bounds(bounds, image.shape)
     window = check_number("window (a fraction of the square)", window, 0.0, strict=True, maximum=0.7)
     smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
+    lens = None
+    if camera is not None:
+        from ..cameras import as_camera, check_image_size
+
+        lens = as_camera(camera)
+        check_image_size(lens, image.shape)
+        lens = None if not np.any(lens.distortion) else lens
     found = find_board(image, board, poly)
     seen = found.seen
     grid = board.grid_indices().astype(float)
@@ -185,11 +197,17 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, window: float =
     ok = np.zeros(board.n, dtype=bool)
     residual = np.full(board.n, np.nan)
     points[:, seen], ok[seen], residual[seen] = refine_points(image, found.points[:, seen], radius, smooth_sigma)
-    return _judge(points, ok, residual * scale, square, grid, seen, found.orientation_ambiguous)
+    return _judge(points, ok, residual * scale, square, grid, seen, found.orientation_ambiguous, lens)
 
 
-def _judge(points, ok, residual, square, grid, seen, ambiguous) -> Junctions:
-    """Fit the grid homography to the refined points and decide what to trust."""
+def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None) -> Junctions:
+    """Fit the grid homography to the refined points and decide what to trust.
+
+    With a distorting ``lens`` the homography is fitted to, and judged on, the undistorted
+    positions (a planar grid is a homography only through a pinhole).
+    """
+    flat = points if lens is None else lens.undistort_pixels(points)
+    ok = ok & np.all(np.isfinite(flat), axis=0)
     n_seen = int(seen.sum())
     need = max(MIN_TRUSTED, n_seen // 2)
     if ok.sum() < need:
@@ -202,8 +220,9 @@ def _judge(points, ok, residual, square, grid, seen, ambiguous) -> Junctions:
     trusted = ok.copy()
     limit = np.maximum(_GRID_TOLERANCE * square, 1.5)
     for _ in range(3):
-        H = fit_homography(grid[:, trusted], points[:, trusted])
-        agree = ok & (np.hypot(*(apply_homography(H, grid) - points)) < limit)
+        H = fit_homography(grid[:, trusted], flat[:, trusted])
+        with np.errstate(invalid="ignore"):
+            agree = ok & (np.hypot(*(apply_homography(H, grid) - flat)) < limit)
         if agree.sum() < need:
             raise BoardNotFoundError(
                 f"only {int(agree.sum())} of the {n_seen} junctions seen agree with a planar grid "
@@ -212,9 +231,12 @@ def _judge(points, ok, residual, square, grid, seen, ambiguous) -> Junctions:
             break
         trusted = agree
     else:
-        H = fit_homography(grid[:, trusted], points[:, trusted])
+        H = fit_homography(grid[:, trusted], flat[:, trusted])
     # Where the fit failed on a junction that was seen, the grid's prediction is the best
     # estimate left; it stays untrusted. Unseen junctions stay NaN.
-    best = np.where(ok, points, np.where(seen, apply_homography(H, grid), np.nan))
+    predicted = apply_homography(H, grid)
+    if lens is not None:
+        predicted = lens.distort_pixels(predicted)
+    best = np.where(ok, points, np.where(seen, predicted, np.nan))
     return Junctions(best, trusted, np.where(ok, residual, np.nan), np.where(seen, square, np.nan), H,
                      seen.copy(), bool(ambiguous))
