@@ -141,7 +141,9 @@ def distributed_module():
 #: MALLOC_TRIM_THRESHOLD_=65536 to hand freed memory back to the system sooner, but any fixed
 #: value also stops glibc from raising its mmap threshold, so every image-sized array is then a
 #: fresh mmap whose pages are faulted in: the estimate took about twice as long in such a worker
-#: as in a plain process (docs/batch.md). Dask's one thread per BLAS/OpenMP stays.
+#: as in a plain process (docs/batch.md). Dask's one thread per BLAS/OpenMP stays. A value in
+#: this process's own environment is still inherited (Dask's nanny puts its value there too, so
+#: a plain LocalCluster started earlier in the same process passes it on).
 WORKER_ENVIRONMENT = {"MALLOC_TRIM_THRESHOLD_": None}
 
 

@@ -34,7 +34,7 @@ _EXAMPLES = """\
 examples:
   graphpose batch images/ --out results.parquet --bounds-file bounds.json
   graphpose batch 'campaign/**/*.png' list.txt --out results.jsonl --workers 2
-  graphpose batch images/ --out /shared/results.parquet --scheduler tcp://10.0.0.5:8786
+  graphpose batch images/ --out /shared/results.parquet --scheduler tcp://HEAD:8786
 
 INPUTS are folders (their image files), glob patterns (quote them; ** crosses folders) or
 text files (.txt, .lst, .list) listing one image path a line. Without --bounds or
