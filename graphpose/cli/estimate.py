@@ -1,7 +1,7 @@
 """``graphpose estimate``: the camera pose from one image, a case file, or the bundled example.
 
-Turns the arguments into typed values (bounds (2, 4), K (3, 3), :class:`Board`, a guess
-(4, 4)), calls :func:`graphpose.pose.estimate.estimate_pose` once per image, and writes a report
+Turns the arguments into typed values (bounds (2, 4) or none, a camera (``--camera FILE``
+with its lens model, or a pinhole ``--K``), :class:`Board`, a guess (4, 4)), calls :func:`graphpose.pose.estimate.estimate_pose` once per image, and writes a report
 on stdout, optionally ``--json`` results and ``--overlay`` pictures. An image that fails in
 a batch is reported on stderr and in its JSON entry, and the others go on; the exit code is
 then the worst of the images' codes (see :mod:`graphpose.cli`).
@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..cameras import check_image_size
 from ..errors import GraphposeError, InputError
 from ..image import read_image
 from ..io.cases import bundled_cases_path, load_cases, load_pose
@@ -25,7 +26,13 @@ from ..io.files import dumps_json, write_json, write_png
 from ..pose.estimate import estimate_pose, pose_difference
 from ..viz.overlay import draw_overlay
 from . import EXIT_OK, UsageError, exit_code, print_error
-from .options import Progress, add_target_options, parse_bounds, target_from_args
+from .options import (
+    Progress,
+    add_camera_option,
+    add_target_options,
+    camera_from_args,
+    parse_bounds,
+)
 from .records import result_record
 
 #: The bundled example, package data made by scripts/make_data.py with graphpose.synth.render.
@@ -34,14 +41,19 @@ DEFAULT_CASES = bundled_cases_path()
 _EXAMPLES = """\
 examples:
   graphpose estimate                                  # the bundled example (data/cases.json)
-  graphpose estimate board.png --bounds 166,254,455,136,541,347,259,477
+  graphpose estimate board.png                        # the board searched in the whole image
+  graphpose estimate raw.jpg --camera left.opencv.yml --board 9x6x0.03   # a raw image, its lens
   graphpose estimate board.png --bounds 166,254,455,136,541,347,259,477 \\
       --K 564.9,564.3,337.3,226.5 --board 8x6x0.0635 --guess pose.json
   graphpose estimate --cases cases.json --json out.json --overlay overlays/
 
---bounds lists the polygon's corners (u, v) in pixels, (u, v) = (column, row) from 0,
-clockwise from the corner nearest the board's upper-left junction. POSE.json holds a 4 x 4
-T_WC (camera pose in the target frame) as a nested list or as {"T_WC": [...]}.
+--bounds (optional) lists the polygon's corners (u, v) in pixels, (u, v) = (column, row)
+from 0, clockwise from the corner nearest junction 0: it narrows the search and names
+junction 0's corner. Without it a board unchanged by a half turn is reported orientation
+ambiguous (junction 0 is then the corner nearest the image's upper left). --camera reads
+OpenCV YAML/XML, ROS camera_info, Kalibr (cam0) and graphpose's JSON calibrations; --K is
+a camera without distortion. POSE.json holds a 4 x 4 T_WC (camera pose in the target frame)
+as a nested list or as {"T_WC": [...]}.
 exit codes: 0 success, 1 an estimate failed (no board found, no convergence),
 2 bad usage or input."""
 
@@ -53,20 +65,22 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="camera pose from checkerboard images (default: the bundled example)",
         description=textwrap.fill(
             "Estimate the camera pose T_WC relative to a checkerboard, with 1-sigma uncertainties. "
-            "Give one IMAGE with --bounds, or --cases CASES.json; with neither, runs the bundled "
-            "example data/cases.json.", 88),
+            "Give one IMAGE (optionally --bounds), or --cases CASES.json; with neither, runs the bundled "
+            "example data/cases.json. With --camera, images are raw (lens distortion modelled).", 88),
         epilog=_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("image", nargs="?", type=Path, metavar="IMAGE", help="an image of the board (any format scikit-image reads; colour is made grey)")
     p.add_argument("--bounds", type=parse_bounds, metavar="U1,V1,U2,V2,U3,V3,U4,V4",
-                   help="the board's bounding polygon in IMAGE, pixels (needed with IMAGE)")
+                   help="the board's bounding polygon in IMAGE, pixels, clockwise from the corner nearest "
+                   "junction 0 (default: search the whole image)")
     add_target_options(p, "with --cases, the file's")
+    add_camera_option(p, "with --cases, the file's K or camera")
     p.add_argument("--guess", type=Path, metavar="POSE.json",
                    help="initial pose for IMAGE (default: the linear homography initialiser)")
     p.add_argument("--cases", type=Path, metavar="CASES.json",
-                   help="many images: a case file (K, and per case image path relative to the file, "
-                   "bounds, optional guess_T_WC)")
+                   help="many images: a case file (K or camera, and per case image path relative to the "
+                   "file, optional bounds and guess_T_WC)")
     p.add_argument("--no-guess", action="store_true",
                    help="ignore the case file's guesses and use the linear initialiser")
     p.add_argument("--robust", action="store_true", help="down-weight outlying junctions (robust loss)")
@@ -84,11 +98,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 @dataclass(frozen=True)
 class Job:
-    """One image to estimate: its name for people and for JSON, bounds (2, 4), guess (4, 4) or None."""
+    """One image to estimate: its name for people and for JSON, bounds (2, 4) or None, guess (4, 4) or None."""
 
     name: str
     path: Path
-    bounds: np.ndarray
+    bounds: np.ndarray | None = None
     guess: np.ndarray | None = None
     true_T_WC: np.ndarray | None = None
     ref_T_WC: np.ndarray | None = None
@@ -96,7 +110,7 @@ class Job:
 
 def run(args) -> int:
     """Run ``graphpose estimate`` with parsed ``args``; returns the exit code."""
-    jobs, K, board = _jobs(args)
+    jobs, camera, board = _jobs(args)
     overlays = _overlay_paths(args.overlay, jobs) or [None] * len(jobs)
     if args.json not in (None, "-"):
         _check_folder(Path(args.json), "--json")
@@ -105,7 +119,7 @@ def run(args) -> int:
     records, codes = [], []
     for i, (job, overlay) in enumerate(zip(jobs, overlays)):
         progress.show(i, Path(job.name).name)
-        record, code = _run_one(job, K, board, args.robust, overlay, report, progress)
+        record, code = _run_one(job, camera, board, args.robust, overlay, report, progress)
         records.append(record)
         codes.append(code)
     progress.clear()
@@ -119,7 +133,7 @@ def run(args) -> int:
     return max(codes)
 
 
-def _run_one(job, K, board, robust, overlay, report, progress):
+def _run_one(job, camera, board, robust, overlay, report, progress):
     """Estimate one image, report it and draw it; returns its JSON record and exit code.
 
     Every failure of this image, writing its overlay included, is reported and recorded here,
@@ -128,10 +142,11 @@ def _run_one(job, K, board, robust, overlay, report, progress):
     estimate, error, code = None, None, EXIT_OK
     try:
         image = read_image(job.path)
-        estimate = estimate_pose(image, job.bounds, K, board, guess=job.guess, robust=robust)
+        check_image_size(camera, image.shape, str(job.path))
+        estimate = estimate_pose(image, job.bounds, camera, board, guess=job.guess, robust=robust)
         # An unreliable pose is drawn too: the picture shows why.
         if overlay is not None:
-            _write_overlay(overlay, image, estimate, K, board, job)
+            _write_overlay(overlay, image, estimate, camera, board, job)
         if not estimate.ok:
             raise _NotConverged(f"no reliable pose: {estimate.message}")
     except GraphposeError as exc:
@@ -148,13 +163,13 @@ def _run_one(job, K, board, robust, overlay, report, progress):
     return record, code
 
 
-def _write_overlay(path: Path, image, estimate, K, board, job) -> None:
+def _write_overlay(path: Path, image, estimate, camera, board, job) -> None:
     """Draw ``estimate`` on ``image`` into the PNG ``path``, creating its folder if needed."""
     try:
         path.parent.mkdir(exist_ok=True)
     except OSError as exc:
         raise InputError(f"--overlay: cannot create folder {path.parent}: {exc.strerror or exc}") from None
-    write_png(path, draw_overlay(image, estimate, K, board, bounds=job.bounds, label=Path(job.name).name))
+    write_png(path, draw_overlay(image, estimate, camera, board, bounds=job.bounds, label=Path(job.name).name))
 
 
 class _NotConverged(GraphposeError):
@@ -162,18 +177,18 @@ class _NotConverged(GraphposeError):
 
 
 def _jobs(args):
-    """The images to estimate, K (3, 3) and the board, from IMAGE, --cases or the bundled example."""
+    """The images to estimate, the camera and the board, from IMAGE, --cases or the bundled example."""
     if args.image is not None and args.cases is not None:
         raise UsageError("give either IMAGE or --cases, not both")
     if args.image is not None:
-        if args.bounds is None:
-            raise UsageError("IMAGE needs --bounds U1,V1,U2,V2,U3,V3,U4,V4 (the board's polygon in pixels)")
         if args.no_guess and args.guess is not None:
             raise UsageError("--guess and --no-guess contradict each other")
+        camera, board = camera_from_args(args)
         guess = load_pose(args.guess) if args.guess is not None else None
-        return [Job(str(args.image), args.image, args.bounds, guess)], *target_from_args(args)
+        return [Job(str(args.image), args.image, args.bounds, guess)], camera, board
     if args.bounds is not None:
         raise UsageError("--bounds goes with IMAGE; a case file gives each image its bounds")
+    camera_from_args(args)  # --camera with --K is a usage error before any file is read
     if args.guess is not None:
         raise UsageError("--guess goes with IMAGE; a case file gives each image its guess_T_WC")
     path = args.cases if args.cases is not None else DEFAULT_CASES
@@ -184,7 +199,7 @@ def _jobs(args):
         raise InputError(f"case file {path} has no cases")
     jobs = [Job(_display(c.image), c.image, c.bounds, None if args.no_guess else c.guess_T_WC,
                 c.true_T_WC, c.ref_T_WC) for c in cases.cases]
-    return jobs, *target_from_args(args, cases.K, cases.board)
+    return jobs, *camera_from_args(args, cases.camera, cases.board)
 
 
 def _display(path: Path) -> str:
@@ -233,6 +248,10 @@ def _difference(estimate, T_ref) -> dict | None:
 
 # --- the report ----------------------------------------------------------------------------
 
+#: The report's line for an estimate whose board orientation the image cannot fix.
+ORIENTATION_AMBIGUOUS = ("orientation ambiguous (half-turn symmetric board, no bounds): junction 0 is the "
+                         "corner nearest the image's upper left")
+
 
 def format_report(name: str, estimate, record: dict) -> str:
     """The readable report of one image's estimate (several lines, no trailing newline)."""
@@ -260,6 +279,8 @@ def format_report(name: str, estimate, record: dict) -> str:
         f"  {'GN vs GTSAM':16}{1000.0 * check.translation_m:.2g} mm, {check.rotation_deg:.2g} deg apart: "
         + ("agree" if check.agree else "DISAGREE"),
     ]
+    if getattr(estimate, "orientation_ambiguous", False):
+        rows.append(f"  {'orientation':16}{ORIENTATION_AMBIGUOUS}")
     for key, label in (("vs_truth", "error vs truth"), ("vs_reference", "vs reference")):
         if record.get(key):
             rows.append(f"  {label:16}{record[key]['translation_mm']:.2f} mm, {record[key]['rotation_deg']:.3f} deg")

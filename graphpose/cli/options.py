@@ -1,20 +1,24 @@
-"""Typed values and options shared by the subcommands: bounds, K, board, progress.
+"""Typed values and options shared by the subcommands: bounds, K, camera, board, progress.
 
 Each parser turns one argument string into a checked value or raises
 ``argparse.ArgumentTypeError`` with what was expected and what came; :func:`add_target_options`
-declares ``--K`` and ``--board`` once, with the project's defaults named in ``--help``.
+declares ``--K`` and ``--board`` once, with the project's defaults named in ``--help``, and
+:func:`add_camera_option` ``--camera FILE`` (a calibration file with the lens model) for the
+subcommands that work on raw images.
 """
 
 from __future__ import annotations
 
 import argparse
 import re
+from pathlib import Path
 
 import numpy as np
 
 from .._checks import check_count, check_number, check_range
 from ..board import Board
 from ..camera import K_from_params
+from ..cameras import PinholeCamera
 from ..errors import InputError
 
 #: The project's camera (the ROB501 sample set's): fx, fy, cx, cy in pixels.
@@ -43,6 +47,45 @@ def target_from_args(args, K=None, board=None):
     K = args.K if args.K is not None else (K if K is not None else K_from_params(*DEFAULT_K))
     board = args.board if args.board is not None else (board if board is not None else Board())
     return K, board
+
+
+def add_camera_option(parser: argparse.ArgumentParser, file_note: str = "") -> None:
+    """Add ``--camera FILE`` to ``parser`` (which has :func:`add_target_options`' ``--K``):
+    the camera with its lens model, from a calibration file; :func:`camera_from_args` reads it."""
+    note = f"; {file_note}" if file_note else ""
+    parser.add_argument("--camera", type=Path, metavar="FILE",
+                        help="the camera with its lens distortion, from a calibration file (OpenCV YAML/XML, "
+                        f"ROS camera_info, Kalibr camchain cam0, graphpose JSON): images are raw; not with --K{note}")
+
+
+def camera_from_args(args, camera=None, board=None):
+    """``(Camera, Board)`` from ``--camera`` or ``--K`` and ``--board``, else ``camera``/``board``
+    (a case file's), else the project's pinhole camera and board.
+
+    Raises
+    ------
+    UsageError
+        If both ``--camera`` and ``--K`` are given.
+    InputError
+        If the ``--camera`` file cannot be read (:func:`graphpose.io.calibration.read_camera`).
+    """
+    from ..io.calibration import read_camera
+    from . import UsageError
+
+    if args.camera is not None and args.K is not None:
+        raise UsageError("give either --camera FILE (a calibration with the lens model) or --K FX,FY,CX,CY "
+                         "(a pinhole camera, images undistorted), not both")
+    if args.camera is not None:
+        try:
+            camera = read_camera(args.camera)
+        except InputError as exc:
+            raise InputError(f"--camera: {exc}") from None
+    elif args.K is not None:
+        camera = PinholeCamera(args.K)
+    elif camera is None:
+        camera = PinholeCamera(K_from_params(*DEFAULT_K))
+    board = args.board if args.board is not None else (board if board is not None else Board())
+    return camera, board
 
 
 

@@ -90,14 +90,18 @@ def result_record(image, estimate=None, error=None) -> dict:
         one, for instance an unreliable one), then ``converged``, ``iterations``,
         ``junctions`` (2 x n pixels, null where a junction was not measured; null
         altogether for an estimate from given points), ``trusted`` (n booleans: the
-        junctions' flags, or the estimate's ``mask`` without junctions) and
-        ``cross_check`` (``translation_m``, ``rotation_deg``, ``agree``).
+        junctions' flags, or the estimate's ``mask`` without junctions),
+        ``cross_check`` (``translation_m``, ``rotation_deg``, ``agree``) and
+        ``orientation_ambiguous`` (true when the board is unchanged by a half turn and no
+        bounds named junction 0's corner: junction 0 is then the corner nearest the image's
+        upper left; null without an estimate).
     """
     status = "failed" if error else "ok"
     record = {"image": str(image)}
     if estimate is None:
         record.update(pose_block(status, error))
-        record.update(converged=False, iterations=None, junctions=None, trusted=None, cross_check=None)
+        record.update(converged=False, iterations=None, junctions=None, trusted=None, cross_check=None,
+                      orientation_ambiguous=None)
         return to_jsonable(record)
     check = estimate.cross_check
     junctions = estimate.junctions
@@ -110,6 +114,7 @@ def result_record(image, estimate=None, error=None) -> dict:
         trusted=np.asarray(estimate.mask if junctions is None else junctions.trusted, dtype=bool),
         cross_check={"translation_m": float(check.translation_m),
                      "rotation_deg": float(check.rotation_deg), "agree": bool(check.agree)},
+        orientation_ambiguous=bool(getattr(estimate, "orientation_ambiguous", False)),
     )
     return to_jsonable(record)
 

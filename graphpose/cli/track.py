@@ -1,7 +1,7 @@
 """``graphpose track``: the camera trajectory over a sequence of frames of the board.
 
-Turns the arguments into typed values (frame files, bounds (2, 4), K (3, 3), :class:`Board`,
-timestamps, a true trajectory), calls :func:`graphpose.track.tracker.track_sequence` once, and
+Turns the arguments into typed values (frame files, bounds (2, 4), a camera (``--camera FILE``
+with its lens model, or a pinhole ``--K``), :class:`Board`, timestamps, a true trajectory), calls :func:`graphpose.track.tracker.track_sequence` once, and
 writes the trajectory in TUM format (``--tum``), per-frame results as JSON (``--json``), a
 picture (``--plot``) and a summary on stdout. A frame file that cannot be read is a lost
 frame, not an error. The true trajectory (``--truth``, or the ``truth.tum`` that
@@ -26,10 +26,11 @@ from ..track.config import MOTION_MODELS, TARGET_FORMS
 from . import EXIT_FAILED, EXIT_OK
 from .options import (
     Progress,
+    add_camera_option,
     add_target_options,
+    camera_from_args,
     parse_bounds,
     parse_positive,
-    target_from_args,
 )
 from .records import frame_record
 
@@ -40,11 +41,15 @@ examples:
       --tum est.tum --json est.json --smooth --plot track.png    # seq/truth.tum is drawn and measured
   graphpose track frames/*.png --bounds 166,254,455,136,541,347,259,477 --timestamps times.txt --tum est.tum
   graphpose track frames/ --truth mocap.tum --plot track.png
+  graphpose track raw/ --camera camchain.yaml --board 9x6x0.03 --tum est.tum   # raw frames, their lens
   evo_ape tum seq/truth.tum est.tum          # absolute trajectory error (no alignment needed)
 
 FRAMES is one folder (its image files in name order; other files are ignored) or image files
-in the order given. --bounds is the board's polygon in the FIRST frame, (u, v) pixels,
-clockwise from the corner nearest the upper-left junction. The TUM file has one line
+in the order given. --bounds (optional) is the board's polygon in the FIRST frame, (u, v)
+pixels, clockwise from the corner nearest junction 0; without it the first frame is searched
+whole, and a board unchanged by a half turn is labelled from the image's upper left, then
+kept continuous from frame to frame. --camera reads a calibration with the lens model (the
+frames are raw); --K is a camera without distortion. The TUM file has one line
 'timestamp tx ty tz qx qy qz qw' per frame with a pose (camera in the target frame); a lost
 frame has no line. A frame file that cannot be read is reported lost. --truth poses are matched
 to the frames by timestamp (within 10 ms and half a frame interval); a folder written by
@@ -72,6 +77,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="per-frame bounding polygons for re-detection: a JSON list with one 2 x 4 "
                    "polygon or null per frame")
     add_target_options(p)
+    add_camera_option(p)
     times = p.add_mutually_exclusive_group()
     times.add_argument("--fps", type=parse_positive, default=30.0, help="frame rate for timestamps index / fps (default 30)")
     times.add_argument("--timestamps", type=Path, metavar="FILE", help="one timestamp (seconds) per frame, one per line")
@@ -100,12 +106,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     """Run ``graphpose track`` with parsed ``args``; returns the exit code."""
+    from ..io.calibration import camera_to_dict
     from ..io.files import dumps_json, write_json
     from ..io.tum import write_tum
     from ..track.config import MotionPrior, TrackerConfig
     from ..track.frames import frame_timestamps, list_frames, read_timestamps
     from ..track.tracker import track_sequence
 
+    camera, board = camera_from_args(args)
     files = _frame_files(args.frames, list_frames)
     timestamps = None if args.timestamps is None else read_timestamps(args.timestamps, len(files))
     polygons = None if args.polygons is None else _read_polygons(args.polygons)
@@ -113,10 +121,9 @@ def run(args) -> int:
         if path not in (None, "-") and not Path(path).resolve().parent.is_dir():
             raise InputError(f"{name}: folder {Path(path).resolve().parent} does not exist")
     truth, truth_note = _truth(args, len(files), frame_timestamps(timestamps, args.fps, len(files)))
-    K, board = target_from_args(args)
     progress = Progress(len(files), sys.stderr)
     config = TrackerConfig(motion=MotionPrior(args.motion), target=args.target, robust=args.robust)
-    track = track_sequence(files, K, args.bounds, board=board, timestamps=timestamps, fps=args.fps,
+    track = track_sequence(files, camera, args.bounds, board=board, timestamps=timestamps, fps=args.fps,
                            polygons=polygons, config=config, smooth=args.smooth,
                            progress=lambda k, n: progress.show(k + 1, files[k].name))
     progress.clear()
@@ -127,7 +134,8 @@ def run(args) -> int:
                   header=f"graphpose track: camera pose T_WC in the target frame; {len(frames) - len(found)} "
                   f"lost frames have no line")
     records = {"frames": [frame_record(f, files[f.index]) for f in frames], "smoothed": bool(args.smooth),
-               "motion": args.motion, "target": args.target, "K": K, "board": f"{board.cols}x{board.rows}x{board.square_m}"}
+               "motion": args.motion, "target": args.target, "K": camera.K, "camera": camera_to_dict(camera),
+               "board": f"{board.cols}x{board.rows}x{board.square_m}"}
     if args.json == "-":
         sys.stdout.write(dumps_json(records))
     elif args.json is not None:

@@ -3,7 +3,12 @@
 A case file is the JSON format of ``../shared/data/rob501/cases.json``:
 
 ``K``
-    3 x 3 intrinsics, pixels (required).
+    3 x 3 intrinsics, pixels, of a camera without lens distortion; or
+``camera``
+    the camera with its lens model (:mod:`graphpose.cameras`): a calibration file's path,
+    relative to the case file (any format :func:`graphpose.io.calibration.read_camera`
+    reads), or an inline object ``{"model", "K", "distortion", "size"}`` as graphpose's JSON
+    camera file holds. A case file gives ``K`` or ``camera``, not both.
 ``square_m``
     Side of a square, metres (optional, 0.0635).
 ``grid``
@@ -11,8 +16,9 @@ A case file is the JSON format of ``../shared/data/rob501/cases.json``:
     ``[8, 6]`` (cols, then rows); either count may be left out of the object. Counts are
     JSON integers >= 2: ``8.9``, ``8.0``, ``"8"`` and ``true`` are refused.
 ``cases``
-    A list of objects, each with ``image`` (a path relative to the file), ``bounds`` (the
-    2 x 4 polygon: a list of the u row and the v row) and optionally ``guess_T_WC`` (4 x 4),
+    A list of objects, each with ``image`` (a path relative to the file) and optionally
+    ``bounds`` (the 2 x 4 polygon: a list of the u row and the v row, clockwise from the
+    corner nearest junction 0; without it the whole image is searched), ``guess_T_WC`` (4 x 4),
     ``ref_junctions`` (2 x n) and ``ref_T_WC`` (estimates from elsewhere), and
     ``true_T_WC`` and ``true_junctions`` (exact, for images made by
     :mod:`graphpose.synth.render`).
@@ -38,7 +44,9 @@ from .._checks import (
     check_transform,
 )
 from ..board import Board
+from ..cameras import Camera, PinholeCamera
 from ..errors import InputError
+from .calibration import camera_from_dict, read_camera
 from .files import read_json
 
 
@@ -47,7 +55,7 @@ class Case:
     """One image of a case file; arrays as in the module docstring, None where absent."""
 
     image: Path
-    bounds: np.ndarray
+    bounds: np.ndarray | None = None
     guess_T_WC: np.ndarray | None = None
     ref_junctions: np.ndarray | None = None
     ref_T_WC: np.ndarray | None = None
@@ -57,11 +65,21 @@ class Case:
 
 @dataclass(frozen=True)
 class CaseFile:
-    """A parsed case file: intrinsics K (3, 3), the board, and its cases."""
+    """A parsed case file: intrinsics K (3, 3), the board, its cases, and the camera.
+
+    ``camera`` is the file's camera (:mod:`graphpose.cameras`), a
+    :class:`~graphpose.cameras.PinholeCamera` of ``K`` when the file gives ``K``; ``K`` is
+    the camera's intrinsics either way.
+    """
 
     K: np.ndarray
     board: Board
     cases: list
+    camera: Camera | None = None
+
+    def __post_init__(self):
+        if self.camera is None:
+            object.__setattr__(self, "camera", PinholeCamera(self.K))
 
 
 def load_cases(path) -> CaseFile:
@@ -70,15 +88,16 @@ def load_cases(path) -> CaseFile:
     Raises
     ------
     InputError
-        If the file is missing, not JSON, not an object, lacks ``K``, ``cases`` or a case's
-        ``image`` or ``bounds``, or a field has the wrong type or shape.
+        If the file is missing, not JSON, not an object, gives neither or both of ``K`` and
+        ``camera``, its camera file cannot be read, it lacks ``cases`` or a case's
+        ``image``, or a field has the wrong type or shape.
     """
     path = Path(path)
     doc = read_json(path, "case file")
     if not isinstance(doc, dict):
         raise InputError(f"case file {path} must hold a JSON object, got {type(doc).__name__}")
     try:
-        K = check_K(doc["K"])
+        camera = _camera(doc, path)
         board = _board(doc, path)
         if not isinstance(doc["cases"], list) or not all(isinstance(c, dict) for c in doc["cases"]):
             raise InputError(f"case file {path}: cases must be a list of objects")
@@ -88,7 +107,24 @@ def load_cases(path) -> CaseFile:
     except InputError as exc:
         text = str(exc)
         raise InputError(text if text.startswith(f"case file {path}") else f"case file {path}: {text}") from None
-    return CaseFile(K, board, cases)
+    return CaseFile(camera.K, board, cases, camera)
+
+
+def _camera(doc: dict, path: Path) -> Camera:
+    """The case file's camera: ``K`` (a pinhole), or ``camera`` (a file or an inline object)."""
+    if ("K" in doc) == ("camera" in doc):
+        raise InputError(f"case file {path} must give the camera's K (no lens distortion) or a camera "
+                         f"(a calibration file or an inline {{model, K, distortion, size}} object), "
+                         f"{'not both' if 'K' in doc else 'got neither'}")
+    if "K" in doc:
+        return PinholeCamera(check_K(doc["K"]))
+    entry = doc["camera"]
+    if isinstance(entry, str):
+        return read_camera((path.parent / entry).resolve())
+    if isinstance(entry, dict):
+        return camera_from_dict(entry, f"case file {path}: camera")
+    raise InputError(f"case file {path}: camera must be a calibration file's path (relative to the case "
+                     f"file) or an object {{model, K, distortion, size}}, got {entry!r}")
 
 
 def _board(doc: dict, path: Path) -> Board:
@@ -110,7 +146,7 @@ def _case(entry: dict, folder: Path) -> Case:
     image = entry["image"]
     if not isinstance(image, str):
         raise InputError(f"a case's image must be a path string, got {image!r}")
-    bounds = as_polygon(entry["bounds"], f"bounds of {image}", 4)
+    bounds = None if entry.get("bounds") is None else as_polygon(entry["bounds"], f"bounds of {image}", 4)
 
     def optional(key, check):
         return None if entry.get(key) is None else check(f"{key} of {image}", entry[key])

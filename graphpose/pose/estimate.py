@@ -7,6 +7,12 @@ graph (:mod:`graphpose.pose.graph`). The two solvers minimise the same cost, so 
 agree to :data:`AGREE_TRANSLATION_M` and :data:`AGREE_ROTATION_DEG`; the difference is
 always reported in :class:`CrossCheck`, and a larger one makes ``agree`` False.
 
+The camera is a :mod:`graphpose.cameras` object (or a pinhole ``K``): with lens distortion the
+junctions are found on the raw image and both solvers fit the raw pixels through the lens
+model; the homography start works on the undistorted junctions. A partial board (junctions
+hidden or off the image are NaN) gives its pose from the trusted junctions alone, at least
+six and not all on one line; the covariance then shows the weaker geometry.
+
 A guess far off can lead Gauss-Newton to another local minimum. When a guess is given and
 the target is planar, Gauss-Newton is also run from the homography start; if that reaches
 a clearly lower cost, the estimate is marked not converged and says so in ``message``
@@ -20,11 +26,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._checks import check_correspondences, check_K, check_transform
+from .._checks import check_board, check_transform
 from ..board import Board
-from ..camera import project
-from ..errors import InputError
-from .gauss_newton import GNResult, gauss_newton, reprojection_cost
+from ..camera import to_camera
+from ..cameras import as_camera
+from ..errors import BoardNotFoundError, InputError
+from .gauss_newton import GNResult, check_observations, gauss_newton, reprojection_cost
 from .graph import HUBER_K, GraphResult, graph_pose
 from .homography import on_target_plane, pose_from_homography
 
@@ -33,6 +40,8 @@ AGREE_TRANSLATION_M = 1e-6
 AGREE_ROTATION_DEG = 1e-5
 #: A minimum counts as clearly worse when its cost exceeds the other's by this fraction.
 _COST_MARGIN = 1e-6
+#: Fewest trusted junctions :func:`estimate_pose` rests a pose on (not all on one line).
+MIN_JUNCTIONS = 6
 
 
 @dataclass(frozen=True)
@@ -82,7 +91,8 @@ class PoseEstimate:
     reprojection_rms_px : float
         RMS of the residuals of the points used, pixels.
     residuals : (2, n) ndarray
-        Measured minus predicted pixels for every point, used or not (see ``mask``).
+        Measured minus predicted pixels for every point, used or not (see ``mask``); NaN
+        where a junction was not measured.
     mask : (n,) ndarray of bool
         The points used (the trusted junctions).
     junctions : Junctions or None
@@ -97,6 +107,12 @@ class PoseEstimate:
         The Gauss-Newton result in full.
     graph : GraphResult
         The GTSAM result in full.
+    orientation_ambiguous : bool
+        The board's pattern is unchanged by a half (or quarter) turn and no bounds named
+        junction 0's corner: junction 0 is then the corner nearest the image's upper left
+        (``docs/conventions.md``), and the board turned by the symmetry fits as well (its
+        pose differs by that turn about the board's centre). False for estimates from
+        points.
     """
 
     T_WC: np.ndarray
@@ -116,6 +132,7 @@ class PoseEstimate:
     message: str
     gn: GNResult
     graph: GraphResult
+    orientation_ambiguous: bool = False
 
     @property
     def ok(self) -> bool:
@@ -123,18 +140,23 @@ class PoseEstimate:
         return self.converged and self.cross_check.agree
 
 
-def estimate_pose(image, bounds, K, board: Board = Board(), guess=None, *, robust: bool = False) -> PoseEstimate:
+def estimate_pose(image, bounds, camera, board: Board = Board(), guess=None, *,
+                  robust: bool = False) -> PoseEstimate:
     """Camera pose from an image of the checkerboard.
 
     Parameters
     ----------
     image : (H, W) or (H, W, 3|4) array_like
-        The undistorted image (see :func:`graphpose.image.as_grey`).
-    bounds : (2, 4) array_like
-        Bounding polygon of the board, pixels, clockwise from the upper left (see
-        :func:`graphpose.detect.junctions.extract_junctions`).
-    K : (3, 3) array_like
-        Intrinsics, pixels.
+        The image as the camera took it (see :func:`graphpose.image.as_grey`): raw, with the
+        lens distortion ``camera`` describes.
+    bounds : (2, 4) array_like or None
+        Bounding polygon of the board, pixels, clockwise from the corner nearest junction 0
+        (see :func:`graphpose.detect.junctions.extract_junctions`): it only narrows the
+        search and names junction 0's corner. None searches the whole image.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.cameras`, e.g. from
+        :func:`graphpose.io.calibration.read_camera`), or pinhole intrinsics ``K``, pixels,
+        for an image without distortion.
     board : Board
         The target.
     guess : (4, 4) array_like, optional
@@ -145,37 +167,57 @@ def estimate_pose(image, bounds, K, board: Board = Board(), guess=None, *, robus
     Returns
     -------
     PoseEstimate
-        Check ``ok`` (or ``converged`` and ``cross_check.agree``) before using the pose.
+        Check ``ok`` (or ``converged`` and ``cross_check.agree``) before using the pose, and
+        ``orientation_ambiguous`` for a symmetric board found without bounds.
 
     Raises
     ------
     InputError
-        On a malformed image, polygon, K or guess, fewer than 4 trusted junctions, or a
-        guess with junctions behind the camera.
+        On a malformed image, polygon, camera or guess, an image of another size than the
+        camera's calibration (:func:`graphpose.cameras.check_image_size`), or a guess with
+        junctions behind the camera.
     BoardNotFoundError
-        If the junction grid is not found.
+        If the junction grid is not found, or fewer than six junctions not all on one line
+        are trusted.
     """
     from ..detect.junctions import extract_junctions
 
-    # K and the guess are checked before the extraction, so bad ones fail before the slow step.
-    K = check_K(K)
+    # The camera and the guess are checked before the extraction, so bad ones fail before
+    # the slow step.
+    camera = as_camera(camera)
+    board = check_board(board)
     guess = None if guess is None else check_transform(guess, "guess")
-    junctions = extract_junctions(image, bounds, board)
-    # The junctions are finite (2, n) and the trusted mask is (n,) bool by contract; the
-    # solvers refuse fewer than 4 trusted points.
-    estimate = _estimate(K, junctions.points, board.world_points(), guess, junctions.trusted, robust)
-    return dataclasses.replace(estimate, junctions=junctions)
+    junctions = extract_junctions(image, bounds, board, camera=camera)
+    _check_geometry(junctions.trusted, board)
+    # Unseen junctions are NaN and untrusted: the solvers use the trusted ones only.
+    estimate = _estimate(camera, junctions.points, board.world_points(), guess, junctions.trusted, robust)
+    return dataclasses.replace(estimate, junctions=junctions,
+                               orientation_ambiguous=bool(junctions.orientation_ambiguous))
 
 
-def estimate_pose_from_points(K, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False) -> PoseEstimate:
+def _check_geometry(trusted, board) -> None:
+    """Refuse fewer than :data:`MIN_JUNCTIONS` trusted junctions, or ones all on one line."""
+    m = int(np.count_nonzero(trusted))
+    if m < MIN_JUNCTIONS:
+        raise BoardNotFoundError(f"only {m} junctions are trusted; a pose needs {MIN_JUNCTIONS}, not all on one line")
+    grid = board.grid_indices()[:, trusted].astype(float)
+    grid -= grid.mean(axis=1, keepdims=True)
+    if np.linalg.matrix_rank(grid) < 2:
+        raise BoardNotFoundError(
+            f"the {m} trusted junctions all lie on one line of the board; a pose needs junctions "
+            "off that line (more of the board in view)")
+
+
+def estimate_pose_from_points(camera, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False) -> PoseEstimate:
     """Cross-checked camera pose from 2-D/3-D correspondences (no extraction).
 
     Parameters
     ----------
-    K : (3, 3) array_like
-        Intrinsics, pixels.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.cameras`; raw, distorted pixels), or pinhole
+        intrinsics ``K``, pixels.
     Ipts : (2, n) array_like
-        Image points (u, v), pixels.
+        Image points (u, v), pixels; NaN allowed where ``mask`` is False.
     Wpts : (3, n) array_like
         Matching target points, metres (on z = 0 when ``guess`` is None).
     guess : (4, 4) array_like, optional
@@ -196,12 +238,12 @@ def estimate_pose_from_points(K, Ipts, Wpts, guess=None, mask=None, *, robust: b
         On malformed input, fewer than 4 used points, a guess with used points behind the
         camera, or (without a guess) target points off z = 0 or degenerate.
     """
-    K, Ipts, Wpts, mask = check_correspondences(K, Ipts, Wpts, mask)
+    camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
     guess = None if guess is None else check_transform(guess, "guess")
-    return _estimate(K, Ipts, Wpts, guess, mask, robust)
+    return _estimate(camera, Ipts, Wpts, guess, mask, robust)
 
 
-def fit_pose(K, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False):
+def fit_pose(camera, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False):
     """The single-image pose fit: a start, Gauss-Newton and, with ``robust``, the outlier gate.
 
     The pose path of :func:`estimate_pose` without its GTSAM cross-check, shared with the
@@ -213,10 +255,10 @@ def fit_pose(K, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False):
 
     Parameters
     ----------
-    K : (3, 3) array_like
-        Intrinsics, pixels.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.cameras`), or pinhole intrinsics ``K``, pixels.
     Ipts : (2, n) array_like
-        Image points (u, v), pixels.
+        Image points (u, v), pixels; NaN allowed where ``mask`` is False.
     Wpts : (3, n) array_like
         Matching target points, metres (on z = 0 when ``guess`` is None).
     guess : (4, 4) array_like, optional
@@ -239,30 +281,31 @@ def fit_pose(K, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False):
     InputError
         As :func:`estimate_pose_from_points`.
     """
-    K, Ipts, Wpts, mask = check_correspondences(K, Ipts, Wpts, mask)
+    camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
     guess = None if guess is None else check_transform(guess, "guess")
-    return _fit(K, Ipts, Wpts, guess, mask, robust)
+    return _fit(camera, Ipts, Wpts, guess, mask, robust)
 
 
-def _fit(K, Ipts, Wpts, guess, mask, robust):
-    """:func:`fit_pose` on validated K, points, guess and mask."""
-    start = pose_from_homography(K, Ipts[:, mask], Wpts[:, mask]) if guess is None else guess
-    gn = gauss_newton(K, start, Ipts, Wpts, mask=mask)
+def _fit(camera, Ipts, Wpts, guess, mask, robust):
+    """:func:`fit_pose` on a validated camera, points, guess and mask."""
+    start = pose_from_homography(camera, Ipts[:, mask], Wpts[:, mask]) if guess is None else guess
+    gn = gauss_newton(camera, start, Ipts, Wpts, mask=mask)
     if robust:
         pixel_sigma = max(1.4826 * float(np.nanmedian(np.abs(gn.residuals[:, mask]))), 1e-12)
-        gn = gauss_newton(K, start, Ipts, Wpts, mask=mask, huber_px=HUBER_K * pixel_sigma, pixel_sigma=pixel_sigma)
+        gn = gauss_newton(camera, start, Ipts, Wpts, mask=mask, huber_px=HUBER_K * pixel_sigma,
+                          pixel_sigma=pixel_sigma)
     return gn, start
 
 
-def _estimate(K, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
-    """:func:`estimate_pose_from_points` on validated K, points, guess and mask."""
-    gn, start = _fit(K, Ipts, Wpts, guess, mask, robust)
+def _estimate(camera, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
+    """:func:`estimate_pose_from_points` on a validated camera, points, guess and mask."""
+    gn, start = _fit(camera, Ipts, Wpts, guess, mask, robust)
     pixel_sigma = gn.sigma_px if robust else None  # the robust fit's own sigma (fit_pose)
     huber_px = None if pixel_sigma is None else HUBER_K * pixel_sigma
-    graph = graph_pose(K, start, Ipts, Wpts, mask=mask, pixel_sigma=pixel_sigma, robust=robust)
+    graph = graph_pose(camera, start, Ipts, Wpts, mask=mask, pixel_sigma=pixel_sigma, robust=robust)
     converged, message = gn.converged, "ok" if gn.converged else f"Gauss-Newton: {gn.message}"
     if guess is not None and gn.converged and on_target_plane(Wpts):
-        converged, message = _compare_with_linear_start(K, Ipts, Wpts, mask, huber_px, gn)
+        converged, message = _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn)
     check = cross_check(gn, graph)
     if not check.agree:
         message = ("" if message == "ok" else message + "; ") + (
@@ -279,7 +322,7 @@ def _estimate(K, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
         converged=converged,
         iterations=gn.iterations,
         reprojection_rms_px=gn.residual_rms_px,
-        residuals=Ipts - project(K, gn.T_WC, Wpts),
+        residuals=Ipts - camera.project(to_camera(gn.T_WC, Wpts)),
         mask=mask,
         junctions=None,
         cross_check=check,
@@ -290,11 +333,11 @@ def _estimate(K, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
     )
 
 
-def _compare_with_linear_start(K, Ipts, Wpts, mask, huber_px, gn):
+def _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn):
     """Whether GN from the homography start finds a clearly lower cost than from the guess."""
     try:
-        linear = pose_from_homography(K, Ipts[:, mask], Wpts[:, mask])
-        other = gauss_newton(K, linear, Ipts, Wpts, mask=mask, huber_px=huber_px)
+        linear = pose_from_homography(camera, Ipts[:, mask], Wpts[:, mask])
+        other = gauss_newton(camera, linear, Ipts, Wpts, mask=mask, huber_px=huber_px)
     except InputError:
         return True, "ok"  # no usable homography start: nothing to compare with
     mine = reprojection_cost(gn.residuals[:, mask], huber_px)

@@ -2,11 +2,14 @@
 
 The cost is the sum of squared reprojection errors (pixels) over the trusted junctions,
 
-    E(theta) = 1/2 sum_j || u_j - pi(K, T_WC(theta), p_j) ||^2,
+    E(theta) = 1/2 sum_j || u_j - pi(T_WC(theta), p_j) ||^2,
 
-with ``theta = (x, y, z, roll, pitch, yaw)`` as in :mod:`graphpose.camera`. Each step solves
-the 6 x 6 normal equations with the exact analytic Jacobian (:func:`find_jacobian`,
-:func:`projection_jacobians`). Step control is Levenberg-Marquardt damping: the plain
+with ``theta = (x, y, z, roll, pitch, yaw)`` as in :mod:`graphpose.camera` and ``pi`` the
+camera's projection (:mod:`graphpose.cameras`: a pinhole ``K``, or a model with lens
+distortion, so that raw image points are fitted as they are). Each step solves the 6 x 6
+normal equations with the exact analytic Jacobian (:func:`find_jacobian`,
+:func:`projection_jacobians`): the pose's derivative of the camera-frame point, chained
+with the camera's ``d uv / d p_C`` (:meth:`graphpose.cameras.Camera.project_jacobian`). Step control is Levenberg-Marquardt damping: the plain
 Gauss-Newton step is tried first and, when it raises the cost or puts a point behind the
 camera, it is damped (``(J^T J + lambda diag(J^T J)) delta = J^T r`` with ``r`` measured
 minus predicted) until the cost falls, so a poor start cannot make it diverge.
@@ -31,11 +34,11 @@ from .._checks import (
     as_points,
     check_correspondences,
     check_in_front,
-    check_K,
     check_number,
     check_transform,
 )
 from ..camera import T_from_params, params_from_T
+from ..cameras import PinholeCamera, as_camera
 from ..errors import ConvergenceError, InputError
 
 #: Default iteration cap (damped and undamped steps both count).
@@ -95,13 +98,55 @@ class GNResult:
     message: str
 
 
+def check_observations(camera, Ipts, Wpts, mask=None):
+    """Validate a camera, image and target points and a trust mask at a public edge.
+
+    As :func:`graphpose._checks.check_correspondences`, with a camera object accepted for
+    ``K`` and image points that may be NaN where the mask leaves them out (junctions the
+    image does not show, :class:`graphpose.detect.junctions.Junctions`).
+
+    Parameters
+    ----------
+    camera : Camera or (3, 3) array_like
+        A camera model (:mod:`graphpose.cameras`) or pinhole intrinsics, pixels.
+    Ipts : (2, n) array_like
+        Image points (u, v), pixels; NaN allowed where ``mask`` is False.
+    Wpts : (3, n) array_like
+        Matching target points, metres.
+    mask : (n,) array_like of bool, optional
+        The points to use; all when None.
+
+    Returns
+    -------
+    camera : Camera
+    Ipts : (2, n) ndarray
+    Wpts : (3, n) ndarray
+    mask : (n,) ndarray of bool
+
+    Raises
+    ------
+    InputError
+        As :func:`graphpose._checks.check_correspondences`, and if a used point is NaN.
+    """
+    camera = as_camera(camera)
+    Ipts = as_float_array(Ipts, "Ipts")
+    finite = np.isfinite(Ipts)
+    shown = np.where(finite, Ipts, 0.0) if Ipts.ndim == 2 and Ipts.shape[0] == 2 else Ipts
+    _, _, Wpts, mask = check_correspondences(camera.K, shown, Wpts, mask)
+    bad = np.flatnonzero(mask & ~np.all(finite, axis=0))
+    if bad.size:
+        raise InputError(f"Ipts contains NaN or infinite values at {bad.size} used point(s) (first index "
+                         f"{bad[0]}); leave unmeasured points out with the mask")
+    return camera, Ipts, Wpts, mask
+
+
 def find_jacobian(K, Twc, Wpt) -> np.ndarray:
     """Jacobian of one target point's image projection with respect to the pose parameters.
 
     Parameters
     ----------
-    K : (3, 3) array_like
-        Intrinsics, pixels.
+    K : (3, 3) array_like or Camera
+        Intrinsics, pixels (or a camera model, :mod:`graphpose.cameras`).
     Twc : (4, 4) array_like
         Camera pose in the target frame.
     Wpt : (3, 1) or (3,) array_like
@@ -117,22 +162,22 @@ def find_jacobian(K, Twc, Wpt) -> np.ndarray:
     InputError
         If an argument is malformed or the point is not in front of the camera.
     """
-    K = check_K(K)
+    camera = as_camera(K)
     T = check_transform(Twc, "Twc")
     W = as_float_array(Wpt, "Wpt")
     W = as_points(W[:, None] if W.shape == (3,) else W, 3, "Wpt")
     if W.shape[1] != 1:
         raise InputError(f"Wpt must be a single point (3, 1), got {W.shape[1]} points")
-    return projection_jacobians(K, T, W)
+    return projection_jacobians(camera, T, W)
 
 
-def projection_jacobians(K, T_WC, Wpts) -> np.ndarray:
+def projection_jacobians(camera, T_WC, Wpts) -> np.ndarray:
     """Stacked Jacobians of the projections of many target points, vectorised.
 
     Parameters
     ----------
-    K : (3, 3) array_like
-        Intrinsics, pixels.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.cameras`), or pinhole intrinsics, pixels.
     T_WC : (4, 4) array_like
         Camera pose in the target frame.
     Wpts : (3, n) array_like
@@ -149,11 +194,11 @@ def projection_jacobians(K, T_WC, Wpts) -> np.ndarray:
     InputError
         If an argument is malformed or a point is not in front of the camera.
     """
-    K = check_K(K)
+    camera = as_camera(camera)
     T = check_transform(T_WC)
     W = as_points(Wpts, 3, "Wpts")
     p = params_from_T(T)
-    _, depth, J = _project(K, p, W, jacobian=True)
+    _, depth, J = _project(camera, p, W, jacobian=True)
     check_in_front(depth, "T_WC")
     return J
 
@@ -184,12 +229,16 @@ def _rotation_and_partials(rpy):
     ])
 
 
-def _project(K, p, W, jacobian):
+def _project(camera, p, W, jacobian):
     """Projections (2, n), depths (n,) and, if asked, the stacked Jacobian (2n, 6).
 
     The chain rule: ``p_C = C^T (p_W - t)``, so ``dp_C/dt = -C^T`` and
-    ``dp_C/d(angle) = (dC/d(angle))^T (p_W - t)``; then ``u = (K p_C)_0 / z_C`` gives
-    ``du/dp_C = (fx, s, cx - u) / z_C`` and ``dv/dp_C = (0, fy, cy - v) / z_C``.
+    ``dp_C/d(angle) = (dC/d(angle))^T (p_W - t)``; then ``d uv / d p_C``: for the pinhole
+    ``u = (K p_C)_0 / z_C`` gives ``du/dp_C = (fx, s, cx - u) / z_C`` and
+    ``dv/dp_C = (0, fy, cy - v) / z_C`` (written out here); for a distorting camera it is
+    :meth:`graphpose.cameras.Camera.project_jacobian` (the perspective division, the lens
+    model and ``K`` chained). Points at or behind ``z = 0`` give NaN or meaningless pixels:
+    callers check the depths.
     """
     R = _rotation_and_partials(p[3:])
     d = W - p[:3, None]
@@ -197,7 +246,15 @@ def _project(K, p, W, jacobian):
     # Rows 0-2: p_C = C^T d; rows 3k+3 .. 3k+5: dC_k^T d, the derivative of p_C by angle k.
     A = R.transpose(0, 2, 1).reshape(12, 3) @ d
     z = A[2]
-    uv = (K[:2] @ A[:3]) / z
+    if not isinstance(camera, PinholeCamera):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv, G = camera.project_jacobian(A[:3]) if jacobian else (camera.project(A[:3]), None)
+        if not jacobian:
+            return uv, z, None
+        return uv, z, (G @ _pose_partials(R, A, n)).reshape(2 * n, 6)
+    K = camera.K
+    with np.errstate(divide="ignore", invalid="ignore"):
+        uv = (K[:2] @ A[:3]) / z
     if not jacobian:
         return uv, z, None
     G = np.zeros((n, 2, 3))  # d(u, v) / d(p_C) per point
@@ -206,24 +263,30 @@ def _project(K, p, W, jacobian):
     G[:, 0, 2] = (K[0, 2] - uv[0]) / z
     G[:, 1, 1] = K[1, 1] / z
     G[:, 1, 2] = (K[1, 2] - uv[1]) / z
-    D = np.empty((n, 3, 6))  # d(p_C) / d(params) per point
+    return uv, z, (G @ _pose_partials(R, A, n)).reshape(2 * n, 6)
+
+
+def _pose_partials(R, A, n):
+    """``d(p_C) / d(params)`` per point, (n, 3, 6), from :func:`_project`'s R and A."""
+    D = np.empty((n, 3, 6))
     D[:, :, :3] = -R[0].T
     D[:, :, 3:] = A[3:].reshape(3, 3, n).transpose(2, 1, 0)
-    return uv, z, (G @ D).reshape(2 * n, 6)
+    return D
 
 
-def gauss_newton(K, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel_sigma=None,
+def gauss_newton(camera, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel_sigma=None,
                  max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL) -> GNResult:
     """Refine a camera pose by damped Gauss-Newton on the reprojection error.
 
     Parameters
     ----------
-    K : (3, 3) array_like
-        Intrinsics, pixels.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.cameras`; the points are then raw, distorted
+        pixels), or pinhole intrinsics ``K``, pixels.
     T_guess : (4, 4) array_like
         Starting pose T_WC.
     Ipts : (2, n) array_like
-        Observed junctions (u, v), pixels.
+        Observed junctions (u, v), pixels; NaN allowed where ``mask`` is False.
     Wpts : (3, n) array_like
         Matching target points, metres.
     mask : (n,) array_like of bool, optional
@@ -247,15 +310,15 @@ def gauss_newton(K, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel_sigm
     Raises
     ------
     InputError
-        On malformed input (see :func:`graphpose._checks.check_correspondences`), a
-        malformed guess, a non-positive ``huber_px`` or ``pixel_sigma``, or a used point behind the camera at
+        On malformed input (see :func:`check_observations`), a malformed guess, a
+        non-positive ``huber_px`` or ``pixel_sigma``, or a used point behind the camera at
         the guess.
     """
-    K, Ipts, Wpts, mask = check_correspondences(K, Ipts, Wpts, mask)
+    camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
     T_guess = check_transform(T_guess, "T_guess")
     huber_px = None if huber_px is None else check_number("huber_px", huber_px, 0.0, strict=True)
     pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
-    return _solve(K, params_from_T(T_guess), Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
+    return _solve(camera, params_from_T(T_guess), Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
 
 
 def _weights(r, huber_px):
@@ -294,14 +357,14 @@ def _cost(r, huber_px):
     return reprojection_cost(r.reshape(-1, 2).T, huber_px)
 
 
-def _residual(K, p, I, W, jacobian):
-    uv, z, J = _project(K, p, W, jacobian)
+def _residual(camera, p, I, W, jacobian):
+    uv, z, J = _project(camera, p, W, jacobian)
     return (I - uv).T.ravel(), z, J
 
 
-def _solve(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol) -> GNResult:
+def _solve(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol) -> GNResult:
     I, W = Ipts[:, mask], Wpts[:, mask]
-    r, depth, J = _residual(K, p, I, W, True)
+    r, depth, J = _residual(camera, p, I, W, True)
     check_in_front(depth, "the guess", np.flatnonzero(mask))
     cost = _cost(r, huber_px)
     lam, converged, message, it, polish_steps = 0.0, False, "iteration cap reached", 0, 0
@@ -331,8 +394,10 @@ def _solve(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol) -
                 break
         delta = delta_gn if lam == 0.0 or polishing else np.linalg.solve(H + lam * np.diag(np.diag(H)), g)
         p_new = p + delta
-        r_new, z_new, J_new = _residual(K, p_new, I, W, True)
+        r_new, z_new, J_new = _residual(camera, p_new, I, W, True)
         cost_new = _cost(r_new, huber_px) if np.all(z_new > MIN_DEPTH) else np.inf
+        if not np.isfinite(cost_new):
+            cost_new = np.inf  # a point the lens model cannot image
         if cost_new < cost or (polishing and cost_new <= cost * (1.0 + 100 * _COST_RTOL)):
             p, r, J, cost = p_new, r_new, J_new, cost_new
             lam = 0.0 if lam < 1e-6 else lam / 10.0
@@ -341,15 +406,15 @@ def _solve(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol) -
             if lam > _LAMBDA_MAX:
                 message = "damped steps cannot lower the cost"
                 break
-    return _result(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, J, r, converged, it, message)
+    return _result(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, J, r, converged, it, message)
 
 
-def _result(K, p, Ipts, Wpts, mask, huber_px, pixel_sigma, J, r, converged, it, message) -> GNResult:
+def _result(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, J, r, converged, it, message) -> GNResult:
     T = T_from_params(p)
     params = params_from_T(T)  # angles back into their principal ranges
     if np.max(np.abs(params - p)) > 1e-9:
         # Same pose, but the Jacobian belongs to the parameters it is reported in.
-        r, _, J = _residual(K, params, Ipts[:, mask], Wpts[:, mask], True)
+        r, _, J = _residual(camera, params, Ipts[:, mask], Wpts[:, mask], True)
     m = int(np.count_nonzero(mask))
     residuals = np.full((2, mask.size), np.nan)
     residuals[:, mask] = r.reshape(m, 2).T
@@ -380,8 +445,8 @@ def pose_estimate_nls(K, Twcg, Ipts, Wpts) -> np.ndarray:
 
     Parameters
     ----------
-    K : (3, 3) array_like
-        Intrinsics, pixels.
+    K : (3, 3) array_like or Camera
+        Intrinsics, pixels (or a camera model, :mod:`graphpose.cameras`).
     Twcg : (4, 4) array_like
         Initial guess of T_WC.
     Ipts : (2, n) array_like

@@ -2,11 +2,19 @@
 
 The graph has one ``Pose3`` variable ``X(0)`` (the camera pose T_WC, GTSAM's own convention:
 the camera looks along its +z with x right and y down, as in :mod:`graphpose.camera`), one
-``Point3`` variable ``L(j)`` per junction, one ``GenericProjectionFactorCal3_S2`` per trusted
-junction and one very tight ``PriorFactorPoint3`` per landmark that pins it to its target
-position. A tight prior rather than ``NonlinearEquality`` keeps the linearised system
+``Point3`` variable ``L(j)`` per junction, one projection factor per trusted junction
+(:func:`projection_factor`) and one very tight ``PriorFactorPoint3`` per landmark that pins it
+to its target position. A tight prior rather than ``NonlinearEquality`` keeps the linearised system
 non-singular, so ``Marginals`` works. Levenberg-Marquardt minimises the same reprojection
 cost as :mod:`graphpose.pose.gauss_newton`; the pipeline holds the two against each other.
+
+The projection factor follows the camera (:mod:`graphpose.cameras`): GTSAM's own
+``GenericProjectionFactorCal3_S2``, ``...Cal3DS2`` or ``...Cal3Fisheye`` with the
+calibration of :meth:`graphpose.cameras.Camera.gtsam_calibration`, and, for a camera GTSAM
+has no calibration for (the rational radial-tangential model), a ``CustomFactor`` around
+graphpose's own projection and its analytic Jacobian. GTSAM's calibrations were checked
+against graphpose's projection (``tests/test_cameras.py``), so the second solver keeps its
+independent projection code wherever GTSAM has one.
 
 Covariance conventions
 ----------------------
@@ -31,13 +39,9 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, X
 
-from .._checks import (
-    check_correspondences,
-    check_in_front,
-    check_number,
-    check_transform,
-)
-from ..camera import params_from_T, project, to_camera
+from .._checks import check_in_front, check_number, check_transform
+from ..camera import params_from_T, to_camera
+from .gauss_newton import check_observations
 
 #: Standard deviation (metres) of the prior that pins each target point: far below anything
 #: the pixels can resolve (about 1e-6 px at 1 m), yet finite so the marginals exist.
@@ -127,18 +131,19 @@ class GraphResult:
         return np.degrees(np.sqrt(np.diag(self.cov_tangent)[:3]))
 
 
-def graph_pose(K, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=False,
+def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=False,
                huber_k: float = HUBER_K) -> GraphResult:
     """Solve the camera pose with a GTSAM factor graph and return its marginal covariance.
 
     Parameters
     ----------
-    K : (3, 3) array_like
-        Intrinsics, pixels (fx, fy, skew, cx, cy go into ``Cal3_S2``).
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.cameras`; raw, distorted pixels), or pinhole
+        intrinsics ``K``, pixels (fx, fy, skew, cx, cy go into ``Cal3_S2``).
     T_guess : (4, 4) array_like
         Starting pose T_WC.
     Ipts : (2, n) array_like
-        Observed junctions (u, v), pixels.
+        Observed junctions (u, v), pixels; NaN allowed where ``mask`` is False.
     Wpts : (3, n) array_like
         Matching target points, metres.
     mask : (n,) array_like of bool, optional
@@ -160,24 +165,24 @@ def graph_pose(K, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=Fa
     Raises
     ------
     InputError
-        On malformed input (see :func:`graphpose._checks.check_correspondences`), a
+        On malformed input (see :func:`graphpose.pose.gauss_newton.check_observations`), a
         non-positive ``pixel_sigma`` or ``huber_k``, or a used point behind the camera at the
         guess.
     """
-    K, Ipts, Wpts, mask = check_correspondences(K, Ipts, Wpts, mask)
+    camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
     T_guess = check_transform(T_guess, "T_guess")
     pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
     check_in_front(to_camera(T_guess, Wpts[:, mask])[2], "the guess", np.flatnonzero(mask))
     if robust and pixel_sigma is None:
-        plain = _solve(K, T_guess, Ipts, Wpts, mask, 1.0, None)
-        r = Ipts[:, mask] - project(K, plain[0], Wpts[:, mask])
+        plain = _solve(camera, T_guess, Ipts, Wpts, mask, 1.0, None)
+        r = Ipts[:, mask] - camera.project(to_camera(plain[0], Wpts[:, mask]))
         pixel_sigma = max(1.4826 * float(np.median(np.abs(r))), 1e-12)
     sigma = 1.0 if pixel_sigma is None else float(pixel_sigma)
     T, cov_tangent, converged, iterations, message = _solve(
-        K, T_guess, Ipts, Wpts, mask, sigma, huber_k if robust else None)
+        camera, T_guess, Ipts, Wpts, mask, sigma, huber_k if robust else None)
     residuals = np.full((2, mask.size), np.nan)
-    residuals[:, mask] = Ipts[:, mask] - project(K, T, Wpts[:, mask])
+    residuals[:, mask] = Ipts[:, mask] - camera.project(to_camera(T, Wpts[:, mask]))
     used = residuals[:, mask]
     if pixel_sigma is None:
         m = used.shape[1]
@@ -198,14 +203,15 @@ def graph_pose(K, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=Fa
     )
 
 
-def _solve(K, T_guess, Ipts, Wpts, mask, sigma, huber_k):
+def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k):
     """Build and optimise the graph.
 
     Returns (T_WC, tangent covariance, converged, iterations, failure message or "").
     """
-    # 1. Create the factor graph and the camera calibration (pixels).
+    # 1. Create the factor graph and the camera calibration (pixels; None where GTSAM has
+    #    no calibration for the model: then a custom factor on graphpose's projection).
     graph = gtsam.NonlinearFactorGraph()
-    calibration = gtsam.Cal3_S2(K[0, 0], K[1, 1], K[0, 1], K[0, 2], K[1, 2])
+    calibration = camera.gtsam_calibration()
     # 2. Noise models. Pixel measurement noise: isotropic over (u, v), pixels, optionally
     #    with a Huber kernel whose threshold is in sigmas.
     pixel_noise = gtsam.noiseModel.Isotropic.Sigma(2, sigma)
@@ -218,8 +224,7 @@ def _solve(K, T_guess, Ipts, Wpts, mask, sigma, huber_k):
     initial = gtsam.Values()
     initial.insert(X(0), gtsam.Pose3(T_guess))
     for j in np.flatnonzero(mask):
-        graph.add(gtsam.GenericProjectionFactorCal3_S2(
-            Ipts[:, j], pixel_noise, X(0), L(j), calibration))
+        graph.add(projection_factor(camera, Ipts[:, j], pixel_noise, X(0), L(j), calibration))
         graph.add(gtsam.PriorFactorPoint3(L(j), Wpts[:, j], landmark_noise))
         # 4. Initial values: the guessed pose and the exact target points.
         initial.insert(L(j), Wpts[:, j])
@@ -238,6 +243,64 @@ def _solve(K, T_guess, Ipts, Wpts, mask, sigma, huber_k):
         lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
         return np.asarray(T_guess, dtype=float), nan, False, int(optimizer.iterations()), (
             lines[0] if lines else type(exc).__name__)
+
+
+#: GTSAM's projection factor for each calibration :meth:`graphpose.cameras.Camera.gtsam_calibration` gives.
+PROJECTION_FACTORS = {
+    "Cal3_S2": gtsam.GenericProjectionFactorCal3_S2,
+    "Cal3DS2": gtsam.GenericProjectionFactorCal3DS2,
+    "Cal3Fisheye": gtsam.GenericProjectionFactorCal3Fisheye,
+}
+
+
+def projection_factor(camera, uv, noise, pose_key, point_key, calibration=None):
+    """One image point's projection factor on a ``Pose3`` (``T_WC``) and a ``Point3``.
+
+    Parameters
+    ----------
+    camera : Camera
+        The camera model (trusted: a :mod:`graphpose.cameras` object).
+    uv : (2,) ndarray
+        The measured pixel.
+    noise : gtsam.noiseModel.Base
+        Two-dimensional pixel noise.
+    pose_key, point_key : int
+        GTSAM keys of the camera pose and of the target point.
+    calibration : gtsam calibration, optional
+        ``camera.gtsam_calibration()``, passed in to build it once for many factors; made
+        here when None.
+
+    Returns
+    -------
+    gtsam.NonlinearFactor
+        GTSAM's ``GenericProjectionFactor`` for the camera's calibration
+        (:data:`PROJECTION_FACTORS`); where GTSAM has none, a ``CustomFactor`` with
+        graphpose's projection and its analytic Jacobians (error: predicted minus
+        measured, as GTSAM's; a point at or behind the camera gives GTSAM's constant
+        ``2 fx`` error with zero Jacobians).
+    """
+    calibration = camera.gtsam_calibration() if calibration is None else calibration
+    if calibration is not None:
+        return PROJECTION_FACTORS[type(calibration).__name__](uv, noise, pose_key, point_key, calibration)
+    measured = np.array(uv, dtype=float).reshape(2)
+
+    def error(factor, values, jacobians):
+        T = values.atPose3(factor.keys()[0])
+        R = T.rotation().matrix()
+        P = R.T @ (values.atPoint3(factor.keys()[1]) - T.translation())
+        if P[2] <= 0:
+            if jacobians is not None:
+                jacobians[0], jacobians[1] = np.zeros((2, 6)), np.zeros((2, 3))
+            return np.full(2, 2.0 * camera.fx)
+        uv_hat, G = camera.project_jacobian(P[:, None])
+        if jacobians is not None:
+            # Right perturbation T Exp(omega, v): dP = [P]x omega - v; dP / dp_W = R^T.
+            Px = np.array([[0.0, -P[2], P[1]], [P[2], 0.0, -P[0]], [-P[1], P[0], 0.0]])
+            jacobians[0] = G[0] @ np.hstack([Px, -np.eye(3)])
+            jacobians[1] = G[0] @ R.T
+        return uv_hat[:, 0] - measured
+
+    return gtsam.CustomFactor(noise, [pose_key, point_key], error)
 
 
 def _optimise(graph, optimizer, Wpts, mask):

@@ -10,14 +10,18 @@ direct linear transform (Hartley & Zisserman, Multiple View Geometry, 2nd ed., a
 split with K into a rotation (made orthonormal by SVD) and a translation whose sign puts the
 board in front of the camera. The result minimises an algebraic error, not the reprojection
 error: it is a starting point for :func:`graphpose.pose.gauss_newton.gauss_newton`.
+
+A camera with lens distortion (:mod:`graphpose.cameras`) is handled by undistorting the image
+points first (:meth:`graphpose.cameras.Camera.undistort_pixels`, to the pixels of the
+distortion-free camera with the same ``K``): the homography holds for those.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .._checks import check_correspondences
 from ..errors import InputError
+from .gauss_newton import check_observations
 
 #: Target points farther than this (metres, relative to the board's extent) from z = 0 are refused.
 _PLANE_TOL = 1e-6
@@ -27,13 +31,14 @@ _PLANE_TOL = 1e-6
 _RANK_TOL = 1e-6
 
 
-def pose_from_homography(K, Ipts, Wpts) -> np.ndarray:
+def pose_from_homography(camera, Ipts, Wpts) -> np.ndarray:
     """Camera pose from the homography between the target plane and the image.
 
     Parameters
     ----------
-    K : (3, 3) array_like
-        Intrinsics, pixels.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.cameras`; the points are then raw pixels,
+        undistorted here), or pinhole intrinsics ``K``, pixels.
     Ipts : (2, n) array_like
         Image points (u, v), pixels; n >= 4.
     Wpts : (3, n) array_like
@@ -48,12 +53,21 @@ def pose_from_homography(K, Ipts, Wpts) -> np.ndarray:
     ------
     InputError
         If the input is malformed, the target points are not on z = 0, fewer than 4 are
-        given, they are degenerate (three or more collinear so no homography is fixed), or no
-        sign of the decomposition puts all the points in front of the camera.
+        given, they are degenerate (three or more collinear so no homography is fixed), no
+        sign of the decomposition puts all the points in front of the camera, or a point
+        lies where the camera's lens model has no ray in front of it.
     """
-    K, Ipts, Wpts, _ = check_correspondences(K, Ipts, Wpts)
+    camera, Ipts, Wpts, _ = check_observations(camera, Ipts, Wpts)
     if not on_target_plane(Wpts):
         raise InputError("Wpts must lie on the target plane z = 0 for the homography initialiser")
+    K = camera.K
+    if np.any(camera.distortion):
+        Ipts = camera.undistort_pixels(Ipts)
+        bad = np.flatnonzero(~np.all(np.isfinite(Ipts), axis=0))
+        if bad.size:
+            raise InputError(
+                f"{bad.size} image point(s) (first index {bad[0]}) lie where the {camera.model} camera's "
+                "lens model has no ray in front of the camera: no homography start")
     H = homography_dlt(Wpts[:2], Ipts)
     M = np.linalg.solve(K, H)  # ~ [r1 r2 t_CW] up to scale and sign
     scale = 2.0 / (np.linalg.norm(M[:, 0]) + np.linalg.norm(M[:, 1]))

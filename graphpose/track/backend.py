@@ -11,21 +11,24 @@ Keys as in GTSAM's examples:
   (``target=``, :data:`graphpose.track.config.TARGET_FORMS`); they minimise the same cost
   up to the landmark priors' sigma and give the same poses (tested):
 
-  * ``"resection"`` (default): one factor per frame holding all its junctions, the pinhole
-    projection of the FIXED target points, analytic Jacobian
+  * ``"resection"`` (default): one factor per frame holding all its junctions, the camera's
+    projection (lens distortion included) of the FIXED target points, analytic Jacobian
     (:func:`graphpose.track.factors.resection_factor`, a Python ``CustomFactor``). This is
     the limit of the landmark forms as their prior sigma goes to 0.
   * ``"frame_landmarks"``: the single-image graph of :mod:`graphpose.pose.graph` repeated per
-    frame, GTSAM's C++ factors only: frame ``k`` gets its OWN copy of every target point
+    frame, GTSAM's C++ factors only (but for a rational radial-tangential camera, which GTSAM
+    has no calibration for): frame ``k`` gets its OWN copy of every target point
     ``j`` it observes, a ``Point3`` variable ``symbol('l', k * stride + j)`` (``stride`` from
     :func:`landmark_stride`, so for 48 junctions frame 300's junction 3 is ``l30003``; keys
     cannot collide since ``j < stride``), pinned by a ``PriorFactorPoint3`` of sigma
     ``landmark_sigma_m`` (default :data:`graphpose.pose.graph.LANDMARK_SIGMA_M`) and
-    observed by one ``GenericProjectionFactorCal3_S2``. Each frame's landmarks hang below
-    its pose in the Bayes tree and are eliminated locally (the update orders them first and
-    ``X(k)`` last).
+    observed by one projection factor (:func:`graphpose.pose.graph.projection_factor`:
+    GTSAM's ``GenericProjectionFactorCal3_S2``, ``...Cal3DS2`` or ``...Cal3Fisheye`` as the
+    camera's model needs, a custom factor where GTSAM has no calibration for it). Each
+    frame's landmarks hang below its pose in the Bayes tree and are eliminated locally (the
+    update orders them first and ``X(k)`` last).
   * ``"landmarks"``: target point ``j`` is ONE variable ``L(j)`` pinned once by a tight
-    prior and shared by every frame, one ``GenericProjectionFactorCal3_S2`` per junction.
+    prior and shared by every frame, one projection factor per junction.
     Every frame then touches the same variables, so every iSAM2 update re-eliminates a root
     holding all of them: the slowest form.
 - A motion prior between consecutive frames of one segment (a lost or re-detected frame
@@ -84,10 +87,10 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, V, X
 
-from .._checks import check_K
 from ..board import Board
+from ..cameras import as_camera
 from ..errors import InputError
-from ..pose.graph import LANDMARK_SIGMA_M, params_cov_from_tangent
+from ..pose.graph import LANDMARK_SIGMA_M, params_cov_from_tangent, projection_factor
 from .config import TARGET_FORMS, MotionPrior
 from .factors import constant_velocity_factor, resection_factor
 from .results import BackendResult
@@ -130,8 +133,9 @@ class SequenceGraph:
 
     Parameters
     ----------
-    K : (3, 3) array_like
-        Intrinsics, pixels.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.cameras`; raw, distorted pixels), or pinhole
+        intrinsics ``K``, pixels.
     board : Board
         The target.
     motion : MotionPrior
@@ -147,20 +151,20 @@ class SequenceGraph:
     Raises
     ------
     InputError
-        If ``K`` is invalid (:func:`graphpose._checks.check_K`) or ``target`` is not one of
-        :data:`graphpose.track.config.TARGET_FORMS`.
+        If the camera is invalid (:func:`graphpose.cameras.as_camera`) or ``target`` is not
+        one of :data:`graphpose.track.config.TARGET_FORMS`.
     """
 
-    def __init__(self, K, board: Board, motion: MotionPrior, target: str = "resection",
+    def __init__(self, camera, board: Board, motion: MotionPrior, target: str = "resection",
                  landmark_sigma_m: float = LANDMARK_SIGMA_M, isam_params: gtsam.ISAM2Params | None = None):
         if target not in TARGET_FORMS:
             raise InputError(f"target must be one of {TARGET_FORMS}, got {target!r}")
         self.board = board
         self.motion = motion
         self.target = target
-        K = self._K = check_K(K)
+        self.camera = as_camera(camera)
         self._Wpts = board.world_points()
-        self._cal = gtsam.Cal3_S2(K[0, 0], K[1, 1], K[0, 1], K[0, 2], K[1, 2])
+        self._cal = self.camera.gtsam_calibration()  # None: custom projection factors
         self._pin = gtsam.noiseModel.Isotropic.Sigma(3, landmark_sigma_m)
         self._motion_noise = motion_noise(motion)
         self._stride = landmark_stride(board)
@@ -287,7 +291,7 @@ class SequenceGraph:
 
     def _add_target(self, k, points, ids, pixel_sigma) -> None:
         if self.target == "resection":
-            self._add(resection_factor(X(k), points, self._Wpts[:, ids], self._K, pixel_sigma))
+            self._add(resection_factor(X(k), points, self._Wpts[:, ids], self.camera, pixel_sigma))
             return
         noise = gtsam.noiseModel.Isotropic.Sigma(2, pixel_sigma)
         for uv, j in zip(points.T, ids.tolist()):
@@ -297,7 +301,7 @@ class SequenceGraph:
                 key = self.landmark_key(k, j)
                 self._add(gtsam.PriorFactorPoint3(key, self._Wpts[:, j], self._pin))
                 self._pending_values.insert(key, self._Wpts[:, j])
-            self._add(gtsam.GenericProjectionFactorCal3_S2(uv, noise, X(k), key, self._cal))
+            self._add(projection_factor(self.camera, uv, noise, X(k), key, self._cal))
 
     def _add_motion(self, k: int, timestamp: float) -> None:
         if not self._segment:

@@ -1,7 +1,8 @@
 """The back end's own GTSAM factors, written in Python (``gtsam.CustomFactor``).
 
-- :func:`resection_factor`: one factor holding all the junctions of a frame, the pinhole
-  projection of the FIXED target points, with its analytic Jacobian. It is the limit of the
+- :func:`resection_factor`: one factor holding all the junctions of a frame, the camera's
+  projection (:mod:`graphpose.cameras`, lens distortion included) of the FIXED target
+  points, with its analytic Jacobian. It is the limit of the
   landmark forms of :mod:`graphpose.track.backend` as their prior sigma goes to 0.
 - :func:`constant_velocity_factor`: a three-pose factor saying the body-frame twist stays
   the same from one frame interval to the next.
@@ -16,11 +17,12 @@ import gtsam
 import numpy as np
 
 from .._checks import as_points, check_number
+from ..cameras import as_camera
 from ..errors import InputError
 
 
-def resection_factor(key, points, Wpts, K, pixel_sigma: float) -> gtsam.CustomFactor:
-    """One factor holding a frame's junctions: pinhole projection of fixed target points.
+def resection_factor(key, points, Wpts, camera, pixel_sigma: float) -> gtsam.CustomFactor:
+    """One factor holding a frame's junctions: the camera's projection of fixed target points.
 
     Parameters
     ----------
@@ -30,8 +32,8 @@ def resection_factor(key, points, Wpts, K, pixel_sigma: float) -> gtsam.CustomFa
         Measured pixels (u, v).
     Wpts : (3, m) ndarray
         The matching target points, metres; fixed.
-    K : (3, 3) ndarray
-        Intrinsics (trusted: checked by the caller).
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.cameras`), or pinhole intrinsics ``K``, pixels.
     pixel_sigma : float
         Isotropic standard deviation of a measured pixel coordinate.
 
@@ -40,13 +42,16 @@ def resection_factor(key, points, Wpts, K, pixel_sigma: float) -> gtsam.CustomFa
     gtsam.CustomFactor
         Error ``(u_1 - u'_1, v_1 - v'_1, ...)`` of length 2m (predicted minus measured),
         with its analytic Jacobian for the right perturbation ``T Exp(omega, v)``:
-        ``dp_C = [p_C]_x omega - v``.
+        ``dp_C = [p_C]_x omega - v``, chained with the camera's ``d uv / d p_C``
+        (:meth:`graphpose.cameras.Camera.project_jacobian`). A point at or behind the
+        camera gives GTSAM's constant ``2 fx`` error with a zero Jacobian, as GTSAM's own
+        projection factors do.
 
     Raises
     ------
     InputError
-        If ``points`` or ``Wpts`` is malformed or not finite, their counts differ, or
-        ``pixel_sigma`` is not a positive finite number.
+        If ``points`` or ``Wpts`` is malformed or not finite, their counts differ, the
+        camera is malformed, or ``pixel_sigma`` is not a positive finite number.
     """
     points = as_points(points, 2, "points")
     Wpts = as_points(Wpts, 3, "Wpts")
@@ -54,23 +59,24 @@ def resection_factor(key, points, Wpts, K, pixel_sigma: float) -> gtsam.CustomFa
     if Wpts.shape[1] != m:
         raise InputError(f"points and Wpts must hold the same number of points, got {m} and {Wpts.shape[1]}")
     check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
-    fx, s, cx, fy, cy = K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]
+    camera = as_camera(camera)
+    behind = 2.0 * camera.fx
     noise = gtsam.noiseModel.Isotropic.Sigma(2 * m, pixel_sigma)
 
     def error(factor, values, jacobians):
         T = values.atPose3(factor.keys()[0])
-        x, y, z = T.rotation().matrix().T @ (Wpts - T.translation()[:, None])
-        e = np.empty(2 * m)
-        e[0::2] = (fx * x + s * y) / z + cx - points[0]
-        e[1::2] = fy * y / z + cy - points[1]
+        P = T.rotation().matrix().T @ (Wpts - T.translation()[:, None])
+        front = P[2] > 0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv, G = camera.project_jacobian(P)  # G: (m, 2, 3), d uv / d p_C
+        e = np.where(front, uv - points, behind).T.ravel()
         if jacobians is not None:
-            iz = 1.0 / z
-            du = np.column_stack([fx * iz, s * iz, -(fx * x + s * y) * iz * iz])
-            dv = np.column_stack([np.zeros(m), fy * iz, -fy * y * iz * iz])
-            P = np.column_stack([x, y, z])
+            G = np.where(front[:, None, None], G, 0.0)
+            # d uv / d omega = g x p_C for each row g of G (g . ([p_C]x omega) = omega . (g x p_C)).
+            Pt = P.T
             J = np.empty((2 * m, 6))
-            J[0::2, :3], J[0::2, 3:] = np.cross(du, P), -du
-            J[1::2, :3], J[1::2, 3:] = np.cross(dv, P), -dv
+            J[0::2, :3], J[0::2, 3:] = np.cross(G[:, 0], Pt), -G[:, 0]
+            J[1::2, :3], J[1::2, 3:] = np.cross(G[:, 1], Pt), -G[:, 1]
             jacobians[0] = J
         return e
 

@@ -1,6 +1,7 @@
 """The tracker's front end: one frame's junctions and its own pose, before the back end.
 
-Per frame (:class:`FrontEnd`; thresholds in :class:`graphpose.track.config.TrackerConfig`):
+Per frame (:class:`FrontEnd`; thresholds in :class:`graphpose.track.config.TrackerConfig`; every
+projection through the sequence's camera, :mod:`graphpose.cameras`, on the raw frames):
 
 1. **Predict** the pose from the last two frames with a constant body-frame twist
    (:func:`constant_velocity_prediction`), and every junction's pixel position from it.
@@ -15,9 +16,14 @@ Per frame (:class:`FrontEnd`; thresholds in :class:`graphpose.track.config.Track
    ``fit_pose`` from the homography) when too few junctions survive, when the motion is too
    fast to predict, or after a loss. Polygons are tried in turn: the caller's polygon for the
    frame, the predicted outline, the outline of the last frame whose junctions were all in
-   the image and two enlargements of it, the whole image. A detection must trust most of
-   the junctions (a mostly untrusted grid can be labelled one square off, and no residual
-   shows it).
+   the image and two enlargements of it, then no polygon (the whole image is searched). A
+   detection must trust most of the junctions (a mostly untrusted grid can be labelled one
+   square off, and no residual shows it). A polygon names junction 0's corner; without one,
+   a board whose pattern is unchanged by a half turn (or a quarter turn, square boards)
+   comes back labelled by the image's upper-left rule, and the front end keeps the
+   orientation continuous instead: of the labellings the symmetry allows
+   (:func:`board_symmetries`), it takes the one nearest the prediction (or, after a loss,
+   the last pose).
 5. **Refuse** a frame whose fit does not converge or leaves much more residual than the
    sequence's usual (heavy motion blur, a grid labelled one square off): such a frame, and
    one where nothing is found, is lost. No pose is guessed.
@@ -35,7 +41,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..board import Board
-from ..camera import project, to_camera
+from ..camera import to_camera
+from ..cameras import as_camera
 from ..detect.junctions import extract_junctions
 from ..detect.refine import refine_junctions
 from ..errors import BoardNotFoundError, InputError
@@ -74,21 +81,29 @@ class FrontEnd:
 
     Parameters
     ----------
-    K : (3, 3) ndarray
-        Intrinsics, pixels (trusted: checked by the caller).
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.cameras`; the frames are raw), or pinhole
+        intrinsics ``K``, pixels.
     board : Board
         The target.
     config : TrackerConfig
         Thresholds.
     """
 
-    def __init__(self, K, board: Board, config: TrackerConfig):
-        self.K, self.board, self.config = K, board, config
+    def __init__(self, camera, board: Board, config: TrackerConfig):
+        self.camera, self.board, self.config = as_camera(camera), board, config
         self._W = board.world_points()
         self._sheet = board.sheet_corners()
+        self._symmetries = board_symmetries(board)
         self._recent = []  # (k, timestamp, T_WC) of the last two frames with a pose, consecutive
+        self._last = None  # the newest pose, kept through losses: it orients re-detections
+        self._reference = None  # the pose a fresh detection is oriented by (this frame's)
         self._outline = None  # sheet outline of the last frame whose junctions were all in view
         self._rms = []  # fit RMS of every frame with a pose
+
+    def project(self, T_WC, P_W) -> np.ndarray:
+        """Pixels (2, N) of target points ``P_W`` (3, N) seen from ``T_WC``, through the camera."""
+        return self.camera.project(to_camera(T_WC, P_W))
 
     def measure(self, k: int, timestamp: float, image: np.ndarray, polygon=None) -> Measurement:
         """Junctions and single-frame fit of frame ``k``.
@@ -112,6 +127,7 @@ class FrontEnd:
             degenerate frame fails that attempt only, never the sequence.
         """
         prediction = self._predict(k, timestamp)
+        self._reference = prediction if prediction is not None else self._last
         found, status, message = None, LOST, ""
         if prediction is not None:
             found, message = _attempt(self._track, image, prediction)
@@ -132,11 +148,12 @@ class FrontEnd:
     def accept(self, k: int, timestamp: float, T_WC, shape) -> None:
         """Take the back end's pose of frame ``k`` (image ``shape`` (H, W)) for the next predictions."""
         self._recent = (self._recent + [(k, timestamp, T_WC)])[-2:]
+        self._last = T_WC
         # The anchor of re-detection after a loss: the newest frame with the whole grid of
         # junctions in the image, whether or not the sheet's margin was cut by the border
         # (the detection polygons are clipped to the image).
-        if _inside(project(self.K, T_WC, self._W), shape):
-            self._outline = project(self.K, T_WC, self._sheet)
+        if _inside(self.project(T_WC, self._W), shape):
+            self._outline = self.project(T_WC, self._sheet)
 
     def lose(self) -> None:
         """Frame without a pose: the next one cannot be predicted."""
@@ -155,17 +172,18 @@ class FrontEnd:
 
     def _detection_polygons(self, polygon, prediction, shape):
         """Polygons to search, most specific first: the caller's, the predicted outline, the
-        last whole grid's outline and two enlargements of it, then the whole image."""
+        last whole grid's outline and two enlargements of it, then None (the whole image)."""
         polys = [polygon] if polygon is not None else []
-        if prediction is not None:
-            polys.append(project(self.K, prediction, self._sheet))
+        if prediction is not None and np.all(to_camera(prediction, self._sheet)[2] > 0):
+            polys.append(self.project(prediction, self._sheet))
         if self._outline is not None:
             centre = self._outline.mean(axis=1, keepdims=True)
             polys += [centre + f * (self._outline - centre) for f in (1.0, 1.4, 2.0)]
         h, w = shape
+        polys = [np.clip(P, 0.0, [[w - 1.0], [h - 1.0]]) for P in polys if np.all(np.isfinite(P))]
         if polygon is None or self._outline is not None:
-            polys.append(np.array([[0.0, w - 1.0, w - 1.0, 0.0], [0.0, 0.0, h - 1.0, h - 1.0]]))
-        return [np.clip(P, 0.0, [[w - 1.0], [h - 1.0]]) for P in polys]
+            polys.append(None)
+        return polys
 
     # ----------------------------------------------------------------- junctions
     def _track(self, image, T_pred):
@@ -173,9 +191,11 @@ class FrontEnd:
         cfg = self.config
         if np.any(to_camera(T_pred, self._W)[2] <= 0):
             return None, "prediction puts the board behind the camera"
-        uv = project(self.K, T_pred, self._W)
-        side = _square_px(self.K, T_pred, self._W, uv, self.board.square_m)
-        speed = np.median(np.hypot(*(uv - project(self.K, self._recent[-1][2], self._W))) / side)
+        uv = self.project(T_pred, self._W)
+        side = _square_px(self.project, T_pred, self._W, uv, self.board.square_m)
+        if not np.all(np.isfinite(side)):
+            return None, "prediction puts the board where the lens model has no image"
+        speed = np.median(np.hypot(*(uv - self.project(self._recent[-1][2], self._W))) / side)
         if speed > cfg.max_speed:
             return None, f"predicted motion {speed:.2f} squares a frame is too fast to track"
         radius = np.clip(cfg.window_fraction * side, *cfg.window_px)
@@ -192,23 +212,46 @@ class FrontEnd:
         return self._fit(points[:, keep], ids[keep], T_pred)
 
     def _detect(self, image, polygon):
-        """Full extraction inside a polygon; ((points, ids, fit), "") or (None, why)."""
+        """Full extraction inside a polygon (the whole image for None); ((points, ids, fit), "")
+        or (None, why)."""
         try:
-            J = extract_junctions(image, polygon, self.board)
+            J = extract_junctions(image, polygon, self.board, camera=self.camera)
         except (BoardNotFoundError, InputError) as exc:
             return None, f"extraction failed: {exc}"
-        ids = np.flatnonzero(J.trusted)
+        points, trusted = J.points, J.trusted
+        if J.orientation_ambiguous and self._reference is not None:
+            points, trusted = self._orient(points, trusted, self._reference)
+        ids = np.flatnonzero(trusted)
         need = max(self.config.min_junctions, int(np.ceil(self.config.min_detected_fraction * self.board.n)))
         if ids.size < need:
             return None, f"extraction trusted only {ids.size} of {self.board.n} junctions (need {need})"
-        return self._fit(J.points[:, ids], ids, None)
+        return self._fit(points[:, ids], ids, None)
+
+    def _orient(self, points, trusted, T_ref):
+        """The labelling of a symmetric board's junctions nearest the pose ``T_ref``'s.
+
+        Of the relabellings the board's symmetry allows (:func:`board_symmetries`), the one
+        whose trusted junctions lie nearest (median pixel distance) to where ``T_ref`` sees
+        the same junctions; returns the relabelled (points, trusted).
+        """
+        with np.errstate(invalid="ignore"):
+            expected = self.project(T_ref, self._W)
+        best, best_d = (points, trusted), np.inf
+        for perm in self._symmetries:
+            p, t = np.empty_like(points), np.empty_like(trusted)
+            p[:, perm], t[perm] = points, trusted
+            d = np.hypot(*(p[:, t] - expected[:, t]))
+            d = float(np.nanmedian(d)) if np.any(np.isfinite(d)) else np.inf
+            if d < best_d:
+                best, best_d = (p, t), d
+        return best
 
     def _fit(self, points, ids, guess):
         """The single-image fit (from ``guess``, or the homography when None) and the frame's
         checks; ((points, ids, fit), "") or (None, why)."""
         cfg = self.config
         try:
-            fit, _ = fit_pose(self.K, points, self._W[:, ids], guess, robust=cfg.robust)
+            fit, _ = fit_pose(self.camera, points, self._W[:, ids], guess, robust=cfg.robust)
         except InputError as exc:
             return None, f"pose fit failed: {exc}"
         if not fit.converged:
@@ -311,10 +354,36 @@ def _attempt(method, *args):
         return None, f"{method.__name__.strip('_')} failed: {exc}"
 
 
-def _square_px(K, T_WC, Wpts, uv, square_m) -> np.ndarray:
-    """Local square side at each junction, pixels: the shorter projected grid step."""
-    du = project(K, T_WC, Wpts + [[square_m], [0.0], [0.0]]) - uv
-    dv = project(K, T_WC, Wpts + [[0.0], [square_m], [0.0]]) - uv
+def board_symmetries(board: Board) -> list:
+    """The relabellings of a board's junctions under the turns that leave its grid unchanged.
+
+    Parameters
+    ----------
+    board : Board
+        The target.
+
+    Returns
+    -------
+    list of (n,) ndarray of int
+        ``perm[k]`` is the label junction ``k`` gets when the board is turned: the identity
+        and the half turn (``k -> n - 1 - k``) for every board, and the two quarter turns for
+        a square one (``cols == rows``). Whether the board's colours share the symmetry is
+        the detector's to say (``Junctions.orientation_ambiguous``).
+    """
+    n = board.n
+    perms = [np.arange(n), n - 1 - np.arange(n)]
+    if board.cols == board.rows:
+        c, r = board.grid_indices()
+        m = board.cols - 1
+        perms += [c * board.cols + (m - r), (m - c) * board.cols + r]  # (c, r) -> (m - r, c), (r, m - c)
+    return perms
+
+
+def _square_px(project, T_WC, Wpts, uv, square_m) -> np.ndarray:
+    """Local square side at each junction, pixels: the shorter projected grid step
+    (``project(T_WC, P_W)`` the camera's projection)."""
+    du = project(T_WC, Wpts + [[square_m], [0.0], [0.0]]) - uv
+    dv = project(T_WC, Wpts + [[0.0], [square_m], [0.0]]) - uv
     return np.minimum(np.hypot(*du), np.hypot(*dv))
 
 

@@ -9,7 +9,11 @@ a usable board, or a frame file that cannot be read, is lost: it gets no pose, a
 factor spans it. At the end the whole graph can be smoothed in batch.
 
 Inputs are checked once, here, as :func:`graphpose.pose.estimate.estimate_pose` checks them
-(:func:`graphpose._checks.check_bounds` for the bounds and every per-frame polygon).
+(:func:`graphpose._checks.check_bounds` for the bounds and every per-frame polygon, and
+:func:`graphpose.cameras.check_image_size` for every frame against the camera's calibration).
+One camera (:mod:`graphpose.cameras`) serves the whole chain: the front end's predictions,
+refinement and detection work on the raw frames through it, and the back end's factors
+project through the same model.
 """
 
 from __future__ import annotations
@@ -18,9 +22,9 @@ import time
 
 import numpy as np
 
-from .._checks import check_board, check_bounds, check_K
+from .._checks import check_board, check_bounds
 from ..board import Board
-from ..camera import project
+from ..cameras import as_camera, check_image_size
 from ..errors import InputError
 from .backend import SequenceGraph
 from .config import TrackerConfig
@@ -29,7 +33,7 @@ from .frontend import FrontEnd
 from .results import DETECTED, LOST, FrameResult, Track
 
 
-def track_sequence(frames, K, bounds=None, *, board: Board = Board(), timestamps=None, fps: float = 30.0,
+def track_sequence(frames, camera, bounds=None, *, board: Board = Board(), timestamps=None, fps: float = 30.0,
                    polygons=None, config: TrackerConfig = TrackerConfig(), smooth: bool = False,
                    progress=None) -> Track:
     """Track the camera pose over a sequence of frames of the target.
@@ -40,13 +44,16 @@ def track_sequence(frames, K, bounds=None, *, board: Board = Board(), timestamps
         A folder (its image files in name order, see
         :func:`graphpose.track.frames.list_frames`), a list of image files, or images
         (H, W) / (H, W, 3|4) arrays, or an (N, H, W) array. Files are read one at a time.
-    K : (3, 3) array_like
-        Intrinsics, pixels (undistorted images).
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.cameras`; the frames are raw, with its lens
+        distortion), or pinhole intrinsics ``K``, pixels, for frames without distortion.
     bounds : (2, 4) array_like, optional
-        Bounding polygon of the board in the first frame (clockwise from the upper-left
-        vertex, as in :func:`graphpose.detect.junctions.extract_junctions`). Without it (and
-        without ``polygons[0]``) the first frame is searched in the whole image, which finds
-        a board that is not too large in the frame; frames stay lost until it is found.
+        Bounding polygon of the board in the first frame (clockwise from the corner nearest
+        junction 0, as in :func:`graphpose.detect.junctions.extract_junctions`). Without it
+        (and without ``polygons[0]``) the first frame is searched in the whole image; frames
+        stay lost until the board is found. A board whose pattern is unchanged by a half
+        turn is then labelled by the image's upper-left rule in the first frame, and kept
+        continuous from frame to frame after that.
     board : Board
         The target.
     timestamps : (N,) array_like, optional
@@ -73,14 +80,14 @@ def track_sequence(frames, K, bounds=None, *, board: Board = Board(), timestamps
     Raises
     ------
     InputError
-        If K, board, timestamps, polygons or config are malformed, there are no frames, a
-        frame given in memory is not a finite grey or colour image (checked when the frame
-        is reached), or ``bounds`` or a polygon is not a clockwise convex quadrilateral on
-        the image (:func:`graphpose._checks.check_bounds`, checked against the first frame
-        read, before any is tracked). A frame without a usable board is NOT an error: it is
-        lost.
+        If the camera, board, timestamps, polygons or config are malformed, there are no
+        frames, a frame given in memory is not a finite grey or colour image (checked when
+        the frame is reached), a frame's size differs from the camera's calibration, or
+        ``bounds`` or a polygon is not a clockwise convex quadrilateral on the image
+        (:func:`graphpose._checks.check_bounds`, checked against the first frame read,
+        before any is tracked). A frame without a usable board is NOT an error: it is lost.
     """
-    K = check_K(K)
+    camera = as_camera(camera)
     board = check_board(board)
     if not isinstance(config, TrackerConfig):
         raise InputError(f"config must be a TrackerConfig, got {type(config).__name__}")
@@ -90,8 +97,8 @@ def track_sequence(frames, K, bounds=None, *, board: Board = Board(), timestamps
         raise InputError("frames is empty")
     t = frame_timestamps(timestamps, fps, n)
     polys, names = _polygon_list(polygons, bounds, n)
-    front = FrontEnd(K, board, config)
-    graph = SequenceGraph(K, board, config.motion, target=config.target)
+    front = FrontEnd(camera, board, config)
+    graph = SequenceGraph(camera, board, config.motion, target=config.target)
     W = board.world_points()
     results, checked = [], False
     for k in range(n):
@@ -101,12 +108,14 @@ def track_sequence(frames, K, bounds=None, *, board: Board = Board(), timestamps
             graph.break_segment()
             results.append(FrameResult(k, t[k], LOST, message=unreadable))
         else:
+            path = source.path(k)
+            check_image_size(camera, image.shape, f"frame {k}" + ("" if path is None else f" ({path})"))
             if not checked:
                 polys, checked = _check_polygons(polys, names, image.shape[:2]), True
             results.append(_step(front, graph, W, config, k, t[k], image, polys[k]))
         if progress is not None:
             progress(k, n)
-    smoothed = tuple(_smoothed(graph, results, K, W)) if smooth else None
+    smoothed = tuple(_smoothed(graph, results, front.project, W)) if smooth else None
     return Track(tuple(results), smoothed, config)
 
 
@@ -138,20 +147,21 @@ def _step(front, graph, W, config, k, t, image, polygon) -> FrameResult:
     sigma = max(fit.sigma_px, config.min_pixel_sigma_px)
     back = graph.add_frame(k, t, found.points, found.ids, fit.T_WC, sigma)
     front.accept(k, t, back.T_WC, image.shape[:2])
-    rms = _rms(project(front.K, back.T_WC, W[:, found.ids]) - found.points)
+    rms = _rms(front.project(back.T_WC, W[:, found.ids]) - found.points)
     return FrameResult(k, t, found.status, back.T_WC, back.cov, len(found.ids), rms, fit.T_WC, found.points,
                        found.ids, frontend_s, back.update_s, found.message)
 
 
-def _smoothed(graph, results, K, W):
-    """The frames again with the batch-smoothed poses and covariances of the whole graph."""
+def _smoothed(graph, results, project, W):
+    """The frames again with the batch-smoothed poses and covariances of the whole graph
+    (``project(T_WC, P_W)``: the camera's projection)."""
     batch = graph.smooth()
     for f in results:
         if f.index not in batch:
             yield f
             continue
         b = batch[f.index]
-        rms = _rms(project(K, b.T_WC, W[:, f.ids]) - f.points)
+        rms = _rms(project(b.T_WC, W[:, f.ids]) - f.points)
         yield FrameResult(f.index, f.timestamp, f.status, b.T_WC, b.cov, f.junctions, rms, f.single_T_WC,
                           f.points, f.ids, f.frontend_s, f.update_s, f.message)
 

@@ -2,9 +2,11 @@
 
 :func:`draw_overlay` marks the measured cross-junctions (trusted: cyan rings, untrusted:
 red crosses), the junctions reprojected from the final pose (magenta plus signs, so a good fit
-reads as a plus inside a ring), the target's x / y / z axes from its origin (red, green, blue;
-z points into the board), the bounding polygon (thin yellow) and the pose in a text box in
-the corner that hides the least of the board. scikit-image draws no text, so this module
+reads as a plus inside a ring) and the board's grid lines through them (thin magenta, drawn
+through the camera's lens model, so that on a raw image they bend with the board's edges),
+the target's x / y / z axes from its origin (red, green, blue; z points into the board), the
+bounding polygon (thin yellow) and the pose in a text box in the corner that hides the least
+of the board. scikit-image draws no text, so this module
 carries a tiny 5 x 9 bitmap font of its own.
 """
 
@@ -14,10 +16,14 @@ import numpy as np
 from skimage import draw
 from skimage.measure import points_in_poly
 
-from .._checks import as_polygon, check_K
+from .._checks import as_polygon
 from ..board import Board
-from ..camera import project, to_camera
+from ..camera import to_camera
+from ..cameras import as_camera, check_image_size
 from ..image import as_grey
+
+#: Samples per square along the drawn grid lines (enough for a smooth curve under distortion).
+GRID_SAMPLES = 8
 
 #: RGB colours of the overlay's marks.
 COLOURS = {
@@ -34,20 +40,23 @@ COLOURS = {
 }
 
 
-def draw_overlay(image, estimate, K, board: Board = Board(), *, bounds=None, label=None) -> np.ndarray:
+def draw_overlay(image, estimate, camera, board: Board = Board(), *, bounds=None, label=None) -> np.ndarray:
     """Draw a pose estimate on its image.
 
     Parameters
     ----------
     image : (H, W) or (H, W, 3|4) array_like
-        The image the estimate came from (any dtype :func:`graphpose.image.as_grey` takes).
+        The image the estimate came from (any dtype :func:`graphpose.image.as_grey` takes),
+        raw as the camera took it.
     estimate : PoseEstimate
         Result of :func:`graphpose.pose.estimate.estimate_pose`; uses ``T_WC``, ``params``,
         ``mask`` (the trusted junctions), ``junctions.points`` (none are marked when
         ``junctions`` is None, as from :func:`~graphpose.pose.estimate.estimate_pose_from_points`),
-        ``reprojection_rms_px``, ``converged`` and ``cross_check.agree``.
-    K : (3, 3) array_like
-        Intrinsics, pixels.
+        ``reprojection_rms_px``, ``converged``, ``cross_check.agree`` and, when present,
+        ``orientation_ambiguous``.
+    camera : Camera or (3, 3) array_like
+        The camera the estimate used (:mod:`graphpose.cameras`), or pinhole intrinsics
+        ``K``, pixels: the reprojection, the grid and the axes are drawn through it.
     board : Board
         The target; its junctions are reprojected and its square sets the axes' length
         (two squares).
@@ -64,10 +73,12 @@ def draw_overlay(image, estimate, K, board: Board = Board(), *, bounds=None, lab
     Raises
     ------
     InputError
-        If the image or K is malformed, or ``bounds`` is not a finite (2, m) polygon, m >= 3.
+        If the image or camera is malformed, the image's size is not the camera's
+        calibration's, or ``bounds`` is not a finite (2, m) polygon, m >= 3.
     """
-    K = check_K(K)
+    camera = as_camera(camera)
     grey = as_grey(image)
+    check_image_size(camera, grey.shape)
     if bounds is not None:
         bounds = as_polygon(bounds, "bounds")
     # Dimmed grey keeps the board readable while the saturated marks stand out on black and white.
@@ -79,8 +90,12 @@ def draw_overlay(image, estimate, K, board: Board = Board(), *, bounds=None, lab
         for i in range(bounds.shape[1]):
             _line(canvas, bounds[:, i], bounds[:, (i + 1) % bounds.shape[1]], COLOURS["bounds"], 1.0)
 
+    for curve in _grid_lines(camera, T, board):
+        for a, b in zip(curve.T[:-1], curve.T[1:]):
+            _line(canvas, a, b, COLOURS["reprojected"], 1.0, alpha=0.55)
+
     Wpts = board.world_points()
-    model = _visible(K, T, Wpts)
+    model = _visible(camera, T, Wpts)
     for u, v in model.T:
         _plus(canvas, u, v, 3.5 * size, COLOURS["reprojected"], 1.0)
 
@@ -95,7 +110,7 @@ def draw_overlay(image, estimate, K, board: Board = Board(), *, bounds=None, lab
         else:
             _cross(canvas, u, v, 5.0 * size, 2.0 * size, COLOURS["untrusted"])
 
-    tips = _draw_axes(canvas, K, T, 2.0 * board.square_m, size)
+    tips = _draw_axes(canvas, camera, T, 2.0 * board.square_m, size)
 
     avoid = np.hstack([p for p in (points, model, tips) if p.size] or [np.zeros((2, 0))])
     scale = max(1, int(round(min(canvas.shape[:2]) / 240.0)))
@@ -106,14 +121,42 @@ def draw_overlay(image, estimate, K, board: Board = Board(), *, bounds=None, lab
 # --- what is drawn -----------------------------------------------------------------------
 
 
-def _visible(K, T, P) -> np.ndarray:
-    """Projections (2, m) of the points of P (3, N) that lie in front of the camera."""
-    return project(K, T, P[:, to_camera(T, P)[2] > 1e-6])
+def _visible(camera, T, P) -> np.ndarray:
+    """Projections (2, m) of the points of P (3, N) that lie in front of the camera and
+    that its model images."""
+    P_C = to_camera(T, P)
+    uv = camera.project(P_C[:, P_C[2] > 1e-6])
+    return uv[:, np.all(np.isfinite(uv), axis=0)]
 
 
-def _draw_axes(canvas, K, T, length, size) -> np.ndarray:
+def _grid_lines(camera, T, board) -> list:
+    """The board's rows and columns of junctions as curves (2, m) in the image, sampled
+    :data:`GRID_SAMPLES` times a square; each cut where a sample is not imaged."""
+    s, cols, rows = board.square_m, board.cols, board.rows
+    lines = []
+    along_x = np.linspace(0.0, (cols - 1) * s, (cols - 1) * GRID_SAMPLES + 1)
+    along_y = np.linspace(0.0, (rows - 1) * s, (rows - 1) * GRID_SAMPLES + 1)
+    for r in range(rows):
+        lines.append(np.vstack([along_x, np.full_like(along_x, r * s), np.zeros_like(along_x)]))
+    for c in range(cols):
+        lines.append(np.vstack([np.full_like(along_y, c * s), along_y, np.zeros_like(along_y)]))
+    curves = []
+    for P in lines:
+        P_C = to_camera(T, P)
+        uv = np.full((2, P.shape[1]), np.nan)
+        front = P_C[2] > 1e-6
+        uv[:, front] = camera.project(P_C[:, front])
+        good = np.all(np.isfinite(uv), axis=0)
+        # Runs of consecutive imaged samples.
+        for run in np.split(np.arange(good.size), np.flatnonzero(np.diff(good)) + 1):
+            if good[run[0]] and run.size > 1:
+                curves.append(uv[:, run])
+    return curves
+
+
+def _draw_axes(canvas, camera, T, length, size) -> np.ndarray:
     origin = np.zeros((3, 1))
-    o = _visible(K, T, origin)
+    o = _visible(camera, T, origin)
     tips = []
     if o.shape[1] == 0:
         return np.zeros((2, 0))
@@ -123,7 +166,7 @@ def _draw_axes(canvas, K, T, length, size) -> np.ndarray:
     for axis, name in ((0, "x"), (1, "y"), (2, "z")):
         end = origin.copy()
         end[axis] = length
-        e = _visible(K, T, end)
+        e = _visible(camera, T, end)
         if e.shape[1] == 0:
             continue
         _arrow(canvas, o[:, 0], e[:, 0], COLOURS[name], 3.0 * size)
@@ -144,6 +187,8 @@ def _pose_lines(estimate, trusted, label) -> list:
     else:
         status = ("converged", COLOURS["good"])
     head = [(f"{label}  ", white)] if label else []
+    ambiguous = [[("orientation ambiguous (no bounds)", COLOURS["bounds"])]] \
+        if getattr(estimate, "orientation_ambiguous", False) else []
     return [
         head + [status],
         [(f"x {x:+8.4f} m   roll  {roll:+8.2f}\u00b0", white)],
@@ -154,7 +199,7 @@ def _pose_lines(estimate, trusted, label) -> list:
          (" untrusted  ", white), ("+", COLOURS["reprojected"]), (" model", white)],
         [("axes ", white), ("x", COLOURS["x"]), (" ", white), ("y", COLOURS["y"]), (" ", white),
          ("z", COLOURS["z"]), (" (z: into the board)", white)],
-    ]
+    ] + ambiguous
 
 
 def _text_box(canvas, lines, avoid, sheet, scale) -> None:
@@ -225,14 +270,14 @@ def _clip(p0, p1, H, W, margin=20.0):
     return p0 + t0 * d, p0 + t1 * d
 
 
-def _line(canvas, p0, p1, colour, width) -> None:
+def _line(canvas, p0, p1, colour, width, alpha=1.0) -> None:
     seg = _clip(p0, p1, *canvas.shape[:2])
     if seg is None:
         return
     (u0, v0), (u1, v1) = seg
     if width <= 1.0:
         rr, cc, val = draw.line_aa(int(round(v0)), int(round(u0)), int(round(v1)), int(round(u1)))
-        _blend(canvas, rr, cc, colour, val)
+        _blend(canvas, rr, cc, colour, alpha * val)
         return
     d = np.array([u1 - u0, v1 - v0])
     n = np.array([-d[1], d[0]]) / max(np.hypot(*d), 1e-9) * width / 2.0

@@ -3,7 +3,8 @@ import json
 import numpy as np
 import pytest
 
-from graphpose import Board, InputError, T_from_params, load_cases
+from graphpose import Board, FisheyeCamera, InputError, PinholeCamera, RadTanCamera, T_from_params, load_cases
+from graphpose.io.calibration import write_camera
 from graphpose.io.cases import load_pose
 
 
@@ -43,10 +44,16 @@ def test_load_cases_reads_every_field(tmp_path):
 @pytest.mark.parametrize("doc, message", [
     ("{not json", "cannot read case file"),
     ([1, 2], "must hold a JSON object, got list"),
-    ({"cases": []}, "lacks the field 'K'"),
+    ({"cases": []}, "must give the camera's K .* got neither"),
+    ({"K": K, "camera": "left.yml", "cases": []}, "must give the camera's K .* not both"),
+    ({"camera": "none.yml", "cases": []}, "case file .*: calibration file not found: .*none.yml"),
+    ({"camera": 3, "cases": []}, "camera must be a calibration file's path .* got 3"),
+    ({"camera": {"model": "radtan", "K": K, "distortion": [0.1] * 6}, "cases": []},
+     "case file .*: camera.*6 distortion coefficients"),
+    ({"camera": {"model": "kannala", "K": K}, "cases": []}, "camera model 'kannala' is not supported"),
+    ({"camera": {"model": "radtan", "K": K}, "cases": []}, "camera.*distortion"),
     ({"K": K}, "lacks the field 'cases'"),
     ({"K": K, "cases": [{"bounds": BOUNDS}]}, "lacks the field 'image'"),
-    ({"K": K, "cases": [{"image": "a.png"}]}, "lacks the field 'bounds'"),
     ({"K": K, "cases": {"image": "a.png"}}, "cases must be a list of objects"),
     ({"K": K, "cases": ["a.png"]}, "cases must be a list of objects"),
     ({"K": "abc", "cases": []}, "K must be a rectangular array"),
@@ -90,6 +97,35 @@ def test_load_cases_reads_the_grid_as_a_list_or_an_object(tmp_path, grid):
     assert load_cases(_write(tmp_path, {"K": K, "grid": grid, "cases": []})).board == Board(9, 7)
     assert load_cases(_write(tmp_path, {"K": K, "grid": {"rows": 5}, "cases": []})).board == Board(8, 5)
     assert load_cases(_write(tmp_path, {"K": K, "cases": []})).board == Board()
+
+
+def test_bounds_are_optional(tmp_path):
+    cases = load_cases(_write(tmp_path, {"K": K, "cases": [{"image": "a.png"}, {"image": "b.png", "bounds": None}]}))
+    assert [c.bounds for c in cases.cases] == [None, None]
+    assert cases.camera == PinholeCamera(K) and cases.camera.distortion.size == 0
+
+
+def test_camera_from_a_file_beside_the_case_file_or_inline(tmp_path):
+    camera = RadTanCamera(K, [-0.2, 0.05, 0.001, 0.0, 0.01], size=(640, 480))
+    (tmp_path / "calib").mkdir()
+    write_camera(tmp_path / "calib" / "cam.json", camera)
+    from_file = load_cases(_write(tmp_path, {"camera": "calib/cam.json", "cases": [{"image": "a.png"}]}))
+    assert from_file.camera == camera
+    np.testing.assert_array_equal(from_file.K, camera.K)
+    inline = {"model": "radtan", "K": K, "distortion": [-0.2, 0.05, 0.001, 0.0, 0.01], "size": [640, 480]}
+    assert load_cases(_write(tmp_path, {"camera": inline, "cases": []})).camera == camera
+    fisheye = {"model": "fisheye", "K": K, "distortion": [0.01, 0.0, 0.0, 0.0]}
+    assert load_cases(_write(tmp_path, {"camera": fisheye, "cases": []})).camera == FisheyeCamera(K, [0.01, 0, 0, 0])
+
+
+def test_camera_file_with_nan_or_missing_keys_is_refused_naming_both_files(tmp_path):
+    (tmp_path / "cam.json").write_text(json.dumps({"model": "radtan", "K": K, "distortion": [0.1, float("nan"), 0, 0]}))
+    path = _write(tmp_path, {"camera": "cam.json", "cases": []})
+    with pytest.raises(InputError, match=r"case file .*cases.json: .*cam.json.*NaN"):
+        load_cases(path)
+    (tmp_path / "cam.json").write_text(json.dumps({"model": "radtan", "distortion": [0.1, 0, 0, 0]}))
+    with pytest.raises(InputError, match=r"case file .*cases.json: .*cam.json.*K"):
+        load_cases(path)
 
 
 def test_load_cases_missing_file(tmp_path):

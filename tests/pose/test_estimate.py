@@ -227,7 +227,7 @@ def test_cross_check_disagreement_is_a_failure():
         (dict(Ipts=np.zeros((2, 47))), "same number"),
         (dict(Ipts=np.zeros((2, 3)), Wpts=WPTS[:, :3]), "at least 4"),
         (dict(Ipts=np.full((2, 48), np.nan)), "NaN"),
-        (dict(K=np.zeros((3, 3))), "K"),
+        (dict(camera=np.zeros((3, 3))), "K"),
         (dict(guess=T_from_params([0.2, 0.15, 1.0, 0, 0, 0])), "behind the camera"),
         (dict(guess=np.ones((4, 4))), "guess"),
         (dict(mask=np.zeros(48, dtype=bool)), "at least 4"),
@@ -236,7 +236,7 @@ def test_cross_check_disagreement_is_a_failure():
 )
 def test_bad_correspondences_are_refused(kwargs, match):
     T = T_from_params([0.2, 0.15, -1.0, 0.0, 0.0, 0.0])
-    args = dict(K=K, Ipts=project(K, T, WPTS), Wpts=WPTS)
+    args = dict(camera=K, Ipts=project(K, T, WPTS), Wpts=WPTS)
     args.update(kwargs)
     with pytest.raises(InputError, match=match):
         estimate_pose_from_points(**args)
