@@ -62,7 +62,7 @@ def estimate_many(paths, K, board: Board = Board(), *, bounds=None, robust: bool
                   task_seconds: float = TASK_SECONDS):
     """Estimate the camera pose in many images on a Dask cluster; records as they arrive.
 
-    Each image gets what ``graphpose estimate IMAGE --bounds POLYGON`` gives it (the same
+    Each image gets what ``graphpose estimate IMAGE [--bounds POLYGON]`` gives it (the same
     pose, bit for bit), as a record of :func:`graphpose.batch.work.estimate_images`: the
     keys of ``estimate --json``, ``status`` one of :data:`graphpose.batch.work.STATUSES`,
     ``time_s`` and ``worker``. One image's failure is its record's status, never an
@@ -81,8 +81,8 @@ def estimate_many(paths, K, board: Board = Board(), *, bounds=None, robust: bool
     bounds : (2, 4) array_like, dict or None
         The board's bounding polygon in pixels (as ``estimate --bounds``): one for every
         image; or a dict from image path (made absolute) to polygon or None; None (for the
-        image, or for all) searches the whole image, which finds the board only when little
-        else is in view.
+        image, or for all) searches the whole image (as ``graphpose estimate IMAGE`` without
+        ``--bounds``). A polygon narrows the search and names junction 0's corner.
     robust : bool
         Down-weight outlying junctions (as ``estimate --robust``).
     client : distributed.Client, str or None

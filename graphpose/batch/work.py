@@ -1,7 +1,7 @@
 """One task's work: estimate the pose in a group of images, one result record per image.
 
 :func:`estimate_images` is what a Dask worker runs (and what a plain loop runs, for a
-comparison): for each image it does what ``graphpose estimate IMAGE --bounds ...`` does
+comparison): for each image it does what ``graphpose estimate IMAGE [--bounds ...]`` does
 (:func:`graphpose.image.read_image`, then :func:`graphpose.pose.estimate.estimate_pose`) and
 turns the outcome into the record of :func:`graphpose.cli.records.result_record`, so the pose
 of a row is the pose that command gives for that image, bit for bit. A failure of one image
@@ -19,7 +19,6 @@ import os
 import sys
 import time
 
-import numpy as np
 
 from ..board import Board
 from ..cli.records import result_record
@@ -41,21 +40,6 @@ STATUSES = (OK, NOT_CONVERGED, BOARD_NOT_FOUND, FAILED, MISSING, UNREADABLE, ERR
 EXTRA_KEYS = ("time_s", "worker")
 
 
-def whole_image(shape) -> np.ndarray:
-    """The polygon of the whole image, (2, 4) pixels clockwise from the upper left.
-
-    The bounds an image without its own polygon is searched with: it finds the board when
-    little else with a checkerboard-like texture is in view.
-
-    Parameters
-    ----------
-    shape : tuple of int
-        The image's ``(height, width)``.
-    """
-    h, w = shape[:2]
-    return np.array([[0.0, w - 1.0, w - 1.0, 0.0], [0.0, 0.0, h - 1.0, h - 1.0]])
-
-
 def estimate_images(items, K, board: Board = Board(), robust: bool = False) -> list:
     """Estimate the pose in each image of ``items``; one record per image, in order.
 
@@ -63,7 +47,8 @@ def estimate_images(items, K, board: Board = Board(), robust: bool = False) -> l
     ----------
     items : sequence of (str, (2, 4) ndarray or None)
         Image path (as the process running this sees it) and the board's bounding polygon in
-        pixels, or None to search the whole image (:func:`whole_image`).
+        pixels, or None to search the whole image (as ``graphpose estimate IMAGE`` without
+        ``--bounds``).
     K : (3, 3) ndarray
         Intrinsics, pixels (checked by the caller).
     board : Board
@@ -93,8 +78,7 @@ def estimate_images(items, K, board: Board = Board(), robust: bool = False) -> l
                 except GraphposeError as exc:
                     status, message = UNREADABLE, _one_line(exc)
                 else:
-                    poly = whole_image(image.shape) if bounds is None else bounds
-                    estimate = estimate_pose(image, poly, K, board, robust=robust)
+                    estimate = estimate_pose(image, bounds, K, board, robust=robust)
                     if not estimate.ok:
                         status, message = NOT_CONVERGED, f"no reliable pose: {estimate.message}"
         except BoardNotFoundError as exc:

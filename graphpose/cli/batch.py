@@ -38,8 +38,8 @@ examples:
 
 INPUTS are folders (their image files), glob patterns (quote them; ** crosses folders) or
 text files (.txt, .lst, .list) listing one image path a line. Without --bounds or
---bounds-file an image is searched whole, which finds the board only when little else is
-in view. --out ending in .parquet is a Parquet data set (a folder); .jsonl is JSON lines.
+--bounds-file the board is searched in the whole image, as 'graphpose estimate IMAGE' does;
+a polygon narrows the search and names junction 0's corner. --out ending in .parquet is a Parquet data set (a folder); .jsonl is JSON lines.
 Run again with the same --out to do only the images it does not have yet.
 On a cluster (dask scheduler; dask worker tcp://HOST:8786 on each machine) every worker
 must see the images at the same absolute paths. See docs/batch.md.
@@ -111,7 +111,7 @@ def run(args) -> int:
                              f"(its paths are relative to its own folder)")
         if named < len(paths) and not args.quiet:
             print(f"graphpose batch: --bounds-file names {named} of the {len(paths)} images; the other "
-                  f"{len(paths) - named} are searched whole", file=sys.stderr)
+                  f"{len(paths) - named} are searched in the whole image", file=sys.stderr)
     K, board = target_from_args(args)
     with open_results(args.out, flush_seconds=args.flush_seconds) as results, _interrupt_on_sigterm():
         todo = [p for p in paths if p not in results.done]

@@ -13,7 +13,7 @@ import pytest
 
 from graphpose import Board, InputError
 from graphpose.batch import estimate_many, local_cluster
-from graphpose.batch.work import STATUSES, estimate_images, whole_image
+from graphpose.batch.work import STATUSES, estimate_images
 from tests.batch.helpers import check_rows, make_image_set
 
 distributed = pytest.importorskip("distributed")
@@ -69,8 +69,8 @@ def test_a_worker_killed_mid_run_loses_and_repeats_nothing(images, client):
 
 def test_one_polygon_for_all_and_the_whole_image_for_the_rest(images, client):
     paths = images.paths[:3]
-    poly, whole = images.bounds[paths[0]], whole_image((240, 320))
-    for bounds, polys in ((poly, [poly, poly, poly]), ({paths[0]: poly, paths[1]: None}, [poly, whole, whole])):
+    poly = images.bounds[paths[0]]
+    for bounds, polys in ((poly, [poly, poly, poly]), ({paths[0]: poly, paths[1]: None}, [poly, None, None])):
         rows = {r["image"]: r for r in estimate_many(paths, images.K, images.board, bounds=bounds, client=client)}
         for path, used in zip(paths, polys):
             [want] = estimate_images([(path, used)], images.K, images.board)

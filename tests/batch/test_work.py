@@ -17,10 +17,10 @@ from graphpose.batch.work import (
     estimate_images,
     failed_record,
     warm_up,
-    whole_image,
 )
 from graphpose.cli.records import result_record
 from graphpose.image import read_image
+from graphpose.pose.estimate import estimate_pose
 from tests.batch.helpers import make_image_set
 
 
@@ -64,13 +64,12 @@ def test_an_unexpected_exception_is_an_error_row_with_its_type(images, monkeypat
     assert row["status"] == ERROR and row["message"] == "ZeroDivisionError: a bug over two lines"
 
 
-def test_no_polygon_searches_the_whole_image(images):
+def test_no_polygon_is_estimate_pose_without_bounds(images):
+    # graphpose estimate IMAGE without --bounds: the library searches the whole image.
     path = images.paths[1]
-    whole = whole_image(read_image(path).shape)
-    assert whole.tolist() == [[0, 319, 319, 0], [0, 0, 239, 239]]
-    [a] = estimate_images([(path, None)], images.K, images.board)
-    [b] = estimate_images([(path, whole)], images.K, images.board)
-    assert [a[k] for k in ("status", "message", "T_WC")] == [b[k] for k in ("status", "message", "T_WC")]
+    [row] = estimate_images([(path, None)], images.K, images.board)
+    expected = result_record(path, estimate_pose(read_image(path), None, images.K, images.board), None)
+    assert {k: row[k] for k in expected} == expected
 
 
 def test_failed_record_has_every_key(images):
