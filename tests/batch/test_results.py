@@ -18,6 +18,7 @@ from graphpose.batch.results import (
 )
 from graphpose.batch.work import estimate_images
 from tests.batch.helpers import make_image_set
+from tests.conftest import REPO
 
 pytest.importorskip("pyarrow")
 
@@ -47,6 +48,11 @@ def test_parquet_columns_hold_every_key_of_a_record(records):
         assert set(r) - {"cross_check"} <= set(SCHEMA)  # a new record key needs a column
         assert set(flat_row(r)) == set(SCHEMA) == set(arrow_schema().names)
         assert nested_record(flat_row(r)) == r
+
+
+def test_docs_describe_every_column():
+    text = (REPO / "docs" / "batch.md").read_text()
+    assert [name for name in SCHEMA if f"`{name}`" not in text] == []
 
 
 def test_parquet_parts_of_failed_rows_only_and_of_poses_read_as_one(records, tmp_path):
