@@ -56,6 +56,7 @@ SCHEMA = {
     "cross_check_translation_m": "double",
     "cross_check_rotation_deg": "double",
     "cross_check_agree": "bool",
+    "orientation_ambiguous": "bool",
     "time_s": "double",
     "worker": "string",
 }
