@@ -28,7 +28,7 @@ How it is computed
    closed-form kernel ``k = box(1 px) * Gaussian(blur_sigma) * box(1/S px)``. Blurring the
    continuous image before pixel integration is the physical order; the only residual of
    the fine grid is the symmetric ``1/S``-px cell (no position bias; S = 2 and S = 8 give
-   junction positions that agree to well under 0.002 px, see ``tests/test_render.py``).
+   junction positions that agree to well under 0.002 px, see ``tests/synth/test_render.py``).
    With ``blur_sigma == 0`` the image is the exact pixel area at S = 1.
 3. Speed: only the sheet's bounding box (plus the kernel's reach) is treated; the rest of
    the image is background times illumination. The coverage is kept sparse (one entry per
@@ -36,12 +36,27 @@ How it is computed
    along u is applied to those entries directly, and only then are columns summed and the
    blur along v applied, on an array S times smaller than the fine grid.
 
-Ground truth: the junctions are ``camera.project(K, T_WC, board.world_points())``.
+Lens distortion
+---------------
+:func:`render` also takes a :mod:`graphpose.cameras` camera with lens distortion
+(:class:`~graphpose.RadTanCamera`, :class:`~graphpose.FisheyeCamera`) and renders the raw,
+distorted image. The squares and the sheet are then regions with curved outlines, traced as
+polylines whose chords lie within ``edge_tol_px`` of the true curves
+(:func:`graphpose.synth.lens.region_edges`), and clipped to the cone of rays the model can
+image (:func:`graphpose.synth.lens.view_limit`): a board partly behind the camera, or
+beyond a fisheye's range, is drawn where the model images it. Steps 1-3 are unchanged:
+exact areas of the polylines, blur before pixel integration, the sheet's bounding box. A
+pinhole camera (``K``, or a :class:`~graphpose.PinholeCamera`) takes the path above, with
+straight edges and the same results as before cameras existed.
+
+Ground truth: the junctions are ``camera.project(to_camera(T_WC, board.world_points()))``
+(``graphpose.camera.project(K, T_WC, ...)`` for a pinhole); NaN for a junction outside the
+model's cone.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.ndimage import correlate1d
@@ -51,7 +66,6 @@ from .._checks import (
     as_polygon,
     check_board,
     check_count,
-    check_K,
     check_number,
     check_range,
     check_size,
@@ -59,7 +73,9 @@ from .._checks import (
 )
 from ..board import Board
 from ..camera import project, rot_x, rot_z, to_camera
+from ..cameras import Camera, as_camera, check_image_size
 from ..errors import InputError
+from .lens import in_view, region_edges, view_limit
 
 #: The Gaussian kernel reaches this many sigmas; the tail beyond holds < 3e-7 of the mass.
 _TRUNCATE = 5.0
@@ -74,12 +90,15 @@ class Rendering:
     image : (H, W) ndarray
         uint8 grey levels when quantised, else float64 grey levels (0..255 scale).
     junctions : (2, n) ndarray
-        Exact pixel positions (u, v) of the board's inner cross-junctions, row-major.
+        Exact pixel positions (u, v) of the board's inner cross-junctions, row-major
+        (``camera.project`` of the board's points; NaN for a junction outside the cone of
+        rays the camera model images, :func:`graphpose.synth.lens.view_limit`).
     outline : (2, 4) ndarray
         Corners of the white sheet in pixels, clockwise from the one nearest the
-        upper-left junction.
+        upper-left junction (NaN as for ``junctions``). Under lens distortion the sheet's
+        edges between them are curves.
     K : (3, 3) ndarray
-        Intrinsics, pixels.
+        Intrinsics, pixels (``camera.K``).
     T_WC : (4, 4) ndarray
         Camera pose in the target frame.
     board : Board
@@ -92,6 +111,9 @@ class Rendering:
         Optical Gaussian blur, pixels.
     noise_sigma : float
         Additive Gaussian noise, grey levels of 255.
+    camera : Camera
+        The camera (:mod:`graphpose.cameras`); a :class:`~graphpose.PinholeCamera` when
+        rendered from ``K``.
     """
 
     image: np.ndarray
@@ -104,16 +126,17 @@ class Rendering:
     margin: float
     blur_sigma: float
     noise_sigma: float
+    camera: Camera
 
 
 # --------------------------------------------------------------------------- public API
 
 
 def render_ideal(
-    K,
+    camera,
     T_WC,
     board: Board = Board(),
-    size=(640, 480),
+    size=None,
     *,
     margin: float = 0.5,
     blur_sigma: float = 1.0,
@@ -123,6 +146,7 @@ def render_ideal(
     background: float = 60.0,
     white: float = 215.0,
     black: float = 35.0,
+    edge_tol_px: float = 1e-4,
 ) -> np.ndarray:
     """Noise-free image of the board, before quantisation.
 
@@ -130,14 +154,15 @@ def render_ideal(
 
     Parameters
     ----------
-    K : (3, 3) array_like
-        Intrinsics, pixels.
+    camera : Camera or (3, 3) array_like
+        A :mod:`graphpose.cameras` camera (the raw, distorted image is rendered), or the
+        intrinsics ``K`` of a pinhole camera, pixels.
     T_WC : (4, 4) array_like
         Camera pose in the target frame (see :mod:`graphpose.camera`).
     board : Board
         The target; its squares area spans ``[-s, cols * s] x [-s, rows * s]`` metres.
-    size : (int, int)
-        Image ``(width, height)`` in pixels.
+    size : (int, int), optional
+        Image ``(width, height)`` in pixels; default ``camera.size``, else (640, 480).
     margin : float
         White margin around the squares, in squares (the real target has ~0.3-0.5).
     blur_sigma : float
@@ -156,6 +181,12 @@ def render_ideal(
     background, white, black : float
         Grey levels (0..255 scale) of the background, the sheet and the squares under
         unit illumination.
+    edge_tol_px : float
+        Lens distortion only: the largest distance, pixels, between a curved edge of the
+        board's image and the polyline that draws it (its chords' sagitta), near the image.
+        The default 1e-4 px moves edges, and so junctions, by about that much at most:
+        far below any detector's error. Ignored by a pinhole camera, whose edges are
+        straight.
 
     Returns
     -------
@@ -165,12 +196,14 @@ def render_ideal(
     Raises
     ------
     InputError
-        If K or T_WC is invalid, ``size`` is not two positive integers, a setting is out of
-        range, or a corner of the sheet is not in front of the camera.
+        If the camera or T_WC is invalid, ``size`` is not two positive integers or not the
+        camera's size, a setting is out of range, or, for a pinhole camera, a corner of the
+        sheet is not in front of the camera (a distorting camera draws what its model
+        images instead).
     """
-    K = check_K(K)
+    camera = as_camera(camera)
     T_WC = check_transform(T_WC)
-    width, height = check_size(size)
+    width, height = _image_size(camera, size)
     check_board(board)
     check_number("margin", margin, 0.0)
     check_number("blur_sigma", blur_sigma, 0.0)
@@ -181,21 +214,22 @@ def render_ideal(
     if gradient >= 1.0:
         raise InputError(f"gradient must be in [0, 1), got {gradient!r}")
     check_count("supersample", supersample, 1)
+    edge_tol_px = check_number("edge_tol_px", edge_tol_px, 0.0, strict=True)
     sheet = board.sheet_corners(margin)
-    if np.any(to_camera(T_WC, sheet)[2] <= 0):
+    if camera.model == "pinhole" and np.any(to_camera(T_WC, sheet)[2] <= 0):
         raise InputError("the board sheet is not entirely in front of the camera (a corner has depth <= 0)")
     S = int(supersample) if blur_sigma > 0 else 1
     light = _Light(width, height, gradient, np.deg2rad(light_angle_deg))
     image = background * light(*np.meshgrid(np.arange(width), np.arange(height)))
-    _add_board(image, K, T_WC, board, margin, blur_sigma, S, light, background, white, black)
+    _add_board(image, camera, T_WC, board, margin, blur_sigma, S, light, background, white, black, edge_tol_px)
     return image
 
 
 def render(
-    K,
+    camera,
     T_WC,
     board: Board = Board(),
-    size=(640, 480),
+    size=None,
     *,
     noise_sigma: float = 2.0,
     rng=None,
@@ -206,8 +240,9 @@ def render(
 
     Parameters
     ----------
-    K, T_WC, board, size
-        As in :func:`render_ideal`.
+    camera, T_WC, board, size
+        As in :func:`render_ideal`: a :mod:`graphpose.cameras` camera renders the raw
+        (distorted) image, a ``K`` the pinhole one.
     noise_sigma : float
         Standard deviation of the additive Gaussian noise, grey levels of 255 (0: none).
     rng : numpy.random.Generator, int or None
@@ -220,7 +255,7 @@ def render(
     Returns
     -------
     Rendering
-        Image, exact junctions (2, n), sheet outline (2, 4) and the settings.
+        Image, exact junctions (2, n), sheet outline (2, 4), the camera and the settings.
 
     Raises
     ------
@@ -229,33 +264,66 @@ def render(
     """
     noise_sigma = check_number("noise_sigma", noise_sigma, 0.0)
     rng = np.random.default_rng(rng)
-    image = render_ideal(K, T_WC, board, size, **ideal)
+    image = render_ideal(camera, T_WC, board, size, **ideal)
     if noise_sigma > 0:
         image = image + rng.normal(0.0, noise_sigma, image.shape)
     if quantize:
         image = np.clip(np.rint(image), 0, 255).astype(np.uint8)
-    K = np.asarray(K, dtype=float)
+    camera = as_camera(camera)
     T_WC = np.asarray(T_WC, dtype=float)
     margin = float(ideal.get("margin", 0.5))
     return Rendering(
         image=image,
-        junctions=project(K, T_WC, board.world_points()),
-        outline=project(K, T_WC, board.sheet_corners(margin)),
-        K=K.copy(),
+        junctions=image_points(camera, T_WC, board.world_points(), image.shape[::-1]),
+        outline=image_points(camera, T_WC, board.sheet_corners(margin), image.shape[::-1]),
+        K=camera.K.copy(),
         T_WC=T_WC.copy(),
         board=board,
-        size=(int(size[0]), int(size[1])),
+        size=(image.shape[1], image.shape[0]),
         margin=margin,
         blur_sigma=float(ideal.get("blur_sigma", 1.0)),
         noise_sigma=noise_sigma,
+        camera=camera,
     )
+
+
+def image_points(camera, T_WC, P_W, size=None) -> np.ndarray:
+    """Exact pixels of target points as :func:`render` draws them.
+
+    Parameters
+    ----------
+    camera : Camera or (3, 3) array_like
+        A :mod:`graphpose.cameras` camera or a pinhole ``K``.
+    T_WC : (4, 4) array_like
+        Camera pose in the target frame.
+    P_W : (3, N) array_like
+        Target points, metres.
+    size : (int, int), optional
+        Image ``(width, height)``; default ``camera.size``, else (640, 480) (it sets how far
+        a radial-tangential model that never folds is followed, see
+        :func:`graphpose.synth.lens.view_limit`).
+
+    Returns
+    -------
+    uv : (2, N) ndarray
+        Pixels: ``graphpose.camera.project(K, T_WC, P_W)`` for a pinhole camera, else
+        ``camera.project(to_camera(T_WC, P_W))`` with NaN columns for points outside the
+        cone of rays the model images (where ``project`` folds back).
+    """
+    camera = as_camera(camera)
+    if camera.model == "pinhole":
+        return project(camera.K, T_WC, P_W)
+    P_C = to_camera(T_WC, P_W)
+    uv = camera.project(P_C)
+    uv[:, ~in_view(P_C, view_limit(camera, _image_size(camera, size)))] = np.nan
+    return uv
 
 
 def random_pose(
     rng,
-    K,
+    camera,
     board: Board = Board(),
-    size=(640, 480),
+    size=None,
     *,
     distance=(0.8, 1.4),
     max_tilt_deg: float = 35.0,
@@ -273,25 +341,36 @@ def random_pose(
     image. With the real camera (f ~ 565 px) the default distances make the sheet about
     250-450 px wide.
 
+    With a distorting camera (:class:`~graphpose.RadTanCamera`,
+    :class:`~graphpose.FisheyeCamera`) the image point's ray comes from
+    ``camera.unproject``, ``distance`` is measured along it (a fisheye's ray may point
+    sideways or backwards), the untilted board faces the camera across that ray rather
+    than along the optical axis, and the whole sheet, its curved edges included (32 points
+    per edge), must lie inside the model's cone (:func:`graphpose.synth.lens.view_limit`)
+    and ``border_px`` inside the distorted image.
+
     Parameters
     ----------
     rng : numpy.random.Generator or int
         Source of randomness.
-    K : (3, 3) array_like
-        Intrinsics, pixels.
+    camera : Camera or (3, 3) array_like
+        A :mod:`graphpose.cameras` camera or the intrinsics ``K`` of a pinhole camera,
+        pixels.
     board : Board
         The target.
-    size : (int, int)
-        Image ``(width, height)`` in pixels.
+    size : (int, int), optional
+        Image ``(width, height)`` in pixels; default ``camera.size``, else (640, 480).
     distance : (float, float)
-        Range of the board centre's depth, metres.
+        Range of the board centre's depth (distance along the ray for a distorting camera),
+        metres.
     max_tilt_deg, max_roll_deg : float
         Largest out-of-plane tilt and in-plane rotation, degrees. Keep the roll below 45
         degrees so that "the upper-left junction" stays unambiguous.
     margin : float
         White margin of the sheet in squares (as in :func:`render`).
     border_px : float
-        Smallest distance of a sheet corner from the image border, pixels.
+        Smallest distance of a sheet corner (any point of the sheet's outline, with
+        distortion) from the image border, pixels.
     max_tries : int
         Draws before giving up.
 
@@ -305,8 +384,9 @@ def random_pose(
     InputError
         If an argument is invalid, or no draw fits the sheet in the image.
     """
-    K = check_K(K)
-    width, height = check_size(size)
+    camera = as_camera(camera)
+    K = camera.K
+    width, height = _image_size(camera, size)
     check_board(board)
     lo, hi = check_range("distance", distance, "(near, far) metres", minimum=0.0, strict=True)
     tilt_max = np.deg2rad(check_number("max_tilt_deg", max_tilt_deg, 0.0))
@@ -319,22 +399,42 @@ def random_pose(
     rng = np.random.default_rng(rng)
     sheet = board.sheet_corners(margin)
     centre_W = np.array([(board.cols - 1) / 2, (board.rows - 1) / 2, 0.0]) * board.square_m
+    pinhole = camera.model == "pinhole"
+    if not pinhole:
+        n = 32
+        step = np.roll(sheet, -1, axis=1) - sheet
+        outline = (sheet[:, :, None] + step[:, :, None] * (np.arange(n) / n)).reshape(3, -1)
+        limit = view_limit(camera, (width, height))
     for _ in range(max_tries):
         axis_angle = rng.uniform(-np.pi, np.pi)
         tilt = rot_z(axis_angle) @ rot_x(rng.uniform(0.0, tilt_max)) @ rot_z(-axis_angle)
         R_CW = rot_z(rng.uniform(-roll_max, roll_max)) @ tilt  # target axes seen from the camera
         pixel = rng.uniform([0.0, 0.0], [width - 1.0, height - 1.0])
-        ray = np.linalg.solve(K, np.append(pixel, 1.0))
-        centre_C = rng.uniform(lo, hi) * ray / ray[2]
+        if pinhole:
+            ray = np.linalg.solve(K, np.append(pixel, 1.0))
+            centre_C = rng.uniform(lo, hi) * ray / ray[2]
+        else:
+            ray = camera.unproject(pixel[:, None])[:, 0]
+            centre_C = rng.uniform(lo, hi) * ray
+            if not np.all(np.isfinite(ray)):
+                continue
+            R_CW = _turn_towards(ray) @ R_CW
         T_WC = np.eye(4)
         T_WC[:3, :3] = R_CW.T
         T_WC[:3, 3] = centre_W - R_CW.T @ centre_C
-        if np.all(to_camera(T_WC, sheet)[2] > 0):
+        if pinhole:
+            if not np.all(to_camera(T_WC, sheet)[2] > 0):
+                continue
             uv = project(K, T_WC, sheet)
-            inside = (uv[0] >= border_px) & (uv[0] <= width - 1 - border_px)
-            inside &= (uv[1] >= border_px) & (uv[1] <= height - 1 - border_px)
-            if np.all(inside):
-                return T_WC
+        else:
+            P_C = to_camera(T_WC, outline)
+            if not np.all(in_view(P_C, limit)):
+                continue
+            uv = camera.project(P_C)
+        inside = (uv[0] >= border_px) & (uv[0] <= width - 1 - border_px)
+        inside &= (uv[1] >= border_px) & (uv[1] <= height - 1 - border_px)
+        if np.all(inside):
+            return T_WC
     raise InputError(
         f"no pose in {max_tries} draws puts the whole sheet inside the {width}x{height} image; "
         "use a larger distance or a smaller board"
@@ -361,7 +461,9 @@ def loose_polygon(rendering: Rendering, rng, *, offset_px=(-4.0, 4.0), inset: bo
     -------
     bounds : (2, 4) ndarray
         Vertices in pixels, clockwise from the one nearest the upper-left junction. Not
-        clipped to the image.
+        clipped to the image. Under lens distortion the vertices are still moved corners,
+        while the sheet's edges between them are curves (barrel distortion bows them
+        outwards, beyond the polygon's straight sides).
 
     Raises
     ------
@@ -374,7 +476,7 @@ def loose_polygon(rendering: Rendering, rng, *, offset_px=(-4.0, 4.0), inset: bo
     if inset:
         fraction = rng.uniform(0.25, 0.75, 4)
         sheet = rendering.board.sheet_corners(rendering.margin * fraction)
-        outline = project(rendering.K, rendering.T_WC, sheet)
+        outline = image_points(rendering.camera, rendering.T_WC, sheet, rendering.size)
     return outline + rng.uniform(lo, hi, (2, 4))
 
 
@@ -418,10 +520,10 @@ def perturb_pose(rng, T_WC, *, angle_deg=(8.0, 12.0), offset_m=(0.15, 0.25)) -> 
 
 
 def junction_information(
-    K,
+    camera,
     T_WC,
     board: Board = Board(),
-    size=(640, 480),
+    size=None,
     *,
     half_width: int = 7,
     noise_sigma: float = 2.0,
@@ -440,15 +542,16 @@ def junction_information(
 
     ``g`` comes from :func:`image_gradients`: a central difference of two renders with the
     principal point shifted by ``+-delta`` px (shifting ``cx`` or ``cy`` translates the
-    board's whole image by the same amount, exactly, while the illumination stays put).
+    board's whole image by the same amount, exactly, while the illumination stays put; with
+    lens distortion too, since the models distort normalised coordinates before ``K``).
     The rendered image is piecewise linear in the board's position, with kinks every
     ``1 / supersample`` px, so ``delta`` defaults to half that: the difference then spans
     one fine cell and the gradient is within ~1 % (S = 4) of the continuous model's.
 
     Parameters
     ----------
-    K, T_WC, board, size
-        As in :func:`render_ideal`.
+    camera, T_WC, board, size
+        As in :func:`render_ideal` (a camera with lens distortion, or a pinhole ``K``).
     half_width : int
         Half the window side, pixels; windows are clipped to the image.
     noise_sigma : float
@@ -474,11 +577,12 @@ def junction_information(
     noise_sigma = check_number("noise_sigma", noise_sigma, 0.0, strict=True)
     if delta is not None:
         check_number("delta", delta, 0.0, strict=True)
-    K = check_K(K)
-    gu, gv = image_gradients(K, T_WC, board, size, delta=delta, **ideal)
-    centres = np.rint(project(K, T_WC, board.world_points())).astype(int)
-    fim = np.zeros((board.n, 2, 2))
+    camera = as_camera(camera)
+    gu, gv = image_gradients(camera, T_WC, board, size, delta=delta, **ideal)
     height, width = gu.shape
+    uv = image_points(camera, check_transform(T_WC), board.world_points(), (width, height))
+    centres = np.rint(np.nan_to_num(uv, nan=-1e6)).astype(int)  # out of view: an empty window
+    fim = np.zeros((board.n, 2, 2))
     for j, (u, v) in enumerate(centres.T):
         rows = slice(max(v - half_width, 0), max(min(v + half_width + 1, height), 0))
         cols = slice(max(u - half_width, 0), max(min(u + half_width + 1, width), 0))
@@ -487,12 +591,12 @@ def junction_information(
     return fim / noise_sigma**2
 
 
-def image_gradients(K, T_WC, board: Board = Board(), size=(640, 480), *, delta: float | None = None, **ideal):
+def image_gradients(camera, T_WC, board: Board = Board(), size=None, *, delta: float | None = None, **ideal):
     """Derivatives of the noise-free image with respect to a translation of the board's image.
 
     Parameters
     ----------
-    K, T_WC, board, size, **ideal
+    camera, T_WC, board, size, **ideal
         As in :func:`render_ideal`.
     delta : float, optional
         Principal point shift of the central difference, pixels; default
@@ -508,7 +612,9 @@ def image_gradients(K, T_WC, board: Board = Board(), size=(640, 480), *, delta: 
     InputError
         As :func:`render_ideal`.
     """
-    K = check_K(K)
+    camera = as_camera(camera)
+    size = _image_size(camera, size)
+    K = camera.K
     if delta is None:
         delta = 0.5 / (ideal.get("supersample", 4) if ideal.get("blur_sigma", 1.0) > 0 else 1)
     out = []
@@ -516,6 +622,8 @@ def image_gradients(K, T_WC, board: Board = Board(), size=(640, 480), *, delta: 
         shifted = [K.copy(), K.copy()]
         shifted[0][axis, 2] += delta
         shifted[1][axis, 2] -= delta
+        if camera.model != "pinhole":  # the same lens, moved across the sensor
+            shifted = [replace(camera, K=Ks) for Ks in shifted]
         plus, minus = (render_ideal(Ks, T_WC, board, size, **ideal) for Ks in shifted)
         out.append((plus - minus) / (2 * delta))
     return tuple(out)
@@ -587,11 +695,17 @@ def _coverage_entries(polys, h: int, w: int, weights=None):
             x, y = x[::-1], y[::-1]
         edges.append(np.stack([x, y, np.roll(x, -1), np.roll(y, -1)]))
         gains.append(np.full(x.size, float(gain)))
-    x0, y0, x1, y1 = np.concatenate(edges, axis=1)
+    return _segment_entries(np.concatenate(edges, axis=1), np.concatenate(gains), h, w)
+
+
+def _segment_entries(segments, gains, h: int, w: int):
+    """:func:`_coverage_entries` of oriented segments ``(x0, y0, x1, y1)`` (4, n) with a gain
+    each, which together form positively oriented closed outlines (in any order)."""
+    x0, y0, x1, y1 = segments
     keep = x0 != x1
     x0, y0, x1, y1 = x0[keep], y0[keep], x1[keep], y1[keep]
     slope = (y1 - y0) / (x1 - x0)
-    sign = np.sign(x1 - x0) * np.concatenate(gains)[keep]
+    sign = np.sign(x1 - x0) * gains[keep]
     xl, xr = np.minimum(x0, x1), np.maximum(x0, x1)
     c_lo = np.maximum(np.floor(xl), 0).astype(np.int64)
     c_hi = np.minimum(np.ceil(xr) - 1, w - 1).astype(np.int64)
@@ -655,6 +769,16 @@ class _Light:
         return self.c + self.a * u + self.b * v
 
 
+def _turn_towards(ray: np.ndarray) -> np.ndarray:
+    """The rotation about the axis ``z x ray`` that turns the optical axis z onto a unit ray."""
+    x, y, z = ray
+    s2 = x * x + y * y
+    if s2 == 0.0:
+        return np.eye(3) if z > 0 else np.diag([1.0, -1.0, -1.0])
+    A = np.array([[0.0, 0.0, x], [0.0, 0.0, y], [-x, -y, 0.0]])  # [z x ray]_x
+    return np.eye(3) + A + A @ A * (1.0 - z) / s2
+
+
 def _black_squares_world(board: Board) -> np.ndarray:
     """Corners of the black squares, (k, 3, 4) metres; square (0, 0) is the upper-left one."""
     i, j = np.meshgrid(np.arange(board.cols + 1), np.arange(board.rows + 1))
@@ -667,11 +791,33 @@ def _black_squares_world(board: Board) -> np.ndarray:
     return np.stack([corners_x, corners_y, np.zeros_like(corners_x)], axis=1)
 
 
-def _add_board(image, K, T_WC, board, margin, sigma, S, light, background, white, black):
+def _image_size(camera, size) -> tuple:
+    """``(width, height)``: ``size``, else the camera's, else (640, 480); InputError if the
+    camera's size is another."""
+    if size is None:
+        return camera.size if camera.size is not None else (640, 480)
+    width, height = check_size(size)
+    check_image_size(camera, (height, width), what="the rendered image (size)")
+    return width, height
+
+
+def _add_board(image, camera, T_WC, board, margin, sigma, S, light, background, white, black, tol):
     """Add the board's departure from the background into ``image`` (H, W), in place."""
     height, width = image.shape
-    sheet = project(K, T_WC, board.sheet_corners(margin))
     reach = int(np.ceil(_TRUNCATE * sigma)) + 1  # kernel reach in pixels
+    squares = _black_squares_world(board)
+    gains = [white - background] + [black - white] * len(squares)
+    if camera.model == "pinhole":
+        K = camera.K
+        sheet = project(K, T_WC, board.sheet_corners(margin))
+    else:  # curved outlines: polyline segments in pixels
+        window = (-reach - 1.0, -reach - 1.0, width + reach, height + reach)
+        limit = view_limit(camera, (width, height))
+        segments, weights = region_edges(camera, T_WC, [board.sheet_corners(margin), *squares], gains, window,
+                                         tol, limit)
+        if segments.shape[1] == 0:
+            return
+        sheet = np.hstack([segments[:2], segments[2:]])  # every end point, for the bounding box
     u0 = max(int(np.floor(sheet[0].min())) - reach - 1, -reach)
     u1 = min(int(np.ceil(sheet[0].max())) + reach + 2, width + reach)
     v0 = max(int(np.floor(sheet[1].min())) - reach - 1, -reach)
@@ -682,12 +828,13 @@ def _add_board(image, K, T_WC, board, margin, sigma, S, light, background, white
         return  # the sheet and its blur lie wholly outside the image
     # Fine grid: cell (i, j) spans u in u0 - 0.5 + [i, i + 1] / S, likewise v.
     origin = np.array([[u0 - 0.5], [v0 - 0.5]])
-    squares = _black_squares_world(board)
     fine = lambda P: (P - origin) * S  # noqa: E731
     h, w = (v1 - v0) * S, (u1 - u0) * S
-    polys = [fine(sheet)] + [fine(project(K, T_WC, Q)) for Q in squares]
-    gains = [white - background] + [black - white] * len(squares)
-    full, partial = _coverage_entries(polys, h, w, gains)
+    if camera.model == "pinhole":
+        polys = [fine(sheet)] + [fine(project(K, T_WC, Q)) for Q in squares]
+        full, partial = _coverage_entries(polys, h, w, gains)
+    else:
+        full, partial = _segment_entries(np.vstack([fine(segments[:2]), fine(segments[2:])]), weights, h, w)
     # The fine image is light * coverage. Its x-pass (blur and integration along u, down to
     # pixel columns) is applied to the sparse entries directly; full entries still have to
     # be summed upwards, which commutes with the x-pass for the u-part of the light,

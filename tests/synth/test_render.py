@@ -5,14 +5,17 @@ import json
 
 import numpy as np
 import pytest
-from scipy.ndimage import correlate1d
+from scipy.ndimage import correlate1d, maximum_filter, minimum_filter
 from skimage.io import imread
 from skimage.measure import points_in_poly
 
 from graphpose.board import Board
-from graphpose.camera import K_from_params, T_from_params, project
+from graphpose.camera import K_from_params, T_from_params, project, to_camera
+from graphpose.cameras import FisheyeCamera, PinholeCamera, RadTanCamera
+from graphpose.detect.saddle import saddle_point
 from graphpose.errors import InputError
 from graphpose.pose.estimate import pose_difference
+from graphpose.synth.lens import in_view, view_limit
 from graphpose.synth.render import (
     Rendering,
     _black_squares_world,
@@ -20,6 +23,7 @@ from graphpose.synth.render import (
     _kernel,
     _Light,
     image_gradients,
+    image_points,
     junction_information,
     loose_polygon,
     perturb_pose,
@@ -378,3 +382,215 @@ def test_sheet_just_outside_the_image_renders_background():
         ideal = render_ideal(K, T, blur_sigma=1.0, gradient=0.0)
         assert ideal.dtype == np.float64 and ideal.shape == (480, 640)
         np.testing.assert_allclose(ideal, 60.0, atol=1e-6)
+
+
+# ------------------------------------------------------------------ lens distortion
+
+#: A 640 x 480 wide-angle lens with strong barrel distortion, and a fisheye seeing 112 degrees
+#: off its axis.
+WIDE = RadTanCamera([[400.0, 0.0, 322.5], [0.0, 400.0, 238.3], [0.0, 0.0, 1.0]], [-0.3, 0.1, 0.001, -0.0005, 0.0],
+                    size=(640, 480))
+FISHEYE = FisheyeCamera([[165.0, 0.0, 321.0], [0.0, 165.0, 241.0], [0.0, 0.0, 1.0]],
+                        [-0.013, -0.004, 0.0035, -0.001], size=(640, 480))
+LENSES = [(WIDE, (0.5, 0.8)), (FISHEYE, (0.25, 0.4))]
+
+
+def test_pinhole_camera_renders_exactly_as_K():
+    T = random_pose(np.random.default_rng(6), K_REAL)
+    assert np.array_equal(T, random_pose(np.random.default_rng(6), PinholeCamera(K_REAL)))
+    a, b = render(K_REAL, T, rng=1), render(PinholeCamera(K_REAL, (640, 480)), T, rng=1)
+    assert np.array_equal(a.image, b.image) and np.array_equal(a.junctions, b.junctions)
+    assert a.camera == PinholeCamera(K_REAL) and b.camera == PinholeCamera(K_REAL, (640, 480))
+
+
+def test_distortion_free_lens_path_equals_the_pinhole_path():
+    # A radial-tangential camera with zero coefficients takes the lens path (clipping to the
+    # cone, polylines, segments) and must give the pinhole path's image.
+    rng = np.random.default_rng(12)
+    for _ in range(2):
+        T = random_pose(rng, K_REAL)
+        for settings in ({}, {"blur_sigma": 0.0}, {"blur_sigma": 0.6, "supersample": 3}):
+            I = render_ideal(K_REAL, T, **settings)
+            J = render_ideal(RadTanCamera(K_REAL, [0.0] * 4), T, **settings)
+            assert np.abs(I - J).max() < 1e-9
+
+
+@pytest.mark.parametrize("camera, distance", LENSES)
+def test_distorted_render_truth_is_the_camera_projection(camera, distance):
+    board = Board()
+    T = random_pose(np.random.default_rng(3), camera, board, distance=distance)
+    r = render(camera, T, board, rng=3)
+    assert r.camera == camera and r.size == (640, 480) and r.image.shape == (480, 640)
+    assert np.array_equal(r.K, camera.K)
+    assert np.array_equal(r.junctions, camera.project(to_camera(T, board.world_points())))
+    assert np.array_equal(r.outline, camera.project(to_camera(T, board.sheet_corners(0.5))))
+    # The lens matters: the pinhole camera with the same K puts the junctions elsewhere.
+    assert np.hypot(*(r.junctions - project(camera.K, T, board.world_points()))).max() > 5
+
+
+@pytest.mark.parametrize("camera", [
+    RadTanCamera([[400.0, 0.0, 320.0], [0.0, 410.0, 240.5], [0.0, 0.0, 1.0]], [-0.3, 0.1, 0.0, 0.0, 0.01]),
+    FisheyeCamera([[165.0, 0.0, 320.0], [0.0, 166.0, 240.5], [0.0, 0.0, 1.0]], [-0.013, -0.004, 0.0035, -0.001]),
+])
+def test_distorted_render_is_point_symmetric_about_a_centred_junction(camera):
+    # Radial distortion is odd about the principal point: a fronto-parallel board whose
+    # centre junction lies on it images point-symmetrically about it, curved edges and all,
+    # and the noise-free saddle point of that junction is the truth.
+    board = Board(7, 5)
+    T = np.eye(4)
+    T[:3, 3] = [3 * board.square_m, 2 * board.square_m, -0.6]
+    I = render_ideal(camera, T, board, (640, 480), gradient=0.0)
+    truth = image_points(camera, T, board.world_points())[:, 17]  # row 2, column 3: the centre
+    assert np.allclose(truth, [320.0, 240.5], atol=1e-12)
+    u, v = 640 - np.arange(640), 481 - np.arange(480)  # pixel p maps to 2 * truth - p
+    cols, rows = np.flatnonzero(u < 640), np.flatnonzero(v < 480)
+    assert np.abs(I[np.ix_(rows, cols)] - I[np.ix_(v[rows], u[cols])]).max() < 1e-9
+    assert np.abs(I - render_ideal(camera.pinhole(), T, board, (640, 480), gradient=0.0)).max() > 50
+    patch = I[234:248, 314:327]  # centred on (320, 240.5)
+    assert np.abs(saddle_point(patch).ravel() + [314, 234] - truth).max() < 1e-6
+
+
+@pytest.mark.parametrize("camera, distance", LENSES)
+def test_finer_polylines_and_supersampling_barely_change_distorted_junctions(camera, distance):
+    # Halving the chords (a quarter of the sagitta) and doubling the fine grid move the
+    # junctions by far less than any detector's error (~0.01 px); the displacement is the
+    # least-squares translation of each 13 x 13 window, as in the supersampling test above.
+    board = Board()
+    T = random_pose(np.random.default_rng(5), camera, board, distance=distance)
+    base = render_ideal(camera, T, board)
+    finer = render_ideal(camera, T, board, edge_tol_px=2.5e-5)
+    both = render_ideal(camera, T, board, edge_tol_px=2.5e-5, supersample=8)
+    coarse = render_ideal(camera, T, board, edge_tol_px=0.05)
+    gu, gv = image_gradients(camera, T, board, edge_tol_px=2.5e-5, supersample=8)
+    hw, coarse_shift = 6, 0.0
+    for u, v in np.rint(image_points(camera, T, board.world_points())).astype(int).T:
+        window = slice(v - hw, v + hw + 1), slice(u - hw, u + hw + 1)
+        assert np.abs(finer - base)[window].max() < 0.02  # grey levels
+        G = np.stack([gu[window].ravel(), gv[window].ravel()], axis=1)
+        finer_shift, both_shift, shift = (
+            np.hypot(*np.linalg.lstsq(G, (base - other)[window].ravel(), rcond=None)[0])
+            for other in (finer, both, coarse))
+        assert finer_shift < 2e-4 and both_shift < 5e-4
+        coarse_shift = max(coarse_shift, shift)
+    assert coarse_shift > 5e-4  # the measure does see a coarse polyline
+
+
+def _dense_grey(camera, T, board, uv, n, size=(640, 480), margin=0.5):
+    """Mean of (sheet 100, squares and background 0) over n x n points spread over each pixel
+    of uv (2, m), each point classified through camera.unproject and the board's plane:
+    independent of the renderer's polylines, clipping and rasteriser."""
+    g = (np.arange(n) + 0.5) / n - 0.5
+    du, dv = (a.ravel() for a in np.meshgrid(g, g))
+    pts = (uv[:, :, None] + np.stack([du, dv])[:, None, :]).reshape(2, -1)
+    rays = camera.unproject(pts)
+    ok = np.all(np.isfinite(rays), axis=0)
+    rays = np.where(ok, rays, 0.0)
+    ok &= in_view(rays, view_limit(camera, size))
+    dW = T[:3, :3] @ rays
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = -T[2, 3] / dW[2]
+        x, y = T[:2, 3:4] + s * dW[:2]
+    q, m = board.square_m, margin * board.square_m
+    sheet = ok & (s > 0) & (x > -q - m) & (x < board.cols * q + m) & (y > -q - m) & (y < board.rows * q + m)
+    i, j = np.floor(x / q) + 1, np.floor(y / q) + 1
+    black = sheet & (i >= 0) & (i <= board.cols) & (j >= 0) & (j <= board.rows) & ((i + j) % 2 == 0)
+    return (100.0 * (sheet & ~black)).reshape(uv.shape[1], -1).mean(axis=1)
+
+
+@pytest.mark.parametrize("camera, params", [
+    (FISHEYE, [0.4, 0.3, -0.15, 0.3, 1.9, 0.2]),  # along a large board: beyond theta_max, and behind
+    (WIDE, [0.5, 0.35, -0.2, 0.0, 1.3, 0.0]),  # a board half behind the camera
+])
+def test_board_beyond_the_lens_range_renders_what_the_model_images(camera, params):
+    # Blur-free pixels are exact areas: they must match the mean of dense point samples, each
+    # classified on its own through unproject (so only rays within the model's cone, in front
+    # of the board), at edges, at the fisheye's rim and in flat areas.
+    board = Board(20, 14, 0.05)
+    T = T_from_params(params)
+    corners_C = to_camera(T, board.sheet_corners(0.5))
+    assert np.any(corners_C[2] < 0) and not np.all(in_view(corners_C, view_limit(camera, (640, 480))))
+    levels = {"background": 0.0, "white": 100.0, "black": 0.0, "gradient": 0.0, "blur_sigma": 0.0}
+    I = render_ideal(camera, T, board, **levels)
+    assert 0.02 < np.mean(I > 50) < 0.5  # a good part of the image shows the board
+    # Junctions outside the cone have no image (NaN), the others are camera.project.
+    r = render(camera, T, board, noise_sigma=0.0, **levels)
+    P_C = to_camera(T, board.world_points())
+    seen = in_view(P_C, view_limit(camera, (640, 480)))
+    assert 0 < seen.sum() < board.n and np.all(np.isnan(r.junctions[:, ~seen]))
+    assert np.array_equal(r.junctions[:, seen], camera.project(P_C[:, seen]))
+    # Edge pixels (partly covered), some at the rim, against 100 x 100 samples per pixel.
+    rng = np.random.default_rng(0)
+    V, U = np.nonzero((I > 1.0) & (I < 99.0))
+    rim = np.hypot(U - camera.cx, V - camera.cy)
+    if camera.model == "fisheye":
+        limit = view_limit(camera, (640, 480))
+        k1, k2, k3, k4 = camera.distortion
+        t = limit**2
+        edge = camera.fx * limit * (1 + t * (k1 + t * (k2 + t * (k3 + t * k4))))
+        near = np.flatnonzero(np.abs(rim - edge) < 1.5)
+        assert near.size > 20
+        pick = np.concatenate([rng.choice(near, 8, replace=False), rng.choice(U.size, 16, replace=False)])
+    else:
+        pick = rng.choice(U.size, 24, replace=False)
+    uv = np.vstack([U[pick], V[pick]]).astype(float)
+    assert np.abs(_dense_grey(camera, T, board, uv, 100) - I[V[pick], U[pick]]).max() < 0.3
+    # Flat areas, judged from one sample per pixel away from edges (and from the rim, where
+    # the lens squeezes whole squares into a pixel): exactly 0 or 100.
+    U, V = np.meshgrid(np.arange(640), np.arange(480))
+    centre = _dense_grey(camera, T, board, np.vstack([U.ravel(), V.ravel()]).astype(float), 1).reshape(480, 640)
+    flat = maximum_filter(centre, 5) == minimum_filter(centre, 5)
+    if camera.model == "fisheye":
+        flat &= np.abs(np.hypot(U - camera.cx, V - camera.cy) - edge) > 4
+    assert flat.mean() > 0.8 and np.abs(I - centre)[flat].max() < 1e-9
+
+
+@pytest.mark.parametrize("camera, distance", LENSES)
+def test_random_pose_keeps_the_distorted_sheet_in_view(camera, distance):
+    rng = np.random.default_rng(21)
+    board = Board()
+    sheet = board.sheet_corners(0.5)
+    n = 400
+    outline = (sheet[:, :, None] + (np.roll(sheet, -1, axis=1) - sheet)[:, :, None] * (np.arange(n) / n))
+    for _ in range(10):
+        T = random_pose(rng, camera, board, distance=distance)
+        P_C = to_camera(T, outline.reshape(3, -1))
+        assert np.all(in_view(P_C, view_limit(camera, (640, 480))))
+        uv = camera.project(P_C)
+        assert np.all((uv >= 7.9) & (uv <= np.array([[632.1], [472.1]])))
+        r = render(camera, T, board, noise_sigma=0.0)
+        assert np.all(np.isfinite(r.junctions)) and shoelace(r.outline) > 0
+        assert np.argmin(np.hypot(*(r.outline - r.junctions[:, :1]))) == 0
+        # The board faces the camera: its normal within the tilt of the line of sight.
+        centre_C = to_camera(T, board.world_points().mean(axis=1, keepdims=True))[:, 0]
+        normal_C = T[:3, :3].T[:, 2]
+        assert np.degrees(np.arccos(normal_C @ centre_C / np.linalg.norm(centre_C))) < 35.0 + 1e-9
+        assert np.linalg.norm(centre_C) == pytest.approx(np.clip(np.linalg.norm(centre_C), *distance))
+    inner = loose_polygon(r, rng, offset_px=(0.0, 0.0), inset=True)
+    assert np.all(np.hypot(*(inner - r.outline)) > 1.0)
+
+
+def test_principal_point_shift_translates_the_distorted_image():
+    # The premise of image_gradients and junction_information with a lens: moving cx, cy by
+    # whole pixels moves the raw image by as many pixels.
+    from dataclasses import replace
+
+    T = random_pose(np.random.default_rng(9), WIDE, distance=(0.5, 0.8))
+    I = render_ideal(WIDE, T, gradient=0.0, blur_sigma=1.3)
+    K2 = WIDE.K.copy()
+    K2[0, 2] += 1.0
+    K2[1, 2] -= 2.0
+    J = render_ideal(replace(WIDE, K=K2), T, gradient=0.0, blur_sigma=1.3)
+    assert np.allclose(J[:-2, 1:], I[2:, :-1], atol=1e-9)
+    fim = junction_information(WIDE, T, noise_sigma=2.0, edge_tol_px=1e-3)
+    assert fim.shape == (48, 2, 2) and np.all(np.linalg.eigvalsh(fim) > 0)
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda: render_ideal(WIDE, np.eye(4), size=(800, 600)), "calibrated for 640 x 480"),
+    (lambda: random_pose(0, FISHEYE, size=(320, 240)), "calibrated for 640 x 480"),
+    (lambda: render_ideal(WIDE, np.eye(4), edge_tol_px=0.0), "edge_tol_px must be"),
+    (lambda: render_ideal(RadTanCamera(np.eye(3), [0.0] * 4), np.eye(4), board=None), "board must be"),
+])
+def test_lens_input_errors(call, match):
+    with pytest.raises(InputError, match=match):
+        call()
