@@ -29,6 +29,8 @@ import itertools
 import logging
 import math
 import os
+import signal
+import threading
 import time
 import uuid
 from collections import deque
@@ -150,16 +152,36 @@ WORKER_ENVIRONMENT = {"MALLOC_TRIM_THRESHOLD_": None}
 def local_cluster(workers: int | None = None):
     """A Dask ``LocalCluster`` of ``workers`` processes (default: the usable cores), one
     thread each, listening on 127.0.0.1 only (its HTTP server at a free port), with the
-    worker environment of :data:`WORKER_ENVIRONMENT`."""
+    worker environment of :data:`WORKER_ENVIRONMENT`.
+
+    The worker processes ignore SIGINT: Ctrl-C in a terminal reaches every process of the
+    foreground group, and it is the client's to act on (it stops the cluster); the workers
+    would otherwise each die with a traceback.
+    """
     import dask
 
     distributed = distributed_module()
     n = workers if workers is not None else len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") \
         else (os.cpu_count() or 1)
     environ = {f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in WORKER_ENVIRONMENT.items()}
-    with dask.config.set(environ):  # read by each nanny as it is made, and kept for its restarts
+    # read by each nanny as it is made, and kept for its restarts
+    with dask.config.set(environ), _sigint_ignored_by_children():
         return distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
                                         dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
+
+
+@contextlib.contextmanager
+def _sigint_ignored_by_children():
+    """Ignore SIGINT while processes are started, which inherit that (Python keeps an
+    inherited SIG_IGN for SIGINT); this process's own handler is restored after."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _items(paths, bounds) -> list:

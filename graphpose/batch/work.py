@@ -19,7 +19,6 @@ import os
 import sys
 import time
 
-
 from ..board import Board
 from ..cli.records import result_record
 from ..errors import BoardNotFoundError, GraphposeError

@@ -26,13 +26,20 @@ def images(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def client():
+    handler = signal.getsignal(signal.SIGINT)
     cluster = local_cluster(2)  # what graphpose batch starts: a distributed.LocalCluster
     assert isinstance(cluster, distributed.LocalCluster)
+    assert signal.getsignal(signal.SIGINT) is handler  # Ctrl-C still this process's
     try:
         with distributed.Client(cluster) as c:
             yield c
     finally:
         cluster.close()
+
+
+def test_local_cluster_workers_leave_ctrl_c_to_the_client(client):
+    ignored = client.run(lambda: signal.getsignal(signal.SIGINT) == signal.SIG_IGN)
+    assert list(ignored.values()) == [True, True]
 
 
 def test_local_cluster_workers_single_threaded_without_a_malloc_trim_threshold(client):
