@@ -7,6 +7,7 @@ each checks several things.
 import argparse
 import io
 import json
+import os
 import re
 import struct
 import subprocess
@@ -17,16 +18,17 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from graphpose import load_cases
+from graphpose import Board, estimate_pose, load_cases, read_camera, read_image
 from graphpose.cli import main
 from graphpose.cli.options import Progress, parse_bounds, parse_K, parse_positive
 from graphpose.cli.records import POSE_KEYS
+from graphpose.io.calibration import write_camera
 from graphpose.io.files import encode_png
 from graphpose.pose.estimate import pose_difference
 from tests.conftest import REPO, real_file
 
 BUNDLED = REPO / "graphpose" / "data" / "cases.json"
-KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check"}
+KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check", "orientation_ambiguous"}
 
 
 def graphpose(*args, cwd=None):
@@ -441,3 +443,92 @@ def test_parse_positive_refuses(text):
 
 def test_parse_positive_accepts():
     assert parse_positive("2.5") == 2.5 and parse_positive("1e-3") == 1e-3
+
+
+# --- raw images with their camera, and no bounds ---------------------------------------------
+
+OPENCV = REPO.parent / "shared" / "data" / "opencv_samples"
+
+
+def opencv_file(name):
+    """A file of OpenCV's calibration samples, skipped when absent (as conftest.real_file)."""
+    path = OPENCV / name
+    if not path.is_file():
+        if os.environ.get("GRAPHPOSE_REQUIRE_REAL") == "1":
+            pytest.fail(f"{path} is absent and GRAPHPOSE_REQUIRE_REAL=1")
+        pytest.skip(f"{path} is absent")
+    return path
+
+
+def test_a_raw_image_with_its_calibration_file(tmp_path):
+    # As docs/cli.md writes it, from the repository's root.
+    opencv_file("left01.jpg")
+    result = graphpose("estimate", "../shared/data/opencv_samples/left01.jpg",
+                       "--camera", "../shared/data/opencv_samples/left.opencv.yml", "--board", "9x6x0.03",
+                       "--json", tmp_path / "out.json", "--overlay", tmp_path / "left01.png", cwd=REPO)
+    assert result.returncode == 0, result.stderr
+    assert "(converged," in result.stdout and "over 54 junctions, 54 trusted" in result.stdout
+    assert "agree" in result.stdout and "orientation" not in result.stdout
+    (record,) = json.loads((tmp_path / "out.json").read_text())
+    assert record["status"] == "ok" and record["orientation_ambiguous"] is False
+    assert record["reprojection_rms_px"] < 0.2  # 0.11 px; fitted as a pinhole the raw image gives 0.9
+    assert png_size(tmp_path / "left01.png") == (640, 480)
+    camera = read_camera(opencv_file("left.opencv.yml"))
+    est = estimate_pose(read_image(opencv_file("left01.jpg")), None, camera, Board(9, 6, 0.03))
+    dt, dr = pose_difference(est.T_WC, np.array(record["T_WC"]))
+    assert dt < 1e-9 and dr < 1e-7
+
+
+def test_an_image_without_bounds_is_searched_whole_and_flagged_when_symmetric(tmp_path):
+    real_file("target_01.png")
+    result = graphpose("estimate", "../shared/data/rob501/target_01.png", "--json", tmp_path / "out.json", cwd=REPO)
+    assert result.returncode == 0, result.stderr
+    assert "(converged," in result.stdout and "over 48 junctions, 48 trusted" in result.stdout
+    assert ("orientation     orientation ambiguous (half-turn symmetric board, no bounds): junction 0 is the "
+            "corner nearest the image's upper left") in result.stdout
+    (record,) = json.loads((tmp_path / "out.json").read_text())
+    assert record["status"] == "ok" and record["orientation_ambiguous"] is True
+
+
+def test_case_file_with_a_camera_file_or_object_and_no_bounds(tmp_path, capsys):
+    camera = read_camera(opencv_file("right.opencv.xml"))
+    write_camera(tmp_path / "right.json", camera)
+    images = [str(opencv_file(name)) for name in ("right01.jpg", "right02.jpg")]
+    common = {"grid": [9, 6], "square_m": 0.03, "cases": [{"image": image} for image in images]}
+    records = []
+    for entry in ("right.json", {"model": "radtan", "K": camera.K.tolist(), "distortion": camera.distortion.tolist(),
+                                 "size": list(camera.size)}):
+        path = tmp_path / "cases.json"
+        path.write_text(json.dumps({"camera": entry, **common}))
+        assert main(["estimate", "--cases", str(path), "--json", str(tmp_path / "out.json"), "-q"]) == 0
+        records.append(json.loads((tmp_path / "out.json").read_text()))
+    for a, b in zip(*records):
+        assert a["status"] == b["status"] == "ok" and a["T_WC"] == b["T_WC"]
+    # The command line's --K overrides the file's camera (and refuses --camera beside it).
+    assert main(["estimate", "--cases", str(path), "--K", "536.8,536.5,326.3,250.1", "--json", "-"]) == 0
+    pinhole = json.loads(capsys.readouterr().out)
+    assert pinhole[0]["reprojection_rms_px"] > 3 * records[0][0]["reprojection_rms_px"]
+
+
+@pytest.mark.parametrize("name, text, fragments", [
+    ("few.json", '{"model": "radtan", "K": [[500, 0, 320], [0, 500, 240], [0, 0, 1]], "distortion": [0.1, 0.01, 0]}',
+     ["--camera", "few.json", "3 distortion coefficients"]),
+    ("nan.yml", "%YAML:1.0\n---\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+     "   data: [ 533.5, 0., .Nan, 0., 533.5, 235.2, 0., 0., 1. ]\n"
+     "distortion_coefficients: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ -0.288, 0.097, 0.001, -0.0003, 0. ]\n",
+     ["--camera", "nan.yml", "NaN"]),
+    ("missing.yml", "%YAML:1.0\n---\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+     "   data: [ 533.5, 0., 341.6, 0., 533.5, 235.2, 0., 0., 1. ]\n", ["--camera", "missing.yml", "distortion_coefficients"]),
+    ("omni.yaml", "cam0:\n  camera_model: omni\n  intrinsics: [0.8, 500, 500, 320, 240]\n  distortion_model: radtan\n"
+     "  distortion_coeffs: [0, 0, 0, 0]\n  resolution: [640, 480]\n", ["--camera", "omni", "not support"]),
+    ("small.json", '{"model": "pinhole", "K": [[500, 0, 320], [0, 500, 240], [0, 0, 1]], "size": [800, 600]}',
+     ["target_01.png is 640 x 480 pixels but the camera is calibrated for 800 x 600"]),
+])
+def test_bad_camera_files_are_one_clear_error(tmp_path, capsys, name, text, fragments):
+    image = real_file("target_01.png")
+    (tmp_path / name).write_text(text)
+    assert main(["estimate", str(image), "--camera", str(tmp_path / name)]) == 2
+    line = capsys.readouterr().err.strip()
+    assert "\n" not in line and line.startswith("graphpose: error: ")
+    for fragment in fragments:
+        assert fragment in line, line

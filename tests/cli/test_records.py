@@ -9,7 +9,7 @@ from graphpose import T_from_params, project
 from graphpose.cli.records import POSE_KEYS, result_record
 from tests.conftest import BOARD_WPTS, PROJECT_K
 
-KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check"}
+KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check", "orientation_ambiguous"}
 
 
 def test_result_record_of_a_failure_and_of_an_estimate():
@@ -49,3 +49,22 @@ def test_an_estimate_from_points_has_no_junctions_to_write_or_report():
     np.testing.assert_allclose(record["xyz_m"], [0.2, 0.15, -1.0], atol=1e-9)
     report = format_report("points", estimate, record)
     assert "over 48 junctions, 47 trusted" in report and "converged" in report
+    assert record["orientation_ambiguous"] is False and "orientation" not in report
+    assert result_record("a.png", None, "no board")["orientation_ambiguous"] is None
+
+
+def test_an_orientation_ambiguous_estimate_says_so_in_record_and_report():
+    import dataclasses
+
+    from graphpose.cli.estimate import ORIENTATION_AMBIGUOUS, format_report
+    from graphpose.pose.estimate import estimate_pose_from_points
+
+    K, W = PROJECT_K, BOARD_WPTS
+    T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
+    estimate = dataclasses.replace(estimate_pose_from_points(K, project(K, T, W), W), orientation_ambiguous=True)
+    record = result_record("board.png", estimate)
+    assert record["orientation_ambiguous"] is True
+    report = format_report("board.png", estimate, record)
+    assert ("orientation     " + ORIENTATION_AMBIGUOUS) in report
+    assert ORIENTATION_AMBIGUOUS == ("orientation ambiguous (half-turn symmetric board, no bounds): junction 0 is "
+                                     "the corner nearest the image's upper left")

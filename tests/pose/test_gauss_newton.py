@@ -4,8 +4,8 @@ import sys
 import numpy as np
 import pytest
 
-from graphpose import ConvergenceError, InputError
-from graphpose.camera import C_from_rpy, T_from_params, params_from_T, project
+from graphpose import ConvergenceError, FisheyeCamera, InputError, PinholeCamera, RadTanCamera
+from graphpose.camera import C_from_rpy, T_from_params, params_from_T, project, to_camera
 from graphpose.pose.estimate import pose_difference
 from graphpose.pose.gauss_newton import (
     find_jacobian,
@@ -279,3 +279,74 @@ def test_gimbal_lock_is_reported_not_hidden():
     assert not res.converged and "gimbal lock" in res.message
     with pytest.raises(ConvergenceError, match="gimbal lock"):
         pose_estimate_nls(K, T, project(K, T, W), W)
+
+
+# ------------------------------------------------------------------ cameras with lens distortion
+
+#: One camera of each model on the project's K: GTSAM has a calibration for the first three
+#: (Cal3_S2, Cal3DS2, Cal3Fisheye), not for k3 or the rational model's k4..k6.
+CAMERAS = {
+    "pinhole": PinholeCamera(K),
+    "radtan": RadTanCamera(K, [-0.288, 0.097, 0.001, -0.0003]),
+    "radtan_k3": RadTanCamera(K, [-0.288, 0.097, 0.001, -0.0003, 0.02]),
+    "rational": RadTanCamera(K, [-0.25, 0.08, 0.001, -0.0003, 0.02, 0.05, 0.01, 0.002]),
+    "fisheye": FisheyeCamera(K, [0.03, -0.01, 0.002, -0.0005]),
+}
+
+
+def numeric_camera_jacobian(camera, p, W, h=1e-6):
+    J = np.empty((2 * W.shape[1], 6))
+    for k in range(6):
+        e = np.zeros(6)
+        e[k] = h
+        plus = camera.project(to_camera(T_from_params(p + e), W))
+        minus = camera.project(to_camera(T_from_params(p - e), W))
+        J[:, k] = (plus - minus).T.ravel() / (2 * h)
+    return J
+
+
+@pytest.mark.parametrize("model", CAMERAS)
+def test_jacobian_through_the_lens_matches_central_differences(model):
+    camera = CAMERAS[model]
+    rng = np.random.default_rng(20)
+    for _ in range(20):
+        T = random_pose(rng)
+        W = WPTS + rng.normal(0, 0.02, WPTS.shape) * [[1], [1], [0]]
+        J = projection_jacobians(camera, T, W)
+        np.testing.assert_allclose(J, numeric_camera_jacobian(camera, params_from_T(T), W),
+                                   rtol=1e-6, atol=1e-6 * np.max(np.abs(J)))
+        np.testing.assert_allclose(find_jacobian(camera, T, W[:, 7]), J[14:16], rtol=1e-12, atol=1e-9)
+    if model != "pinhole":  # the lens changes the Jacobian: the check above sees it
+        pinhole = projection_jacobians(K, T, W)
+        assert np.max(np.abs(J - pinhole)) > 1e-3 * np.max(np.abs(J))
+
+
+@pytest.mark.parametrize("model", CAMERAS)
+def test_exact_distorted_correspondences_give_the_exact_pose(model):
+    camera = CAMERAS[model]
+    rng = np.random.default_rng(21)
+    for _ in range(5):
+        T = random_pose(rng)
+        I = camera.project(to_camera(T, WPTS))
+        res = gauss_newton(camera, perturb(rng, T, 10, 0.2), I, WPTS)
+        assert res.converged, res.message
+        np.testing.assert_allclose(res.T_WC, T, atol=1e-9)
+        assert res.residual_rms_px < 1e-6
+        # The homography start undistorts first: exact points give the exact pose.
+        np.testing.assert_allclose(pose_from_homography(camera, I, WPTS), T, atol=1e-7)
+    if model != "pinhole":  # fitted as a pinhole, the same points give another pose
+        assert pose_difference(gauss_newton(K, T, I, WPTS).T_WC, T)[0] > 1e-3
+
+
+def test_points_left_out_by_the_mask_may_be_nan():
+    # Unseen junctions of a partial board are NaN: the solver uses the others.
+    rng = np.random.default_rng(22)
+    T = random_pose(rng)
+    camera = CAMERAS["radtan"]
+    I = camera.project(to_camera(T, WPTS))
+    I[:, :16] = np.nan
+    res = gauss_newton(camera, perturb(rng, T, 5, 0.1), I, WPTS, mask=np.arange(48) >= 16)
+    assert res.converged
+    np.testing.assert_allclose(res.T_WC, T, atol=1e-9)
+    with pytest.raises(InputError, match=r"Ipts contains NaN .* at 16 used point\(s\) \(first index 0\)"):
+        gauss_newton(camera, T, I, WPTS)

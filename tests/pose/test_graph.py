@@ -1,17 +1,24 @@
 import gtsam
 import numpy as np
 import pytest
+from gtsam.symbol_shorthand import L, X
 
-from graphpose import InputError
-from graphpose.camera import T_from_params, params_from_T, project
+from graphpose import FisheyeCamera, InputError, PinholeCamera, RadTanCamera
+from graphpose.camera import T_from_params, params_from_T, project, to_camera
 from graphpose.io.cases import bundled_cases
-from graphpose.pose.estimate import pose_difference
+from graphpose.pose.estimate import (
+    AGREE_ROTATION_DEG,
+    AGREE_TRANSLATION_M,
+    estimate_pose_from_points,
+    pose_difference,
+)
 from graphpose.pose.gauss_newton import gauss_newton
 from graphpose.pose.graph import (
     GraphResult,
     graph_pose,
     params_cov_from_tangent,
     params_from_tangent_jacobian,
+    projection_factor,
 )
 from graphpose.synth.render import perturb_pose
 from tests.conftest import BOARD_WPTS as WPTS
@@ -166,3 +173,91 @@ def test_indeterminate_system_from_a_wild_guess_is_reported_not_raised():
     assert not result.converged
     assert "Indeterminate" in result.message
     assert np.all(np.isnan(result.cov))
+
+
+# ------------------------------------------------------------------ cameras with lens distortion
+
+#: One camera of each model on the project's K: GTSAM's own factor for the first three, a
+#: custom factor on graphpose's projection for k3 and the rational model.
+CAMERAS = {
+    "pinhole": PinholeCamera(K),
+    "radtan": RadTanCamera(K, [-0.288, 0.097, 0.001, -0.0003]),
+    "radtan_k3": RadTanCamera(K, [-0.288, 0.097, 0.001, -0.0003, 0.02]),
+    "rational": RadTanCamera(K, [-0.25, 0.08, 0.001, -0.0003, 0.02, 0.05, 0.01, 0.002]),
+    "fisheye": FisheyeCamera(K, [0.03, -0.01, 0.002, -0.0005]),
+}
+GTSAM_FACTOR = {"pinhole": "GenericProjectionFactorCal3_S2", "radtan": "GenericProjectionFactorCal3DS2",
+                "radtan_k3": "CustomFactor", "rational": "CustomFactor",
+                "fisheye": "GenericProjectionFactorCal3Fisheye"}
+
+
+def _values(T, p_W):
+    values = gtsam.Values()
+    values.insert(X(0), gtsam.Pose3(T))
+    values.insert(L(0), p_W)
+    return values
+
+
+@pytest.mark.parametrize("model", CAMERAS)
+def test_the_graphs_projection_is_ours_for_each_model(model):
+    camera = CAMERAS[model]
+    rng = np.random.default_rng(30)
+    noise = gtsam.noiseModel.Unit.Create(2)
+    for _ in range(5):
+        T = random_pose(rng)
+        uv = camera.project(to_camera(T, WPTS))
+        for j in range(0, 48, 5):
+            factor = projection_factor(camera, uv[:, j], noise, X(0), L(0))
+            assert type(factor).__name__ == GTSAM_FACTOR[model]
+            # GTSAM's error is its projection minus the measurement: ours, to 1e-9 px.
+            assert np.max(np.abs(factor.unwhitenedError(_values(T, WPTS[:, j])))) < 1e-9
+            moved = projection_factor(camera, uv[:, j] + [0.5, -0.25], noise, X(0), L(0))
+            np.testing.assert_allclose(moved.unwhitenedError(_values(T, WPTS[:, j])), [-0.5, 0.25], atol=1e-9)
+
+
+@pytest.mark.parametrize("model", ["radtan_k3", "rational"])
+def test_custom_projection_factor_jacobians_match_differences_of_gtsam_retract(model):
+    camera = CAMERAS[model]
+    rng = np.random.default_rng(31)
+    noise = gtsam.noiseModel.Unit.Create(2)
+    T = random_pose(rng)
+    for j in (0, 13, 47):
+        values = _values(T, WPTS[:, j])
+        factor = projection_factor(camera, np.array([300.0, 200.0]), noise, X(0), L(0))
+        A, b = factor.linearize(values).jacobian()
+        np.testing.assert_allclose(-b, factor.unwhitenedError(values), atol=1e-12)
+        h = 1e-6
+        for k in range(9):
+            step = np.zeros(9)
+            step[k] = h
+            deltas = []
+            for sign in (1.0, -1.0):
+                delta = gtsam.VectorValues()
+                delta.insert(X(0), sign * step[:6])
+                delta.insert(L(0), sign * step[6:])
+                deltas.append(factor.unwhitenedError(values.retract(delta)))
+            np.testing.assert_allclose(A[:, k], (deltas[0] - deltas[1]) / (2 * h), rtol=1e-6,
+                                       atol=1e-6 * np.max(np.abs(A)))
+
+
+@pytest.mark.parametrize("model", CAMERAS)
+def test_graph_and_gauss_newton_agree_on_distorted_correspondences(model):
+    camera = CAMERAS[model]
+    rng = np.random.default_rng(32)
+    for _ in range(3):
+        T = random_pose(rng)
+        I = camera.project(to_camera(T, WPTS)) + rng.normal(0, 0.3, (2, 48))
+        guess = guess_near(T, rng)
+        g = gauss_newton(camera, guess, I, WPTS)
+        r = graph_pose(camera, guess, I, WPTS)
+        assert g.converged and r.converged
+        dt, dr = pose_difference(g.T_WC, r.T_WC)
+        assert dt < AGREE_TRANSLATION_M and dr < AGREE_ROTATION_DEG  # the pipeline's thresholds
+        assert 0.2 < r.sigma_px < 0.4 and r.sigma_px == pytest.approx(g.sigma_px, rel=1e-6)
+        np.testing.assert_allclose(r.residuals, g.residuals, atol=1e-5)
+        np.testing.assert_allclose(r.cov, g.cov, rtol=1e-4, atol=1e-6 * np.max(np.abs(g.cov)))
+        # The pipeline on the same points: homography start, both solvers, the cross-check.
+        est = estimate_pose_from_points(camera, I, WPTS)
+        assert est.ok, est.message
+        assert est.orientation_ambiguous is False
+        assert pose_difference(est.T_WC, g.T_WC)[0] < 1e-6

@@ -4,7 +4,15 @@ import gtsam
 import numpy as np
 import pytest
 
-from graphpose import Board, InputError, T_from_params, project
+from graphpose import (
+    Board,
+    FisheyeCamera,
+    InputError,
+    RadTanCamera,
+    T_from_params,
+    project,
+)
+from graphpose.camera import to_camera
 from graphpose.track.backend import SequenceGraph, landmark_stride, motion_noise
 from graphpose.track.config import MotionPrior
 from tests.conftest import BOARD_WPTS as W
@@ -120,3 +128,20 @@ def test_backend_segments_after_a_break_have_no_motion_factor():
     # A random walk this tight would drag frame 5 onto frame 0 if the two were linked.
     result = graph.add_frame(5, t[5], project(K, poses[5], W), ALL, poses[5], 0.1)
     np.testing.assert_allclose(result.T_WC, poses[5], atol=1e-7)
+
+
+@pytest.mark.parametrize("camera", [
+    RadTanCamera(K, [-0.288, 0.097, 0.001, -0.0003]),                       # GTSAM's Cal3DS2
+    RadTanCamera(K, [-0.25, 0.08, 0.001, -0.0003, 0.02, 0.05, 0.01, 0.002]),  # a custom factor
+    FisheyeCamera(K, [0.03, -0.01, 0.002, -0.0005]),                         # GTSAM's Cal3Fisheye
+], ids=["radtan", "rational", "fisheye"])
+def test_backend_target_forms_project_through_the_lens(camera):
+    t, poses = _trajectory(6)
+    rng = np.random.default_rng(4)
+    uvs = [camera.project(to_camera(T, W)) for T in poses]
+    for target in ("resection", "landmarks", "frame_landmarks"):
+        graph = SequenceGraph(camera, BOARD, MotionPrior("constant_velocity", 1.0, 1.0), target=target)
+        for k in range(6):
+            start = poses[k] @ gtsam.Pose3.Expmap(rng.normal(0, 0.01, 6)).matrix()
+            np.testing.assert_allclose(graph.add_frame(k, t[k], uvs[k], ALL, start, 0.05).T_WC, poses[k],
+                                       atol=1e-6, err_msg=target)

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 from gtsam.symbol_shorthand import X
 
-from graphpose import InputError, T_from_params, project
+from graphpose import FisheyeCamera, InputError, RadTanCamera, T_from_params, project
+from graphpose.camera import to_camera
 from graphpose.track.backend import motion_noise
 from graphpose.track.config import MotionPrior
 from graphpose.track.factors import constant_velocity_factor, resection_factor
@@ -67,3 +68,20 @@ def test_resection_factor_rejects():
         resection_factor(X(0), uv.T, W, K, 0.5)
     with pytest.raises(InputError, match="pixel_sigma"):
         resection_factor(X(0), uv, W, K, 0.0)
+
+
+@pytest.mark.parametrize("camera", [
+    RadTanCamera(K, [-0.288, 0.097, 0.001, -0.0003, 0.02, 0.05, 0.01, 0.002]),
+    FisheyeCamera(K, [0.03, -0.01, 0.002, -0.0005]),
+], ids=["rational", "fisheye"])
+def test_resection_factor_projects_through_the_lens(camera):
+    uv = camera.project(to_camera(POSE, W))
+    factor = resection_factor(X(0), uv + 0.25, W, camera, 0.5)
+    values = gtsam.Values()
+    values.insert(X(0), gtsam.Pose3(POSE))
+    np.testing.assert_allclose(factor.unwhitenedError(values), -0.25, atol=1e-9)
+    A, _ = factor.linearize(values).jacobian()
+    (J,) = _numeric_jacobians(factor, values, [X(0)])
+    np.testing.assert_allclose(A * 0.5, J, atol=1e-5 * np.abs(J).max())
+    # A pinhole factor on the same pixels sees the distortion as error.
+    assert np.abs(resection_factor(X(0), uv, W, K, 0.5).unwhitenedError(values)).max() > 1.0

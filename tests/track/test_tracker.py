@@ -1,12 +1,24 @@
 """Tracking a sequence: graphpose.track.tracker.track_sequence on rendered and real frames."""
 
+import dataclasses
+
 import numpy as np
 import pytest
+from scipy.ndimage import map_coordinates
 
-from graphpose import InputError, estimate_pose, track_sequence
+from graphpose import (
+    Board,
+    BoardNotFoundError,
+    InputError,
+    RadTanCamera,
+    estimate_pose,
+    track_sequence,
+)
 from graphpose.io.files import write_png
 from graphpose.pose.estimate import pose_difference
+from graphpose.track import frontend
 from graphpose.track.config import MotionPrior, TrackerConfig
+from graphpose.track.frontend import board_symmetries
 from graphpose.track.results import DETECTED, LOST, TRACKED
 from tests.conftest import PROJECT_K as K
 
@@ -163,3 +175,110 @@ def test_float_and_colour_frames_track_as_8_bit_grey(track_clip):
     for other in (scaled, colour):
         assert list(other.status) == list(grey.status) == [DETECTED, TRACKED, TRACKED]
         np.testing.assert_allclose(other.poses("online"), grey.poses("online"), atol=1e-9)
+
+
+# ------------------------------------------------------------------ raw frames, one camera
+
+
+def distort_image(image, camera):
+    """The raw frame a camera with ``camera``'s lens takes of the scene that the distortion-free
+    camera with the same K saw as ``image``: each raw pixel's ray is found in the undistorted
+    image (``camera.undistort_pixels``) and sampled there (cubic spline, the mean outside)."""
+    h, w = image.shape
+    v, u = np.mgrid[0:h, 0:w]
+    ideal = camera.undistort_pixels(np.vstack([u.ravel(), v.ravel()]).astype(float))
+    out = map_coordinates(image.astype(float), [ideal[1], ideal[0]], order=3, mode="constant", cval=np.nan)
+    return np.clip(np.where(np.isnan(out), image.mean(), out), 0, 255).reshape(h, w).astype(np.uint8)
+
+
+LENS = RadTanCamera(K, [-0.288, 0.097, 0.001, -0.0003, 0.0], size=(640, 480))
+
+
+@pytest.fixture(scope="module")
+def raw_clip(track_clip):
+    """The clip's first 8 frames as a camera with a strong barrel lens (LENS) takes them."""
+    return [distort_image(image, LENS) for image in track_clip.images[:8]]
+
+
+def test_raw_frames_track_through_the_camera_model(track_clip, raw_clip):
+    track = track_sequence(raw_clip, LENS, timestamps=track_clip.timestamps[:8], smooth=True)
+    assert list(track.status) == [DETECTED] + [TRACKED] * 7
+    for which in ("online", "smoothed"):
+        err = [pose_difference(T, track_clip.T_WC[k])[0] for k, T in enumerate(track.poses(which))]
+        assert max(err) < 0.5e-3, (which, err)  # measured 0.11 mm online, 0.08 mm smoothed
+    assert max(f.reprojection_rms_px for f in track.frames) < 0.1  # measured 0.015 px at most
+    # Tracked as if the frames were undistorted, the same frames fit much worse.
+    pinhole = track_sequence(raw_clip[:3], K, timestamps=track_clip.timestamps[:3])
+    found = [f for f in pinhole.frames if f.T_WC is not None]
+    assert all(f.reprojection_rms_px > 5 * max(g.reprojection_rms_px for g in track.frames) for f in found)
+
+
+def test_a_frame_of_another_size_than_the_calibration_is_refused(raw_clip):
+    with pytest.raises(InputError, match=r"frame 1 is 320 x 240 pixels but the camera is calibrated for 640 x 480"):
+        track_sequence([raw_clip[0], raw_clip[1][::2, ::2]], LENS)
+
+
+# ------------------------------------------------------------------ detection without polygons
+
+
+def _spy_extraction(monkeypatch, turn_after_first=False):
+    """Record extract_junctions' (bounds, camera); with ``turn_after_first``, fail every later
+    search inside a polygon and give a whole-image search the board's other labelling (its
+    half turn, flagged ambiguous: what the upper-left rule gives a camera rolled past 90 deg)."""
+    from graphpose.detect.junctions import extract_junctions
+
+    calls = []
+
+    def spy(image, bounds=None, board=Board(), *, camera=None, **kwargs):
+        calls.append((None if bounds is None else np.asarray(bounds), camera))
+        J = None
+        if turn_after_first and len(calls) > 1:
+            if bounds is not None:
+                raise BoardNotFoundError("no board in this polygon (test)")
+            J = extract_junctions(image, None, board, camera=camera)
+            return dataclasses.replace(J, points=J.points[:, ::-1], trusted=J.trusted[::-1], seen=J.seen[::-1],
+                                       orientation_ambiguous=True)
+        return extract_junctions(image, bounds, board, camera=camera, **kwargs)
+
+    monkeypatch.setattr(frontend, "extract_junctions", spy)
+    return calls
+
+
+def test_without_polygons_the_whole_image_is_searched_with_no_bounds(track_clip, monkeypatch):
+    calls = _spy_extraction(monkeypatch)
+    track = track_sequence(track_clip.images[:2], LENS.pinhole())
+    assert list(track.status) == [DETECTED, TRACKED]
+    assert len(calls) == 1 and calls[0][0] is None and calls[0][1] == LENS.pinhole()
+
+
+def test_a_fresh_detection_of_a_symmetric_board_keeps_the_orientation(track_clip, monkeypatch):
+    # Frame 2 is blank: frame 3 is found again by a whole-image search whose labels are the
+    # board's half turn. The tracker takes the labelling nearest the last pose instead.
+    frames = [track_clip.images[0], track_clip.images[1], np.full((480, 640), 128, np.uint8),
+              track_clip.images[3], track_clip.images[4]]
+    times = track_clip.timestamps[:5]
+    calls = _spy_extraction(monkeypatch, turn_after_first=True)
+    track = track_sequence(frames, K, track_clip.bounds, timestamps=times)
+    assert list(track.status) == [DETECTED, TRACKED, LOST, DETECTED, TRACKED]
+    assert any(bounds is None for bounds, _ in calls[1:])  # the whole-image search was reached
+    for k in (0, 1, 3, 4):
+        assert pose_difference(track.frames[k].T_WC, track_clip.T_WC[k])[0] < 1e-3, k
+    # Without a pose to keep it continuous, the same search gives the turned board.
+    first = track_sequence(frames[3:], K, timestamps=times[3:])
+    assert pose_difference(first.frames[0].T_WC, track_clip.T_WC[3])[0] > 0.1
+
+
+def test_board_symmetries_are_the_turns_of_the_grid():
+    half, = board_symmetries(Board(8, 6))[1:]
+    np.testing.assert_array_equal(half, np.arange(48)[::-1])
+    square = Board(4, 4)
+    perms = board_symmetries(square)
+    assert len(perms) == 4
+    c, r = square.grid_indices()
+    for perm in perms:
+        np.testing.assert_array_equal(np.sort(perm), np.arange(16))  # a relabelling
+    # The first quarter turn takes junction (c, r) to (3 - r, c): corner 0 to corner 3.
+    np.testing.assert_array_equal(perms[2], c * 4 + (3 - r))
+    assert perms[2][0] == 3 and perms[3][0] == 12
+    # Twice a quarter turn is the half turn.
+    np.testing.assert_array_equal(perms[2][perms[2]], perms[1])

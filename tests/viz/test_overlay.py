@@ -5,7 +5,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from graphpose import Board, InputError, T_from_params, params_from_T, project
+from graphpose import Board, InputError, RadTanCamera, T_from_params, params_from_T, project
+from graphpose.camera import to_camera
 from graphpose.viz.overlay import COLOURS, draw_overlay, glyph
 
 K = np.array([[500.0, 0.0, 320.0], [0.0, 500.0, 240.0], [0.0, 0.0, 1.0]])
@@ -146,3 +147,42 @@ def test_font():
     assert glyph("g")[7:].any() and not glyph("A")[7:].any()  # descenders below the baseline
     np.testing.assert_array_equal(glyph("\u20ac"), glyph("?"))
     assert not glyph(" ").any()
+
+
+def test_the_grid_is_drawn_through_the_lens():
+    # A strong barrel lens bends the board's rows: the drawn line follows the camera's curve,
+    # not the straight chord between the junctions.
+    camera = RadTanCamera(K, [-0.5, 0.3, 0.0, 0.0], size=(640, 480))
+    board = Board(3, 3, 0.15)  # large squares, close: the top row runs through strong distortion
+    T = T_from_params([0.15, 0.15, -0.4, 0.0, 0.0, 0.0])
+    estimate = _estimate(np.ones(BOARD.n, bool))
+    estimate.T_WC, estimate.params, estimate.mask = T, params_from_T(T), np.ones(board.n, bool)
+    estimate.junctions = None
+    out = draw_overlay(np.full((480, 640), 0.5), estimate, camera, board)
+    mid = np.array([[0.075], [0.0], [0.0]])  # halfway between junctions 0 and 1, on the top row
+    on_curve = camera.project(to_camera(T, mid))[:, 0]
+    ends = camera.project(to_camera(T, board.world_points()[:, :2]))
+    chord = ends.mean(axis=1)
+    assert np.hypot(*(on_curve - chord)) > 4.0  # the curve and the chord are apart
+    magenta = np.abs(out.astype(int) - COLOURS["reprojected"]).sum(axis=2) < np.abs(
+        out.astype(int) - int(round(40 + 170 * 0.5))).sum(axis=2)
+    u, v = np.round(on_curve).astype(int)
+    assert magenta[v - 1:v + 2, u - 1:u + 2].any()
+    u, v = np.round(chord).astype(int)
+    assert not magenta[v - 1:v + 2, u - 1:u + 2].any()
+
+
+def test_image_of_another_size_than_the_calibration_is_refused():
+    camera = RadTanCamera(K, [-0.2, 0.1, 0.0, 0.0], size=(640, 480))
+    with pytest.raises(InputError, match="calibrated for 640 x 480"):
+        draw_overlay(np.zeros((240, 320)), _estimate(np.ones(BOARD.n, bool)), camera, BOARD)
+
+
+def test_orientation_ambiguity_is_written():
+    estimate = _estimate(np.ones(BOARD.n, bool))
+    plain = draw_overlay(np.full((480, 640), 0.5), estimate, K, BOARD)
+    estimate.orientation_ambiguous = True
+    flagged = draw_overlay(np.full((480, 640), 0.5), estimate, K, BOARD)
+    yellow = np.all(np.abs(flagged[:200, :400].astype(int) - COLOURS["bounds"]) <= 40, axis=2)
+    assert yellow.sum() > 50 and not np.all(np.abs(plain[:200, :400].astype(int) - COLOURS["bounds"]) <= 40,
+                                            axis=2).any()
