@@ -319,7 +319,7 @@ def test_raw_images_with_their_camera_converge_and_solvers_agree(opencv_estimate
         assert_good(est)
         assert est.mask.sum() == 54 and not est.orientation_ambiguous, name  # 9 + 6 is odd: oriented
         rms.append(est.reprojection_rms_px)
-    # Measured 0.097-0.125 px over the 26 images (GN and GTSAM within 3e-10 m, 5e-8 deg).
+    # Measured 0.097-0.165 px over the 26 images (GN and GTSAM within 3e-10 m, 5e-8 deg).
     assert max(rms) < 0.2
 
 
@@ -327,7 +327,7 @@ def test_raw_pose_is_the_undistort_first_pose(opencv_estimates):
     for name, (_, raw, flat) in opencv_estimates.items():
         assert_good(flat)
         dt, dr = pose_difference(raw.T_WC, flat.T_WC)
-        # The goal: 2 mm and 0.1 deg; measured at most 0.09 mm and 0.016 deg (the resampled
+        # The goal: 2 mm and 0.1 deg; measured at most 0.26 mm and 0.036 deg (the resampled
         # image's junctions differ by their interpolation).
         assert dt < 2e-3 and dr < 0.1, (name, dt, dr)
 
