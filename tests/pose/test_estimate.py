@@ -417,6 +417,24 @@ def test_a_partial_board_gives_its_pose_from_the_trusted_junctions(monkeypatch):
     assert np.all(est.sigma_xyz_m > whole.sigma_xyz_m)
 
 
+def test_a_partly_covered_real_board_gives_a_pose_from_what_is_seen(real_cases, real_images):
+    case, image = real_images[0]
+    whole = estimate_pose(image, case.bounds, real_cases.K, real_cases.board)
+    cols = np.arange(48) % 8
+    hidden = whole.junctions.points[:, cols >= 6]  # the last two columns, under a grey patch
+    lo, hi = np.floor(hidden.min(axis=1) - 10).astype(int), np.ceil(hidden.max(axis=1) + 10).astype(int)
+    covered = image.copy()
+    covered[lo[1]:hi[1], lo[0]:hi[0]] = image.mean()
+    est = estimate_pose(covered, case.bounds, real_cases.K, real_cases.board)
+    assert_good(est)
+    seen = est.junctions.seen
+    assert not seen[cols >= 6].any() and 24 <= seen.sum() < 48
+    assert not est.mask[~seen].any() and np.all(np.isnan(est.residuals[:, ~seen]))
+    dt, dr = pose_difference(est.T_WC, whole.T_WC)
+    assert dt < 3e-3 and dr < 0.2  # measured 1.3 mm and 0.07 deg (30 junctions)
+    assert np.all(est.sigma_xyz_m > 1.5 * whole.sigma_xyz_m)  # measured 2.2-3.6 times
+
+
 @pytest.mark.parametrize("keep, match", [
     (np.arange(48) // 8 == 2, "all lie on one line"),                # one row
     (np.isin(np.arange(48), [0, 9, 18, 27, 36, 45]), "all lie on one line"),  # a diagonal
