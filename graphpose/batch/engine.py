@@ -5,17 +5,17 @@ lost worker; this module only decides what a task is and keeps the cluster fed:
 
 - A task is :func:`graphpose.batch.work.estimate_images` on a group of images. The group
   is sized from the measured time per image so that a task lasts about ``task_seconds``
-  (0.5 s by default): long beside the scheduler's cost per task (a fraction of a
-  millisecond to a few ms, see docs/batch.md), short enough that the last tasks spread
+  (0.5 s by default): long beside what a task costs end to end (about 10 ms measured
+  here, see docs/batch.md), short enough that the last tasks spread
   over every worker and that a lost worker costs little work. The first tasks hold one
   image each, to measure; the last ones shrink so that the tail stays balanced.
 - At most about two tasks per worker thread are submitted at once (plus one), so a
   million images never become a million futures, and a worker always has its next task.
 - A worker that dies takes its running tasks with it; the scheduler runs them again on
   another worker, and a task's records reach the client once, when it finishes, so no
-  image is lost or repeated. A task that fails anyway (Dask gives up on a task that has
-  been running on three workers that died: ``KilledWorker``) is split and its images run
-  one a task; an image that still kills its worker gets a ``crashed`` row.
+  image is lost or repeated. A task that fails anyway (``KilledWorker``: more workers died
+  while running it than ``distributed.scheduler.allowed-failures`` allows) is split and its
+  images run one a task; an image that still kills its worker gets a ``crashed`` row.
 
 Dask is imported only when a batch starts: ``import graphpose.batch`` does not load it.
 """
