@@ -510,17 +510,22 @@ def test_case_file_with_a_camera_file_or_object_and_no_bounds(tmp_path, capsys):
     assert pinhole[0]["reprojection_rms_px"] > 3 * records[0][0]["reprojection_rms_px"]
 
 
+NAN_YML = ("%YAML:1.0\n---\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+           "   data: [ 533.5, 0., .Nan, 0., 533.5, 235.2, 0., 0., 1. ]\n"
+           "distortion_coefficients: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n"
+           "   data: [ -0.288, 0.097, 0.001, -0.0003, 0. ]\n")
+MISSING_YML = ("%YAML:1.0\n---\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+               "   data: [ 533.5, 0., 341.6, 0., 533.5, 235.2, 0., 0., 1. ]\n")
+OMNI_YAML = ("cam0:\n  camera_model: omni\n  intrinsics: [0.8, 500, 500, 320, 240]\n  distortion_model: radtan\n"
+             "  distortion_coeffs: [0, 0, 0, 0]\n  resolution: [640, 480]\n")
+
+
 @pytest.mark.parametrize("name, text, fragments", [
     ("few.json", '{"model": "radtan", "K": [[500, 0, 320], [0, 500, 240], [0, 0, 1]], "distortion": [0.1, 0.01, 0]}',
      ["--camera", "few.json", "3 distortion coefficients"]),
-    ("nan.yml", "%YAML:1.0\n---\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
-     "   data: [ 533.5, 0., .Nan, 0., 533.5, 235.2, 0., 0., 1. ]\n"
-     "distortion_coefficients: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ -0.288, 0.097, 0.001, -0.0003, 0. ]\n",
-     ["--camera", "nan.yml", "NaN"]),
-    ("missing.yml", "%YAML:1.0\n---\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
-     "   data: [ 533.5, 0., 341.6, 0., 533.5, 235.2, 0., 0., 1. ]\n", ["--camera", "missing.yml", "distortion_coefficients"]),
-    ("omni.yaml", "cam0:\n  camera_model: omni\n  intrinsics: [0.8, 500, 500, 320, 240]\n  distortion_model: radtan\n"
-     "  distortion_coeffs: [0, 0, 0, 0]\n  resolution: [640, 480]\n", ["--camera", "omni", "not support"]),
+    ("nan.yml", NAN_YML, ["--camera", "nan.yml", "NaN"]),
+    ("missing.yml", MISSING_YML, ["--camera", "missing.yml", "distortion_coefficients"]),
+    ("omni.yaml", OMNI_YAML, ["--camera", "omni", "not support"]),
     ("small.json", '{"model": "pinhole", "K": [[500, 0, 320], [0, 500, 240], [0, 0, 1]], "size": [800, 600]}',
      ["target_01.png is 640 x 480 pixels but the camera is calibrated for 800 x 600"]),
 ])

@@ -3,7 +3,15 @@ import json
 import numpy as np
 import pytest
 
-from graphpose import Board, FisheyeCamera, InputError, PinholeCamera, RadTanCamera, T_from_params, load_cases
+from graphpose import (
+    Board,
+    FisheyeCamera,
+    InputError,
+    PinholeCamera,
+    RadTanCamera,
+    T_from_params,
+    load_cases,
+)
 from graphpose.io.calibration import write_camera
 from graphpose.io.cases import load_pose
 

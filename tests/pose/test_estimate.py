@@ -387,7 +387,7 @@ def _fake_extraction(monkeypatch, points, trusted, ambiguous=False):
                          np.eye(3), seen, ambiguous)
     calls = []
 
-    def fake(image, bounds=None, board=Board(), *, camera=None, **kwargs):
+    def fake(image, bounds=None, board=None, *, camera=None, **kwargs):
         calls.append((bounds, camera))
         return J
 

@@ -4,8 +4,20 @@ import sys
 import numpy as np
 import pytest
 
-from graphpose import ConvergenceError, FisheyeCamera, InputError, PinholeCamera, RadTanCamera
-from graphpose.camera import C_from_rpy, T_from_params, params_from_T, project, to_camera
+from graphpose import (
+    ConvergenceError,
+    FisheyeCamera,
+    InputError,
+    PinholeCamera,
+    RadTanCamera,
+)
+from graphpose.camera import (
+    C_from_rpy,
+    T_from_params,
+    params_from_T,
+    project,
+    to_camera,
+)
 from graphpose.pose.estimate import pose_difference
 from graphpose.pose.gauss_newton import (
     find_jacobian,

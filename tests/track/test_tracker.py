@@ -229,7 +229,7 @@ def _spy_extraction(monkeypatch, turn_after_first=False):
 
     calls = []
 
-    def spy(image, bounds=None, board=Board(), *, camera=None, **kwargs):
+    def spy(image, bounds=None, board=None, *, camera=None, **kwargs):
         calls.append((None if bounds is None else np.asarray(bounds), camera))
         J = None
         if turn_after_first and len(calls) > 1:

@@ -5,7 +5,14 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from graphpose import Board, InputError, RadTanCamera, T_from_params, params_from_T, project
+from graphpose import (
+    Board,
+    InputError,
+    RadTanCamera,
+    T_from_params,
+    params_from_T,
+    project,
+)
 from graphpose.camera import to_camera
 from graphpose.viz.overlay import COLOURS, draw_overlay, glyph
 
@@ -165,7 +172,7 @@ def test_the_grid_is_drawn_through_the_lens():
     chord = ends.mean(axis=1)
     assert np.hypot(*(on_curve - chord)) > 4.0  # the curve and the chord are apart
     magenta = np.abs(out.astype(int) - COLOURS["reprojected"]).sum(axis=2) < np.abs(
-        out.astype(int) - int(round(40 + 170 * 0.5))).sum(axis=2)
+        out.astype(int) - round(40 + 170 * 0.5)).sum(axis=2)
     u, v = np.round(on_curve).astype(int)
     assert magenta[v - 1:v + 2, u - 1:u + 2].any()
     u, v = np.round(chord).astype(int)
