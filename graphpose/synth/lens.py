@@ -18,10 +18,13 @@ a wide lens), the radial-tangential model up to the radius where its radial map 
 returns points that fold back into the picture, or no points at all. Every region is
 clipped to that cone before it is drawn: its outline is the part of the polygon's edges
 inside the cone plus the part of the cone's rim (a closed curve in the image) that sees the
-polygon. Both are oriented so that the region lies on their left in positive (u, v)
-orientation, which is what Green's theorem needs: the boundary of ``A ∩ B`` is
-``(∂A ∩ B) + (∂B ∩ A)``, whatever the topology (a board that straddles the rim, a rim
-inside a large board).
+polygon. Both are oriented positively (the shoelace sum of ``u0 v1 - u1 v0`` over an
+outline is twice the area it encloses), which is what Green's theorem needs: the boundary
+of ``A ∩ B`` is ``(∂A ∩ B) + (∂B ∩ A)``, whatever the topology (a board that straddles the
+rim, a rim inside a large board). The plane's image keeps the orientation of the board's
+front when the camera is in front of it (the central projection onto the hemisphere of
+rays facing the plane, then a lens map that preserves orientation up to its fold) and
+reverses it from behind.
 """
 
 from __future__ import annotations
