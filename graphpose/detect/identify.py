@@ -41,22 +41,27 @@ import numpy as np
 
 from ..board import Board
 from ..errors import BoardNotFoundError
-from .lattice import Lattice
-from .search import Candidates, sample
+from .lattice import Lattice, step_lengths
+from .search import Candidates, sample, sample_fine
 
 #: Proper rotations M of lattice keys to board (c, r) = M (i, j) + t.
 ROTATIONS = (np.array([[1, 0], [0, 1]]), np.array([[0, -1], [1, 0]]),
              np.array([[-1, 0], [0, -1]]), np.array([[0, 1], [-1, 0]]))
 #: Depth of the outer-band samples beyond the last line of nodes, squares.
 OUTER_DEPTH = 0.25
-#: Depths of the beyond-band samples, squares.
-BEYOND_DEPTHS = (1.3, 1.6)
+#: Depths of the beyond-band samples, squares: the band where the next squares would be.
+BEYOND_DEPTHS = (1.15, 1.3, 1.45, 1.6, 1.75, 1.9)
 #: Depths farther out where a board hidden behind a bar would show its squares again.
-RESUME_DEPTHS = (2.3, 2.6, 3.3, 3.6)
+RESUME_DEPTHS = (2.15, 2.45, 2.75, 3.15, 3.45, 3.75)
 #: The outer band alternates when its agreement with the lattice's colours exceeds this.
 ALTERNATES = 0.5
 #: The band beyond is plain when its agreement is below this.
 PLAIN = 0.35
+#: A partly seen board is labelled only when its lattice step is at least this (pixels):
+#: on smaller squares the edge evidence, a fraction of a square away, blurs into them.
+MIN_PARTIAL_STEP_PX = 12.0
+#: Fraction of the lattice's lines that must reach a side for it to be an edge.
+FLAT_SIDE = 0.75
 #: Sides, as (lattice axis, direction).
 SIDES = ((0, -1), (0, 1), (1, -1), (1, 1))
 
@@ -115,6 +120,11 @@ def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> 
         places on the board. The message says which.
     """
     nodes = lattice.as_dict()
+    step = float(np.median(step_lengths(nodes, [tuple(k) for k in lattice.keys])))
+    if len(lattice.keys) < board.n and step < MIN_PARTIAL_STEP_PX:
+        raise BoardNotFoundError(
+            f"only part of the board is seen ({len(lattice.keys)} of {board.n} junctions) and its squares "
+            f"({step:.0f} px) are too small to tell its edges from something lying across it")
     dark_parity, mid, contrast = _square_colours(cands, nodes)
     sides = {side: _side(cands, nodes, side, dark_parity, mid, contrast) for side in SIDES}
     keys = lattice.keys
@@ -167,7 +177,8 @@ def _square_colours(cands, nodes):
         raise BoardNotFoundError("the junctions found enclose no whole square of the board")
     centres = np.array([nodes[(i, j)] + nodes[(i + 1, j)] + nodes[(i, j + 1)] + nodes[(i + 1, j + 1)]
                         for i, j in keys]).T / 4
-    value = sample(cands, centres)
+    step = np.median([np.hypot(*(nodes[(i + 1, j)] - nodes[(i, j)])) for i, j in keys])
+    value = _grey(cands, centres, step)
     parity = np.array([(i + j) % 2 for i, j in keys])
     even = np.median(value[parity == 0]) if np.any(parity == 0) else np.nan
     odd = np.median(value[parity == 1]) if np.any(parity == 1) else np.nan
@@ -179,7 +190,16 @@ def _square_colours(cands, nodes):
 
 
 def _side(cands, nodes, side, dark_parity, mid, contrast) -> str:
-    """Evidence on one lattice side (see the module docstring)."""
+    """Evidence on one lattice side (see the module docstring).
+
+    Along the side, every outer square is sampled once (it must have the colour the
+    lattice's parity gives it), and every square beyond it at several depths. Beyond the
+    outer band, pairs of neighbouring rows are compared: where the board goes on, their
+    darkness differs as the pattern says; on a plain margin, a uniform table or a bar lying
+    across, it does not. Pairs, not single rows, so that a uniform dark or light ground
+    cannot look like half a pattern; the verdict needs every pair to be plain, so that an
+    occluder across part of the side cannot hide the rows where the board goes on.
+    """
     axis, direction = side
     other = 1 - axis
     extreme = (min if direction < 0 else max)(key[axis] for key in nodes)
@@ -188,47 +208,78 @@ def _side(cands, nodes, side, dark_parity, mid, contrast) -> str:
     def key(a, b):
         return (a, b) if axis == 0 else (b, a)
 
-    outer, beyond, expect = [], [], []
-    depths = BEYOND_DEPTHS + RESUME_DEPTHS
+    rows, points, expect, steps = [], [], [], []
+    depths = np.array((OUTER_DEPTH,) + BEYOND_DEPTHS + RESUME_DEPTHS)
+    # An edge is a straight line of junctions: most lattice lines must reach it (a row that
+    # stops short has its end hidden, and the side beyond says nothing of the board's edge).
+    lines = {}
+    for k in nodes:
+        lines[k[other]] = (min if direction < 0 else max)(lines.get(k[other], k[axis]), k[axis])
+    if np.mean([end == extreme for end in lines.values()]) < FLAT_SIDE:
+        return "unknown"
     for b in sorted(k[other] for k in nodes if k[axis] == extreme):
         corners = [key(extreme, b), key(extreme, b + 1), key(extreme + inward, b), key(extreme + inward, b + 1)]
         if not all(c in nodes for c in corners):
             continue
         edge = 0.5 * (nodes[corners[0]] + nodes[corners[1]])
         step = edge - 0.5 * (nodes[corners[2]] + nodes[corners[3]])  # one square outwards
-        outer.append(edge + OUTER_DEPTH * step)
-        beyond.append([edge + d * step for d in depths])
+        rows.append(b)
+        steps.append(np.hypot(*step))
+        points.append(edge[:, None] + step[:, None] * depths)
         square = np.array(key(extreme + (direction - 1) // 2, b))  # upper-left key of the outer square
         expect.append(1.0 if (square.sum() % 2) == dark_parity else -1.0)
-    if len(outer) < 2:
+    if len(rows) < 2:
         return "unknown"
-    outer = np.array(outer).T
-    beyond = np.array(beyond)  # (m, depths, 2)
-    expect = np.array(expect)
+    P = np.array(points)  # (m, 2, depths)
     height, width = cands.shape
-    inside = _inside(outer, height, width) & np.all([_inside(beyond[:, d].T, height, width)
-                                                      for d in range(len(BEYOND_DEPTHS))], axis=0)
-    if inside.sum() < 2:
+    inside = (P[:, 0] >= 0) & (P[:, 1] >= 0) & (P[:, 0] <= width - 1) & (P[:, 1] <= height - 1)
+    value = _grey(cands, P.transpose(1, 0, 2).reshape(2, -1), np.median(steps))
+    value = value.reshape(inside.shape)
+    # +1 for the dark squares' grey, -1 for the light ones'; outside the image, NaN.
+    dark = np.where(inside, np.clip((mid - value) / (0.5 * contrast), -1.0, 1.0), np.nan)
+    expect = np.array(expect)
+    outer = dark[:, 0] * expect
+    square = np.floor(depths).astype(int)
+    band = square == 1
+    if np.sum(np.isfinite(outer)) < 2 or np.nanmean(outer > ALTERNATES) < 0.75:
         return "unknown"
-    def darkness(P):  # +1 for the dark squares' grey, -1 for the light ones'
-        return np.clip((mid - sample(cands, P)) / (0.5 * contrast), -1.0, 1.0)
-
-    agree_outer = np.mean(darkness(outer[:, inside]) * expect[inside])
-    # Square k beyond the outer one has the outer square's colour times (-1)^k.
-    agree = []
-    for d, depth in enumerate(depths):
-        there = inside & _inside(beyond[:, d].T, height, width)
-        sign = -1.0 if int(np.floor(depth)) % 2 else 1.0
-        agree.append(np.mean(darkness(beyond[there, d].T) * sign * expect[there]) if there.sum() >= 2 else np.nan)
-    agree = np.array(agree)
-    agree_beyond = np.mean(agree[:len(BEYOND_DEPTHS)])
-    if agree_outer < ALTERNATES:
+    # Square k beyond the outer one has the outer square's colour times (-1)^k; pairs of
+    # neighbouring rows on the side differ in darkness by the pattern where it goes on.
+    rows = np.array(rows)
+    pairs = np.flatnonzero(np.diff(rows) == 1)
+    sign = np.where(square % 2 == 1, -1.0, 1.0)
+    pair = 0.5 * (dark[pairs] - dark[pairs + 1]) * expect[pairs, None] * sign
+    # A pair speaks of square k where two of its depths there lie in the image.
+    per_square = {}
+    for k in (1, 2, 3):
+        seen = np.isfinite(pair[:, square == k])
+        total = np.where(seen, pair[:, square == k], 0.0).sum(axis=1)
+        per_square[k] = np.where(seen.sum(axis=1) >= 2, total / np.maximum(seen.sum(axis=1), 1), np.nan)
+    first = per_square[1]
+    if not np.any(np.isfinite(first)):
         return "unknown"
-    if agree_beyond > ALTERNATES:
+    if np.nanmean(first) > ALTERNATES:
         return "continues"
-    if agree_beyond >= PLAIN or np.nanmax(np.append(agree[len(BEYOND_DEPTHS):], -1.0)) > ALTERNATES:
+    # An edge is plain across the square beyond it (one pair in four may catch clutter),
+    # and the squares do not come back farther out (a bar or a fold lying across the
+    # board would show them again, along much of the side).
+    valid = np.isfinite(first)
+    if not (np.nanmean(first) < PLAIN and np.sum(first[valid] > ALTERNATES) <= valid.sum() // 4):
         return "unknown"
+    for k in (2, 3):
+        later = per_square[k][np.isfinite(per_square[k])]
+        if later.size and (later.mean() > PLAIN or np.sum(later > ALTERNATES) > max(1, later.size // 3)):
+            return "unknown"
     return "edge"
+
+
+def _grey(cands, points, step) -> np.ndarray:
+    """Grey levels at full-image points: from the search's smoothed image where squares are
+    large (its smoothing is then a small part of a square), else from the full image over a
+    few pixels (its smoothing would blur a small square into its neighbours)."""
+    if step >= 24 * 2 ** (cands.level - 1):
+        return sample(cands, points)
+    return sample_fine(cands, points, reach=max(0.5, 0.08 * step))
 
 
 def _inside(P, height, width):

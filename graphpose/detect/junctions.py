@@ -206,7 +206,9 @@ def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None) -> Ju
     With a distorting ``lens`` the homography is fitted to, and judged on, the undistorted
     positions (a planar grid is a homography only through a pinhole).
     """
-    flat = points if lens is None else lens.undistort_pixels(points)
+    flat = points.copy()
+    if lens is not None:  # unseen junctions stay NaN
+        flat[:, seen] = lens.undistort_pixels(points[:, seen])
     ok = ok & np.all(np.isfinite(flat), axis=0)
     n_seen = int(seen.sum())
     need = max(MIN_TRUSTED, n_seen // 2)

@@ -57,6 +57,8 @@ class Candidates:
         0 for the full image, 1 for half resolution.
     shape : tuple of int
         The full image's ``(height, width)``.
+    image : (H, W) ndarray
+        The full-resolution grey image itself (not copied), for :func:`sample_fine`.
     """
 
     points: np.ndarray
@@ -66,6 +68,7 @@ class Candidates:
     smooth: np.ndarray
     level: int
     shape: tuple
+    image: np.ndarray
 
     def to_level(self, points) -> np.ndarray:
         """Full-image pixel coordinates (2, N) as coordinates (x, y) of :attr:`smooth`."""
@@ -111,7 +114,20 @@ def find_candidates(image: np.ndarray, region=None, *, level: int = 1) -> Candid
         from skimage.measure import points_in_poly
 
         seed = points_in_poly(points.T, np.asarray(region, dtype=float).T)
-    return Candidates(points, theta.astype(float), value.astype(float), seed, S, level, tuple(image.shape[:2]))
+    return Candidates(points, theta.astype(float), value.astype(float), seed, S, level, tuple(image.shape[:2]), image)
+
+
+def sample_fine(cands: Candidates, points: np.ndarray, reach: float = 1.0) -> np.ndarray:
+    """Mean of the full-resolution image over a 3 x 3 grid of bilinear samples, ``reach``
+    pixels apart, around each full-image point (2, N): grey levels at a scale of a couple
+    of pixels, for evidence on squares too small for the smoothed search image."""
+    P = np.asarray(points, dtype=float)
+    off = np.array([-reach, 0.0, reach])
+    grid = (P.shape[1], 3, 3)
+    u = np.broadcast_to(P[0][:, None, None] + off[None, None, :], grid).ravel()
+    v = np.broadcast_to(P[1][:, None, None] + off[None, :, None], grid).ravel()
+    values = ndimage.map_coordinates(cands.image, [v, u], order=1, mode="nearest", output=np.float64)
+    return values.reshape(P.shape[1], 9).mean(axis=1)
 
 
 def sample(cands: Candidates, points: np.ndarray) -> np.ndarray:

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._checks import check_board, check_K, check_size
+from .._checks import check_board, check_K, check_number, check_size
 from ..board import Board
 from ..camera import project
 from ..errors import InputError
@@ -56,7 +56,7 @@ class Scene:
 def random_scene(rng, K, board: Board = Board(), size=(640, 480), *, occluders=(), clutter=(),
                  max_roll_deg: float = 180.0, max_tilt_deg: float = 50.0, distance=(0.7, 2.2),
                  noise_sigma: float = 2.0, blur_sigma: float = 1.0, margin: float = 0.5,
-                 contrast: float = 1.0) -> Scene:
+                 contrast: float = 1.0, vignetting: float = 0.0) -> Scene:
     """A random board scene with occluders and clutter, and its truth.
 
     Parameters
@@ -86,6 +86,9 @@ def random_scene(rng, K, board: Board = Board(), size=(640, 480), *, occluders=(
     contrast : float
         Scales the board's grey levels about mid grey (1 = the renderer's; 0.3 is a dim,
         washed-out board).
+    vignetting : float
+        Fraction of the light lost at the image's corners (``cos^4``-like falloff, 0 for
+        none, 0.6 for a cheap wide-angle lens).
 
     Returns
     -------
@@ -129,6 +132,10 @@ def random_scene(rng, K, board: Board = Board(), size=(640, 480), *, occluders=(
         shape, value = _clutter(rng, kind, (height, width), square, sheet)
         image = image * (1 - shape) + value * shape
         painted.append(kind)
+    if vignetting:
+        yy, xx = np.mgrid[0:height, 0:width]
+        r2 = ((xx - (width - 1) / 2) ** 2 + (yy - (height - 1) / 2) ** 2) / ((width / 2) ** 2 + (height / 2) ** 2)
+        image = image * (1.0 - check_number("vignetting", vignetting, 0.0, maximum=0.95) * r2 ** 2)
     image = image + rng.normal(0.0, noise_sigma, image.shape)
     image = np.clip(np.rint(image), 0, 255).astype(np.uint8)
     visible = _visible(R, cover, square)

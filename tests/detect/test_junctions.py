@@ -315,3 +315,37 @@ def test_junctions_that_fix_no_homography_mean_no_board():
     pixels = np.array([[10.0, 20, 30, 40, 50, 60], [5, 6, 7, 8, 9, 10]])
     with pytest.raises(BoardNotFoundError, match="do not fix a homography"):
         fit_homography(one_row, pixels)
+
+
+def test_a_partly_covered_raw_image_keeps_its_labels_through_the_lens():
+    # OpenCV's raw sample with its distortion, a round grey patch (a hand, say) over its
+    # right-hand columns. The rest keep their labels and positions; the covered junctions
+    # are NaN (they once made the lens's undistortion raise on NaN). A straight-edged
+    # cover along a column would look like the board's edge and be refused instead.
+    from skimage.draw import disk
+
+    from graphpose.image import read_image
+    from graphpose.io.calibration import read_camera
+
+    from tests.conftest import REPO
+
+    folder = REPO.parent / "shared" / "data" / "opencv_samples"
+    if not (folder / "left01.jpg").is_file():
+        pytest.skip("OpenCV samples absent")
+    camera = read_camera(folder / "left.opencv.yml")
+    board = Board(9, 6, 0.03)
+    image = read_image(folder / "left01.jpg")
+    whole = extract_junctions(image, None, board, camera=camera)
+    assert whole.trusted.all() and not whole.orientation_ambiguous
+    grid = whole.points.reshape(2, 6, 9)
+    step = np.hypot(*(grid[:, 2, 8] - grid[:, 2, 7]))
+    centre = grid[:, 2:4, 8].mean(axis=1)
+    covered = image.copy()
+    covered[disk((centre[1], centre[0]), 2.2 * step, shape=image.shape)] = 0.45
+    part = extract_junctions(covered, None, board, camera=camera)
+    distance = np.hypot(*(whole.points - centre[:, None])) / step
+    hidden, touched = distance < 1.8, distance < 3.0  # under the patch; near its rim
+    assert 0 < hidden.sum() < touched.sum() < board.n // 2
+    assert not part.seen[hidden].any() and np.isnan(part.points[:, hidden]).all()
+    assert part.trusted[~touched].all()
+    np.testing.assert_allclose(part.points[:, part.trusted], whole.points[:, part.trusted], atol=0.05)
