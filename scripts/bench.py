@@ -5,7 +5,7 @@
     python scripts/bench.py --render [--json PATH] [--page PATH]
     python scripts/bench_<section>.py [--quick]       # the same as: bench.py SECTION [--quick]
 
-SECTION is any of: junctions, detect, pose, tracking (default: all). Each section lives in
+SECTION is any of: junctions, detect, pose, lens, tracking, batch (default: all). Each section lives in
 ``scripts/bench_<section>.py``; its ``main(quick)`` measures and returns its figures as a
 dict (below). This script adds the run's header (date, machine, versions, commit), writes
 everything to ``docs/benchmarks.json`` and renders ``docs/benchmarks.md`` from that JSON with
@@ -49,7 +49,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 JSON_PATH = REPO / "docs" / "benchmarks.json"
 PAGE_PATH = REPO / "docs" / "benchmarks.md"
-SECTIONS = ("junctions", "detect", "pose", "tracking")
+SECTIONS = ("junctions", "detect", "pose", "lens", "tracking", "batch")
 #: Version of the JSON layout described in the module docstring.
 FORMAT = 1
 #: Distributions whose versions move the figures; OpenCV ships under several names.
@@ -134,6 +134,8 @@ def run(sections, quick, argv) -> dict:
         module = importlib.import_module(f"bench_{name}")
         start = time.perf_counter()
         section = module.main(quick=quick)
+        if hasattr(module, "section"):  # a script with figures of its own layout
+            section = module.section(section)
         section = clean({"name": name, "seconds": round(time.perf_counter() - start, 1), **section})
         doc["sections"].append(section)
         print(render_section(section), flush=True)

@@ -194,6 +194,25 @@ def main(quick: bool = False) -> dict:
     return figures
 
 
+def section(f: dict) -> dict:
+    """The figures of :func:`main` as a section of scripts/bench.py (its documented dict)."""
+    figures = [
+        {"figure": "images per second, 2 workers / 1 worker", "unit": "", "fmt": ".2f",
+         "graphpose": f["speedup_2_vs_1"], "peer_name": None, "peer": None, "ratio": None,
+         "goal": ">= 1.8 on an idle 2-core machine", "met": f["speedup_2_vs_1"] >= 1.8},
+        {"figure": "overhead per image, 1 worker against a plain loop", "unit": "ms", "fmt": ".2f",
+         "graphpose": f["overhead_ms_per_image"], "peer_name": None, "peer": None, "ratio": None,
+         "goal": "small beside the work", "met": None},
+    ]
+    table = markdown(f).split("\n")
+    rows = [line.strip("|").split(" | ") for line in table if line.startswith("| ") and not line.startswith("| figure")]
+    blocks = [{"title": None, "text": table[0], "values": {}, "columns": None, "formats": None, "rows": None},
+              {"title": "Measured", "text": None, "values": {}, "columns": ["figure", "value"], "formats": ["", ""],
+               "rows": [[a.strip(), b.strip()] for a, b in rows]}]
+    goal = "graphpose batch on a local Dask cluster: images per second with 1 and 2 workers, and the cost per task."
+    return {"goal": goal, "figures": figures, "blocks": blocks}
+
+
 def markdown(f: dict) -> str:
     """The figures as the table of docs/batch.md ("Measured here")."""
     w0, w1, w2, one = f["workers_1_dask_default_environment"], f["workers_1"], f["workers_2"], f["one_image_per_task"]

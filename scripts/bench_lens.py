@@ -488,6 +488,38 @@ def main(quick: bool = False) -> dict:
     return out
 
 
+def section(out) -> dict:
+    """The figures of :func:`main` as a section of scripts/bench.py (its documented dict)."""
+    figures = [{"figure": g["figure"], "unit": "", "fmt": ".3g", "graphpose": g["value"], "peer_name": None,
+                "peer": None, "ratio": None, "goal": g["goal"], "met": g["met"]} for g in out["goals"]]
+    rows = []
+    for name in ("radtan", "fisheye"):
+        s = out["rendered"][name]
+        for label in ("graphpose raw", "graphpose pinhole", "OpenCV raw"):
+            fig = s["on_all_three"][label]
+            rows.append([name, label, s["on_all_three"]["scenes"], fig["junction_rms_px"], fig["translation_rms_mm"],
+                         fig["rotation_rms_deg"]])
+    blocks = [{"title": "Rendered raw images against their truth, on the scenes all three solved", "text": None,
+               "values": {}, "columns": ["lens", "method", "scenes", "junction RMS px", "translation RMS mm",
+                                          "rotation RMS deg"],
+               "formats": ["", "", "d", ".4f", ".3f", ".4f"], "rows": rows},
+              {"title": None, "text": ("NEES over {n:.0f} distorted images: mean {mean:.2f}, median {median:.2f} "
+                                       "(chi-square(6): mean 6.00, median 5.35)."),
+               "values": {"n": out["nees"]["images"], "mean": out["nees"]["mean"], "median": out["nees"]["median"]},
+               "columns": None, "formats": None, "rows": None}]
+    if isinstance(out["samples"], list):
+        rows = [[r["image"], r.get("graphpose_rms_px"), r.get("opencv_rms_px"), r.get("vs_undistort_first_mm"),
+                 r.get("vs_undistort_first_deg")] for r in out["samples"]]
+        blocks.append({"title": "OpenCV's raw samples with their calibration", "text": None, "values": {},
+                       "columns": ["image", "ours RMS px", "OpenCV RMS px", "vs undistort-first mm",
+                                   "vs undistort-first deg"],
+                       "formats": ["", ".4f", ".4f", ".3f", ".4f"], "rows": rows})
+    goal = ("Raw images through a lens model: rendered radial-tangential (k1 about -0.3) and fisheye (about 190 "
+            "degrees) scenes against the same scenes rendered pinhole; OpenCV (findChessboardCorners + "
+            "cornerSubPix + solvePnP with the same model) on the same raw images; NEES; OpenCV's raw samples.")
+    return {"goal": goal, "figures": figures, "blocks": blocks}
+
+
 def _f(x, fmt):
     return "-" if x is None or (isinstance(x, float) and not np.isfinite(x)) else format(x, fmt)
 
