@@ -186,7 +186,11 @@ def _half(image: np.ndarray) -> np.ndarray:
 
 def _peaks(r: np.ndarray):
     """Rows, columns and values of the 3 x 3 local maxima of ``r`` above the threshold."""
-    local = ndimage.maximum_filter(r, size=3)
+    # The 3 x 3 maximum (edge pixels repeated, as ndimage.maximum_filter's "reflect"), by
+    # rows then columns: the same values, several times faster than maximum_filter here.
+    p = np.pad(r, 1, mode="edge")
+    rows = np.maximum(np.maximum(p[:, :-2], p[:, 1:-1]), p[:, 2:])
+    local = np.maximum(np.maximum(rows[:-2], rows[1:-1]), rows[2:])
     ys, xs = np.nonzero((r >= local) & (r > 0))
     value = r[ys, xs]
     if value.size == 0:
