@@ -53,13 +53,13 @@ CLASSES = {
 
 
 def symmetries(board: Board) -> list:
-    """Label permutations that map the board's pattern onto itself (identity first)."""
+    """Label permutations that map the board's coloured pattern onto itself (identity first)."""
     idx = np.arange(board.n)
     c, r = idx % board.cols, idx // board.cols
     out = [idx]
     if (board.cols + board.rows) % 2 == 0:
         out.append((board.rows - 1 - r) * board.cols + (board.cols - 1 - c))
-        if board.cols == board.rows:
+        if board.cols == board.rows and board.cols % 2 == 0:  # quarter turns keep the colours
             n = board.cols - 1
             out.append(c * board.cols + (n - r))        # quarter turn
             out.append((n - c) * board.cols + r)        # three quarters

@@ -15,15 +15,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..board import Board
-from ..errors import BoardNotFoundError
+from ..errors import BoardNotFoundError, InputError
 from .identify import identify
-from .lattice import grow_lattices
+from .lattice import grow_lattices, step_lengths
 from .search import find_candidates
 
 #: Bounds are grown by this fraction of their size (and 4 px) before they select seeds.
 BOUNDS_SLACK = 0.1
-#: Seeds tried for a second board once one is labelled (the strongest come first).
-SECOND_BOARD_SEEDS = 8
+#: Once a board is labelled, seeds are tried on for another (a second board, or the larger
+#: part of one a bar splits) while their response is at least this fraction of its seed's:
+#: a board of a third of the first's contrast still seeds (the response goes as contrast^2).
+SECOND_BOARD_FRACTION = 0.05
 
 
 @dataclass(frozen=True)
@@ -69,10 +71,17 @@ def find_board(image: np.ndarray, board: Board, bounds=None) -> FoundBoard:
 
     Raises
     ------
+    InputError
+        If the image is not 2-D, or the board has fewer than 3 junctions along a side.
     BoardNotFoundError
         No lattice of cross-junctions, none that can be labelled (the message of the
         largest says why), or two boards and no bounds to choose.
     """
+    if board.cols < 3 or board.rows < 3:
+        raise InputError(f"the board search needs at least 3 x 3 inner junctions (every seed is a "
+                         f"junction with four neighbours), got {board.cols} x {board.rows}")
+    if image.ndim != 2:
+        raise InputError(f"find_board takes a grey (H, W) image, got shape {image.shape}")
     region = None if bounds is None else _grow(bounds)
     try:
         return _search(image, board, bounds, region, level=1)
@@ -90,13 +99,11 @@ def _search(image, board, bounds, region, level) -> FoundBoard:
     where = "inside the bounds" if bounds is not None else "in the image"
     if cands.seed.sum() < 1 or cands.points.shape[1] < 4:
         raise _refusal(f"no checkerboard {where}: {int(cands.seed.sum())} junction-like points", 0)
-    labelled, refused, after = [], [], 0
-    for lattice in grow_lattices(cands, max_nodes=8 * board.n):
-        if labelled:
-            after += 1
-            if after > SECOND_BOARD_SEEDS:
-                break
-        if lattice is None or (labelled and _overlaps(lattice, labelled[0][0])):
+    labelled, refused, floor = [], [], 0.0
+    for strength, lattice in grow_lattices(cands, max_nodes=8 * board.n):
+        if strength < floor:
+            break
+        if lattice is None or any(_overlaps(lattice, other) for other, _ in labelled):
             continue
         try:
             identity = identify(lattice, cands, board, bounds)
@@ -104,15 +111,16 @@ def _search(image, board, bounds, region, level) -> FoundBoard:
             refused.append(_refusal(str(exc), len(lattice.keys)))
             continue
         labelled.append((lattice, identity))
-        if bounds is not None:
-            break
+        floor = max(floor, SECOND_BOARD_FRACTION * strength)
     if not labelled:
         if refused:
             raise max(refused, key=lambda e: e.junctions_seen)
         raise _refusal(f"no checkerboard {where}: {int(cands.seed.sum())} junction-like points but no "
                        "grid of cross-junctions among them", 0)
     labelled.sort(key=lambda li: -len(li[0].keys))
-    if len(labelled) > 1 and len(labelled[1][0].keys) >= board.n // 2:
+    # Bounds say which board is meant (the largest labelled inside them); without, a second
+    # board of half the spec's junctions or more makes the image ambiguous.
+    if bounds is None and len(labelled) > 1 and len(labelled[1][0].keys) >= board.n // 2:
         a, b = (li[0].points.mean(axis=1) for li in labelled[:2])
         raise _refusal(f"two checkerboards in the image, around ({a[0]:.0f}, {a[1]:.0f}) and "
                        f"({b[0]:.0f}, {b[1]:.0f}) px; give bounds to say which one", board.n)
@@ -129,8 +137,6 @@ def _refusal(message: str, seen: int) -> BoardNotFoundError:
 
 
 def _found(lattice, identity, board) -> FoundBoard:
-    from .lattice import step_lengths
-
     nodes = lattice.as_dict()
     points = np.full((2, board.n), np.nan)
     step = np.full(board.n, np.nan)

@@ -23,10 +23,12 @@ handed, as the board seen from its front); each rotation whose extents and edges
 candidate labelling.
 
 Orientation (stated in ``docs/conventions.md`` too): junction 0's outer corner square is
-dark. A board whose pattern is unchanged by a half turn (``cols + rows`` even) or a
-quarter turn (square boards) cannot be oriented from the image alone, and its four corner
-squares share one colour, which is then not checked (a board printed with light corners
-is found as well). Labellings that differ only by such a symmetry are the same physical
+dark. A board whose pattern is unchanged by a half turn (``cols + rows`` even) or by a
+quarter turn (square boards with ``cols`` even) cannot be oriented from the image alone.
+When all four corner squares share one colour (``cols`` and ``rows`` both even) the
+colours are not checked at all (a board printed with light corners is found as well);
+otherwise only labellings that put a dark corner square at junction 0 are kept (on a
+square board with ``cols`` odd, that rules out the quarter turns). Labellings that differ only by such a symmetry are the same physical
 ambiguity: without bounds the one whose junction 0 lies nearest the image's upper-left
 corner is chosen and ``orientation_ambiguous`` is set; with bounds, the bounds' first
 vertex names junction 0's corner. Labellings that differ otherwise (a small corner of a
@@ -130,14 +132,17 @@ def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> 
     keys = lattice.keys
     lo, hi = keys.min(axis=0), keys.max(axis=0)
     extent = hi - lo + 1
-    symmetric = (board.cols + board.rows) % 2 == 0
+    # Junction 0's outer corner square is dark. When the four corner squares share one
+    # colour (cols and rows both even), colours cannot tell the corners apart and are not
+    # checked, so a board printed with light corners is found as well.
+    same_corners = board.cols % 2 == 0 and board.rows % 2 == 0
     found, reasons = [], []
     for M in ROTATIONS:
         fit = _fit_rotation(M, lo, hi, extent, sides, board)
         if isinstance(fit, tuple):
             reasons.append((M, *fit))
             continue
-        if not symmetric and not _colours_agree(M, fit, keys[0], dark_parity):
+        if not same_corners and not _colours_agree(M, fit, keys[0], dark_parity):
             reasons.append((M, "colour", None))
             continue
         found.append((M, fit))
@@ -240,7 +245,6 @@ def _side(cands, nodes, side, dark_parity, mid, contrast) -> str:
     expect = np.array(expect)
     outer = dark[:, 0] * expect
     square = np.floor(depths).astype(int)
-    band = square == 1
     if np.sum(np.isfinite(outer)) < 2 or np.nanmean(outer > ALTERNATES) < 0.75:
         return "unknown"
     # Square k beyond the outer one has the outer square's colour times (-1)^k; pairs of
@@ -280,10 +284,6 @@ def _grey(cands, points, step) -> np.ndarray:
     if step >= 24 * 2 ** (cands.level - 1):
         return sample(cands, points)
     return sample_fine(cands, points, reach=max(0.5, 0.08 * step))
-
-
-def _inside(P, height, width):
-    return (P[0] >= 0) & (P[1] >= 0) & (P[0] <= width - 1) & (P[1] <= height - 1)
 
 
 # ----------------------------------------------------------------------------- labelling

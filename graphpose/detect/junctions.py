@@ -33,8 +33,11 @@ from .refine import (
 _MIN_SIDE = 5
 
 #: A junction whose refined position is farther than this from the grid homography's
-#: prediction (fraction of the local square, or 1.5 px if more) is not trusted.
+#: prediction (fraction of the local square) is not trusted ...
 _GRID_TOLERANCE = 0.08
+#: ... nor one farther than five times the board's own spread about it, kept within these
+#: bounds (pixels): a trusted junction is never a pixel off the grid its board draws.
+_GATE_PX = (0.3, 1.0)
 
 #: A junction whose fit residual exceeds this multiple of the board's median is not trusted
 #: (the six real images stay within 0.85-1.14 of their medians).
@@ -57,7 +60,8 @@ class Junctions:
         True where the saddle fit converged to a saddle inside its window, the window lies
         inside the image, a ring around the point looks like a cross-junction, its fit
         residual is at most 1.5 times the board's median, and the point agrees with the
-        homography fitted to the trusted junctions (within 8 % of the square or 1.5 px).
+        homography fitted to the trusted junctions (within five times the board's own
+        spread, 0.3 to 1 px, and 8 % of the square).
         Untrusted points that were seen are still the best estimate available (refined, or
         predicted by the grid where refinement failed); a pose should use the trusted ones.
     residual : (n,) ndarray of float64
@@ -220,11 +224,17 @@ def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None) -> Ju
     # a partly covered or smudged junction fits worse.
     ok = ok & (residual <= _RESIDUAL_RATIO * np.median(residual[ok]))
     trusted = ok.copy()
-    limit = np.maximum(_GRID_TOLERANCE * square, 1.5)
-    for _ in range(3):
+    for _ in range(4):
         H = fit_homography(grid[:, trusted], flat[:, trusted])
         with np.errstate(invalid="ignore"):
-            agree = ok & (np.hypot(*(apply_homography(H, grid) - flat)) < limit)
+            off = np.hypot(*(apply_homography(H, grid) - flat))
+        # The board's own spread sets the gate: five of its sigmas (the median distance of
+        # a 2-D normal is 1.18 sigma), between 0.3 px and 1 px, and never a fraction of a
+        # small square more. A junction a sticker or a bar half covers is pulled further.
+        sigma = np.median(off[trusted]) / 1.18
+        limit = np.minimum(np.clip(5.0 * sigma, _GATE_PX[0], _GATE_PX[1]), np.maximum(_GRID_TOLERANCE * square, _GATE_PX[0]))
+        with np.errstate(invalid="ignore"):
+            agree = ok & (off < limit)
         if agree.sum() < need:
             raise BoardNotFoundError(
                 f"only {int(agree.sum())} of the {n_seen} junctions seen agree with a planar grid "

@@ -59,7 +59,7 @@ class Lattice:
         return {(int(i), int(j)): self.points[:, k] for k, (i, j) in enumerate(self.keys)}
 
 
-def grow_lattices(cands: Candidates, *, max_seeds: int = 40, max_nodes: int = 2000, min_nodes: int = 4):
+def grow_lattices(cands: Candidates, *, max_seeds: int = 60, max_nodes: int = 2000, min_nodes: int = 4):
     """Lattices grown from the strongest candidates, each from a seed no earlier lattice holds.
 
     Parameters
@@ -75,9 +75,11 @@ def grow_lattices(cands: Candidates, *, max_seeds: int = 40, max_nodes: int = 20
 
     Yields
     ------
-    Lattice or None
-        One item per seed tried, strongest seed first: the peeled (:func:`peel`) lattice,
-        or None where the seed grew none (so a caller can stop after some seeds).
+    strength : float
+        The seed's saddle response (seeds come strongest first).
+    lattice : Lattice or None
+        The peeled (:func:`peel`) lattice the seed grew, or None where it grew none (so a
+        caller can stop once the seeds grow weak).
     """
     if cands.points.shape[1] < 3:
         return
@@ -90,19 +92,20 @@ def grow_lattices(cands: Candidates, *, max_seeds: int = 40, max_nodes: int = 20
         if taken[k]:
             continue
         tried += 1
+        strength = float(cands.strength[k])
         cross = _seed_cross(cands, tree, k)
         if cross is None:
-            yield None
+            yield strength, None
             continue
         nodes, theta0 = cross
         nodes = peel(_grow(cands, tree, nodes, theta0, max_nodes))
         if len(nodes) < min_nodes:
-            yield None
+            yield strength, None
             continue
         keys = np.array(list(nodes), dtype=int)
         points = np.array(list(nodes.values())).T
         taken |= _within(cands.points, points, keys)
-        yield Lattice(keys, points, theta0)
+        yield strength, Lattice(keys, points, theta0)
 
 
 def _within(P: np.ndarray, points: np.ndarray, keys: np.ndarray) -> np.ndarray:

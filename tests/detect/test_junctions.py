@@ -326,7 +326,6 @@ def test_a_partly_covered_raw_image_keeps_its_labels_through_the_lens():
 
     from graphpose.image import read_image
     from graphpose.io.calibration import read_camera
-
     from tests.conftest import REPO
 
     folder = REPO.parent / "shared" / "data" / "opencv_samples"

@@ -35,6 +35,15 @@ def test_every_sample_is_found_whole_without_a_polygon(cameras, side):
         J = extract_junctions(read_image(FOLDER / f"{side}{k:02d}.jpg"), None, BOARD, camera=camera)
         assert J.trusted.all() and J.seen.all(), (side, k)
         assert not J.orientation_ambiguous  # 10 x 7 squares: the colours fix junction 0
+        # ... by the convention: junction 0's outer corner square is dark. Sampled a fifth of
+        # a square beyond junction 0 along both grid directions, reversed (this board's
+        # outer squares are cut to about half their width).
+        image = read_image(FOLDER / f"{side}{k:02d}.jpg")
+        p0, p1, p9 = J.points[:, 0], J.points[:, 1], J.points[:, BOARD.cols]
+        corner = p0 - 0.2 * (p1 - p0) - 0.2 * (p9 - p0)
+        light = J.points[:, [1, 2, BOARD.cols + 1, BOARD.cols + 2]].mean(axis=1)  # square (1, 0)
+        u, v = np.rint(np.column_stack([corner, light])).astype(int)
+        assert image[v[0], u[0]] < image[v[1], u[1]] - 0.3, (side, k)
 
 
 def test_junction_0_is_the_same_physical_corner_in_every_image(cameras):
