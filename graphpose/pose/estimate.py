@@ -2,14 +2,10 @@
 
 :func:`estimate_pose` runs the whole chain: cross-junctions (:mod:`graphpose.detect.junctions`), a
 start (the caller's guess, or the homography initialiser of :mod:`graphpose.pose.homography`),
-Gauss-Newton (:mod:`graphpose.pose.gauss_newton`) and the GTSAM factor graph
-(:mod:`graphpose.pose.graph`). The two solvers minimise the same cost, so their poses must
+Gauss-Newton (:mod:`graphpose.pose.gauss_newton`) and, from the same start, the GTSAM factor
+graph (:mod:`graphpose.pose.graph`). The two solvers minimise the same cost, so their poses must
 agree to :data:`AGREE_TRANSLATION_M` and :data:`AGREE_ROTATION_DEG`; the difference is
-always reported in :class:`CrossCheck`, and a larger one makes ``agree`` False. GTSAM starts
-from Gauss-Newton's answer when that converged (from the shared start otherwise): its own
-cost, gradient and Levenberg-Marquardt steps then confirm that answer is its minimum, or move
-off it (a pose 2e-6 m off the minimum is walked back, and the check fails), in one iteration
-instead of three (about 1 ms of the graph's 3-4 ms, same pose to 1e-12).
+always reported in :class:`CrossCheck`, and a larger one makes ``agree`` False.
 
 The camera is a :mod:`graphpose.cameras` object (or a pinhole ``K``): with lens distortion the
 junctions are found on the raw image and both solvers fit the raw pixels through the lens
@@ -104,8 +100,7 @@ class PoseEstimate:
     cross_check : CrossCheck
         Gauss-Newton against GTSAM.
     start_T_WC : (4, 4) ndarray
-        Where Gauss-Newton started (the guess, or the homography pose); GTSAM started from
-        Gauss-Newton's answer when that converged, from here otherwise.
+        Where both solvers started (the guess, or the homography pose).
     message : str
         "ok", or what went wrong.
     gn : GNResult
@@ -307,9 +302,7 @@ def _estimate(camera, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
     gn, start = _fit(camera, Ipts, Wpts, guess, mask, robust)
     pixel_sigma = gn.sigma_px if robust else None  # the robust fit's own sigma (fit_pose)
     huber_px = None if pixel_sigma is None else HUBER_K * pixel_sigma
-    # From GN's answer GTSAM needs one iteration, not three, to confirm (or leave) it.
-    graph_start = gn.T_WC if gn.converged else start
-    graph = graph_pose(camera, graph_start, Ipts, Wpts, mask=mask, pixel_sigma=pixel_sigma, robust=robust)
+    graph = graph_pose(camera, start, Ipts, Wpts, mask=mask, pixel_sigma=pixel_sigma, robust=robust)
     converged, message = gn.converged, "ok" if gn.converged else f"Gauss-Newton: {gn.message}"
     if guess is not None and gn.converged and on_target_plane(Wpts):
         converged, message = _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn)
@@ -391,7 +384,7 @@ def cross_check(gn: GNResult, graph: GraphResult) -> CrossCheck:
     gn : GNResult
         The Gauss-Newton solution.
     graph : GraphResult
-        The GTSAM solution (from the same start, or from the Gauss-Newton answer).
+        The GTSAM solution from the same start.
 
     Returns
     -------
