@@ -200,7 +200,8 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
     points = np.full((2, board.n), np.nan)
     ok = np.zeros(board.n, dtype=bool)
     residual = np.full(board.n, np.nan)
-    points[:, seen], ok[seen], residual[seen] = refine_points(image, found.points[:, seen], radius, smooth_sigma)
+    points[:, seen], ok[seen], residual[seen] = refine_points(image, found.points[:, seen], radius, smooth_sigma,
+                                                              lens=lens)
     return _judge(points, ok, residual * scale, square, grid, seen, found.orientation_ambiguous, lens)
 
 

@@ -21,7 +21,7 @@ from scipy import ndimage
 from .._checks import as_float_array, as_points, check_image, check_number
 from ..errors import InputError
 from ..image import as_grey
-from .saddle import fit_quadrics
+from .saddle import fit_quadrics, fit_quadrics_at
 
 #: Default refinement window radius, as a fraction of the local square side.
 WINDOW_FRACTION = 0.5
@@ -96,12 +96,17 @@ def grey_and_scale(I, min_side: int = 1):
 
 
 def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: float,
-            max_iter: int = 8, tol: float = 0.02):
+            max_iter: int = 8, tol: float = 0.02, lens=None):
     """Re-centred, gradient-weighted saddle fits: (points (2, m), trusted (m,), residual (m,)).
 
     Each round refits only the junctions still moving; a junction that drifts off its
-    patch's centre gets a new patch.
+    patch's centre gets a new patch. With a distorting ``lens`` (a camera of
+    :mod:`graphpose.cameras`) the fit places each raw pixel where the lens undistorts it
+    (:func:`graphpose.detect.saddle.fit_quadrics_at`): the board's edges, curved in the raw
+    image, are straight there, as the saddle model assumes, and no pixel is resampled.
     """
+    if lens is not None:
+        return _refine_through(lens, image, points, radius, sigma, max_iter, tol)
     m = points.shape[1]
     current = points.astype(float).copy()
     slack = 2
@@ -132,6 +137,93 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
     residual[~fitted] = np.nan
     crosses = _looks_like_cross(patches, current - base + half, 0.6 * radius)
     return current, (state == 1) & inside & crosses, residual
+
+
+def _refine_through(lens, image, points, radius, sigma, max_iter, tol):
+    """:func:`refine_points` with the saddle fitted in undistorted pixel coordinates."""
+    m = points.shape[1]
+    current = points.astype(float).copy()
+    slack = 2
+    half = int(np.ceil(radius.max())) + slack
+    offs = np.arange(-half, half + 1, dtype=float)
+    base = np.rint(current).astype(int)
+    patches, grad2, inside = _patches(image, base, half, sigma, radius)
+    flat, V = _undistorted_grid(lens, base, offs)
+    # The window (radius at most radius.max(), about an estimate within the slack of the
+    # patch's centre) stays inside this disc of the patch's pixels.
+    disc = (offs[:, None] ** 2 + offs[None, :] ** 2) <= (radius.max() + slack + 1.0) ** 2
+    residual = np.full(m, np.nan)
+    state = np.zeros(m, dtype=int)  # 0 moving, 1 converged, 2 failed
+    for _ in range(max_iter):
+        act = np.flatnonzero(state == 0)
+        if act.size == 0:
+            break
+        drift = act[np.any(np.abs(current[:, act] - base[:, act]) > slack - 0.5, axis=0)]
+        if drift.size:
+            base[:, drift] = np.rint(current[:, drift])
+            fresh = _patches(image, base[:, drift], half, sigma, radius[drift])
+            patches[drift], grad2[drift], inside[drift] = fresh
+            flat[drift], V[:, drift] = _undistorted_grid(lens, base[:, drift], offs)
+        centre = _undistort_in_patch(V[:, act], half, current[:, act] - base[:, act])  # (2, a)
+        # Only the pixels of the disc the window can reach enter the fit.
+        x = flat[act, 0][:, disc] - centre[0][:, None]
+        y = flat[act, 1][:, disc] - centre[1][:, None]
+        # The window of refine_points, about the estimate, in undistorted pixels.
+        r2 = x * x + y * y
+        taper = np.maximum(1.0 - r2 / (radius[act] ** 2)[:, None], 0.0)
+        weights = taper * taper * grad2[act][:, disc] / np.maximum(r2, 1.0)
+        weights = np.where(np.isfinite(x) & np.isfinite(y), weights, 0.0)
+        x, y = np.nan_to_num(x), np.nan_to_num(y)
+        pts, saddle, residual[act] = fit_quadrics_at(patches[act][:, disc], weights, x, y)
+        within = np.hypot(*pts) < half
+        new = lens.distort_pixels(np.where(np.isfinite(pts), centre + pts, centre))
+        step = np.hypot(*(new - current[:, act]))
+        ok = saddle & within & np.isfinite(step) & (step < radius[act])
+        current[:, act[ok]] = new[:, ok]
+        state[act[~ok]] = 2
+        state[act[ok & (step < tol)]] = 1
+    residual[state == 2] = np.nan
+    crosses = _looks_like_cross(patches, current - base + half, 0.6 * radius)
+    return current, (state == 1) & inside & crosses, residual
+
+
+def _undistorted_grid(lens, base, offs):
+    """Undistorted pixel positions (m, 2, k, k) of the patch pixels around ``base`` (2, m),
+    and the lens's undistorted values (2, m, 5, 5) at the nodes they are interpolated from.
+
+    The lens is undistorted (an iterative inversion) at a 5 x 5 grid of nodes across each
+    patch only, and interpolated between them by the polynomial through those nodes (degree
+    four in each direction): over a patch of a few tens of pixels a lens's map is smooth,
+    and this keeps the interpolation within a thousandth of a pixel of the inversion even
+    at a wide-angle lens's corners, at a fortieth of its cost.
+    """
+    h = float(offs[-1])
+    nodes = np.linspace(-h, h, 5)
+    m, n = base.shape[1], nodes.size
+    u = base[0][:, None, None] + nodes[None, None, :] + np.zeros((1, n, 1))
+    v = base[1][:, None, None] + nodes[None, :, None] + np.zeros((1, 1, n))
+    V = lens.undistort_pixels(np.vstack([u.ravel(), v.ravel()])).reshape(2, m, n, n)
+    L = _lagrange(nodes, offs)
+    # V[:, m, a, b]: a indexes the row offset (v), b the column offset (u).
+    return (L.T @ (V @ L)).transpose(1, 0, 2, 3), V
+
+
+def _lagrange(nodes, t) -> np.ndarray:
+    """Lagrange basis (n, len(t)) of ``nodes`` at the points ``t``."""
+    L = np.ones((nodes.size, np.size(t)))
+    for a in range(nodes.size):
+        for b in range(nodes.size):
+            if a != b:
+                L[a] *= (t - nodes[b]) / (nodes[a] - nodes[b])
+    return L
+
+
+def _undistort_in_patch(V, half, offset) -> np.ndarray:
+    """Undistorted positions (2, a) of points at ``offset`` (2, a) from their patch bases,
+    by each patch's node values ``V`` (2, a, 5, 5) (see :func:`_undistorted_grid`)."""
+    nodes = np.linspace(-half, half, 5)
+    Lu, Lv = _lagrange(nodes, offset[0]), _lagrange(nodes, offset[1])  # (5, a)
+    return np.einsum("cmab,am,bm->cm", V, Lv, Lu)
 
 
 def _patches(image, base, half, sigma, radius):

@@ -155,6 +155,54 @@ def fit_quadrics(P: np.ndarray, weights):
     return points, saddle, inside, _uncentre(coeffs, (w - 1) / 2.0, (h - 1) / 2.0), rms
 
 
+def fit_quadrics_at(P: np.ndarray, weights: np.ndarray, x: np.ndarray, y: np.ndarray):
+    """Weighted saddle fit with every pixel at its own position, for trusted callers.
+
+    :func:`fit_quadrics` places the pixels on their grid; here pixel ``k`` of patch ``i``
+    sits at ``(x[i, k], y[i, k])``, for instance where a lens model undistorts it, so that
+    the board's edges are straight lines and the hyperbolic paraboloid of Lucchese & Mitra
+    fits them. The grey values are the patch's own: nothing is resampled.
+
+    Parameters
+    ----------
+    P, weights : (m, h, w) ndarray
+        Patches and non-negative weights.
+    x, y : (m, h, w) ndarray
+        Each pixel's position, in coordinates centred near the junction (pixels).
+
+    Returns
+    -------
+    points : (2, m) ndarray
+        Stationary points in the same coordinates; NaN where there is none.
+    saddle : (m,) ndarray of bool
+        The quadric is a saddle (beyond rounding noise).
+    rms : (m,) ndarray
+        Weighted RMS residual.
+    """
+    m = P.shape[0]
+    v = P.reshape(m, -1)
+    X, Y, W = x.reshape(m, -1), y.reshape(m, -1), weights.reshape(m, -1)
+    A = np.stack([X * X, X * Y, Y * Y, X, Y, np.ones_like(X)], axis=2)  # (m, n, 6)
+    AWt = (A * W[:, :, None]).transpose(0, 2, 1)  # batched products: BLAS, not einsum loops
+    N = AWt @ A
+    rhs = (AWt @ v[:, :, None])[:, :, 0]
+    N += np.eye(6) * (1e-12 * np.trace(N, axis1=1, axis2=2)[:, None, None] + 1e-300)
+    c = np.linalg.solve(N, rhs[:, :, None])[:, :, 0]
+    rss = np.maximum(np.sum(W * v * v, axis=1) - np.sum(c * rhs, axis=1), 0.0)
+    rms = np.sqrt(rss / np.maximum(W.sum(axis=1), 1e-300))
+    a, b, g, d, e = c[:, :5].T
+    det = 4.0 * a * g - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        px = (-2.0 * g * d + b * e) / det
+        py = (b * d - 2.0 * a * e) / det
+    span = np.ptp(v, axis=1)
+    size = max(float(np.nanmax(np.abs(X))), 1.0)
+    floor = np.where(span > 1e-12, (1e-6 * span / size ** 2) ** 2, np.inf)
+    finite = np.isfinite(px) & np.isfinite(py) & (det != 0)
+    points = np.vstack([np.where(finite, px, np.nan), np.where(finite, py, np.nan)])
+    return points, finite & (-det > floor), rms
+
+
 def _weighted(h: int, w: int, W: np.ndarray, y: np.ndarray):
     """Per-patch weighted least squares through batched 6 x 6 normal equations.
 
