@@ -237,9 +237,11 @@ def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None) -> Ju
         with np.errstate(invalid="ignore"):
             agree = ok & (off < limit)
         if agree.sum() < need:
+            hint = "" if lens is not None else (
+                "; a raw image through a lens with distortion does not: give the camera's calibration")
             raise BoardNotFoundError(
                 f"only {int(agree.sum())} of the {n_seen} junctions seen agree with a planar grid "
-                f"(need {need})")
+                f"(need {need}){hint}")
         if np.array_equal(agree, trusted):
             break
         trusted = agree

@@ -504,10 +504,16 @@ def test_case_file_with_a_camera_file_or_object_and_no_bounds(tmp_path, capsys):
         records.append(json.loads((tmp_path / "out.json").read_text()))
     for a, b in zip(*records):
         assert a["status"] == b["status"] == "ok" and a["T_WC"] == b["T_WC"]
-    # The command line's --K overrides the file's camera (and refuses --camera beside it).
-    assert main(["estimate", "--cases", str(path), "--K", "536.8,536.5,326.3,250.1", "--json", "-"]) == 0
+    # The command line's --K overrides the file's camera (and refuses --camera beside it):
+    # without the lens model these raw images' junctions lie up to pixels off any planar
+    # grid: a pose, where enough of them pass, fits several times worse, and where too few
+    # pass the image is refused with the likely reason.
+    assert main(["estimate", "--cases", str(path), "--K", "536.8,536.5,326.3,250.1", "--json", "-"]) == 1
     pinhole = json.loads(capsys.readouterr().out)
-    assert pinhole[0]["reprojection_rms_px"] > 3 * records[0][0]["reprojection_rms_px"]
+    for r, lens in zip(pinhole, records[0]):
+        assert (r["status"] == "ok" and r["reprojection_rms_px"] > 3 * lens["reprojection_rms_px"]) or \
+            (r["status"] == "failed" and "give the camera's calibration" in r["message"]), r
+    assert {r["status"] for r in pinhole} == {"ok", "failed"}
 
 
 NAN_YML = ("%YAML:1.0\n---\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
