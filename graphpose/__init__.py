@@ -52,6 +52,7 @@ _EXPORTS = {
     "read_image": "image",
     "load_cases": "io.cases",
     "bundled_cases": "io.cases",
+    "estimate_many": "batch",
     "SaddleFit": "detect.saddle",
     "fit_saddles": "detect.saddle",
     "saddle_point": "detect.saddle",
