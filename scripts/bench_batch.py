@@ -206,9 +206,13 @@ def section(f: dict) -> dict:
     ]
     table = markdown(f).split("\n")
     rows = [line.strip("|").split(" | ") for line in table if line.startswith("| ") and not line.startswith("| figure")]
+    bounds = paper(f).split("\n")
     blocks = [{"title": None, "text": table[0], "values": {}, "columns": None, "formats": None, "rows": None},
               {"title": "Measured", "text": None, "values": {}, "columns": ["figure", "value"], "formats": ["", ""],
-               "rows": [[a.strip(), b.strip()] for a, b in rows]}]
+               "rows": [[a.strip(), b.strip()] for a, b in rows]},
+              {"title": "On paper (docs/batch.md): the bounds these figures give", "text": bounds[0], "values": {},
+               "columns": [c.strip() for c in bounds[2].strip("|").split("|")], "formats": None,
+               "rows": [[c.strip() for c in line.strip("|").split("|")] for line in bounds[4:] if line.startswith("|")]}]
     goal = "graphpose batch on a local Dask cluster: images per second with 1 and 2 workers, and the cost per task."
     return {"goal": goal, "figures": figures, "blocks": blocks}
 
