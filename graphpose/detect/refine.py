@@ -33,7 +33,7 @@ SMOOTH_SIGMA = 0.5
 MAX_RADIUS = 12.0
 
 
-def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGMA):
+def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGMA, camera=None):
     """Refine predicted junction positions with the re-centred saddle fit.
 
     The same refinement :func:`extract_junctions` applies after finding the grid; the tracker
@@ -51,6 +51,9 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
         other edge of the board enters the window.
     smooth_sigma : float
         Gaussian smoothing of the patches, pixels (>= 0).
+    camera : Camera or (3, 3) array_like, optional
+        The camera when the image is raw, with lens distortion: the saddle is then fitted
+        with each pixel where the lens undistorts it (as :func:`extract_junctions` does).
 
     Returns
     -------
@@ -79,7 +82,13 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
                          f"got {radius!r}")
     radius = np.broadcast_to(radius, P.shape[1:]).astype(float)
     smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
-    points, trusted, residual = refine_points(image, P, radius, smooth_sigma)
+    lens = None
+    if camera is not None:
+        from ..cameras import as_camera
+
+        lens = as_camera(camera)
+        lens = lens if np.any(lens.distortion) else None
+    points, trusted, residual = refine_points(image, P, radius, smooth_sigma, lens=lens)
     return points, trusted, residual * scale
 
 

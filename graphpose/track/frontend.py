@@ -204,7 +204,7 @@ class FrontEnd:
         ids = np.flatnonzero(inside)
         if ids.size < cfg.min_junctions:
             return None, f"only {ids.size} predicted junctions in the image"
-        points, trusted, _ = refine_junctions(image, uv[:, ids], radius[ids])
+        points, trusted, _ = refine_junctions(image, uv[:, ids], radius[ids], camera=self.camera)
         keep = trusted & (np.hypot(*(points - uv[:, ids])) < cfg.gate_px)
         if np.count_nonzero(keep) < cfg.min_junctions:
             return None, (f"only {np.count_nonzero(keep)} of {ids.size} junctions refined within "
