@@ -114,8 +114,6 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
     (:func:`graphpose.detect.saddle.fit_quadrics_at`): the board's edges, curved in the raw
     image, are straight there, as the saddle model assumes, and no pixel is resampled.
     """
-    if lens is not None:
-        return _refine_through(lens, image, points, radius, sigma, max_iter, tol)
     m = points.shape[1]
     current = points.astype(float).copy()
     slack = 2
@@ -123,6 +121,11 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
     offs = np.arange(-half, half + 1, dtype=float)
     base = np.rint(current).astype(int)
     patches, grad2, inside = _patches(image, base, half, sigma, radius)
+    if lens is not None:
+        flat, V = _undistorted_grid(lens, base, offs)
+        # The window (radius at most radius.max(), about an estimate within the slack of
+        # the patch's centre) stays inside this disc of the patch's pixels.
+        disc = (offs[:, None] ** 2 + offs[None, :] ** 2) <= (radius.max() + slack + 1.0) ** 2
     residual = np.full(m, np.nan)
     state = np.zeros(m, dtype=int)  # 0 moving, 1 converged, 2 failed
     for _ in range(max_iter):
@@ -134,11 +137,18 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
             base[:, drift] = np.rint(current[:, drift])
             fresh = _patches(image, base[:, drift], half, sigma, radius[drift])
             patches[drift], grad2[drift], inside[drift] = fresh
-        weights = _weights(offs, current[:, act] - base[:, act], radius[act], grad2[act])
-        pts, saddle, within, _, residual[act] = fit_quadrics(patches[act], weights)
-        new = base[:, act] + pts - half
+            if lens is not None:
+                flat[drift], V[:, drift] = _undistorted_grid(lens, base[:, drift], offs)
+        if lens is None:
+            weights = _weights(offs, current[:, act] - base[:, act], radius[act], grad2[act])
+            pts, saddle, within, _, residual[act] = fit_quadrics(patches[act], weights)
+            new, fitted = base[:, act] + pts - half, saddle & within
+        else:
+            new, fitted, residual[act] = _fit_through(lens, flat[act][:, :, disc], V[:, act], half,
+                                                      current[:, act] - base[:, act], patches[act][:, disc],
+                                                      grad2[act][:, disc], radius[act])
         step = np.hypot(*(new - current[:, act]))
-        ok = saddle & within & (step < radius[act])
+        ok = fitted & np.isfinite(step) & (step < radius[act])
         current[:, act[ok]] = new[:, ok]
         state[act[~ok]] = 2
         state[act[ok & (step < tol)]] = 1
@@ -148,52 +158,27 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
     return current, (state == 1) & inside & crosses, residual
 
 
-def _refine_through(lens, image, points, radius, sigma, max_iter, tol):
-    """:func:`refine_points` with the saddle fitted in undistorted pixel coordinates."""
-    m = points.shape[1]
-    current = points.astype(float).copy()
-    slack = 2
-    half = int(np.ceil(radius.max())) + slack
-    offs = np.arange(-half, half + 1, dtype=float)
-    base = np.rint(current).astype(int)
-    patches, grad2, inside = _patches(image, base, half, sigma, radius)
-    flat, V = _undistorted_grid(lens, base, offs)
-    # The window (radius at most radius.max(), about an estimate within the slack of the
-    # patch's centre) stays inside this disc of the patch's pixels.
-    disc = (offs[:, None] ** 2 + offs[None, :] ** 2) <= (radius.max() + slack + 1.0) ** 2
-    residual = np.full(m, np.nan)
-    state = np.zeros(m, dtype=int)  # 0 moving, 1 converged, 2 failed
-    for _ in range(max_iter):
-        act = np.flatnonzero(state == 0)
-        if act.size == 0:
-            break
-        drift = act[np.any(np.abs(current[:, act] - base[:, act]) > slack - 0.5, axis=0)]
-        if drift.size:
-            base[:, drift] = np.rint(current[:, drift])
-            fresh = _patches(image, base[:, drift], half, sigma, radius[drift])
-            patches[drift], grad2[drift], inside[drift] = fresh
-            flat[drift], V[:, drift] = _undistorted_grid(lens, base[:, drift], offs)
-        centre = _undistort_in_patch(V[:, act], half, current[:, act] - base[:, act])  # (2, a)
-        # Only the pixels of the disc the window can reach enter the fit.
-        x = flat[act, 0][:, disc] - centre[0][:, None]
-        y = flat[act, 1][:, disc] - centre[1][:, None]
-        # The window of refine_points, about the estimate, in undistorted pixels.
-        r2 = x * x + y * y
-        taper = np.maximum(1.0 - r2 / (radius[act] ** 2)[:, None], 0.0)
-        weights = taper * taper * grad2[act][:, disc] / np.maximum(r2, 1.0)
-        weights = np.where(np.isfinite(x) & np.isfinite(y), weights, 0.0)
-        x, y = np.nan_to_num(x), np.nan_to_num(y)
-        pts, saddle, residual[act] = fit_quadrics_at(patches[act][:, disc], weights, x, y)
-        within = np.hypot(*pts) < half
-        new = lens.distort_pixels(np.where(np.isfinite(pts), centre + pts, centre))
-        step = np.hypot(*(new - current[:, act]))
-        ok = saddle & within & np.isfinite(step) & (step < radius[act])
-        current[:, act[ok]] = new[:, ok]
-        state[act[~ok]] = 2
-        state[act[ok & (step < tol)]] = 1
-    residual[state == 2] = np.nan
-    crosses = _looks_like_cross(patches, current - base + half, 0.6 * radius)
-    return current, (state == 1) & inside & crosses, residual
+def _fit_through(lens, flat, V, half, offset, patches, grad2, radius):
+    """One round of saddle fits in undistorted pixel coordinates, for :func:`refine_points`.
+
+    ``flat`` (a, 2, n) holds the undistorted positions of the patches' pixels (those of the
+    disc the window can reach), ``V`` the lens's node values they were interpolated from,
+    ``offset`` (2, a) the current raw estimates less the patches' bases. Returns the new raw
+    estimates (2, a), whether each fit is a saddle within its patch, and the residuals.
+    """
+    centre = _undistort_in_patch(V, half, offset)  # (2, a)
+    x = flat[:, 0] - centre[0][:, None]
+    y = flat[:, 1] - centre[1][:, None]
+    # The window of refine_points, about the estimate, in undistorted pixels.
+    r2 = x * x + y * y
+    taper = np.maximum(1.0 - r2 / (radius ** 2)[:, None], 0.0)
+    weights = taper * taper * grad2 / np.maximum(r2, 1.0)
+    weights = np.where(np.isfinite(x) & np.isfinite(y), weights, 0.0)
+    x, y = np.nan_to_num(x), np.nan_to_num(y)
+    pts, saddle, residual = fit_quadrics_at(patches, weights, x, y)
+    within = np.hypot(*pts) < half
+    new = lens.distort_pixels(np.where(np.isfinite(pts), centre + pts, centre))
+    return new, saddle & within, residual
 
 
 def _undistorted_grid(lens, base, offs):
