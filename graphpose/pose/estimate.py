@@ -26,12 +26,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._checks import check_board, check_transform
+from .._checks import check_board, check_observations, check_transform
 from ..board import Board
 from ..camera import to_camera
 from ..cameras import as_camera
 from ..errors import BoardNotFoundError, InputError
-from .gauss_newton import GNResult, check_observations, gauss_newton, reprojection_cost
+from .gauss_newton import GNResult, gauss_newton, reprojection_cost
 from .graph import HUBER_K, GraphResult, graph_pose
 from .homography import on_target_plane, pose_from_homography
 

@@ -39,9 +39,8 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, X
 
-from .._checks import check_in_front, check_number, check_transform
+from .._checks import check_in_front, check_number, check_observations, check_transform
 from ..camera import params_from_T, to_camera
-from .gauss_newton import check_observations
 
 #: Standard deviation (metres) of the prior that pins each target point: far below anything
 #: the pixels can resolve (about 1e-6 px at 1 m), yet finite so the marginals exist.
@@ -165,7 +164,7 @@ def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robu
     Raises
     ------
     InputError
-        On malformed input (see :func:`graphpose.pose.gauss_newton.check_observations`), a
+        On malformed input (see :func:`graphpose._checks.check_observations`), a
         non-positive ``pixel_sigma`` or ``huber_k``, or a used point behind the camera at the
         guess.
     """

@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._checks import check_observations
 from ..errors import InputError
-from .gauss_newton import check_observations
 
 #: Target points farther than this (metres, relative to the board's extent) from z = 0 are refused.
 _PLANE_TOL = 1e-6
