@@ -43,6 +43,7 @@ import numpy as np
 
 from ..board import Board
 from ..errors import BoardNotFoundError
+from .grid import fit_homography
 from .lattice import Lattice, step_lengths
 from .search import Candidates, sample, sample_fine
 
@@ -148,7 +149,7 @@ def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> 
         found.append((M, fit))
     if not found:
         raise BoardNotFoundError(_refusal(reasons, extent, board, sides))
-    H = _lattice_homography(keys, lattice.points)
+    H = fit_homography(keys.T.astype(float), lattice.points)
     if bounds is not None:
         M, t = min(found, key=lambda f: _bounds_mismatch(f, H, board, bounds))
         _check_bounds_order((M, t), H, board, bounds)
@@ -329,12 +330,6 @@ def _symmetric_pair(a, b, board) -> bool:
     cr = np.vstack([c.ravel(), r.ravel()])
     mapped = Mb @ (Ma.T @ (cr - ta[:, None])) + tb[:, None]  # board -> lattice (a) -> board (b)
     return bool(np.all((mapped[0] >= 0) & (mapped[0] < board.cols) & (mapped[1] >= 0) & (mapped[1] < board.rows)))
-
-
-def _lattice_homography(keys, points):
-    from ..pose.homography import homography_dlt
-
-    return homography_dlt(keys.T.astype(float), points)
 
 
 def _corners_in_image(fit, H, board):

@@ -22,7 +22,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
+from skimage.measure import points_in_poly
 
+from ..errors import BoardNotFoundError
+from .grid import fit_homography
 from .search import Candidates, ring_test
 
 _STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
@@ -112,16 +115,11 @@ def _within(P: np.ndarray, points: np.ndarray, keys: np.ndarray) -> np.ndarray:
     """Candidates (2, N) inside the lattice's key box grown by 1.5 steps, mapped to the image
     by a homography fitted to the nodes (its own board: its junctions, corners and margin
     are no seeds of another lattice)."""
-    from skimage.measure import points_in_poly
-
-    from ..errors import InputError
-    from ..pose.homography import homography_dlt
-
     lo, hi = keys.min(axis=0) - 1.5, keys.max(axis=0) + 1.5
     box = np.array([[lo[0], hi[0], hi[0], lo[0]], [lo[1], lo[1], hi[1], hi[1]]])
     try:
-        H = homography_dlt(keys.T.astype(float), points)
-    except InputError:  # collinear nodes fix no homography and hold no area
+        H = fit_homography(keys.T.astype(float), points)
+    except BoardNotFoundError:  # collinear nodes fix no homography and hold no area
         return np.zeros(P.shape[1], dtype=bool)
     q = H @ np.vstack([box, np.ones(4)])
     if not (np.all(q[2] > 0) or np.all(q[2] < 0)):  # the box crosses the horizon
