@@ -1,4 +1,4 @@
-"""Images in: reading files and converting arrays to the grey float images the detector reads.
+"""Images in: reading files and converting arrays to the grey images the detector reads.
 
 Pixel conventions are in :mod:`graphpose.camera`.
 """
@@ -51,23 +51,67 @@ def as_grey(image, *, min_side: int = 1) -> np.ndarray:
     return I @ _LUMA if I.ndim == 3 else I
 
 
-def read_image(path) -> np.ndarray:
-    """Read an image file as float64 grey in [0, 1], shape (H, W).
+#: Pillow modes read straight to 8-bit grey by the decoder (``as_float=False``).
+_EIGHT_BIT_MODES = {"L", "P", "RGB", "RGBA", "LA", "CMYK", "YCbCr", "1"}
+
+
+def read_image(path, *, as_float: bool = True) -> np.ndarray:
+    """Read an image file as grey, shape (H, W).
+
+    The pixels are the sensor's: no EXIF rotation is applied (a calibration describes the
+    sensor's own rows and columns; an image turned by its EXIF tag would not match it).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Any format scikit-image / imageio reads (PNG, JPEG, TIFF, BMP, ...).
+    as_float : bool
+        True (default): float64 grey in [0, 1], as :func:`as_grey` makes it. False: an
+        8-bit file (grey, palette or colour) comes as uint8 grey, converted by the decoder
+        itself (ITU-R 601 luma in integers; a JPEG is decoded straight to its luma plane),
+        which the detector reads as it is: 1/8 of the memory of float64 and no conversion
+        pass over the image. Other files (16-bit, float) come as float64 as with True.
+
+    Returns
+    -------
+    grey : (H, W) ndarray of float64, or of uint8 when ``as_float`` is False and the file
+        holds 8-bit pixels.
 
     Raises
     ------
     InputError
         If the file is missing, is a folder, or cannot be decoded as an image.
     """
-    from skimage import io as skio
-
     path = Path(path)
     if path.is_dir():
         raise InputError(f"{path} is a folder, not an image file")
     if not path.is_file():
         raise InputError(f"image file not found: {path}")
+    if not as_float:
+        grey = _read_eight_bit(path)
+        if grey is not None:
+            return check_image(grey, colour=False)
+    from skimage import io as skio
+
     try:
         data = skio.imread(str(path))
     except Exception as exc:  # decoders raise many types; all mean "not an image"
         raise InputError(f"cannot read image {path}: {exc}") from None
     return as_grey(data)
+
+
+def _read_eight_bit(path: Path):
+    """The file as uint8 grey through Pillow's decoder, or None when it is not 8-bit (or
+    Pillow cannot open it: the general reader then says why)."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as im:
+            if im.mode not in _EIGHT_BIT_MODES:
+                return None
+            if im.format == "JPEG":
+                im.draft("L", im.size)  # decode the luma plane only, at full size
+            grey = np.asarray(im if im.mode == "L" else im.convert("L"))
+    except (UnidentifiedImageError, OSError, ValueError, SyntaxError):
+        return None
+    return grey

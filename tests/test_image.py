@@ -69,3 +69,49 @@ def test_read_image_of_a_folder_says_it_is_a_folder(tmp_path):
     with pytest.raises(InputError) as info:
         read_image(tmp_path)
     assert str(info.value) == f"{tmp_path} is a folder, not an image file"
+
+
+def test_read_image_as_uint8_keeps_8_bit_grey_exactly(tmp_path):
+    path = tmp_path / "a.png"
+    pixels = np.random.default_rng(0).integers(0, 256, (7, 9), dtype=np.uint8)
+    path.write_bytes(encode_png(pixels))
+    grey = read_image(path, as_float=False)
+    assert grey.dtype == np.uint8
+    np.testing.assert_array_equal(grey, pixels)
+    np.testing.assert_allclose(read_image(path), pixels / 255.0)
+
+
+@pytest.mark.parametrize("suffix, tolerance", [(".png", 1), (".jpg", 12)])
+def test_read_image_as_uint8_converts_colour_to_luma(tmp_path, suffix, tolerance):
+    from PIL import Image
+
+    rgb = np.zeros((16, 16, 3), np.uint8)
+    rgb[:, :8] = (200, 30, 90)
+    rgb[:, 8:] = (10, 240, 60)
+    path = tmp_path / f"a{suffix}"
+    Image.fromarray(rgb).save(path, quality=95)
+    grey = read_image(path, as_float=False)
+    assert grey.dtype == np.uint8 and grey.shape == (16, 16)
+    # Integer luma in the decoder against the float path's (JPEG: its own luma plane).
+    assert np.abs(grey.astype(float) - 255 * read_image(path)).max() <= tolerance
+
+
+def test_read_image_as_uint8_reads_16_bit_files_as_float(tmp_path):
+    from PIL import Image
+
+    path = tmp_path / "deep.png"
+    Image.fromarray(np.array([[0, 65535], [13107, 26214]], np.uint16)).save(path)
+    grey = read_image(path, as_float=False)
+    assert grey.dtype == np.float64
+    np.testing.assert_allclose(grey, [[0.0, 1.0], [0.2, 0.4]])
+
+
+def test_read_image_as_uint8_errors_as_the_float_path(tmp_path):
+    junk = tmp_path / "junk.png"
+    junk.write_bytes(b"not a png")
+    with pytest.raises(InputError, match="cannot read"):
+        read_image(junk, as_float=False)
+    truncated = tmp_path / "cut.png"
+    truncated.write_bytes(encode_png(np.zeros((64, 64), np.uint8))[:60])
+    with pytest.raises(InputError, match="cannot read"):
+        read_image(truncated, as_float=False)

@@ -73,7 +73,7 @@ def estimate_images(items, K, board: Board = Board(), robust: bool = False) -> l
                 status, message = MISSING, f"image file not found: {path}"
             else:
                 try:
-                    image = read_image(path)
+                    image = read_image(path, as_float=False)
                 except GraphposeError as exc:
                     status, message = UNREADABLE, _one_line(exc)
                 else:

@@ -141,7 +141,7 @@ def _run_one(job, camera, board, robust, overlay, report, progress):
     """
     estimate, error, code = None, None, EXIT_OK
     try:
-        image = read_image(job.path)
+        image = read_image(job.path, as_float=False)  # 8-bit stays uint8: the detector reads it as it is
         check_image_size(camera, image.shape, str(job.path))
         estimate = estimate_pose(image, job.bounds, camera, board, guess=job.guess, robust=robust)
         # An unreliable pose is drawn too: the picture shows why.
