@@ -175,6 +175,30 @@ def test_solvers_minimising_different_robust_costs_disagree(monkeypatch):
     assert "Gauss-Newton and GTSAM disagree" in est.message
 
 
+def test_gtsam_started_at_a_wrong_gauss_newton_answer_moves_off_it(monkeypatch):
+    # GTSAM starts where Gauss-Newton ended. A Gauss-Newton that claims convergence 1 mm and
+    # 0.01 deg away from the minimum (as a wrong Jacobian would leave it) must still fail
+    # the cross-check: GTSAM descends its own cost away from that answer.
+    import dataclasses
+
+    from graphpose.pose import estimate as pipeline
+
+    def off(*args, **kwargs):
+        gn = pipeline.gauss_newton(*args, **kwargs)
+        T = T_from_params(gn.params + [1e-3, 0, 0, 0, 0, 1.7e-4])
+        return dataclasses.replace(gn, T_WC=T, params=params_from_T(T))
+
+    monkeypatch.setattr(pipeline, "_fit", lambda camera, I, W, guess, mask, robust: (
+        off(camera, pipeline.pose_from_homography(camera, I[:, mask], W[:, mask]), I, W, mask=mask),
+        np.eye(4)))
+    T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
+    rng = np.random.default_rng(2)
+    est = estimate_pose_from_points(K, project(K, T, WPTS) + rng.normal(0, 0.2, (2, 48)), WPTS)
+    assert est.gn.converged and est.graph.converged
+    assert not est.ok and "Gauss-Newton and GTSAM disagree" in est.message
+    assert est.cross_check.translation_m == pytest.approx(1e-3, rel=0.05)
+
+
 def test_a_robust_polish_cut_short_is_not_converged(monkeypatch):
     # GTSAM reports not converged when its polish does not reach its threshold, and the
     # estimate fails its cross-check rather than passing on GN's word alone.
