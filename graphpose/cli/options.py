@@ -3,8 +3,9 @@
 Each parser turns one argument string into a checked value or raises
 ``argparse.ArgumentTypeError`` with what was expected and what came; :func:`add_target_options`
 declares ``--K`` and ``--board`` once, with the project's defaults named in ``--help``, and
-:func:`add_camera_option` ``--camera FILE`` (a calibration file with the lens model) for the
-subcommands that work on raw images.
+:func:`add_camera_option` ``--camera FILE`` (a calibration file with the lens model) and
+``--camera-name NAME`` (which camera of a Kalibr camchain) for the subcommands that work on raw
+images.
 """
 
 from __future__ import annotations
@@ -50,12 +51,17 @@ def target_from_args(args, K=None, board=None):
 
 
 def add_camera_option(parser: argparse.ArgumentParser, file_note: str = "") -> None:
-    """Add ``--camera FILE`` to ``parser`` (which has :func:`add_target_options`' ``--K``):
-    the camera with its lens model, from a calibration file; :func:`camera_from_args` reads it."""
+    """Add ``--camera FILE`` and ``--camera-name NAME`` to ``parser`` (which has
+    :func:`add_target_options`' ``--K``): the camera with its lens model, from a calibration file,
+    and which camera of a Kalibr camchain it is; :func:`camera_from_args` reads them."""
     note = f"; {file_note}" if file_note else ""
     parser.add_argument("--camera", type=Path, metavar="FILE",
                         help="the camera with its lens distortion, from a calibration file (OpenCV YAML/XML, "
-                        f"ROS camera_info, Kalibr camchain cam0, graphpose JSON): images are raw; not with --K{note}")
+                        "ROS camera_info, Kalibr camchain (cam0 unless --camera-name), graphpose JSON): images "
+                        f"are raw; not with --K{note}")
+    parser.add_argument("--camera-name", metavar="NAME",
+                        help="with --camera: the camera of a Kalibr camchain that holds several (cam0, cam1, ...; "
+                        "default cam0); for a ROS camera_info file, checked against its camera_name")
 
 
 def camera_from_args(args, camera=None, board=None):
@@ -65,9 +71,10 @@ def camera_from_args(args, camera=None, board=None):
     Raises
     ------
     UsageError
-        If both ``--camera`` and ``--K`` are given.
+        If both ``--camera`` and ``--K`` are given, or ``--camera-name`` without ``--camera``.
     InputError
-        If the ``--camera`` file cannot be read (:func:`graphpose.io.calibration.read_camera`).
+        If the ``--camera`` file cannot be read (:func:`graphpose.io.calibration.read_camera`),
+        or holds no camera of the ``--camera-name`` (the message names those it holds).
     """
     from ..io.calibration import read_camera
     from . import UsageError
@@ -75,9 +82,12 @@ def camera_from_args(args, camera=None, board=None):
     if args.camera is not None and args.K is not None:
         raise UsageError("give either --camera FILE (a calibration with the lens model) or --K FX,FY,CX,CY "
                          "(a pinhole camera, images undistorted), not both")
+    name = getattr(args, "camera_name", None)
+    if name is not None and args.camera is None:
+        raise UsageError(f"--camera-name {name} chooses a camera of the --camera FILE, and no --camera was given")
     if args.camera is not None:
         try:
-            camera = read_camera(args.camera)
+            camera = read_camera(args.camera, name=name)
         except InputError as exc:
             raise InputError(f"--camera: {exc}") from None
     elif args.K is not None:

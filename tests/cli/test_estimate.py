@@ -185,6 +185,7 @@ BOUNDS = "100,100,540,100,540,380,100,380"
     (["estimate", "img.png", "--camera", "c.yml", "--K", "500,500,320,240"], ["--camera", "--K", "not both"]),
     (["estimate", "--cases", str(BUNDLED), "--camera", "c.yml", "--K", "500,500,320,240"], ["not both"]),
     (["estimate", "img.png", "--camera", "no/such/left.yml"], ["--camera: calibration file not found"]),
+    (["estimate", "img.png", "--camera-name", "cam1"], ["--camera-name cam1", "no --camera"]),
     (["estimate", "--cases", "c.json", "--bounds", BOUNDS], ["--bounds goes with IMAGE"]),
     (["estimate", "--frobnicate"], ["unrecognized arguments: --frobnicate"]),
     (["estimate", "img.png", "--bounds", BOUNDS, "--overlay", "out.jpg"], ["--overlay", ".png"]),
@@ -514,6 +515,36 @@ def test_case_file_with_a_camera_file_or_object_and_no_bounds(tmp_path, capsys):
         assert (r["status"] == "ok" and r["reprojection_rms_px"] > 3 * lens["reprojection_rms_px"]) or \
             (r["status"] == "failed" and "give the camera's calibration" in r["message"]), r
     assert {r["status"] for r in pinhole} == {"ok", "failed"}
+
+
+def test_camera_name_chooses_the_camera_of_a_kalibr_camchain(tmp_path, capsys):
+    # The chain holds the left camera as cam0 and the right one as cam1: a right image is
+    # solved with cam1's lens only when --camera-name says so.
+    chain, image = opencv_file("camchain.kalibr.yaml"), opencv_file("right01.jpg")
+    board = Board(9, 6, 0.03)
+    records = {}
+    for name in (None, "cam0", "cam1"):
+        args = ["estimate", str(image), "--camera", str(chain), "--board", "9x6x0.03", "--json", "-", "-q"]
+        assert main(args + ([] if name is None else ["--camera-name", name])) == 0
+        (records[name],) = json.loads(capsys.readouterr().out)
+    assert records[None]["T_WC"] == records["cam0"]["T_WC"] != records["cam1"]["T_WC"]
+    est = estimate_pose(read_image(image), None, read_camera(chain, name="cam1"), board)
+    dt, dr = pose_difference(est.T_WC, np.array(records["cam1"]["T_WC"]))
+    assert dt < 1e-9 and dr < 1e-7
+
+
+@pytest.mark.parametrize("file, name, fragments", [
+    ("camchain.kalibr.yaml", "cam2", ["--camera", "no camera 'cam2'", "it holds cam0, cam1"]),
+    ("left.opencv.yml", "cam1", ["--camera", "holds one camera", "'cam1'"]),
+    ("left.ros.yaml", "right", ["--camera", "asked for camera 'right'", "'left'"]),
+])
+def test_a_wrong_camera_name_is_one_clear_error_naming_what_the_file_holds(capsys, file, name, fragments):
+    image = opencv_file("right01.jpg")
+    assert main(["estimate", str(image), "--camera", str(opencv_file(file)), "--camera-name", name]) == 2
+    line = capsys.readouterr().err.strip()
+    assert "\n" not in line and line.startswith("graphpose: error: ")
+    for fragment in fragments:
+        assert fragment in line, line
 
 
 NAN_YML = ("%YAML:1.0\n---\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
