@@ -23,6 +23,10 @@ MOTION_MODELS = ("constant_velocity", "random_walk", "wnoa")
 #: How the fixed target enters the back end's graph (:mod:`graphpose.track.backend`).
 TARGET_FORMS = ("resection", "landmarks", "frame_landmarks")
 
+#: Default lag of the fixed-lag back end, seconds (60 frames at 30 fps): long past the
+#: frames whose factors move a new frame's estimate, short enough to keep each update cheap.
+DEFAULT_LAG_S = 2.0
+
 
 @dataclass(frozen=True)
 class MotionPrior:
@@ -121,6 +125,13 @@ class TrackerConfig:
         Floor of the per-frame pixel noise given to the back end, pixels.
     target : {"resection", "frame_landmarks", "landmarks"}
         How the fixed target enters the back end's graph (:mod:`graphpose.track.backend`).
+    lag_s : float or None
+        The online back end keeps the frames of the last ``lag_s`` seconds in a fixed-lag
+        smoother and marginalises older ones, so that a frame's cost and memory stay flat
+        however long the sequence (:class:`graphpose.track.backend.FixedLagGraph`; default
+        :data:`DEFAULT_LAG_S`). None: one iSAM2 over the whole sequence
+        (:class:`graphpose.track.backend.SequenceGraph`), whose cost grows with it. Either
+        way ``smooth=True`` smooths the whole sequence in batch at the end.
 
     Raises
     ------
@@ -129,8 +140,8 @@ class TrackerConfig:
         :data:`TARGET_FORMS`, ``min_junctions`` is not an integer >= 4 (a pose needs four
         points), ``min_detected_fraction`` is not in [0, 1], ``window_px`` is not
         ``(low, high)`` with ``2 <= low <= high`` (the saddle fit's smallest window),
-        ``robust`` is not a bool, ``rms_floor_px`` is negative, or another setting is not a
-        positive finite number.
+        ``robust`` is not a bool, ``rms_floor_px`` is negative, ``lag_s`` is neither None nor
+        a positive finite number, or another setting is not a positive finite number.
     """
 
     motion: MotionPrior = field(default_factory=MotionPrior)
@@ -146,6 +157,7 @@ class TrackerConfig:
     max_speed: float = 0.5
     min_pixel_sigma_px: float = 0.02
     target: str = "resection"
+    lag_s: float | None = DEFAULT_LAG_S
 
     def __post_init__(self):
         if not isinstance(self.motion, MotionPrior):
@@ -161,6 +173,8 @@ class TrackerConfig:
         for name in ("window_fraction", "gate_px", "max_rms_px", "rms_factor", "max_speed", "min_pixel_sigma_px"):
             check_number(name, getattr(self, name), 0.0, strict=True)
         check_number("rms_floor_px", self.rms_floor_px, 0.0)
+        if self.lag_s is not None:
+            check_number("lag_s", self.lag_s, 0.0, strict=True)
         try:
             low, high = self.window_px
         except (TypeError, ValueError):

@@ -2,11 +2,13 @@
 
 Ties the pieces together, one frame at a time: the frame is read
 (:class:`graphpose.track.frames.FrameSource`), the front end finds its junctions and its own
-pose (:class:`graphpose.track.frontend.FrontEnd`), the back end adds them to one factor graph
-over the sequence and updates it with iSAM2 (:class:`graphpose.track.backend.SequenceGraph`),
-and the back end's pose goes back to the front end to predict the next frame. A frame without
-a usable board, or a frame file that cannot be read, is lost: it gets no pose, and no motion
-factor spans it. At the end the whole graph can be smoothed in batch.
+pose (:class:`graphpose.track.frontend.FrontEnd`), the back end adds them to its factor graph
+and updates it (:class:`graphpose.track.backend.FixedLagGraph`, a fixed-lag smoother over the
+last ``config.lag_s`` seconds, by default; :class:`graphpose.track.backend.SequenceGraph`,
+iSAM2 over the whole sequence, with ``lag_s=None``), and the back end's pose goes back to the
+front end to predict the next frame. A frame without a usable board, or a frame file that
+cannot be read, is lost: it gets no pose, and no motion factor spans it. At the end the whole
+sequence can be smoothed in batch.
 
 Inputs are checked once, here, as :func:`graphpose.pose.estimate.estimate_pose` checks them
 (:func:`graphpose._checks.check_bounds` for the bounds and every per-frame polygon, and
@@ -26,7 +28,7 @@ from .._checks import check_board, check_bounds
 from ..board import Board
 from ..cameras import as_camera, check_image_size
 from ..errors import InputError
-from .backend import SequenceGraph
+from .backend import make_backend
 from .config import TrackerConfig
 from .frames import FrameSource, frame_timestamps
 from .frontend import FrontEnd
@@ -67,7 +69,9 @@ def track_sequence(frames, camera, bounds=None, *, board: Board = Board(), times
     config : TrackerConfig
         Tracker settings.
     smooth : bool
-        Also smooth the whole sequence in batch at the end (``Track.smoothed``).
+        Also smooth the whole sequence in batch at the end (``Track.smoothed``): one graph
+        over every frame, rebuilt from their measurements with the fixed lag, then
+        Levenberg-Marquardt and the marginal covariances.
     progress : callable, optional
         Called as ``progress(k, n_frames)`` after every frame.
 
@@ -98,7 +102,7 @@ def track_sequence(frames, camera, bounds=None, *, board: Board = Board(), times
     t = frame_timestamps(timestamps, fps, n)
     polys, names = _polygon_list(polygons, bounds, n)
     front = FrontEnd(camera, board, config)
-    graph = SequenceGraph(camera, board, config.motion, target=config.target)
+    graph = make_backend(camera, board, config.motion, target=config.target, lag_s=config.lag_s)
     W = board.world_points()
     results, checked = [], False
     for k in range(n):
