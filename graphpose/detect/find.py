@@ -18,7 +18,7 @@ from ..board import Board
 from ..errors import BoardNotFoundError, InputError
 from .identify import identify
 from .lattice import grow_lattices, step_lengths
-from .search import find_candidates
+from .search import find_candidates, search_levels
 
 #: Bounds are grown by this fraction of their size (and 4 px) before they select seeds.
 BOUNDS_SLACK = 0.1
@@ -83,14 +83,15 @@ def find_board(image: np.ndarray, board: Board, bounds=None) -> FoundBoard:
     if image.ndim != 2:
         raise InputError(f"find_board takes a grey (H, W) image, got shape {image.shape}")
     region = None if bounds is None else _grow(bounds)
-    try:
-        return _search(image, board, bounds, region, level=1)
-    except BoardNotFoundError as coarse:
-        # Squares under about 12 pixels hide at half resolution: look at the full image.
+    refusals = []
+    # Coarsest level first (half resolution for a VGA image, a quarter for 12 MP); squares
+    # too small for it (under about 6 of its pixels) hide there: then the next finer level.
+    for level in search_levels(image.shape):
         try:
-            return _search(image, board, bounds, region, level=0)
-        except BoardNotFoundError as fine:
-            raise max((coarse, fine), key=lambda e: getattr(e, "junctions_seen", 0)) from None
+            return _search(image, board, bounds, region, level)
+        except BoardNotFoundError as exc:
+            refusals.append(exc)
+    raise max(refusals, key=lambda e: getattr(e, "junctions_seen", 0)) from None
 
 
 def _search(image, board, bounds, region, level) -> FoundBoard:

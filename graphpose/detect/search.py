@@ -1,14 +1,16 @@
 """Junction candidates anywhere in the image, and the ring test that judges them.
 
-The whole image is searched at one scale: by default at half resolution (``level=1``: a
-2 x 2 mean halves the image), where a Gaussian of 1 pixel (2 pixels of the full image)
+The whole image is searched at one scale: on 2^level x 2^level block means, by default at
+half resolution (``level=1``), where a Gaussian of 1 pixel (2 pixels of the full image)
 smooths it, and the saddle response ``Ixy^2 - Ixx Iyy`` (the negative Hessian
 determinant) is high at cross-junctions, about four times lower at L-corners and near
 zero on edges. A junction looks the same at every scale up to blur, so this one scale
 serves squares from about 12 pixels (6 at half resolution, where the Gaussian spans a
 sixth of a square) to a third of the image; ``level=0`` searches the full image for
-smaller squares (from about 7 pixels). The lattice and the ring test, not this response,
-decide what is a junction.
+smaller squares (from about 7 pixels), and large images start coarser still
+(:func:`search_levels`: a 12 MP image at a quarter), so that the search costs about the
+same at any resolution. The lattice and the ring test, not this response, decide what is
+a junction.
 
 Its local maxima above a fraction of a typical strong peak are the candidates. Each comes
 with the direction of its bright sectors' bisector, ``theta``: the two lines of a
@@ -32,6 +34,9 @@ from scipy import ndimage
 RESPONSE_SIGMA = 1.0
 #: A candidate's response must exceed this fraction of a typical strong peak (the 16th).
 RELATIVE_THRESHOLD = 0.03
+#: The first search level's image is at most this many pixels on its shorter side
+#: (:func:`search_levels`).
+SEARCH_SIDE = 800
 #: Ring samples of the ring test.
 _RING = np.arange(16) * (np.pi / 8)
 
@@ -87,15 +92,16 @@ def find_candidates(image: np.ndarray, region=None, *, level: int = 1) -> Candid
     region : (2, K) ndarray, optional
         A polygon (u, v) in full-image pixels; only candidates inside it may seed a lattice
         (all of them may join one).
-    level : {1, 0}
-        Search at half resolution (default) or on the full image (small squares).
+    level : int
+        Search on 2^level x 2^level block means: 1 (default) at half resolution, 0 on the
+        full image (small squares), 2 or more on large images (:func:`search_levels`).
 
     Returns
     -------
     Candidates
         Possibly empty.
     """
-    a = _half(image) if level == 1 else image.astype(np.float32, copy=False)
+    a = downsample(image, level)
     S = ndimage.gaussian_filter(a, RESPONSE_SIGMA, truncate=3.0)
     Ixx = S[1:-1, 2:] - 2 * S[1:-1, 1:-1] + S[1:-1, :-2]
     Iyy = S[2:, 1:-1] - 2 * S[1:-1, 1:-1] + S[:-2, 1:-1]
@@ -177,11 +183,41 @@ def ring_test(cands: Candidates, points: np.ndarray, radius) -> tuple:
     return score, theta, np.ptp(ring, axis=1)
 
 
-def _half(image: np.ndarray) -> np.ndarray:
-    """2 x 2 mean of the image as float32, odd last rows and columns dropped."""
-    h, w = image.shape[0] // 2 * 2, image.shape[1] // 2 * 2
-    a = image[:h, :w].astype(np.float32, copy=False)
-    return 0.25 * (a[0::2, 0::2] + a[1::2, 0::2] + a[0::2, 1::2] + a[1::2, 1::2])
+def search_levels(shape, *, longest: int = SEARCH_SIDE) -> range:
+    """Search levels to try, coarsest first, for an image of ``shape`` (H, W).
+
+    The first is the coarsest level at or above 1 whose image is at most ``longest``
+    pixels on its shorter side, so a 640 x 480 image starts at half resolution and a
+    4032 x 3024 one at a quarter; each failure falls back to the next finer level, down
+    to the full image. The response's cost, and its memory, then scale with ``longest``
+    squared rather than with the image, for boards whose squares are large enough
+    (:data:`RESPONSE_SIGMA`) at the coarse level; smaller ones cost the finer levels too.
+    """
+    short = min(shape[:2])
+    first = 1
+    while short / 2 ** first > longest:
+        first += 1
+    return range(first, -1, -1)
+
+
+def downsample(image: np.ndarray, level: int) -> np.ndarray:
+    """Means over 2^level x 2^level blocks as float32 (odd last rows and columns dropped).
+
+    uint8 images are summed in uint16 by halvings (exact; no float copy of the full image).
+    """
+    if level == 0:
+        return image.astype(np.float32, copy=False)
+    a = image
+    for k in range(1, level + 1):
+        h, w = a.shape[0] // 2 * 2, a.shape[1] // 2 * 2
+        # Sums of 4^k uint8 pixels are exact in uint16 up to k = 4.
+        exact = image.dtype == np.uint8 and 4**k * 255 < 2**16
+        s = a[0:h:2, 0:w:2].astype(np.uint16 if exact else np.float32)
+        s += a[1:h:2, 0:w:2]
+        s += a[0:h:2, 1:w:2]
+        s += a[1:h:2, 1:w:2]
+        a = s
+    return a.astype(np.float32) * np.float32(4.0 ** -level)
 
 
 def _peaks(r: np.ndarray):

@@ -13,7 +13,7 @@ from graphpose import Board, BoardNotFoundError, InputError, K_from_params
 from graphpose.camera import T_from_params
 from graphpose.detect.find import find_board
 from graphpose.detect.lattice import grow_lattices, peel, predict
-from graphpose.detect.search import find_candidates, ring_test
+from graphpose.detect.search import downsample, find_candidates, ring_test, search_levels
 from graphpose.synth.render import render
 from graphpose.synth.scenes import random_scene
 
@@ -196,6 +196,58 @@ def test_clutter_beside_the_board_changes_nothing():
 def test_small_squares_are_found_at_full_resolution():
     board = Board()
     scene = random_scene(12, K, board, distance=(2.8, 3.2))  # squares of about 12 px
+    found = find_board(scene.image, board)
+    assert found.seen.all()
+    truth = scene.rendering.junctions
+    assert min(label_error(found, truth), label_error(found, truth, half_turn(board))) < 1.5
+
+
+@pytest.mark.parametrize("shape, levels", [
+    ((480, 640), [1, 0]), ((1080, 1920), [1, 0]), ((1600, 2400), [1, 0]),
+    ((1602, 2400), [2, 1, 0]), ((3024, 4032), [2, 1, 0]), ((6000, 8000), [3, 2, 1, 0]), ((3, 3), [1, 0])])
+def test_search_levels_start_where_the_shorter_side_is_at_most_800_px(shape, levels):
+    assert list(search_levels(shape)) == levels
+
+
+@pytest.mark.parametrize("level", range(6))
+@pytest.mark.parametrize("dtype", [np.uint8, np.float64])
+def test_downsample_is_the_exact_block_mean(level, dtype):
+    rng = np.random.default_rng(level)
+    image = (rng.integers(0, 256, (75, 101)) if dtype == np.uint8 else rng.random((75, 101))).astype(dtype)
+    s = 2**level
+    h, w = 75 // s * s, 101 // s * s
+    mean = image[:h, :w].astype(float).reshape(h // s, s, w // s, s).mean(axis=(1, 3))
+    out = downsample(image, level)
+    assert out.dtype == np.float32 and out.shape == mean.shape
+    np.testing.assert_allclose(out, mean, rtol=0, atol=0 if dtype == np.uint8 else 1e-6)
+
+
+def _large_scene(distance, seed):
+    """The project camera scaled to 2560 x 1920 (a first search at a quarter), one board."""
+    s = 4.0
+    Kc = K_from_params(s * K[0, 0], s * K[1, 1], s * (K[0, 2] + 0.5) - 0.5, s * (K[1, 2] + 0.5) - 0.5)
+    return random_scene(seed, Kc, Board(), size=(2560, 1920), distance=distance, max_tilt_deg=40.0)
+
+
+def test_a_large_image_is_searched_at_a_quarter_and_labelled_as_at_half():
+    board = Board()
+    scene = _large_scene((0.8, 1.2), 3)  # squares of about 120 px: 30 at a quarter
+    found = find_board(scene.image, board)
+    assert found.seen.all()
+    truth = scene.rendering.junctions
+    assert min(label_error(found, truth), label_error(found, truth, half_turn(board))) < 3.0
+    # The quarter-resolution search alone finds the same labels.
+    cands = find_candidates(scene.image, level=2)
+    assert cands.level == 2 and cands.smooth.shape == (480, 640)
+
+
+def test_small_squares_on_a_large_image_fall_back_to_finer_levels():
+    board = Board()
+    scene = _large_scene((7.0, 7.5), 5)  # squares of about 20 px: 5 at a quarter, too small
+    with pytest.raises(BoardNotFoundError):
+        from graphpose.detect.find import _search
+
+        _search(scene.image, board, None, None, level=2)
     found = find_board(scene.image, board)
     assert found.seen.all()
     truth = scene.rendering.junctions
