@@ -454,6 +454,9 @@ class RadTanCamera(Camera):
         if d.size not in (4, 5, 8):
             raise _count_error(d.size, "RadTanCamera")
         object.__setattr__(self, "distortion", _readonly(d))
+        full = self.coefficients
+        object.__setattr__(self, "_coeffs", tuple(float(c) for c in full))
+        object.__setattr__(self, "_rational", bool(np.any(full[5:] != 0.0)))
 
     @property
     def coefficients(self) -> np.ndarray:
@@ -465,28 +468,46 @@ class RadTanCamera(Camera):
     def _full(self):
         return self.coefficients
 
-    def _distort_jac(self, x, y, jacobian):
-        k1, k2, p1, p2, k3, k4, k5, k6 = self.coefficients
+    def _parts(self, x, y, jacobian):
+        """Distorted ``(x_d, y_d)``, the radial factor ``g`` and, if asked, the three distinct
+        entries ``(d00, d01, d11)`` of the symmetric ``d(x_d, y_d) / d(x, y)``.
+
+        The rational denominator is left out when k4..k6 are all zero (it is exactly 1).
+        """
+        k1, k2, p1, p2, k3, k4, k5, k6 = self._coeffs
         r2 = x * x + y * y
         a = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-        b = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
-        g = a / b
+        if self._rational:
+            b = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+            g = a / b
+        else:
+            g = a
         xd = x * g + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
         yd = y * g + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
         if not jacobian:
             return xd, yd, g, None
         da = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
-        db = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
-        dg = (da * b - a * db) / (b * b)  # d g / d r^2
+        if self._rational:
+            db = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
+            dg = (da * b - a * db) / (b * b)  # d g / d r^2
+        else:
+            dg = da
+        d00 = g + 2.0 * x * x * dg + 2.0 * p1 * y + 6.0 * p2 * x
+        d01 = 2.0 * x * y * dg + 2.0 * p1 * x + 2.0 * p2 * y
+        d11 = g + 2.0 * y * y * dg + 6.0 * p1 * y + 2.0 * p2 * x
+        return xd, yd, g, (d00, d01, d11)
+
+    def _distort_jac(self, x, y, jacobian):
+        xd, yd, g, d = self._parts(x, y, jacobian)
+        if not jacobian:
+            return xd, yd, g, None
         D = np.empty((x.size, 2, 2))
-        D[:, 0, 0] = g + 2.0 * x * x * dg + 2.0 * p1 * y + 6.0 * p2 * x
-        D[:, 0, 1] = 2.0 * x * y * dg + 2.0 * p1 * x + 2.0 * p2 * y
-        D[:, 1, 0] = D[:, 0, 1]
-        D[:, 1, 1] = g + 2.0 * y * y * dg + 6.0 * p1 * y + 2.0 * p2 * x
+        D[:, 0, 0], D[:, 0, 1], D[:, 1, 1] = d
+        D[:, 1, 0] = d[1]
         return xd, yd, g, D
 
     def _distort(self, xy):
-        xd, yd, _, _ = self._distort_jac(xy[0], xy[1], False)
+        xd, yd, _, _ = self._parts(xy[0], xy[1], False)
         return np.stack([xd, yd])
 
     def _project(self, P, jacobian):
@@ -504,45 +525,52 @@ class RadTanCamera(Camera):
         gets its ray; for a model driven past its fold, a pixel whose Newton path ends on the
         folded branch is NaN even where an unfolded ray exists.
         """
-        target = xy_d
-        x = xy_d.copy()
-        tol = UNPROJECT_TOL * np.maximum(1.0, np.abs(target).max(axis=0))
-        xd, yd, _, D = self._distort_jac(x[0], x[1], True)
-        res = np.stack([xd, yd]) - target
-        err = np.abs(res).max(axis=0)
+        tx, ty = xy_d[0], xy_d[1]
+        x, y = tx.copy(), ty.copy()
+        tol = UNPROJECT_TOL * np.maximum(1.0, np.maximum(np.abs(tx), np.abs(ty)))
+        xd, yd, _, (d00, d01, d11) = self._parts(x, y, True)
+        rx, ry = xd - tx, yd - ty
+        err = np.maximum(np.abs(rx), np.abs(ry))
         active = err > tol
         for _ in range(MAX_ITERATIONS):
-            if not active.any():
-                break
             idx = np.flatnonzero(active)
-            Da, ra = D[idx], res[:, idx]
-            det = Da[:, 0, 0] * Da[:, 1, 1] - Da[:, 0, 1] * Da[:, 1, 0]
-            step = np.stack([Da[:, 1, 1] * ra[0] - Da[:, 0, 1] * ra[1],
-                             Da[:, 0, 0] * ra[1] - Da[:, 1, 0] * ra[0]]) / det
+            if idx.size == 0:
+                break
+            if idx.size == x.size:  # all still moving: no gathers
+                xi, yi, a00, a01, a11, rxi, ryi, ei, txi, tyi = x, y, d00, d01, d11, rx, ry, err, tx, ty
+            else:
+                xi, yi, a00, a01, a11 = x[idx], y[idx], d00[idx], d01[idx], d11[idx]
+                rxi, ryi, ei, txi, tyi = rx[idx], ry[idx], err[idx], tx[idx], ty[idx]
+            det = a00 * a11 - a01 * a01
+            sx = (a11 * rxi - a01 * ryi) / det
+            sy = (a00 * ryi - a01 * rxi) / det
             t = np.ones(idx.size)
             for _ in range(40):  # halve the step where it does not reduce the residual
-                trial = x[:, idx] - t * step
-                xd, yd, _, Dt = self._distort_jac(trial[0], trial[1], True)
-                rt = np.stack([xd, yd]) - target[:, idx]
-                e = np.abs(rt).max(axis=0)
-                worse = ~(e < err[idx])
+                ux, uy = xi - t * sx, yi - t * sy
+                xd, yd, _, dt = self._parts(ux, uy, True)
+                rtx, rty = xd - txi, yd - tyi
+                e = np.maximum(np.abs(rtx), np.abs(rty))
+                worse = ~(e < ei)
                 if not worse.any():
                     break
                 t[worse] *= 0.5
             moved = ~worse
-            keep = idx[moved]
-            x[:, keep] = trial[:, moved]
-            res[:, keep] = rt[:, moved]
-            D[keep] = Dt[moved]
-            err[keep] = e[moved]
-            active[idx[~moved]] = False  # stalled: judged below
-            active[keep] = err[keep] > tol[keep]
+            if moved.all():
+                keep = idx
+            else:
+                keep = idx[moved]
+                ux, uy, rtx, rty, e = ux[moved], uy[moved], rtx[moved], rty[moved], e[moved]
+                dt = tuple(d[moved] for d in dt)
+                active[idx[worse]] = False  # stalled: judged below
+            x[keep], y[keep], rx[keep], ry[keep], err[keep] = ux, uy, rtx, rty, e
+            d00[keep], d01[keep], d11[keep] = dt
+            active[keep] = e > tol[keep]
         # A root on the model's one-to-one branch: converged, the radial factor positive (not
         # the image flipped through the centre), and distort locally orientation-preserving.
-        _, _, g, D = self._distort_jac(x[0], x[1], True)
-        det = D[:, 0, 0] * D[:, 1, 1] - D[:, 0, 1] * D[:, 1, 0]
+        _, _, g, (d00, d01, d11) = self._parts(x, y, True)
+        det = d00 * d11 - d01 * d01
         good = (err <= tol) & (g > 0) & (det > 0)
-        rays = _rays(x[0], x[1])
+        rays = _rays(x, y)
         rays[:, ~good] = np.nan
         return rays
 
