@@ -112,6 +112,8 @@ def _search(image, board, bounds, region, level) -> FoundBoard:
             refused.append(_refusal(str(exc), len(lattice.keys)))
             continue
         labelled.append((lattice, identity))
+        if bounds is not None and len(lattice.keys) == board.n:
+            break  # bounds pick the largest board inside them, and none is larger than whole
         floor = max(floor, SECOND_BOARD_FRACTION * strength)
     if not labelled:
         if refused:
