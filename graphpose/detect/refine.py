@@ -21,7 +21,7 @@ from scipy import ndimage
 from .._checks import as_float_array, as_points, check_image, check_number
 from ..errors import InputError
 from ..image import as_grey
-from .saddle import fit_quadrics, fit_quadrics_at
+from .saddle import fit_quadrics, fit_quadrics_moments, quadric_monomials
 
 #: Default refinement window radius, as a fraction of the local square side.
 WINDOW_FRACTION = 0.5
@@ -122,10 +122,10 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
     base = np.rint(current).astype(int)
     patches, grad2, inside = _patches(image, base, half, sigma, radius)
     if lens is not None:
-        flat, V = _undistorted_grid(lens, base, offs)
         # The window (radius at most radius.max(), about an estimate within the slack of
         # the patch's centre) stays inside this disc of the patch's pixels.
         disc = (offs[:, None] ** 2 + offs[None, :] ** 2) <= (radius.max() + slack + 1.0) ** 2
+        through = _lens_patches(lens, base, offs, disc, patches, grad2)
     residual = np.full(m, np.nan)
     state = np.zeros(m, dtype=int)  # 0 moving, 1 converged, 2 failed
     for _ in range(max_iter):
@@ -138,15 +138,17 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
             fresh = _patches(image, base[:, drift], half, sigma, radius[drift])
             patches[drift], grad2[drift], inside[drift] = fresh
             if lens is not None:
-                flat[drift], V[:, drift] = _undistorted_grid(lens, base[:, drift], offs)
+                fresh = _lens_patches(lens, base[:, drift], offs, disc, patches[drift], grad2[drift])
+                through[0][:, drift], through[1][:, drift] = fresh[0], fresh[1]
+                for held, part in zip(through[2:], fresh[2:]):
+                    held[drift] = part
         if lens is None:
             weights = _weights(offs, current[:, act] - base[:, act], radius[act], grad2[act])
             pts, saddle, within, _, residual[act] = fit_quadrics(patches[act], weights)
             new, fitted = base[:, act] + pts - half, saddle & within
         else:
-            new, fitted, residual[act] = _fit_through(lens, flat[act][:, :, disc], V[:, act], half,
-                                                      current[:, act] - base[:, act], patches[act][:, disc],
-                                                      grad2[act][:, disc], radius[act])
+            new, fitted, residual[act] = _fit_through(lens, through, act, half, current[:, act] - base[:, act],
+                                                      radius[act])
         step = np.hypot(*(new - current[:, act]))
         ok = fitted & np.isfinite(step) & (step < radius[act])
         current[:, act[ok]] = new[:, ok]
@@ -158,27 +160,51 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
     return current, (state == 1) & inside & crosses, residual
 
 
-def _fit_through(lens, flat, V, half, offset, patches, grad2, radius):
+def _lens_patches(lens, base, offs, disc, patches, grad2):
+    """What the fits through the lens reuse while a patch stays: per patch (m of them)
+    the undistorted position of its base pixel (2, m), the lens's node values (2, m, 5, 5)
+    (:func:`_undistorted_grid`), and for the pixels of ``disc`` (n of them) their design
+    monomials (m, 15, n) about that origin (:func:`graphpose.detect.saddle.quadric_monomials`),
+    positions ``x, y`` (m, n), grey values (m, n) and squared gradients (m, n), zero where
+    the lens gives no position (then the pixel has no weight).
+    """
+    flat, V = _undistorted_grid(lens, base, offs)
+    origin = V[:, :, 2, 2]  # the middle node is the base pixel
+    x = flat[:, 0][:, disc] - origin[0][:, None]
+    y = flat[:, 1][:, disc] - origin[1][:, None]
+    valid = np.isfinite(x) & np.isfinite(y)
+    x, y = np.where(valid, x, 0.0), np.where(valid, y, 0.0)
+    g2 = np.where(valid, grad2[:, disc], 0.0)
+    return [origin, V, quadric_monomials(x, y), x, y, patches[:, disc], g2]
+
+
+def _fit_through(lens, through, act, half, offset, radius):
     """One round of saddle fits in undistorted pixel coordinates, for :func:`refine_points`.
 
-    ``flat`` (a, 2, n) holds the undistorted positions of the patches' pixels (those of the
-    disc the window can reach), ``V`` the lens's node values they were interpolated from,
-    ``offset`` (2, a) the current raw estimates less the patches' bases. Returns the new raw
+    ``through`` is :func:`_lens_patches`' data of every patch, ``act`` (a,) the patches to
+    fit, ``offset`` (2, a) their current raw estimates less their bases. Returns the new raw
     estimates (2, a), whether each fit is a saddle within its patch, and the residuals.
     """
-    centre = _undistort_in_patch(V, half, offset)  # (2, a)
-    x = flat[:, 0] - centre[0][:, None]
-    y = flat[:, 1] - centre[1][:, None]
+    origin, V, A, x, y, values, g2 = through
+    origin = origin[:, act]
+    # The estimate's undistorted position, about the patch's origin.
+    c = _undistort_in_patch(V[:, act], half, offset) - origin
+    dx = x[act] - c[0][:, None]
+    dy = y[act] - c[1][:, None]
     # The window of refine_points, about the estimate, in undistorted pixels.
-    r2 = x * x + y * y
+    r2 = dx * dx + dy * dy
     taper = np.maximum(1.0 - r2 / (radius ** 2)[:, None], 0.0)
-    weights = taper * taper * grad2 / np.maximum(r2, 1.0)
-    weights = np.where(np.isfinite(x) & np.isfinite(y), weights, 0.0)
-    x, y = np.nan_to_num(x), np.nan_to_num(y)
-    pts, saddle, residual = fit_quadrics_at(patches, weights, x, y)
-    within = np.hypot(*pts) < half
-    new = lens.distort_pixels(np.where(np.isfinite(pts), centre + pts, centre))
-    return new, saddle & within, residual
+    weights = taper * taper * g2[act] / np.maximum(r2, 1.0)
+    if not np.all(np.isfinite(c)):  # no undistorted position (a fisheye's ray past 90 degrees)
+        weights[~np.all(np.isfinite(c), axis=0)] = 0.0
+    pts, saddle, residual = fit_quadrics_moments(A[act] if act.size < A.shape[0] else A,
+                                                 values[act], weights, half)
+    found = np.all(np.isfinite(pts), axis=0) & np.all(np.isfinite(c), axis=0)
+    within = found & (np.hypot(*np.where(found, pts - c, 0.0)) < half)
+    new = np.full((2, act.size), np.nan)
+    if found.any():
+        new[:, found] = lens.distort_pixels(origin[:, found] + pts[:, found])
+    return new, saddle & within & np.all(np.isfinite(new), axis=0), residual
 
 
 def _undistorted_grid(lens, base, offs):

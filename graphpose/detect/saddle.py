@@ -180,23 +180,75 @@ def fit_quadrics_at(P: np.ndarray, weights: np.ndarray, x: np.ndarray, y: np.nda
         Weighted RMS residual.
     """
     m = P.shape[0]
-    v = P.reshape(m, -1)
-    X, Y, W = x.reshape(m, -1), y.reshape(m, -1), weights.reshape(m, -1)
-    A = np.stack([X * X, X * Y, Y * Y, X, Y, np.ones_like(X)], axis=2)  # (m, n, 6)
-    AWt = (A * W[:, :, None]).transpose(0, 2, 1)  # batched products: BLAS, not einsum loops
-    N = AWt @ A
-    rhs = (AWt @ v[:, :, None])[:, :, 0]
+    X, Y = x.reshape(m, -1), y.reshape(m, -1)
+    size = max(float(np.nanmax(np.abs(X))), 1.0)
+    return fit_quadrics_moments(quadric_monomials(X, Y), P.reshape(m, -1), weights.reshape(m, -1), size)
+
+
+#: Exponents (a, b) of the monomials x^a y^b of degree up to four: the quadric's design columns
+#: x^2, x y, y^2, x, y, 1 first, then their products' other monomials.
+_POWERS = ((2, 0), (1, 1), (0, 2), (1, 0), (0, 1), (0, 0),
+           (4, 0), (3, 1), (2, 2), (1, 3), (0, 4), (3, 0), (2, 1), (1, 2), (0, 3))
+#: Which monomial each entry of the 6 x 6 normal matrix sums.
+_NORMAL = np.array([[_POWERS.index((a + c, b + d)) for (c, d) in _POWERS[:6]] for (a, b) in _POWERS[:6]])
+
+
+def quadric_monomials(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The monomials (m, 15, n) of degree up to four at positions ``x, y`` (m, n), whose
+    weighted sums are the quadric fit's normal equations (:func:`fit_quadrics_moments`);
+    the first six are its design columns ``x^2, x y, y^2, x, y, 1``."""
+    M = np.empty((x.shape[0], 15, x.shape[1]))
+    x2, y2 = np.multiply(x, x, out=M[:, 0]), np.multiply(y, y, out=M[:, 2])
+    xy = np.multiply(x, y, out=M[:, 1])
+    M[:, 3], M[:, 4], M[:, 5] = x, y, 1.0
+    np.multiply(x2, x2, out=M[:, 6])
+    np.multiply(x2, xy, out=M[:, 7])
+    np.multiply(x2, y2, out=M[:, 8])
+    np.multiply(xy, y2, out=M[:, 9])
+    np.multiply(y2, y2, out=M[:, 10])
+    np.multiply(x2, x, out=M[:, 11])
+    np.multiply(x2, y, out=M[:, 12])
+    np.multiply(x, y2, out=M[:, 13])
+    np.multiply(y2, y, out=M[:, 14])
+    return M
+
+
+def fit_quadrics_moments(M: np.ndarray, v: np.ndarray, W: np.ndarray, size: float):
+    """Weighted saddle fits from the pixels' monomials, for trusted callers that reuse them.
+
+    The normal matrix of the fit sums 15 distinct monomials, and its right-hand side the
+    grey values against the first six, so one batched product with the weights gives both.
+
+    Parameters
+    ----------
+    M : (m, 15, n) ndarray
+        :func:`quadric_monomials` of each pixel's position (pixels, about the junction).
+    v, W : (m, n) ndarray
+        Grey values and non-negative weights.
+    size : float
+        The positions' extent, pixels (for the floor below which a curvature is rounding
+        noise, as :func:`fit_quadrics`).
+
+    Returns
+    -------
+    points, saddle, rms
+        As :func:`fit_quadrics_at`, in the monomials' coordinates.
+    """
+    Wv = W * v
+    moments = (M @ W[:, :, None])[:, :, 0]
+    rhs = (M[:, :6] @ Wv[:, :, None])[:, :, 0]
+    N = moments[:, _NORMAL]
     N += np.eye(6) * (1e-12 * np.trace(N, axis1=1, axis2=2)[:, None, None] + 1e-300)
     c = np.linalg.solve(N, rhs[:, :, None])[:, :, 0]
-    rss = np.maximum(np.sum(W * v * v, axis=1) - np.sum(c * rhs, axis=1), 0.0)
-    rms = np.sqrt(rss / np.maximum(W.sum(axis=1), 1e-300))
+    rss = np.maximum(np.sum(Wv * v, axis=1) - np.sum(c * rhs, axis=1), 0.0)
+    rms = np.sqrt(rss / np.maximum(moments[:, 5], 1e-300))
     a, b, g, d, e = c[:, :5].T
     det = 4.0 * a * g - b * b
     with np.errstate(divide="ignore", invalid="ignore"):
         px = (-2.0 * g * d + b * e) / det
         py = (b * d - 2.0 * a * e) / det
     span = np.ptp(v, axis=1)
-    size = max(float(np.nanmax(np.abs(X))), 1.0)
+    size = max(float(size), 1.0)
     floor = np.where(span > 1e-12, (1e-6 * span / size ** 2) ** 2, np.inf)
     finite = np.isfinite(px) & np.isfinite(py) & (det != 0)
     points = np.vstack([np.where(finite, px, np.nan), np.where(finite, py, np.nan)])
