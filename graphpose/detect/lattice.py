@@ -140,14 +140,45 @@ def peel(nodes: dict) -> dict:
 
 def step_lengths(nodes: dict, keys) -> np.ndarray:
     """Typical lattice step (pixels) at each key: the mean distance to its lattice neighbours."""
-    out = np.full(len(keys), np.nan)
-    for n, (i, j) in enumerate(keys):
-        u, v = nodes[(i, j)]
-        d = [math.hypot(nodes[k][0] - u, nodes[k][1] - v) for k in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1))
-             if k in nodes]
-        if d:
-            out[n] = sum(d) / len(d)
-    return out
+    grid = KeyGrid(nodes)
+    K = np.asarray(keys, dtype=int).reshape(-1, 2)
+    here = grid.at(K)
+    d = np.stack([np.hypot(*(grid.at(K + step) - here)) for step in _STEPS])  # (4, n), NaN: none
+    with np.errstate(invalid="ignore"):
+        count = np.sum(np.isfinite(d), axis=0)
+        return np.where(count > 0, np.nansum(d, axis=0) / np.maximum(count, 1), np.nan)
+
+
+class KeyGrid:
+    """Node positions on a dense array over their key box (NaN where no node), for
+    looking up many keys and their neighbours at once.
+
+    Parameters
+    ----------
+    nodes : dict
+        ``{(i, j): (u, v)}``.
+    reach : int
+        Margin of NaN kept around the nodes' key box (keys beyond it read NaN too, a
+        little slower).
+    """
+
+    def __init__(self, nodes: dict, reach: int = 4):
+        K = np.array(list(nodes), dtype=int).reshape(-1, 2)
+        self.origin = K.min(axis=0) - reach
+        shape = K.max(axis=0) - self.origin + reach + 1
+        self.array = np.full((shape[0], shape[1], 2), np.nan)
+        self.array[K[:, 0] - self.origin[0], K[:, 1] - self.origin[1]] = np.array(list(nodes.values()), dtype=float)
+
+    def at(self, keys: np.ndarray) -> np.ndarray:
+        """Positions (2, n) of keys (n, 2); NaN where there is no node."""
+        idx = keys - self.origin
+        shape = self.array.shape
+        inside = (idx[:, 0] >= 0) & (idx[:, 1] >= 0) & (idx[:, 0] < shape[0]) & (idx[:, 1] < shape[1])
+        if inside.all():
+            return self.array[idx[:, 0], idx[:, 1]].T
+        out = np.full((2, keys.shape[0]), np.nan)
+        out[:, inside] = self.array[idx[inside, 0], idx[inside, 1]].T
+        return out
 
 
 def predict(nodes: dict, key) -> tuple | None:

@@ -12,7 +12,7 @@ import pytest
 from graphpose import Board, BoardNotFoundError, InputError, K_from_params
 from graphpose.camera import T_from_params
 from graphpose.detect.find import find_board
-from graphpose.detect.lattice import grow_lattices, peel, predict
+from graphpose.detect.lattice import grow_lattices, peel, predict, step_lengths
 from graphpose.detect.search import downsample, find_candidates, ring_test, search_levels
 from graphpose.synth.render import render
 from graphpose.synth.scenes import random_scene
@@ -57,6 +57,18 @@ def test_predict_extrapolates_a_straight_line_and_completes_a_parallelogram():
     square = {(0, 0): (0.0, 0.0), (1, 0): (10.0, 0.0), (0, 1): (0.0, 10.0)}
     assert predict(square, (1, 1))[0] == pytest.approx((10.0, 10.0))
     assert predict({(0, 0): (0.0, 0.0)}, (5, 5)) is None
+
+
+def test_step_lengths_are_the_mean_distance_to_the_lattice_neighbours_present():
+    rng = np.random.default_rng(4)
+    nodes = {(i, j): np.array([31.0 * i + 3.0 * j, 29.0 * j - 2.0 * i]) + rng.normal(0, 0.5, 2)
+             for i in range(-3, 4) for j in range(-2, 3) if rng.random() < 0.7}
+    nodes[(9, 9)] = np.array([500.0, 500.0])  # no neighbours: NaN
+    keys = list(nodes)
+    for key, got in zip(keys, step_lengths(nodes, keys)):
+        i, j = key
+        d = [np.hypot(*(nodes[k] - nodes[key])) for k in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)) if k in nodes]
+        assert (np.isnan(got) and not d) or got == pytest.approx(np.mean(d), abs=1e-12)
 
 
 def test_peel_drops_strays_with_fewer_than_two_neighbours():
