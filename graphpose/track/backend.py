@@ -124,20 +124,20 @@ def default_isam_params() -> gtsam.ISAM2Params:
     return params
 
 
-def fixed_lag_isam_params(target: str = "resection") -> gtsam.ISAM2Params:
+def fixed_lag_isam_params() -> gtsam.ISAM2Params:
     """The fixed-lag smoother's iSAM2 settings: those of :func:`default_isam_params`, the
     slots of marginalised factors reused (else iSAM2's factor list keeps growing with empty
-    slots), and, for the landmark forms, every clique checked for relinearisation.
+    slots), and every clique checked for relinearisation.
 
-    The smoother orders the update itself (the keys to marginalise first), so a frame's
-    landmark can end at the root above its pose; the partial check, which walks down from
-    the root and stops at a small step, would then never relinearise the new pose (the
-    whole-sequence back end avoids it by its own ordering). Over a window of a couple of
-    seconds the full check is cheap.
+    The smoother orders each update itself (the keys to marginalise first, then the rest in
+    COLAMD's order), so the new pose need not be at the root of the Bayes tree. The partial
+    check walks down from the root and stops at a clique whose step is small: it then left
+    new poses up to 80 um off the filtered optimum (a 240-frame test), where the full check
+    leaves 0.5 um. Over a window of a couple of seconds the full check is cheap.
     """
     params = default_isam_params()
     params.findUnusedFactorSlots = True
-    params.enablePartialRelinearizationCheck = target == "resection"
+    params.enablePartialRelinearizationCheck = False
     return params
 
 
@@ -427,7 +427,7 @@ class FixedLagGraph:
         self._builder = FactorBuilder(self.camera, board, motion, target, landmark_sigma_m)
         self.board, self.motion, self.target, self.lag_s = board, motion, target, float(lag_s)
         self._landmark_sigma_m = landmark_sigma_m
-        params = isam_params if isam_params is not None else fixed_lag_isam_params(target)
+        params = isam_params if isam_params is not None else fixed_lag_isam_params()
         self._smoother = gtsam.IncrementalFixedLagSmoother(self.lag_s, params)
         self._measurements: list = []
         self._online: dict = {}
@@ -460,9 +460,8 @@ class FixedLagGraph:
         points = np.asarray(points, dtype=float)
         ids = np.asarray(ids, dtype=int)
         timestamp = float(timestamp)
-        if self._measurements:
-            # The smoother marginalised, at the last update, every key older than this.
-            self._builder.forget_before(self._measurements[-1].timestamp - self.lag_s)
+        # This update marginalises every key older than this: no new factor reaches them.
+        self._builder.forget_before(timestamp - self.lag_s)
         new_segment = self._new_segment or not self._builder.segment
         graph, values, stamps = self._builder.frame(k, timestamp, points, ids, T_init, pixel_sigma)
         if self._shared:

@@ -5,6 +5,7 @@ import pytest
 
 from graphpose import InputError
 from graphpose.track.config import (
+    DEFAULT_LAG_S,
     MOTION_MODELS,
     TARGET_FORMS,
     MotionPrior,
@@ -62,3 +63,11 @@ def test_settings_load_no_gtsam():
             "print('gtsam' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_lag_is_none_or_positive():
+    assert TrackerConfig().lag_s == DEFAULT_LAG_S
+    assert TrackerConfig(lag_s=None).lag_s is None
+    for bad in (0.0, -1.0, float("inf"), "2"):
+        with pytest.raises(InputError, match="lag_s"):
+            TrackerConfig(lag_s=bad)
