@@ -1,0 +1,261 @@
+"""Speed benchmark: image file to cross-checked pose with covariance, beside OpenCV's classic chain.
+
+What ``graphpose estimate`` does for one image, timed from the file on disk:
+``read_image(path, as_float=False)`` (8-bit grey straight from the decoder), the size check,
+``estimate_pose`` (junctions, the homography start, Gauss-Newton, the GTSAM graph from
+Gauss-Newton's answer with its marginal covariance, the cross-check). The peer is OpenCV's
+classic chain from the same file: ``imread`` (grey), ``findChessboardCorners`` (default
+flags), ``cornerSubPix`` (11 x 11), ``solvePnP`` (IPPE) and ``solvePnPRefineLM``: a pose
+without a covariance or a second solver, so the comparison is generous to the peer. Both
+run single-threaded (``cv2.setNumThreads(1)``), each image timed several times in turn
+with the other tool, medians over the repeats and then over the images.
+
+Cases: the six real 640 x 480 images of ``../shared/data/rob501`` (when present) and
+rendered 640 x 480 images (``graphpose.synth``, written as PNG), with their polygons and
+without; rendered 4032 x 3024 (12 MP) images written as JPEG, as a phone writes them, with
+the peak memory of each tool on them (each in a fresh process: the growth of the resident
+set's peak over its size before the image, after a warm-up on a small image). Per stage,
+graphpose's time on the 640 x 480 images with their polygons.
+
+Run it as a section of the benchmark: ``python scripts/bench.py speed [--quick]``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from graphpose import Board, BoardNotFoundError, K_from_params
+from graphpose.cameras import as_camera, check_image_size
+from graphpose.detect.find import find_board
+from graphpose.detect.junctions import extract_junctions
+from graphpose.image import read_image
+from graphpose.io.files import encode_png
+from graphpose.pose.estimate import estimate_pose, fit_pose
+from graphpose.pose.graph import graph_pose
+from graphpose.synth.render import loose_polygon, random_pose, render
+
+DATA = REPO.parent / "shared" / "data" / "rob501"
+K = K_from_params(564.9, 564.3, 337.3, 226.5)
+BOARD = Board()
+BIG = (4032, 3024)
+
+
+def scaled_K(size):
+    """The project camera at another resolution (pixel (u, v) covers [u - 0.5, u + 0.5])."""
+    s = size[0] / 640
+    return K_from_params(s * K[0, 0], s * K[1, 1], s * (K[0, 2] + 0.5) - 0.5, s * (K[1, 2] + 0.5) - 0.5)
+
+
+def ours(path, bounds, camera, board=BOARD):
+    """graphpose estimate's work on one file; the estimate, or None where it refuses."""
+    image = read_image(path, as_float=False)
+    check_image_size(camera, image.shape)
+    try:
+        return estimate_pose(image, bounds, camera, board)
+    except BoardNotFoundError:
+        return None
+
+
+def opencv(cv2, path, K_, board=BOARD):
+    """OpenCV's classic chain from the file; (rvec, tvec) or None where it finds no board."""
+    image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    ok, corners = cv2.findChessboardCorners(image, (board.cols, board.rows))
+    if not ok:
+        return None
+    corners = cv2.cornerSubPix(image, corners, (11, 11), (-1, -1),
+                               (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.01))
+    W = board.world_points().T.copy()
+    ok, rvec, tvec = cv2.solvePnP(W, corners, K_, None, flags=cv2.SOLVEPNP_IPPE)
+    return cv2.solvePnPRefineLM(W, corners, K_, None, rvec, tvec)
+
+
+def _timed(fn):
+    t = time.perf_counter()
+    out = fn()
+    return time.perf_counter() - t, out
+
+
+def compare(cv2, items, repeats):
+    """Per image: median ms of graphpose and of OpenCV, timed in turn; and who found a pose."""
+    rows = []
+    for path, bounds, camera in items:
+        K_ = as_camera(camera).K
+        t_ours, t_cv = [], []
+        for _ in range(repeats):
+            dt, est = _timed(lambda: ours(path, bounds, camera))
+            t_ours.append(dt)
+            dt, pose = _timed(lambda: opencv(cv2, path, K_))
+            t_cv.append(dt)
+        rows.append({"image": Path(path).name, "ours_ms": 1e3 * float(np.median(t_ours)),
+                     "opencv_ms": 1e3 * float(np.median(t_cv)), "ours_ok": bool(est is not None and est.ok),
+                     "opencv_ok": pose is not None})
+    return rows
+
+
+def stages(items, repeats):
+    """graphpose's median time per stage (ms) over the images."""
+    names = ("read", "find board", "refine and judge", "start + Gauss-Newton", "GTSAM + marginals", "total")
+    per = {n: [] for n in names}
+    W = BOARD.world_points()
+    for path, bounds, camera in items:
+        cam = as_camera(camera)
+        image = read_image(path, as_float=False)
+        J = extract_junctions(image, bounds, BOARD, camera=cam)
+        gn, _ = fit_pose(cam, J.points, W, mask=J.trusted)
+        t = {n: [] for n in names}
+        for _ in range(repeats):
+            t["read"].append(_timed(lambda: read_image(path, as_float=False))[0])
+            t["find board"].append(_timed(lambda: find_board(image, BOARD, bounds))[0])
+            t["refine and judge"].append(_timed(lambda: extract_junctions(image, bounds, BOARD, camera=cam))[0]
+                                         - t["find board"][-1])
+            t["start + Gauss-Newton"].append(_timed(lambda: fit_pose(cam, J.points, W, mask=J.trusted))[0])
+            t["GTSAM + marginals"].append(_timed(lambda: graph_pose(cam, gn.T_WC, J.points, W, mask=J.trusted))[0])
+            t["total"].append(_timed(lambda: ours(path, bounds, cam))[0])
+        for n in names:
+            per[n].append(np.median(t[n]))
+    return {n: 1e3 * float(np.median(v)) for n, v in per.items()}
+
+
+def rendered(folder, count, size, rng, suffix=".png"):
+    """``count`` rendered images written to ``folder``; (path, polygon, K) each."""
+    from PIL import Image
+
+    K_ = scaled_K(size)
+    items = []
+    for k in range(count):
+        T = random_pose(rng, K_, BOARD, size, distance=(0.8, 1.6))
+        R = render(K_, T, BOARD, size, noise_sigma=2.0, rng=rng, blur_sigma=float(rng.uniform(0.7, 1.5)) * size[0] / 640)
+        path = Path(folder) / f"scene_{size[0]}_{k:02d}{suffix}"
+        if suffix == ".png":
+            path.write_bytes(encode_png(R.image))
+        else:
+            Image.fromarray(R.image).save(path, quality=95)
+        items.append((path, loose_polygon(R, rng, offset_px=(-4.0 * size[0] / 640, 4.0 * size[0] / 640)), K_))
+    return items
+
+
+def real_items():
+    if not (DATA / "cases.json").is_file():
+        return []
+    doc = json.loads((DATA / "cases.json").read_text())
+    return [(DATA / c["image"], np.array(c["bounds"], dtype=float), np.array(doc["K"], dtype=float))
+            for c in doc["cases"]]
+
+
+_MEMORY_SCRIPT = r"""
+import json, resource, sys
+import numpy as np
+sys.path.insert(0, sys.argv[4])
+from bench_speed import ours, opencv, scaled_K, BOARD
+import cv2
+cv2.setNumThreads(1)
+tool, warm, path = sys.argv[1], sys.argv[2], sys.argv[3]
+K_ = scaled_K((4032, 3024))
+run = (lambda p, k: ours(p, None, k)) if tool == "graphpose" else (lambda p, k: opencv(cv2, p, k))
+run(warm, scaled_K((640, 480)))          # imports and first-call costs, on a small image
+def rss_mb():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * resource.getpagesize() / 2**20
+before = rss_mb()
+out = run(path, K_)
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(json.dumps({"growth_mb": peak - before, "found": out is not None}))
+"""
+
+
+def peak_memory(tool, warm, path):
+    """Growth of the peak resident set (MB) while ``tool`` handles ``path``, in a fresh process."""
+    if not Path("/proc/self/statm").exists():
+        return None
+    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    out = subprocess.run([sys.executable, "-c", _MEMORY_SCRIPT, tool, str(warm), str(path),
+                          str(Path(__file__).resolve().parent)], capture_output=True, text=True, env=env, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])["growth_mb"]
+
+
+def _median(rows, key, ok=None):
+    vals = [r[key] for r in rows if ok is None or (r["ours_ok"] and r["opencv_ok"])]
+    return float(np.median(vals)) if vals else float("nan")
+
+
+def _figure(name, rows, goal_ratio, goal):
+    both = [r for r in rows if r["ours_ok"] and r["opencv_ok"]]
+    a, b = _median(both, "ours_ms"), _median(both, "opencv_ms")
+    return {"figure": f"{name} ({len(both)} images both found), median", "unit": "ms", "fmt": ".1f",
+            "graphpose": a, "peer_name": "OpenCV classic", "peer": b, "ratio": a / b, "goal": goal,
+            "met": bool(a / b <= goal_ratio)}
+
+
+def main(quick: bool = False) -> dict:
+    """Measure the section; returns its goal, headline figures and detail blocks (scripts/bench.py)."""
+    import cv2
+
+    cv2.setNumThreads(1)
+    rng = np.random.default_rng(11)
+    repeats = 3 if quick else 7
+    with tempfile.TemporaryDirectory() as folder:
+        real = real_items()
+        synth = rendered(folder, 4 if quick else 12, (640, 480), rng)
+        big = rendered(folder, 1 if quick else 3, BIG, rng, suffix=".jpg")
+        ours(synth[0][0], None, synth[0][2])  # imports and first calls out of the timing
+        opencv(cv2, synth[0][0], synth[0][2])
+        results = {
+            "real, polygon": compare(cv2, real, repeats),
+            "rendered, polygon": compare(cv2, synth, repeats),
+            "real, no polygon": compare(cv2, [(p, None, k) for p, _, k in real], repeats),
+            "rendered, no polygon": compare(cv2, [(p, None, k) for p, _, k in synth], repeats),
+            "12 MP JPEG, no polygon": compare(cv2, [(p, None, k) for p, _, k in big], max(2, repeats // 2)),
+        }
+        stage = stages(real or synth, repeats)
+        memory = {tool: [peak_memory(tool, synth[0][0], p) for p, _, _ in big] for tool in ("graphpose", "opencv")}
+    figures = []
+    for name, ratio, goal in (("real, polygon", 1.0, "<= 1.0x OpenCV classic"),
+                              ("rendered, polygon", 1.0, "<= 1.0x OpenCV classic"),
+                              ("real, no polygon", 1.5, "<= 1.5x OpenCV classic"),
+                              ("rendered, no polygon", 1.5, "<= 1.5x OpenCV classic"),
+                              ("12 MP JPEG, no polygon", 1.0, "<= 1.0x OpenCV classic")):
+        if results[name]:
+            size = "4032 x 3024" if "12 MP" in name else "640 x 480"
+            figures.append(_figure(f"file to cross-checked pose, {size}, {name}", results[name], ratio, goal))
+    mem_ours = [m for m in memory["graphpose"] if m is not None]
+    mem_cv = [m for m in memory["opencv"] if m is not None]
+    if mem_ours and mem_cv:
+        a, b = float(np.median(mem_ours)), float(np.median(mem_cv))
+        figures.append({"figure": "peak memory growth, 12 MP JPEG, median", "unit": "MB", "fmt": ".0f",
+                        "graphpose": a, "peer_name": "OpenCV classic", "peer": b, "ratio": a / b,
+                        "goal": "below OpenCV classic's", "met": bool(a < b)})
+    blocks = [
+        {"title": "graphpose per stage, 640 x 480 with the polygon (median ms)", "text": None, "values": {},
+         "columns": list(stage), "formats": [".2f"] * len(stage), "rows": [list(stage.values())]},
+    ]
+    for name, rows in results.items():
+        if rows:
+            blocks.append({"title": f"Per image: {name} (median ms of {repeats} runs)", "text": None, "values": {},
+                           "columns": ["image", "graphpose", "OpenCV classic", "ratio", "graphpose ok", "OpenCV found"],
+                           "formats": ["", ".1f", ".1f", ".2f", "", ""],
+                           "rows": [[r["image"], r["ours_ms"], r["opencv_ms"], r["ours_ms"] / r["opencv_ms"],
+                                     r["ours_ok"], r["opencv_ok"]] for r in rows]})
+    goal = ("From an image file to a cross-checked pose with covariance, as `graphpose estimate` does, beside "
+            "OpenCV's classic chain from the same file (imread, findChessboardCorners, cornerSubPix 11 x 11, IPPE, "
+            "solvePnPRefineLM: one pose, no covariance, no second solver). Single-threaded, each image timed in "
+            "turn, medians. Goals (issue 11): at most 1.0x the peer's time at 640 x 480 with a polygon and at "
+            "12 MP, at most 1.5x without a polygon at 640 x 480, and less peak memory at 12 MP.")
+    return {"goal": goal, "figures": figures, "blocks": blocks}
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench import main as bench_main
+
+    sys.exit(bench_main(["speed", *sys.argv[1:]]))
