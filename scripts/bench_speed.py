@@ -28,6 +28,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -93,9 +94,9 @@ def compare(cv2, items, repeats):
         K_ = as_camera(camera).K
         t_ours, t_cv = [], []
         for _ in range(repeats):
-            dt, est = _timed(lambda: ours(path, bounds, camera))
+            dt, est = _timed(partial(ours, path, bounds, camera))
             t_ours.append(dt)
-            dt, pose = _timed(lambda: opencv(cv2, path, K_))
+            dt, pose = _timed(partial(opencv, cv2, path, K_))
             t_cv.append(dt)
         rows.append({"image": Path(path).name, "ours_ms": 1e3 * float(np.median(t_ours)),
                      "opencv_ms": 1e3 * float(np.median(t_cv)), "ours_ok": bool(est is not None and est.ok),
@@ -114,14 +115,19 @@ def stages(items, repeats):
         J = extract_junctions(image, bounds, BOARD, camera=cam)
         gn, _ = fit_pose(cam, J.points, W, mask=J.trusted)
         t = {n: [] for n in names}
+        calls = {
+            "read": partial(read_image, path, as_float=False),
+            "find board": partial(find_board, image, BOARD, bounds),
+            "extract": partial(extract_junctions, image, bounds, BOARD, camera=cam),
+            "start + Gauss-Newton": partial(fit_pose, cam, J.points, W, mask=J.trusted),
+            "GTSAM + marginals": partial(graph_pose, cam, gn.T_WC, J.points, W, mask=J.trusted),
+            "total": partial(ours, path, bounds, cam),
+        }
         for _ in range(repeats):
-            t["read"].append(_timed(lambda: read_image(path, as_float=False))[0])
-            t["find board"].append(_timed(lambda: find_board(image, BOARD, bounds))[0])
-            t["refine and judge"].append(_timed(lambda: extract_junctions(image, bounds, BOARD, camera=cam))[0]
-                                         - t["find board"][-1])
-            t["start + Gauss-Newton"].append(_timed(lambda: fit_pose(cam, J.points, W, mask=J.trusted))[0])
-            t["GTSAM + marginals"].append(_timed(lambda: graph_pose(cam, gn.T_WC, J.points, W, mask=J.trusted))[0])
-            t["total"].append(_timed(lambda: ours(path, bounds, cam))[0])
+            times = {name: _timed(call)[0] for name, call in calls.items()}
+            times["refine and judge"] = times.pop("extract") - times["find board"]
+            for name in names:
+                t[name].append(times[name])
         for n in names:
             per[n].append(np.median(t[n]))
     return {n: 1e3 * float(np.median(v)) for n, v in per.items()}
