@@ -163,19 +163,21 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
 def _lens_patches(lens, base, offs, disc, patches, grad2):
     """What the fits through the lens reuse while a patch stays: per patch (m of them)
     the undistorted position of its base pixel (2, m), the lens's node values (2, m, 5, 5)
-    (:func:`_undistorted_grid`), and for the pixels of ``disc`` (n of them) their design
+    (:func:`_node_values`), and for the pixels of ``disc`` (n of them) their design
     monomials (m, 15, n) about that origin (:func:`graphpose.detect.saddle.quadric_monomials`),
     positions ``x, y`` (m, n), grey values (m, n) and squared gradients (m, n), zero where
     the lens gives no position (then the pixel has no weight).
     """
-    flat, V = _undistorted_grid(lens, base, offs)
+    V = _node_values(lens, base, offs)
     origin = V[:, :, 2, 2]  # the middle node is the base pixel
-    x = flat[:, 0][:, disc] - origin[0][:, None]
-    y = flat[:, 1][:, disc] - origin[1][:, None]
-    valid = np.isfinite(x) & np.isfinite(y)
-    x, y = np.where(valid, x, 0.0), np.where(valid, y, 0.0)
-    g2 = np.where(valid, grad2[:, disc], 0.0)
-    return [origin, V, quadric_monomials(x, y), x, y, patches[:, disc], g2]
+    # Each pixel's position: the polynomial through the nodes (degree four each way).
+    L = _lagrange(np.linspace(-offs[-1], offs[-1], 5), offs)
+    rows, cols = np.nonzero(disc)
+    flat = (L.T @ (V @ L))[:, :, rows, cols] - origin[:, :, None]
+    valid = np.all(np.isfinite(flat), axis=0)
+    x, y = np.where(valid, flat[0], 0.0), np.where(valid, flat[1], 0.0)
+    g2 = np.where(valid, grad2[:, rows, cols], 0.0)
+    return [origin, V, quadric_monomials(x, y), x, y, patches[:, rows, cols], g2]
 
 
 def _fit_through(lens, through, act, half, offset, radius):
@@ -193,8 +195,10 @@ def _fit_through(lens, through, act, half, offset, radius):
     dy = y[act] - c[1][:, None]
     # The window of refine_points, about the estimate, in undistorted pixels.
     r2 = dx * dx + dy * dy
-    taper = np.maximum(1.0 - r2 / (radius ** 2)[:, None], 0.0)
-    weights = taper * taper * g2[act] / np.maximum(r2, 1.0)
+    taper = np.maximum(1.0 - r2 * (1.0 / radius ** 2)[:, None], 0.0)
+    taper *= taper
+    taper *= g2[act]
+    weights = np.divide(taper, np.maximum(r2, 1.0, out=r2), out=taper)
     if not np.all(np.isfinite(c)):  # no undistorted position (a fisheye's ray past 90 degrees)
         weights[~np.all(np.isfinite(c), axis=0)] = 0.0
     pts, saddle, residual = fit_quadrics_moments(A[act] if act.size < A.shape[0] else A,
@@ -207,43 +211,45 @@ def _fit_through(lens, through, act, half, offset, radius):
     return new, saddle & within & np.all(np.isfinite(new), axis=0), residual
 
 
-def _undistorted_grid(lens, base, offs):
-    """Undistorted pixel positions (m, 2, k, k) of the patch pixels around ``base`` (2, m),
-    and the lens's undistorted values (2, m, 5, 5) at the nodes they are interpolated from.
+def _node_values(lens, base, offs):
+    """The lens's undistorted values (2, m, 5, 5) at a 5 x 5 grid of nodes across each patch
+    about ``base`` (2, m), [row node, column node], from which :func:`_lens_patches`
+    interpolates every pixel's position.
 
-    The lens is undistorted (an iterative inversion) at a 5 x 5 grid of nodes across each
-    patch only, and interpolated between them by the polynomial through those nodes (degree
-    four in each direction): over a patch of a few tens of pixels a lens's map is smooth,
-    and this keeps the interpolation within a thousandth of a pixel of the inversion even
-    at a wide-angle lens's corners, at a fortieth of its cost.
+    The lens is undistorted (an iterative inversion) at the nodes only, and interpolated
+    between them by the polynomial through them (degree four in each direction): over a
+    patch of a few tens of pixels a lens's map is smooth, and this keeps the interpolation
+    within a thousandth of a pixel of the inversion even at a wide-angle lens's corners, at
+    a fortieth of its cost.
     """
     h = float(offs[-1])
     nodes = np.linspace(-h, h, 5)
     m, n = base.shape[1], nodes.size
     u = base[0][:, None, None] + nodes[None, None, :] + np.zeros((1, n, 1))
     v = base[1][:, None, None] + nodes[None, :, None] + np.zeros((1, 1, n))
-    V = lens.undistort_pixels(np.vstack([u.ravel(), v.ravel()])).reshape(2, m, n, n)
-    L = _lagrange(nodes, offs)
-    # V[:, m, a, b]: a indexes the row offset (v), b the column offset (u).
-    return (L.T @ (V @ L)).transpose(1, 0, 2, 3), V
+    return lens.undistort_pixels(np.vstack([u.ravel(), v.ravel()])).reshape(2, m, n, n)
 
 
 def _lagrange(nodes, t) -> np.ndarray:
-    """Lagrange basis (n, len(t)) of ``nodes`` at the points ``t``."""
-    L = np.ones((nodes.size, np.size(t)))
-    for a in range(nodes.size):
-        for b in range(nodes.size):
-            if a != b:
-                L[a] *= (t - nodes[b]) / (nodes[a] - nodes[b])
-    return L
+    """Lagrange basis (n, len(t)) of ``nodes`` at the points ``t``: row ``a`` is the product
+    of ``t - nodes[b]`` over ``b != a`` (the products before and after ``a``, by running
+    products), over the same product at ``nodes[a]``."""
+    t = np.asarray(t, dtype=float).ravel()
+    n = nodes.size
+    d = t[None, :] - nodes[:, None]
+    before = np.ones((n + 1, t.size))
+    after = np.ones((n + 1, t.size))
+    np.cumprod(d, axis=0, out=before[1:])
+    np.cumprod(d[::-1], axis=0, out=after[1:])
+    gaps = nodes[:, None] - nodes[None, :] + np.eye(n)
+    return before[:n] * after[n - 1::-1] / np.prod(gaps, axis=1)[:, None]
 
 
 def _undistort_in_patch(V, half, offset) -> np.ndarray:
     """Undistorted positions (2, a) of points at ``offset`` (2, a) from their patch bases,
-    by each patch's node values ``V`` (2, a, 5, 5) (see :func:`_undistorted_grid`)."""
-    nodes = np.linspace(-half, half, 5)
-    Lu, Lv = _lagrange(nodes, offset[0]), _lagrange(nodes, offset[1])  # (5, a)
-    return np.einsum("cmab,am,bm->cm", V, Lv, Lu)
+    by each patch's node values ``V`` (2, a, 5, 5) (see :func:`_node_values`)."""
+    L = _lagrange(np.linspace(-half, half, 5), offset.ravel()).reshape(5, 2, -1)  # (5, [u, v], a)
+    return np.einsum("cmab,am,bm->cm", V, L[:, 1], L[:, 0])
 
 
 def _patches(image, base, half, sigma, radius):

@@ -197,20 +197,21 @@ def quadric_monomials(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """The monomials (m, 15, n) of degree up to four at positions ``x, y`` (m, n), whose
     weighted sums are the quadric fit's normal equations (:func:`fit_quadrics_moments`);
     the first six are its design columns ``x^2, x y, y^2, x, y, 1``."""
-    M = np.empty((x.shape[0], 15, x.shape[1]))
-    x2, y2 = np.multiply(x, x, out=M[:, 0]), np.multiply(y, y, out=M[:, 2])
-    xy = np.multiply(x, y, out=M[:, 1])
-    M[:, 3], M[:, 4], M[:, 5] = x, y, 1.0
-    np.multiply(x2, x2, out=M[:, 6])
-    np.multiply(x2, xy, out=M[:, 7])
-    np.multiply(x2, y2, out=M[:, 8])
-    np.multiply(xy, y2, out=M[:, 9])
-    np.multiply(y2, y2, out=M[:, 10])
-    np.multiply(x2, x, out=M[:, 11])
-    np.multiply(x2, y, out=M[:, 12])
-    np.multiply(x, y2, out=M[:, 13])
-    np.multiply(y2, y, out=M[:, 14])
-    return M
+    # Filled monomial by monomial, each one contiguous block (then viewed as (m, 15, n)).
+    M = np.empty((15,) + x.shape)
+    x2, y2 = np.multiply(x, x, out=M[0]), np.multiply(y, y, out=M[2])
+    xy = np.multiply(x, y, out=M[1])
+    M[3], M[4], M[5] = x, y, 1.0
+    np.multiply(x2, x2, out=M[6])
+    np.multiply(x2, xy, out=M[7])
+    np.multiply(x2, y2, out=M[8])
+    np.multiply(xy, y2, out=M[9])
+    np.multiply(y2, y2, out=M[10])
+    np.multiply(x2, x, out=M[11])
+    np.multiply(x2, y, out=M[12])
+    np.multiply(x, y2, out=M[13])
+    np.multiply(y2, y, out=M[14])
+    return M.transpose(1, 0, 2)
 
 
 def fit_quadrics_moments(M: np.ndarray, v: np.ndarray, W: np.ndarray, size: float):
