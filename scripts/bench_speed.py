@@ -13,8 +13,9 @@ with the other tool, medians over the repeats and then over the images.
 Cases: the six real 640 x 480 images of ``../shared/data/rob501`` (when present) and
 rendered 640 x 480 images (``graphpose.synth``, written as PNG), with their polygons and
 without; rendered 4032 x 3024 (12 MP) images written as JPEG, as a phone writes them, with
-the peak memory of each tool on them (each in a fresh process: the growth of the resident
-set's peak over its size before the image, after a warm-up on a small image). Per stage,
+the peak memory of each tool on them (each in a fresh process, after a warm-up on a small
+image: the resident set's peak while it handles the image, over its size before; the peak is
+reset first through ``/proc/self/clear_refs``). Per stage,
 graphpose's time on the 640 x 480 images with their polygons.
 
 Run it as a section of the benchmark: ``python scripts/bench.py speed [--quick]``.
@@ -160,7 +161,7 @@ def real_items():
 
 
 _MEMORY_SCRIPT = r"""
-import json, resource, sys
+import json, sys
 import numpy as np
 sys.path.insert(0, sys.argv[4])
 from bench_speed import ours, opencv, scaled_K, BOARD
@@ -170,19 +171,26 @@ tool, warm, path = sys.argv[1], sys.argv[2], sys.argv[3]
 K_ = scaled_K((4032, 3024))
 run = (lambda p, k: ours(p, None, k)) if tool == "graphpose" else (lambda p, k: opencv(cv2, p, k))
 run(warm, scaled_K((640, 480)))          # imports and first-call costs, on a small image
-def rss_mb():
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * resource.getpagesize() / 2**20
-before = rss_mb()
+def status_mb(field):
+    with open("/proc/self/status") as f:
+        line = next(line for line in f if line.startswith(field + ":"))
+    return int(line.split()[1]) / 1024
+before = status_mb("VmRSS")
+try:  # reset the peak to the present size (Linux 4.0 and later), so only this image counts
+    with open("/proc/self/clear_refs", "w") as f:
+        f.write("5")
+    reset = True
+except OSError:
+    reset = False
 out = run(path, K_)
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-print(json.dumps({"growth_mb": peak - before, "found": out is not None}))
+peak = status_mb("VmHWM")
+print(json.dumps({"growth_mb": peak - before, "found": out is not None, "reset": reset}))
 """
 
 
 def peak_memory(tool, warm, path):
     """Growth of the peak resident set (MB) while ``tool`` handles ``path``, in a fresh process."""
-    if not Path("/proc/self/statm").exists():
+    if not Path("/proc/self/status").exists():
         return None
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
     out = subprocess.run([sys.executable, "-c", _MEMORY_SCRIPT, tool, str(warm), str(path),
