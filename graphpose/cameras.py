@@ -511,10 +511,23 @@ class RadTanCamera(Camera):
         return np.stack([xd, yd])
 
     def _project(self, P, jacobian):
-        xy, N = _perspective(P, jacobian)
-        xd, yd, _, D = self._distort_jac(xy[0], xy[1], jacobian)
-        uv = self._to_pixels(np.stack([xd, yd]))
-        return (uv, self.K[:2, :2] @ D @ N) if jacobian else (uv, None)
+        Z = np.where(P[2] > 0, P[2], np.nan)
+        x, y = P[0] / Z, P[1] / Z
+        xd, yd, _, d = self._parts(x, y, jacobian)
+        fx, fy, cx, cy = self.fx, self.fy, self.cx, self.cy
+        uv = np.empty((2, x.size))
+        uv[0], uv[1] = fx * xd + cx, fy * yd + cy
+        if not jacobian:
+            return uv, None
+        # K (no skew) times d(x_d, y_d)/d(x, y) (symmetric) times d(x, y)/dP, written out.
+        d00, d01, d11 = d
+        iz = 1.0 / Z
+        J = np.empty((x.size, 2, 3))
+        J[:, 0, 0], J[:, 0, 1] = fx * d00 * iz, fx * d01 * iz
+        J[:, 0, 2] = -fx * (d00 * x + d01 * y) * iz
+        J[:, 1, 0], J[:, 1, 1] = fy * d01 * iz, fy * d11 * iz
+        J[:, 1, 2] = -fy * (d01 * x + d11 * y) * iz
+        return uv, J
 
     def _unproject(self, xy_d):
         """Newton's method with step halving on distort(x) = x_d, started at x_d.
