@@ -3,7 +3,7 @@ smoother (default) or by iSAM2 over the whole sequence, and smoothed in batch at
 
 Two online back ends take the same factors (:class:`FixedLagGraph`, :class:`SequenceGraph`):
 
-- :class:`FixedLagGraph` (``TrackerConfig(lag_s=2.0)``, the default): GTSAM's
+- :class:`FixedLagGraph` (``TrackerConfig(lag_s=1.0)``, the default): GTSAM's
   ``IncrementalFixedLagSmoother``, iSAM2 over the frames of the last ``lag_s`` seconds. A
   variable older than the newest frame's timestamp minus the lag is marginalised out (its
   factors become one linear prior on the variables it shared them with), so the graph holds
@@ -397,7 +397,7 @@ class FixedLagGraph:
         How the fixed target enters the graph (module docstring).
     lag_s : float
         Variables older than the newest frame's timestamp minus this are marginalised,
-        seconds. A couple of seconds (:data:`graphpose.track.config.DEFAULT_LAG_S`) keeps
+        seconds. A second (:data:`graphpose.track.config.DEFAULT_LAG_S`) keeps
         every factor the filtered estimate of a frame feels: beyond a few frames the motion
         prior's pull is nil. Shorter than two frame intervals, the constant-velocity prior
         never finds its three poses.

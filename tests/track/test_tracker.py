@@ -285,13 +285,13 @@ def test_board_symmetries_are_the_turns_of_the_grid():
 
 
 def test_fixed_lag_tracker_matches_the_whole_sequence_graph_through_a_loss(track_clip, tracked):
-    # The default back end is the fixed lag (2 s, longer than this 1.5 s clip); a 0.3 s lag
+    # The default back end is the fixed lag (1 s, on this 1.5 s clip); a 0.3 s lag
     # marginalises most frames. Same statuses (lost out of view, re-detected after), online
     # poses within the marginal priors' frozen linearisation (the bound of the back end's own
     # test, 2 um; measured identical to 1e-15 m here, as no marginalised pose needed
     # relinearising; the online error against the truth is about 0.1 mm), and the same
     # batch smoothing (measured 2e-12 m).
-    assert tracked.config.lag_s == TrackerConfig().lag_s == 2.0
+    assert tracked.config.lag_s == TrackerConfig().lag_s == 1.0
     runs = {lag: track_sequence(track_clip.images, K, track_clip.bounds, timestamps=track_clip.timestamps,
                                 config=TrackerConfig(lag_s=lag), smooth=True) for lag in (0.3, None)}
     short, whole = runs[0.3], runs[None]
