@@ -70,7 +70,7 @@ def make_image_set(folder: Path, n_files: int = 10, n_paths: int = 198, seed: in
         poly = loose_polygon(rendering, rng)
         files.append(path)
         polys.append(poly)
-        estimates.append(estimate_pose(read_image(path), poly, K, board))
+        estimates.append(estimate_pose(read_image(path, as_float=False), poly, K, board))
     assert all(e.ok for e in estimates), "the seed must give images that all have a pose"
     paths, bounds, expected = [], {}, {}
     for k in range(n_paths):
