@@ -221,3 +221,20 @@ def test_raw_frames_with_their_calibration_file(tmp_path, capsys):
         assert record["reprojection_rms_px"] < 0.2
     assert main(["track", *map(str, frames), "--camera", str(OPENCV / "left.opencv.yml"), "--K", "533,533,341,235"]) == 2
     assert "not both" in capsys.readouterr().err
+
+
+def test_lag_is_recorded_and_none_gives_the_whole_sequence_graph(rendered, tmp_path, capsys):
+    folder, bounds = rendered
+    poses = {}
+    for lag in ("0.1", "none"):
+        out = tmp_path / f"lag_{lag}.json"
+        assert main(["track", str(folder), "--bounds", bounds, "--lag", lag, "--json", str(out), "-q"]) == 0
+        doc = json.loads(out.read_text())
+        assert doc["lag_s"] == (None if lag == "none" else 0.1)
+        poses[lag] = np.array([f["T_WC"] for f in doc["frames"]])
+    # A lag of three frames marginalises most of this 8-frame clip; the online poses differ
+    # from the whole graph's only by the linearisation frozen in the marginal priors.
+    np.testing.assert_allclose(poses["0.1"], poses["none"], atol=1e-5)
+    for bad in ("0", "-1", "soon"):
+        assert main(["track", str(folder), "--bounds", bounds, "--lag", bad]) == 2
+        assert "--lag" in capsys.readouterr().err
