@@ -91,10 +91,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--robust", action="store_true",
                    help="Huber loss in each frame's own pose fit, as 'graphpose estimate --robust' "
                    "(down-weights outlying junctions)")
-    p.add_argument("--lag", type=_parse_lag, default=DEFAULT_LAG_S, metavar="SECONDS",
-                   help=f"online back end: a fixed-lag smoother over the last SECONDS (default {DEFAULT_LAG_S:g}), "
-                   "flat cost however long the sequence; 'none': one iSAM2 over the whole sequence, whose "
-                   "cost grows with it")
+    p.add_argument("--lag", type=_parse_lag, default=AUTO_LAG, metavar="SECONDS",
+                   help=f"online back end: a fixed-lag smoother over the last SECONDS (default {DEFAULT_LAG_S:g}, "
+                   "longer for slow sequences: twice the frames one motion factor spans), flat cost however long the "
+                   "sequence; 'none': one iSAM2 over the whole sequence, whose cost grows with it")
     p.add_argument("--smooth", action="store_true", help="smooth the whole trajectory in batch at the end")
     p.add_argument("--tum", metavar="OUT.txt", help="write the trajectory in TUM format")
     p.add_argument("--json", metavar="OUT.json", help="write per-frame results as JSON ('-': stdout, no summary)")
@@ -113,7 +113,7 @@ def run(args) -> int:
     from ..io.calibration import camera_to_dict
     from ..io.files import dumps_json, write_json
     from ..io.tum import write_tum
-    from ..track.config import MotionPrior, TrackerConfig
+    from ..track.config import MotionPrior, TrackerConfig, default_lag_s
     from ..track.frames import frame_timestamps, list_frames, read_timestamps
     from ..track.tracker import track_sequence
 
@@ -126,7 +126,10 @@ def run(args) -> int:
             raise InputError(f"{name}: folder {Path(path).resolve().parent} does not exist")
     truth, truth_note = _truth(args, len(files), frame_timestamps(timestamps, args.fps, len(files)))
     progress = Progress(len(files), sys.stderr)
-    config = TrackerConfig(motion=MotionPrior(args.motion), target=args.target, robust=args.robust, lag_s=args.lag)
+    lag = args.lag
+    if lag == AUTO_LAG:
+        lag = default_lag_s(args.motion, frame_timestamps(timestamps, args.fps, len(files)))
+    config = TrackerConfig(motion=MotionPrior(args.motion), target=args.target, robust=args.robust, lag_s=lag)
     track = track_sequence(files, camera, args.bounds, board=board, timestamps=timestamps, fps=args.fps,
                            polygons=polygons, config=config, smooth=args.smooth,
                            progress=lambda k, n: progress.show(k + 1, files[k].name))
@@ -138,7 +141,7 @@ def run(args) -> int:
                   header=f"graphpose track: camera pose T_WC in the target frame; {len(frames) - len(found)} "
                   f"lost frames have no line")
     records = {"frames": [frame_record(f, files[f.index]) for f in frames], "smoothed": bool(args.smooth),
-               "motion": args.motion, "target": args.target, "lag_s": args.lag, "K": camera.K, "camera": camera_to_dict(camera),
+               "motion": args.motion, "target": args.target, "lag_s": config.lag_s, "K": camera.K, "camera": camera_to_dict(camera),
                "board": f"{board.cols}x{board.rows}x{board.square_m}"}
     if args.json == "-":
         sys.stdout.write(dumps_json(records))
@@ -154,9 +157,17 @@ def run(args) -> int:
     return EXIT_OK if found else EXIT_FAILED
 
 
+#: ``--lag``'s default: :func:`graphpose.track.config.default_lag_s` of the frames' timestamps.
+AUTO_LAG = "auto"
+
+
 def _parse_lag(text: str):
-    """``--lag``: a positive number of seconds, or 'none' (the whole-sequence iSAM2)."""
-    return None if text.strip().lower() == "none" else parse_positive(text)
+    """``--lag``: a positive number of seconds, 'none' (the whole-sequence iSAM2) or 'auto'
+    (the default, :data:`AUTO_LAG`)."""
+    word = text.strip().lower()
+    if word in ("none", AUTO_LAG):
+        return None if word == "none" else AUTO_LAG
+    return parse_positive(text)
 
 
 def _truth(args, n, timestamps):

@@ -29,6 +29,38 @@ TARGET_FORMS = ("resection", "landmarks", "frame_landmarks")
 #: smoother's Bayes tree re-eliminated at each frame grows with the lag (about 13 variables
 #: at 1 s, 23 at 2 s) and settles within a few lags.
 DEFAULT_LAG_S = 1.0
+#: Frames one motion factor ties together, per model (:class:`MotionPrior`): a fixed lag must
+#: hold them, or every frame starts a segment of its own (:func:`shortest_lag_s`).
+MOTION_SPAN_FRAMES = {"constant_velocity": 3, "random_walk": 2, "wnoa": 2}
+
+
+def shortest_lag_s(model: str, timestamps) -> float:
+    """The shortest lag (seconds) that holds the frames one motion factor ties together.
+
+    Parameters
+    ----------
+    model : str
+        One of :data:`MOTION_MODELS`.
+    timestamps : (n,) ndarray
+        The frames' seconds, strictly increasing (checked by the caller).
+
+    Returns
+    -------
+    float
+        ``(MOTION_SPAN_FRAMES[model] - 1)`` times the median frame interval; 0 for fewer than
+        two frames. A lag shorter than this marginalises a frame before the next motion
+        factor can reach it, so the motion prior would never act.
+    """
+    t = np.asarray(timestamps, dtype=float)
+    if t.size < 2:
+        return 0.0
+    return (MOTION_SPAN_FRAMES[model] - 1) * float(np.median(np.diff(t)))
+
+
+def default_lag_s(model: str, timestamps) -> float:
+    """:data:`DEFAULT_LAG_S`, or for slow sequences (a time-lapse, a few frames a second)
+    twice :func:`shortest_lag_s`, whichever is longer, seconds."""
+    return max(DEFAULT_LAG_S, 2.0 * shortest_lag_s(model, timestamps))
 
 
 @dataclass(frozen=True)

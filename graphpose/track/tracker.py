@@ -29,7 +29,7 @@ from ..board import Board
 from ..cameras import as_camera, check_image_size
 from ..errors import InputError
 from .backend import make_backend
-from .config import TrackerConfig
+from .config import MOTION_SPAN_FRAMES, TrackerConfig, default_lag_s, shortest_lag_s
 from .frames import FrameSource, frame_timestamps
 from .frontend import FrontEnd
 from .results import DETECTED, LOST, FrameResult, Track
@@ -100,6 +100,13 @@ def track_sequence(frames, camera, bounds=None, *, board: Board = Board(), times
     if n == 0:
         raise InputError("frames is empty")
     t = frame_timestamps(timestamps, fps, n)
+    shortest = shortest_lag_s(config.motion.model, t)
+    if config.lag_s is not None and config.lag_s < shortest * (1 + 1e-9):
+        raise InputError(
+            f"lag_s = {config.lag_s:g} s is shorter than the {MOTION_SPAN_FRAMES[config.motion.model]} frames "
+            f"({shortest:g} s at this sequence's median frame interval) that one {config.motion.model} motion "
+            f"factor ties together: the motion prior would never act. Give lag_s of at least "
+            f"{default_lag_s(config.motion.model, t):g} s, or None for the whole-sequence back end")
     polys, names = _polygon_list(polygons, bounds, n)
     front = FrontEnd(camera, board, config)
     graph = make_backend(camera, board, config.motion, target=config.target, lag_s=config.lag_s)

@@ -235,6 +235,13 @@ def test_lag_is_recorded_and_none_gives_the_whole_sequence_graph(rendered, tmp_p
     # A lag of three frames marginalises most of this 8-frame clip; the online poses differ
     # from the whole graph's only by the linearisation frozen in the marginal priors.
     np.testing.assert_allclose(poses["0.1"], poses["none"], atol=1e-5)
+    # A slow sequence gets a lag long enough for its motion prior: twice the 3 frames'
+    # span of the constant-velocity prior at 0.5 fps.
+    out = tmp_path / "slow.json"
+    assert main(["track", str(folder), "--bounds", bounds, "--fps", "0.5", "--json", str(out), "-q"]) == 0
+    assert json.loads(out.read_text())["lag_s"] == 8.0
+    assert main(["track", str(folder), "--bounds", bounds, "--fps", "0.5", "--lag", "1"]) == 2
+    assert "lag_s = 1 s is shorter than" in capsys.readouterr().err
     for bad in ("0", "-1", "soon"):
         assert main(["track", str(folder), "--bounds", bounds, "--lag", bad]) == 2
         assert "--lag" in capsys.readouterr().err

@@ -71,3 +71,13 @@ def test_lag_is_none_or_positive():
     for bad in (0.0, -1.0, float("inf"), "2"):
         with pytest.raises(InputError, match="lag_s"):
             TrackerConfig(lag_s=bad)
+
+
+def test_shortest_and_default_lags_follow_the_frames_a_motion_factor_spans():
+    from graphpose.track.config import DEFAULT_LAG_S, default_lag_s, shortest_lag_s
+
+    t = np.arange(10) * 2.0  # a time-lapse: a frame every 2 s
+    assert shortest_lag_s("constant_velocity", t) == 4.0 and shortest_lag_s("random_walk", t) == 2.0
+    assert default_lag_s("constant_velocity", t) == 8.0 and default_lag_s("wnoa", t) == 4.0
+    assert default_lag_s("constant_velocity", np.arange(10) / 30.0) == DEFAULT_LAG_S
+    assert shortest_lag_s("constant_velocity", [0.0]) == 0.0

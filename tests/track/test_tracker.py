@@ -164,6 +164,12 @@ def test_track_input_errors(track_clip, tmp_path):
         track_sequence([images[0], np.zeros((2, 2, 2))], K, bounds)
     with pytest.raises(InputError, match="not found"):
         track_sequence(tmp_path / "nowhere", K, bounds)
+    # A time-lapse (a frame every 2 s) under the 1 s default lag: the constant-velocity prior
+    # would never reach its three poses, so every frame would start a segment of its own.
+    with pytest.raises(InputError, match=r"lag_s = 1 s is shorter than the 3 frames \(4 s .* at least 8 s"):
+        track_sequence(images, K, bounds, fps=0.5)
+    track_sequence(images, K, bounds, fps=0.5, config=TrackerConfig(lag_s=8.0))
+    track_sequence(images, K, bounds, fps=0.5, config=TrackerConfig(lag_s=None))
 
 
 def test_float_and_colour_frames_track_as_8_bit_grey(track_clip):
