@@ -11,6 +11,7 @@ import pytest
 
 from graphpose import Board, BoardNotFoundError, InputError, K_from_params
 from graphpose.camera import T_from_params
+from graphpose.detect import find as find_module
 from graphpose.detect.find import find_board
 from graphpose.detect.lattice import grow_lattices, peel, predict, step_lengths
 from graphpose.detect.search import downsample, find_candidates, ring_test, search_levels
@@ -248,18 +249,45 @@ def test_a_large_image_is_searched_at_a_quarter_and_labelled_as_at_half():
     assert found.seen.all()
     truth = scene.rendering.junctions
     assert min(label_error(found, truth), label_error(found, truth, half_turn(board))) < 3.0
-    # The quarter-resolution search alone finds the same labels.
-    cands = find_candidates(scene.image, level=2)
-    assert cands.level == 2 and cands.smooth.shape == (480, 640)
+    # It came from the quarter-resolution search: that search alone gives the same labels.
+    assert find_candidates(scene.image, level=2).smooth.shape == (480, 640)
+    quarter = find_module._search(scene.image, board, None, None, level=2)
+    assert quarter.seen.all() and np.array_equal(quarter.points, found.points)
+
+
+def test_a_partial_board_above_half_resolution_is_searched_again_at_half(monkeypatch):
+    # Far squares under about 24 px hide at a quarter: a partial board found there is
+    # searched for at half resolution too, and the more complete one kept.
+    board = Board()
+    seen_part = np.arange(board.n) < 30
+    whole = find_module.FoundBoard(np.zeros((2, board.n)), np.ones(board.n, bool), np.ones(board.n), False)
+    part = find_module.FoundBoard(np.zeros((2, board.n)), seen_part, np.ones(board.n), False)
+    calls = []
+
+    def searches(results):
+        def search(image, board_, bounds, region, level):
+            calls.append(level)
+            if results.get(level) is None:
+                raise BoardNotFoundError(f"nothing at level {level}")
+            return results[level]
+        calls.clear()
+        monkeypatch.setattr(find_module, "_search", search)
+
+    image = np.zeros((3024, 4032), np.uint8)
+    searches({2: part, 1: whole})
+    assert find_board(image, board) is whole and calls == [2, 1]
+    # Half resolution refusing, the partial board stands; a whole board at a quarter is final.
+    searches({2: part})
+    assert find_board(image, board) is part and calls == [2, 1]
+    searches({2: whole, 1: part})
+    assert find_board(image, board) is whole and calls == [2]
 
 
 def test_small_squares_on_a_large_image_fall_back_to_finer_levels():
     board = Board()
     scene = _large_scene((7.0, 7.5), 5)  # squares of about 20 px: 5 at a quarter, too small
     with pytest.raises(BoardNotFoundError):
-        from graphpose.detect.find import _search
-
-        _search(scene.image, board, None, None, level=2)
+        find_module._search(scene.image, board, None, None, level=2)
     found = find_board(scene.image, board)
     assert found.seen.all()
     truth = scene.rendering.junctions
