@@ -70,7 +70,9 @@ def read_image(path, *, as_float: bool = True) -> np.ndarray:
         8-bit file (grey, palette or colour) comes as uint8 grey, converted by the decoder
         itself (ITU-R 601 luma in integers; a JPEG is decoded straight to its luma plane),
         which the detector reads as it is: 1/8 of the memory of float64 and no conversion
-        pass over the image. Other files (16-bit, float) come as float64 as with True.
+        pass over the image. Other files (16-bit grey, float) come as float64 as with True.
+        (Pillow reads 16-bit colour files as 8-bit colour, on both paths.) ``graphpose
+        estimate``, ``track`` and ``batch`` read this way.
 
     Returns
     -------
@@ -112,6 +114,6 @@ def _read_eight_bit(path: Path):
             if im.format == "JPEG":
                 im.draft("L", im.size)  # decode the luma plane only, at full size
             grey = np.asarray(im if im.mode == "L" else im.convert("L"))
-    except (UnidentifiedImageError, OSError, ValueError, SyntaxError):
-        return None
+    except (UnidentifiedImageError, OSError, ValueError, SyntaxError, Image.DecompressionBombError):
+        return None  # the general reader says why
     return grey

@@ -115,3 +115,14 @@ def test_read_image_as_uint8_errors_as_the_float_path(tmp_path):
     truncated.write_bytes(encode_png(np.zeros((64, 64), np.uint8))[:60])
     with pytest.raises(InputError, match="cannot read"):
         read_image(truncated, as_float=False)
+
+
+def test_read_image_refuses_a_decompression_bomb_as_unreadable(tmp_path, monkeypatch):
+    from PIL import Image
+
+    path = tmp_path / "big.png"
+    path.write_bytes(encode_png(np.zeros((64, 64), np.uint8)))
+    monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", 100)  # 64 x 64 is then over twice the limit
+    for as_float in (False, True):
+        with pytest.raises(InputError, match="cannot read image"):
+            read_image(path, as_float=as_float)

@@ -30,7 +30,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-#: Gaussian scale of the saddle response at half resolution, pixels (2 full-image pixels).
+from ..errors import InputError
+
+#: Gaussian scale of the saddle response at the search level, pixels of that level (2
+#: full-image pixels at half resolution).
 RESPONSE_SIGMA = 1.0
 #: A candidate's response must exceed this fraction of a typical strong peak (the 16th).
 RELATIVE_THRESHOLD = 0.03
@@ -59,7 +62,8 @@ class Candidates:
         The smoothed image at the search's level that the response came from;
         :func:`sample` and :func:`ring_test` read it at full-image coordinates.
     level : int
-        0 for the full image, 1 for half resolution.
+        The search level: block means of 2^level x 2^level pixels (0 the full image, 1 half
+        resolution, 2 a quarter; :func:`search_levels`).
     shape : tuple of int
         The full image's ``(height, width)``.
     image : (H, W) ndarray
@@ -101,7 +105,9 @@ def find_candidates(image: np.ndarray, region=None, *, level: int = 1) -> Candid
     Candidates
         Possibly empty.
     """
-    a = downsample(image, level)
+    if int(level) != level or level < 0:
+        raise InputError(f"level must be a whole number >= 0, got {level!r}")
+    a = downsample(image, int(level))
     S = ndimage.gaussian_filter(a, RESPONSE_SIGMA, truncate=3.0)
     Ixx = S[1:-1, 2:] - 2 * S[1:-1, 1:-1] + S[1:-1, :-2]
     Iyy = S[2:, 1:-1] - 2 * S[1:-1, 1:-1] + S[:-2, 1:-1]
@@ -183,19 +189,19 @@ def ring_test(cands: Candidates, points: np.ndarray, radius) -> tuple:
     return score, theta, np.ptp(ring, axis=1)
 
 
-def search_levels(shape, *, longest: int = SEARCH_SIDE) -> range:
+def search_levels(shape, *, side: int = SEARCH_SIDE) -> range:
     """Search levels to try, coarsest first, for an image of ``shape`` (H, W).
 
-    The first is the coarsest level at or above 1 whose image is at most ``longest``
-    pixels on its shorter side, so a 640 x 480 image starts at half resolution and a
+    The first is the coarsest level at or above 1 whose image is at most ``side`` pixels
+    on its shorter side, so a 640 x 480 image starts at half resolution and a
     4032 x 3024 one at a quarter; each failure falls back to the next finer level, down
-    to the full image. The response's cost, and its memory, then scale with ``longest``
+    to the full image. The response's cost, and its memory, then scale with ``side``
     squared rather than with the image, for boards whose squares are large enough
     (:data:`RESPONSE_SIGMA`) at the coarse level; smaller ones cost the finer levels too.
     """
     short = min(shape[:2])
     first = 1
-    while short / 2 ** first > longest:
+    while short / 2 ** first > side:
         first += 1
     return range(first, -1, -1)
 

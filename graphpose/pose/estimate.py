@@ -101,7 +101,8 @@ class PoseEstimate:
     cross_check : CrossCheck
         Gauss-Newton against GTSAM.
     start_T_WC : (4, 4) ndarray
-        Where both solvers started (the guess, or the homography pose).
+        Where Gauss-Newton started (the guess, or the homography pose); GTSAM starts at
+        Gauss-Newton's answer, or here when Gauss-Newton did not converge.
     message : str
         "ok", or what went wrong.
     gn : GNResult
@@ -391,7 +392,7 @@ def cross_check(gn: GNResult, graph: GraphResult) -> CrossCheck:
     gn : GNResult
         The Gauss-Newton solution.
     graph : GraphResult
-        The GTSAM solution from the same start.
+        The GTSAM solution (started at Gauss-Newton's answer in :func:`estimate_pose`).
 
     Returns
     -------

@@ -170,7 +170,8 @@ class FrameSource:
             8-bit grey as it is (no NaN possible; the junction code reads it without a copy),
             anything else float64 grey (:func:`graphpose.image.as_grey`: integers scaled to
             [0, 1], floats kept) checked finite; a file is read by
-            :func:`graphpose.image.read_image`.
+            :func:`graphpose.image.read_image` with ``as_float=False``, as ``graphpose
+            estimate`` reads it (an 8-bit file stays uint8).
 
         Raises
         ------
@@ -180,7 +181,7 @@ class FrameSource:
         """
         item = self._items[k]
         if isinstance(item, (str, Path)):
-            return read_image(item)
+            return read_image(item, as_float=False)
         try:
             image = np.asarray(item)
             if image.ndim == 2 and image.dtype == np.uint8 and image.size:

@@ -235,6 +235,12 @@ def test_downsample_is_the_exact_block_mean(level, dtype):
     np.testing.assert_allclose(out, mean, rtol=0, atol=0 if dtype == np.uint8 else 1e-6)
 
 
+@pytest.mark.parametrize("level", [-1, 1.5])
+def test_find_candidates_refuses_a_level_that_is_no_whole_number_from_0(level):
+    with pytest.raises(InputError, match="level must be a whole number >= 0"):
+        find_candidates(np.zeros((64, 64), np.uint8), level=level)
+
+
 def _large_scene(distance, seed):
     """The project camera scaled to 2560 x 1920 (a first search at a quarter), one board."""
     s = 4.0
