@@ -84,7 +84,7 @@ def find_board(image: np.ndarray, board: Board, bounds=None) -> FoundBoard:
         raise InputError(f"find_board takes a grey (H, W) image, got shape {image.shape}")
     region = None if bounds is None else _grow(bounds)
     refusals, partial = [], None
-    # Coarsest level first (half resolution for a VGA image, a quarter for 12 MP); squares
+    # Coarsest level first (half resolution for a VGA image, an eighth for 12 MP); squares
     # too small for it (under about 6 of its pixels) hide there: then the next finer level.
     # A partial board found above half resolution may have its far, small squares hidden
     # there: half resolution is searched too, and the more complete board kept.

@@ -8,7 +8,7 @@ zero on edges. A junction looks the same at every scale up to blur, so this one 
 serves squares from about 12 pixels (6 at half resolution, where the Gaussian spans a
 sixth of a square) to a third of the image; ``level=0`` searches the full image for
 smaller squares (from about 7 pixels), and large images start coarser still
-(:func:`search_levels`: a 12 MP image at a quarter), so that the search costs about the
+(:func:`search_levels`: a 12 MP image at an eighth), so that the search costs about the
 same at any resolution. The lattice and the ring test, not this response, decide what is
 a junction.
 
@@ -38,8 +38,8 @@ RESPONSE_SIGMA = 1.0
 #: A candidate's response must exceed this fraction of a typical strong peak (the 16th).
 RELATIVE_THRESHOLD = 0.03
 #: The first search level's image is at most this many pixels on its shorter side
-#: (:func:`search_levels`).
-SEARCH_SIDE = 800
+#: (:func:`search_levels`): 640 x 480 starts at half resolution, 12 MP at an eighth.
+SEARCH_SIDE = 400
 #: Ring samples of the ring test.
 _RING = np.arange(16) * (np.pi / 8)
 
@@ -63,7 +63,7 @@ class Candidates:
         :func:`sample` and :func:`ring_test` read it at full-image coordinates.
     level : int
         The search level: block means of 2^level x 2^level pixels (0 the full image, 1 half
-        resolution, 2 a quarter; :func:`search_levels`).
+        resolution, 2 a quarter, ...; :func:`search_levels`).
     shape : tuple of int
         The full image's ``(height, width)``.
     image : (H, W) ndarray
@@ -194,7 +194,7 @@ def search_levels(shape, *, side: int = SEARCH_SIDE) -> range:
 
     The first is the coarsest level at or above 1 whose image is at most ``side`` pixels
     on its shorter side, so a 640 x 480 image starts at half resolution and a
-    4032 x 3024 one at a quarter; each failure falls back to the next finer level, down
+    4032 x 3024 one at an eighth; each failure falls back to the next finer level, down
     to the full image. The response's cost, and its memory, then scale with ``side``
     squared rather than with the image, for boards whose squares are large enough
     (:data:`RESPONSE_SIGMA`) at the coarse level; smaller ones cost the finer levels too.
@@ -213,6 +213,18 @@ def downsample(image: np.ndarray, level: int) -> np.ndarray:
     """
     if level == 0:
         return image.astype(np.float32, copy=False)
+    if image.dtype == np.uint8 and 2 <= level <= 4:
+        # Rows first (whole rows, contiguous), then columns on the 2^level times smaller
+        # result: twice as fast as halving twice. Sums of 4^level uint8 fit uint16 exactly.
+        s = 2**level
+        h, w = image.shape[0] // s * s, image.shape[1] // s * s
+        rows = image[0:h:s, :w].astype(np.uint16)
+        for k in range(1, s):
+            rows += image[k:h:s, :w]
+        a = rows[:, 0::s].copy()
+        for k in range(1, s):
+            a += rows[:, k::s]
+        return a.astype(np.float32) * np.float32(4.0 ** -level)
     a = image
     for k in range(1, level + 1):
         h, w = a.shape[0] // 2 * 2, a.shape[1] // 2 * 2

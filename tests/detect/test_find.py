@@ -216,9 +216,10 @@ def test_small_squares_are_found_at_full_resolution():
 
 
 @pytest.mark.parametrize("shape, levels", [
-    ((480, 640), [1, 0]), ((1080, 1920), [1, 0]), ((1600, 2400), [1, 0]),
-    ((1602, 2400), [2, 1, 0]), ((3024, 4032), [2, 1, 0]), ((6000, 8000), [3, 2, 1, 0]), ((3, 3), [1, 0])])
-def test_search_levels_start_where_the_shorter_side_is_at_most_800_px(shape, levels):
+    ((480, 640), [1, 0]), ((800, 1000), [1, 0]), ((802, 1000), [2, 1, 0]), ((1080, 1920), [2, 1, 0]),
+    ((1600, 2400), [2, 1, 0]), ((1602, 2400), [3, 2, 1, 0]), ((3024, 4032), [3, 2, 1, 0]),
+    ((6000, 8000), [4, 3, 2, 1, 0]), ((3, 3), [1, 0])])
+def test_search_levels_start_where_the_shorter_side_is_at_most_400_px(shape, levels):
     assert list(search_levels(shape)) == levels
 
 
@@ -242,28 +243,29 @@ def test_find_candidates_refuses_a_level_that_is_no_whole_number_from_0(level):
 
 
 def _large_scene(distance, seed):
-    """The project camera scaled to 2560 x 1920 (a first search at a quarter), one board."""
+    """The project camera scaled to 2560 x 1920 (a first search at an eighth), one board."""
     s = 4.0
     Kc = K_from_params(s * K[0, 0], s * K[1, 1], s * (K[0, 2] + 0.5) - 0.5, s * (K[1, 2] + 0.5) - 0.5)
     return random_scene(seed, Kc, Board(), size=(2560, 1920), distance=distance, max_tilt_deg=40.0)
 
 
-def test_a_large_image_is_searched_at_a_quarter_and_labelled_as_at_half():
+def test_a_large_image_is_searched_at_an_eighth_and_labelled_right():
     board = Board()
-    scene = _large_scene((0.8, 1.2), 3)  # squares of about 120 px: 30 at a quarter
+    scene = _large_scene((0.8, 1.2), 3)  # squares of about 120 px: 15 at an eighth
     found = find_board(scene.image, board)
     assert found.seen.all()
     truth = scene.rendering.junctions
     assert min(label_error(found, truth), label_error(found, truth, half_turn(board))) < 3.0
-    # It came from the quarter-resolution search: that search alone gives the same labels.
-    assert find_candidates(scene.image, level=2).smooth.shape == (480, 640)
-    quarter = find_module._search(scene.image, board, None, None, level=2)
-    assert quarter.seen.all() and np.array_equal(quarter.points, found.points)
+    # It came from the first, coarsest search: that search alone gives the same labels.
+    assert list(search_levels(scene.image.shape))[0] == 3
+    assert find_candidates(scene.image, level=3).smooth.shape == (240, 320)
+    eighth = find_module._search(scene.image, board, None, None, level=3)
+    assert eighth.seen.all() and np.array_equal(eighth.points, found.points)
 
 
 def test_a_partial_board_above_half_resolution_is_searched_again_at_half(monkeypatch):
-    # Far squares under about 24 px hide at a quarter: a partial board found there is
-    # searched for at half resolution too, and the more complete one kept.
+    # Far squares hide at a coarse level: a partial board found above half resolution is
+    # searched for at the finer levels down to half resolution too, the more complete kept.
     board = Board()
     seen_part = np.arange(board.n) < 30
     whole = find_module.FoundBoard(np.zeros((2, board.n)), np.ones(board.n, bool), np.ones(board.n), False)
@@ -279,7 +281,7 @@ def test_a_partial_board_above_half_resolution_is_searched_again_at_half(monkeyp
         calls.clear()
         monkeypatch.setattr(find_module, "_search", search)
 
-    image = np.zeros((3024, 4032), np.uint8)
+    image = np.zeros((1200, 1600), np.uint8)  # levels 2, 1, 0
     searches({2: part, 1: whole})
     assert find_board(image, board) is whole and calls == [2, 1]
     # Half resolution refusing, the partial board stands; a whole board at a quarter is final.
@@ -287,6 +289,9 @@ def test_a_partial_board_above_half_resolution_is_searched_again_at_half(monkeyp
     assert find_board(image, board) is part and calls == [2, 1]
     searches({2: whole, 1: part})
     assert find_board(image, board) is whole and calls == [2]
+    # Nothing at the coarsest level: the next one's partial board is searched for further.
+    searches({1: part, 0: whole})
+    assert find_board(np.zeros((3024, 4032), np.uint8), board) is part and calls == [3, 2, 1]
 
 
 def test_small_squares_on_a_large_image_fall_back_to_finer_levels():
