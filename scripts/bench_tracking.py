@@ -353,22 +353,58 @@ def _rss_mb() -> float:
 
 
 def _instrumented_track(seq, K, config, smooth):
-    """track_sequence on the rendered frames with the wall time and resident memory after
-    every frame: (track, seconds (n,) per frame, RSS MB (n,), smoothing seconds)."""
+    """track_sequence on the rendered frames with the wall time, process CPU time and resident
+    memory after every frame: (track, wall seconds (n,) and CPU seconds (n,) per frame, RSS MB
+    (n,), smoothing seconds)."""
     from graphpose import track_sequence
 
     n = len(seq)
-    stamps, rss = np.zeros(n), np.zeros(n)
+    stamps, cpu, rss = np.zeros(n), np.zeros(n), np.zeros(n)
 
     def progress(k, _n):
-        stamps[k] = time.perf_counter()
+        stamps[k], cpu[k] = time.perf_counter(), time.process_time()
         rss[k] = _rss_mb()
 
-    start = time.perf_counter()
+    start, cpu_start = time.perf_counter(), time.process_time()
     track = track_sequence(seq.images, K, seq.bounds, timestamps=seq.timestamps, config=config, smooth=smooth,
                            progress=progress)
     smooth_s = time.perf_counter() - stamps[-1]
-    return track, np.diff(np.r_[start, stamps]), rss, smooth_s
+    return track, np.diff(np.r_[start, stamps]), np.diff(np.r_[cpu_start, cpu]), rss, smooth_s
+
+
+def _lockstep_growth(K, board, track, lag_s):
+    """The fixed-lag back end's growth, free of the machine's drift over the run.
+
+    The tracked frames' junctions are replayed into two fixed-lag back ends in lockstep: one
+    fed the whole sequence, and a young one started afresh every 200 frames, timed so that
+    it is 100-199 frames old over the sequence's last 100. Each frame is given to both, in
+    alternating order, and each update timed in process CPU time; a neighbour stealing the
+    machine in one stretch of the run then slows both alike. Returns (long / young median
+    update time over the last 100 frames, long ms, young ms).
+    """
+    from graphpose.track.backend import make_backend
+    from graphpose.track.config import MotionPrior
+    from graphpose.track.results import DETECTED, LOST
+
+    n = len(track.frames)
+    times = {"long": np.full(n, np.nan), "young": np.full(n, np.nan)}
+    graphs = {"long": make_backend(K, board, MotionPrior(), lag_s=lag_s), "young": None}
+    for f in track.frames:
+        k = f.index
+        if graphs["young"] is None or (k - (n - 200)) % 200 == 0:
+            graphs["young"] = make_backend(K, board, MotionPrior(), lag_s=lag_s)
+        for name in (("long", "young") if k % 2 else ("young", "long")):
+            graph = graphs[name]
+            if f.status in (LOST, DETECTED):
+                graph.break_segment()
+            if f.status == LOST:
+                continue
+            start = time.process_time()
+            graph.add_frame(k, f.timestamp, f.points, f.ids, f.single_T_WC, 0.1)
+            times[name][k] = time.process_time() - start
+    late = np.arange(n) >= n - 100
+    long_ms, young_ms = (1000 * float(np.nanmedian(times[name][late])) for name in ("long", "young"))
+    return long_ms / young_ms, long_ms, young_ms
 
 
 def _long_run(K, board, quick):
@@ -387,7 +423,7 @@ def _long_run(K, board, quick):
     runs = {}
     for name, lag, smooth in (("fixed lag", DEFAULT_LAG_S, True), ("whole sequence", None, False)):
         gc.collect()
-        track, frame_s, rss, smooth_s = _instrumented_track(seq, K, TrackerConfig(lag_s=lag), smooth)
+        track, frame_s, frame_cpu_s, rss, smooth_s = _instrumented_track(seq, K, TrackerConfig(lag_s=lag), smooth)
         idx = np.arange(n)
         found = track.found
         back_ms = np.array([f.update_s for f in track.frames]) * 1000
@@ -397,44 +433,51 @@ def _long_run(K, board, quick):
         slope = float(np.polyfit(idx[fit], rss[fit], 1)[0]) * 1000 if np.all(np.isfinite(rss[fit])) else float("nan")
         d, a = _errors(track.poses("online"), seq.T_WC)
         runs[name] = {"early": early, "late": late, "growth": late / early, "mb_per_1000": slope,
-                      "frame_ms": float(np.median(frame_s)) * 1000, "ate_mm": _rmse(d, found), "ate_deg": _rmse(a, found),
+                      "frame_ms": float(np.median(frame_s)) * 1000, "frame_cpu_ms": float(np.median(frame_cpu_s)) * 1000, "ate_mm": _rmse(d, found), "ate_deg": _rmse(a, found),
                       "smooth_s": smooth_s if smooth else float("nan"), "found": int(found.sum())}
         if smooth:
             d, a = _errors(track.poses("smoothed"), seq.T_WC)
             runs[name].update(smooth_mm=_rmse(d, found), smooth_deg=_rmse(a, found))
+        if lag is not None:
+            runs[name]["lockstep"] = _lockstep_growth(K, board, track, lag)
         del track
     lag, whole = runs["fixed lag"], runs["whole sequence"]
     ate_ratio = lag["ate_mm"] / whole["ate_mm"]
-    rows = [[name, r["found"], r["early"], r["late"], r["growth"], r["mb_per_1000"], r["frame_ms"], r["ate_mm"],
-             r["ate_deg"]] for name, r in runs.items()]
+    rows = [[name, r["found"], r["early"], r["late"], r["growth"], r["mb_per_1000"], r["frame_ms"], r["frame_cpu_ms"],
+             r["ate_mm"], r["ate_deg"]] for name, r in runs.items()]
     block = {"title": f"A long sequence: {n} frames, fixed-lag and whole-sequence back ends",
              "text": "{n} rendered frames (supersample 1, {pans} whip pans, rendered in {render_s:.0f} s) tracked "
                      "from the frames in memory with the default fixed lag ({lag_s:.1f} s) and with one iSAM2 over "
                      "the whole sequence (lag_s=None). Back end ms a frame: medians of frames 100-199 and of the "
                      "last 100 frames; memory: slope of the resident memory from frame 300 on (the Track being "
                      "built included), MB per 1,000 frames; whole tracker: reading + front end + back end, median "
-                     "ms a frame; online ATE against the truth on the frames each found. Batch smoothing of the "
+                     "ms a frame, in wall time and in process CPU time (the goal's: it leaves out what other "
+                     "tenants of this shared machine take); online ATE against the truth on the frames each found. Batch smoothing of the "
                      "fixed-lag run at the end (graph rebuilt from the kept measurements): {smooth_s:.1f} s, ATE "
                      "{smooth_mm:.4f} mm / {smooth_deg:.5f} deg; online ATE ratio fixed lag / whole sequence "
-                     "{ratio:.4f}.",
+                     "{ratio:.4f}. The growth in the table is wall time at two stretches of the run, so it also "
+                     "holds whatever else the machine did then; the goal's figure replays the frames' junctions "
+                     "into the fixed-lag back end in lockstep with a young one (restarted every 200 frames, 100-199 "
+                     "frames old over the last 100), process CPU time: {long_ms:.3f} ms against {young_ms:.3f} ms "
+                     "a frame over the last 100 frames.",
              "values": {"n": n, "pans": max(1, n // 600), "render_s": render_s, "lag_s": DEFAULT_LAG_S,
                         "smooth_s": lag["smooth_s"], "smooth_mm": lag["smooth_mm"], "smooth_deg": lag["smooth_deg"],
-                        "ratio": ate_ratio},
+                        "ratio": ate_ratio, "long_ms": lag["lockstep"][1], "young_ms": lag["lockstep"][2]},
              "columns": ["back end", "frames with a pose", "back end ms, frames 100-199", "back end ms, last 100",
-                         "growth", "memory MB / 1000 frames", "whole tracker ms a frame", "online ATE mm",
-                         "online ATE deg"],
-             "formats": ["", "d", ".3f", ".3f", ".2f", ".2f", ".2f", ".4f", ".5f"],
+                         "growth", "memory MB / 1000 frames", "whole tracker ms a frame",
+                         "whole tracker CPU ms a frame", "online ATE mm", "online ATE deg"],
+             "formats": ["", "d", ".3f", ".3f", ".2f", ".2f", ".2f", ".2f", ".4f", ".5f"],
              "rows": rows}
     figures = [
-        {"figure": f"back end (fixed lag) per frame, last 100 / frames 100-199 (medians, {n} frames)", "unit": "",
-         "fmt": ".2f", "graphpose": lag["growth"], "peer_name": None, "peer": None, "ratio": None,
-         "goal": "within 1.2x", "met": bool(lag["growth"] <= 1.2)},
+        {"figure": f"back end (fixed lag) per frame, last 100 of {n} / frames 100-199 (lockstep replay, CPU time)",
+         "unit": "", "fmt": ".2f", "graphpose": lag["lockstep"][0], "peer_name": None, "peer": None, "ratio": None,
+         "goal": "within 1.2x", "met": bool(lag["lockstep"][0] <= 1.2)},
         {"figure": f"tracker memory growth per 1,000 frames (fixed lag, {n} frames)", "unit": "MB", "fmt": ".2f",
          "graphpose": lag["mb_per_1000"], "peer_name": None, "peer": None, "ratio": None, "goal": "< 20 MB",
          "met": bool(lag["mb_per_1000"] < 20.0)},
-        {"figure": f"whole tracker per frame (read + front + back end), median, {n} frames", "unit": "ms",
-         "fmt": ".2f", "graphpose": lag["frame_ms"], "peer_name": None, "peer": None, "ratio": None,
-         "goal": "< 5 ms", "met": bool(lag["frame_ms"] < 5.0)},
+        {"figure": f"whole tracker per frame (read + front + back end), median process CPU time, {n} frames",
+         "unit": "ms", "fmt": ".2f", "graphpose": lag["frame_cpu_ms"], "peer_name": None, "peer": None,
+         "ratio": None, "goal": "< 5 ms", "met": bool(lag["frame_cpu_ms"] < 5.0)},
         {"figure": f"online ATE translation, fixed lag / whole-sequence iSAM2 ({n} frames)", "unit": "",
          "fmt": ".4f", "graphpose": ate_ratio, "peer_name": None, "peer": None, "ratio": None,
          "goal": "within 5 %", "met": bool(abs(ate_ratio - 1.0) <= 0.05)},
