@@ -225,7 +225,9 @@ def downsample(image: np.ndarray, level: int) -> np.ndarray:
         for k in range(1, s):
             a += rows[:, k::s]
         return a.astype(np.float32) * np.float32(4.0 ** -level)
-    a = image
+    # Other dtypes are summed in float32, converted once (adding float64 into float32 would
+    # convert at every sum).
+    a = image if image.dtype == np.uint8 else image.astype(np.float32, copy=False)
     for k in range(1, level + 1):
         h, w = a.shape[0] // 2 * 2, a.shape[1] // 2 * 2
         # Sums of 4^k uint8 pixels are exact in uint16 up to k = 4.
