@@ -72,7 +72,8 @@ def test_frame_sources(tmp_path):
         write_png(tmp_path / f"f{k}.png", _grey(k + 1))
     folder = FrameSource(tmp_path)
     assert len(folder) == 2 and folder.path(1) == tmp_path / "f1.png"
-    np.testing.assert_allclose(folder.load(1), 80 / 255.0)
+    frame = folder.load(1)  # an 8-bit file is read as estimate reads it: uint8, as it is
+    assert frame.dtype == np.uint8 and np.all(frame == 80)
     files = FrameSource([str(tmp_path / "f1.png"), tmp_path / "f0.png"])
     assert files.path(0) == tmp_path / "f1.png"
     stack = FrameSource(np.stack([_grey(1), _grey(2)]))
