@@ -83,26 +83,21 @@ def find_board(image: np.ndarray, board: Board, bounds=None) -> FoundBoard:
     if image.ndim != 2:
         raise InputError(f"find_board takes a grey (H, W) image, got shape {image.shape}")
     region = None if bounds is None else _grow(bounds)
-    refusals, partial = [], None
+    best, refusals = None, []
     # Coarsest level first (half resolution for a VGA image, an eighth for 12 MP); squares
     # too small for it (under about 6 of its pixels) hide there: then the next finer level.
     # A partial board found above half resolution may have its far, small squares hidden
-    # there: half resolution is searched too, and the more complete board kept.
+    # there: the levels down to half resolution are searched too, the most complete kept.
     for level in search_levels(image.shape):
         try:
             found = _search(image, board, bounds, region, level)
         except BoardNotFoundError as exc:
             refusals.append(exc)
-            if partial is not None and level <= 1:
-                return partial
-            continue
-        if partial is not None and found.seen.sum() <= partial.seen.sum():
-            found = partial
-        if found.seen.all() or level <= 1:
-            return found
-        partial = found
-    if partial is not None:
-        return partial
+        else:
+            if best is None or found.seen.sum() > best.seen.sum():
+                best = found
+        if best is not None and (best.seen.all() or level <= 1):
+            return best
     raise max(refusals, key=lambda e: getattr(e, "junctions_seen", 0)) from None
 
 
