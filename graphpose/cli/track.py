@@ -34,6 +34,9 @@ from .options import (
 )
 from .records import frame_record
 
+#: ``--lag``'s default: :func:`graphpose.track.config.default_lag_s` of the frames' timestamps.
+AUTO_LAG = "auto"
+
 _EXAMPLES = """\
 examples:
   graphpose render-sequence seq/ --frames 120
@@ -124,11 +127,10 @@ def run(args) -> int:
     for path, name in ((args.tum, "--tum"), (args.json, "--json"), (args.plot, "--plot")):
         if path not in (None, "-") and not Path(path).resolve().parent.is_dir():
             raise InputError(f"{name}: folder {Path(path).resolve().parent} does not exist")
-    truth, truth_note = _truth(args, len(files), frame_timestamps(timestamps, args.fps, len(files)))
+    seconds = frame_timestamps(timestamps, args.fps, len(files))
+    truth, truth_note = _truth(args, len(files), seconds)
     progress = Progress(len(files), sys.stderr)
-    lag = args.lag
-    if lag == AUTO_LAG:
-        lag = default_lag_s(args.motion, frame_timestamps(timestamps, args.fps, len(files)))
+    lag = default_lag_s(args.motion, seconds) if args.lag == AUTO_LAG else args.lag
     config = TrackerConfig(motion=MotionPrior(args.motion), target=args.target, robust=args.robust, lag_s=lag)
     track = track_sequence(files, camera, args.bounds, board=board, timestamps=timestamps, fps=args.fps,
                            polygons=polygons, config=config, smooth=args.smooth,
@@ -157,16 +159,14 @@ def run(args) -> int:
     return EXIT_OK if found else EXIT_FAILED
 
 
-#: ``--lag``'s default: :func:`graphpose.track.config.default_lag_s` of the frames' timestamps.
-AUTO_LAG = "auto"
-
-
 def _parse_lag(text: str):
     """``--lag``: a positive number of seconds, 'none' (the whole-sequence iSAM2) or 'auto'
     (the default, :data:`AUTO_LAG`)."""
     word = text.strip().lower()
-    if word in ("none", AUTO_LAG):
-        return None if word == "none" else AUTO_LAG
+    if word == "none":
+        return None
+    if word == AUTO_LAG:
+        return AUTO_LAG
     return parse_positive(text)
 
 
