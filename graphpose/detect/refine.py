@@ -199,11 +199,11 @@ def _fit_through(lens, through, act, half, offset, radius):
     taper *= taper
     taper *= g2[act]
     weights = np.divide(taper, np.maximum(r2, 1.0, out=r2), out=taper)
-    if not np.all(np.isfinite(c)):  # no undistorted position (a fisheye's ray past 90 degrees)
-        weights[~np.all(np.isfinite(c), axis=0)] = 0.0
+    known = np.all(np.isfinite(c), axis=0)  # False: no undistorted position (a fisheye past 90 degrees)
+    weights[~known] = 0.0
     pts, saddle, residual = fit_quadrics_moments(A[act] if act.size < A.shape[0] else A,
                                                  values[act], weights, half)
-    found = np.all(np.isfinite(pts), axis=0) & np.all(np.isfinite(c), axis=0)
+    found = np.all(np.isfinite(pts), axis=0) & known
     within = found & (np.hypot(*np.where(found, pts - c, 0.0)) < half)
     new = np.full((2, act.size), np.nan)
     if found.any():
