@@ -368,15 +368,18 @@ def smooth_frames(camera, board: Board, motion: MotionPrior, target: str, measur
     for k, v in (velocities or {}).items():
         if values.exists(V(k)):
             values.update(V(k), np.asarray(v, dtype=float))
+    return _smooth(graph, values, [m.index for m in measurements])
+
+
+def _smooth(graph, initial, frames) -> dict:
+    """Levenberg-Marquardt over the whole ``graph`` from ``initial``, then every frame's pose
+    and marginal covariance: ``{k: BackendResult}`` for ``frames``."""
     params = gtsam.LevenbergMarquardtParams()
     params.setRelativeErrorTol(1e-10)
     params.setAbsoluteErrorTol(1e-10)
-    values = gtsam.LevenbergMarquardtOptimizer(graph, values, params).optimize()
+    values = gtsam.LevenbergMarquardtOptimizer(graph, initial, params).optimize()
     marginals = gtsam.Marginals(graph, values)
-    out = {}
-    for m in measurements:
-        out[m.index] = _result(values.atPose3(X(m.index)).matrix(), marginals.marginalCovariance(X(m.index)))
-    return out
+    return {k: _result(values.atPose3(X(k)).matrix(), marginals.marginalCovariance(X(k))) for k in frames}
 
 
 class FixedLagGraph:
@@ -612,13 +615,7 @@ class SequenceGraph:
             ``{k: BackendResult}`` for every frame in the graph, covariances from the full
             graph's marginals.
         """
-        initial = self._isam.calculateEstimate()
-        params = gtsam.LevenbergMarquardtParams()
-        params.setRelativeErrorTol(1e-10)
-        params.setAbsoluteErrorTol(1e-10)
-        values = gtsam.LevenbergMarquardtOptimizer(self._graph, initial, params).optimize()
-        marginals = gtsam.Marginals(self._graph, values)
-        return {k: _result(values.atPose3(X(k)).matrix(), marginals.marginalCovariance(X(k))) for k in self._frames}
+        return _smooth(self._graph, self._isam.calculateEstimate(), self._frames)
 
     def landmark_key(self, k: int, j: int) -> int:
         """Key of frame ``k``'s copy of target point ``j`` (``"frame_landmarks"``):
