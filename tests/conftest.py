@@ -12,18 +12,29 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 REAL_DIR = Path(os.environ.get("GRAPHPOSE_ROB501", REPO.parent / "shared" / "data" / "rob501"))
+#: OpenCV's raw calibration samples (9 x 6 board) and their camera files.
+OPENCV_DIR = REPO.parent / "shared" / "data" / "opencv_samples"
 
 
-def real_file(name: str) -> Path:
-    """Path of a file of the real data folder; skips the test (fails it under
-    GRAPHPOSE_REQUIRE_REAL=1) when the file is absent."""
-    path = REAL_DIR / name
+def _data_file(path: Path) -> Path:
+    """``path``, or skip the test (fail it under GRAPHPOSE_REQUIRE_REAL=1) when it is absent."""
     if not path.is_file():
         message = f"real data file {path} is absent"
         if os.environ.get("GRAPHPOSE_REQUIRE_REAL") == "1":
             pytest.fail(f"{message} and GRAPHPOSE_REQUIRE_REAL=1")
         pytest.skip(message)
     return path
+
+
+def real_file(name: str) -> Path:
+    """Path of a file of the real (ROB501) data folder; skips the test (fails it under
+    GRAPHPOSE_REQUIRE_REAL=1) when the file is absent."""
+    return _data_file(REAL_DIR / name)
+
+
+def opencv_file(name: str) -> Path:
+    """Path of a file of OpenCV's calibration samples, skipped or failed as :func:`real_file`."""
+    return _data_file(OPENCV_DIR / name)
 
 
 @pytest.fixture(scope="session")

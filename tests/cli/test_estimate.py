@@ -7,7 +7,6 @@ each checks several things.
 import argparse
 import io
 import json
-import os
 import re
 import struct
 import subprocess
@@ -25,7 +24,7 @@ from graphpose.cli.records import POSE_KEYS
 from graphpose.io.calibration import write_camera
 from graphpose.io.files import encode_png
 from graphpose.pose.estimate import pose_difference
-from tests.conftest import REPO, real_file
+from tests.conftest import REPO, opencv_file, real_file
 
 BUNDLED = REPO / "graphpose" / "data" / "cases.json"
 KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check", "orientation_ambiguous"}
@@ -448,17 +447,7 @@ def test_parse_positive_accepts():
 
 # --- raw images with their camera, and no bounds ---------------------------------------------
 
-OPENCV = REPO.parent / "shared" / "data" / "opencv_samples"
 
-
-def opencv_file(name):
-    """A file of OpenCV's calibration samples, skipped when absent (as conftest.real_file)."""
-    path = OPENCV / name
-    if not path.is_file():
-        if os.environ.get("GRAPHPOSE_REQUIRE_REAL") == "1":
-            pytest.fail(f"{path} is absent and GRAPHPOSE_REQUIRE_REAL=1")
-        pytest.skip(f"{path} is absent")
-    return path
 
 
 def test_a_raw_image_with_its_calibration_file(tmp_path):

@@ -2,7 +2,6 @@
 
 import json
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,6 +12,7 @@ from graphpose.cli import main
 from graphpose.io.files import write_png
 from graphpose.io.tum import write_tum
 from graphpose.pose.estimate import pose_difference
+from tests.conftest import opencv_file
 
 
 @pytest.fixture(scope="module")
@@ -200,17 +200,12 @@ def test_all_cpp_back_end_and_robust_fit_match_the_default(tmp_path):
         np.testing.assert_allclose(runs[name].poses[:, :3, 3], seq.T_WC[:, :3, 3], atol=3e-4)
 
 
-OPENCV = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "opencv_samples"
-
-
 def test_raw_frames_with_their_calibration_file(tmp_path, capsys):
     # Three of OpenCV's raw samples as a (jumpy) sequence: each frame found again, through the
     # left camera's lens model, and the JSON names the camera.
-    frames = [OPENCV / f"left0{k}.jpg" for k in (1, 2, 3)]
-    if not all(p.is_file() for p in frames):
-        pytest.skip(f"{OPENCV} is absent")
+    frames = [opencv_file(f"left0{k}.jpg") for k in (1, 2, 3)]
     out = tmp_path / "out.json"
-    code = main(["track", *map(str, frames), "--camera", str(OPENCV / "left.opencv.yml"), "--board", "9x6x0.03",
+    code = main(["track", *map(str, frames), "--camera", str(opencv_file("left.opencv.yml")), "--board", "9x6x0.03",
                  "--json", str(out), "-q"])
     assert code == 0, capsys.readouterr().err
     doc = json.loads(out.read_text())
@@ -219,7 +214,7 @@ def test_raw_frames_with_their_calibration_file(tmp_path, capsys):
     for record in doc["frames"]:
         assert record["status"] in ("tracked", "detected") and record["junctions_used"] == 54
         assert record["reprojection_rms_px"] < 0.2
-    assert main(["track", *map(str, frames), "--camera", str(OPENCV / "left.opencv.yml"), "--K", "533,533,341,235"]) == 2
+    assert main(["track", *map(str, frames), "--camera", str(opencv_file("left.opencv.yml")), "--K", "533,533,341,235"]) == 2
     assert "not both" in capsys.readouterr().err
 
 

@@ -1,5 +1,4 @@
 import functools
-import os
 
 import numpy as np
 import pytest
@@ -27,7 +26,7 @@ from graphpose.pose.estimate import (
 from graphpose.pose.graph import HUBER_K
 from tests.conftest import BOARD_WPTS as WPTS
 from tests.conftest import PROJECT_K as K
-from tests.conftest import REPO
+from tests.conftest import opencv_file
 
 
 def assert_good(est):
@@ -287,22 +286,11 @@ def test_bad_image_input_is_refused():
 
 # ------------------------------------------------------------------ raw images with lens distortion
 
-OPENCV = REPO.parent / "shared" / "data" / "opencv_samples"
 OPENCV_BOARD = Board(9, 6, 0.03)
 OPENCV_IMAGES = [f"{side}{i:02d}.jpg" for side in ("left", "right") for i in (1, 2, 3, 4, 5, 6, 7, 8, 9, 11, 12, 13, 14)]
 #: Margin (px) of the undistorted canvas: undistortion spreads the raw image beyond 640 x 480.
 MARGIN = 160
 
-
-def opencv_file(name):
-    """A file of OpenCV's calibration samples; skipped when absent (failed under
-    GRAPHPOSE_REQUIRE_REAL=1), as tests/conftest.py does for the ROB501 data."""
-    path = OPENCV / name
-    if not path.is_file():
-        if os.environ.get("GRAPHPOSE_REQUIRE_REAL") == "1":
-            pytest.fail(f"{path} is absent and GRAPHPOSE_REQUIRE_REAL=1")
-        pytest.skip(f"{path} is absent")
-    return path
 
 
 def undistort_image(image, camera, margin=MARGIN):
