@@ -67,6 +67,21 @@ PROJECT_K.setflags(write=False)
 BOARD_WPTS = _Board().world_points()
 BOARD_WPTS.setflags(write=False)
 
+from graphpose.cameras import FisheyeCamera as _Fisheye  # noqa: E402
+from graphpose.cameras import PinholeCamera as _Pinhole  # noqa: E402
+from graphpose.cameras import RadTanCamera as _RadTan  # noqa: E402
+
+#: One camera of each model on the project's K. GTSAM has a calibration (Cal3_S2, Cal3DS2,
+#: Cal3Fisheye) for "pinhole", "radtan" and "fisheye", not for k3 or the rational model's
+#: k4..k6 (graphpose then uses a custom factor).
+LENS_CAMERAS = {
+    "pinhole": _Pinhole(PROJECT_K),
+    "radtan": _RadTan(PROJECT_K, [-0.288, 0.097, 0.001, -0.0003]),
+    "radtan_k3": _RadTan(PROJECT_K, [-0.288, 0.097, 0.001, -0.0003, 0.02]),
+    "rational": _RadTan(PROJECT_K, [-0.25, 0.08, 0.001, -0.0003, 0.02, 0.05, 0.01, 0.002]),
+    "fisheye": _Fisheye(PROJECT_K, [0.03, -0.01, 0.002, -0.0005]),
+}
+
 
 # --- a rendered clip for the tracker's tests (appended; tests/track, tests/cli) -----------
 

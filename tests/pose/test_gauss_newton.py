@@ -6,10 +6,7 @@ import pytest
 
 from graphpose import (
     ConvergenceError,
-    FisheyeCamera,
     InputError,
-    PinholeCamera,
-    RadTanCamera,
 )
 from graphpose.camera import (
     C_from_rpy,
@@ -29,8 +26,8 @@ from graphpose.pose.gauss_newton import (
 from graphpose.pose.homography import pose_from_homography
 from graphpose.synth.render import perturb_pose
 from tests.conftest import BOARD_WPTS as WPTS
+from tests.conftest import LENS_CAMERAS, real_file
 from tests.conftest import PROJECT_K as K
-from tests.conftest import real_file
 
 
 def random_pose(rng, distance=(0.6, 1.5), max_tilt_deg=35.0):
@@ -295,15 +292,7 @@ def test_gimbal_lock_is_reported_not_hidden():
 
 # ------------------------------------------------------------------ cameras with lens distortion
 
-#: One camera of each model on the project's K: GTSAM has a calibration for the first three
-#: (Cal3_S2, Cal3DS2, Cal3Fisheye), not for k3 or the rational model's k4..k6.
-CAMERAS = {
-    "pinhole": PinholeCamera(K),
-    "radtan": RadTanCamera(K, [-0.288, 0.097, 0.001, -0.0003]),
-    "radtan_k3": RadTanCamera(K, [-0.288, 0.097, 0.001, -0.0003, 0.02]),
-    "rational": RadTanCamera(K, [-0.25, 0.08, 0.001, -0.0003, 0.02, 0.05, 0.01, 0.002]),
-    "fisheye": FisheyeCamera(K, [0.03, -0.01, 0.002, -0.0005]),
-}
+CAMERAS = LENS_CAMERAS
 
 
 def numeric_camera_jacobian(camera, p, W, h=1e-6):

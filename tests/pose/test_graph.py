@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from gtsam.symbol_shorthand import L, X
 
-from graphpose import FisheyeCamera, InputError, PinholeCamera, RadTanCamera
+from graphpose import InputError
 from graphpose.camera import T_from_params, params_from_T, project, to_camera
 from graphpose.io.cases import bundled_cases
 from graphpose.pose.estimate import (
@@ -22,6 +22,7 @@ from graphpose.pose.graph import (
 )
 from graphpose.synth.render import perturb_pose
 from tests.conftest import BOARD_WPTS as WPTS
+from tests.conftest import LENS_CAMERAS
 from tests.conftest import PROJECT_K as K
 
 
@@ -177,15 +178,9 @@ def test_indeterminate_system_from_a_wild_guess_is_reported_not_raised():
 
 # ------------------------------------------------------------------ cameras with lens distortion
 
-#: One camera of each model on the project's K: GTSAM's own factor for the first three, a
-#: custom factor on graphpose's projection for k3 and the rational model.
-CAMERAS = {
-    "pinhole": PinholeCamera(K),
-    "radtan": RadTanCamera(K, [-0.288, 0.097, 0.001, -0.0003]),
-    "radtan_k3": RadTanCamera(K, [-0.288, 0.097, 0.001, -0.0003, 0.02]),
-    "rational": RadTanCamera(K, [-0.25, 0.08, 0.001, -0.0003, 0.02, 0.05, 0.01, 0.002]),
-    "fisheye": FisheyeCamera(K, [0.03, -0.01, 0.002, -0.0005]),
-}
+#: GTSAM's own factor for the first three, a custom factor on graphpose's projection for k3
+#: and the rational model.
+CAMERAS = LENS_CAMERAS
 GTSAM_FACTOR = {"pinhole": "GenericProjectionFactorCal3_S2", "radtan": "GenericProjectionFactorCal3DS2",
                 "radtan_k3": "CustomFactor", "rational": "CustomFactor",
                 "fisheye": "GenericProjectionFactorCal3Fisheye"}
