@@ -212,3 +212,24 @@ def test_benchmark_without_opencv_says_how_to_install_it():
     assert done.returncode == 2
     assert done.stderr.count("\n") == 1 and 'pip install -e ".[bench]"' in done.stderr
     assert "Traceback" not in done.stderr
+
+
+def test_benchmark_update_replaces_only_the_sections_measured_and_says_when():
+    bench = _bench()
+    base = {"format": 1, "quick": False, "date": "d0", "python": "3", "commit": "c0", "command": "python scripts/bench.py",
+            "machine": {"node": "n", "cpu": "c", "arch": "a", "cores": 2, "load_before": None},
+            "versions": {"graphpose": "0"}}
+    old = {**base, "sections": [{"name": n, "seconds": 1.0, "goal": f"old {n}", "figures": [], "blocks": []}
+                                for n in ("junctions", "pose")]}
+    new = {**base, "date": "d1", "commit": "c1", "command": "python scripts/bench.py pose noise --update",
+           "sections": [{"name": n, "seconds": 2.0, "goal": f"new {n}", "figures": [], "blocks": []}
+                        for n in ("pose", "noise")]}
+    doc = bench.update(old, new)
+    assert [s["name"] for s in doc["sections"]] == ["junctions", "pose", "noise"]
+    goals = {s["name"]: s["goal"] for s in doc["sections"]}
+    assert goals == {"junctions": "old junctions", "pose": "new pose", "noise": "new noise"}
+    assert doc["date"] == "d0" and doc["commit"] == "c0"  # the document's own run is the full one
+    runs = {s["name"]: s.get("run") for s in doc["sections"]}
+    assert runs["junctions"] is None and runs["pose"]["commit"] == "c1"
+    page = bench.render_page(doc)
+    assert page.count("Measured in a run of its own: d1, commit c1") == 2
