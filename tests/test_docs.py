@@ -225,7 +225,9 @@ def test_benchmark_update_replaces_only_the_sections_measured_and_says_when():
            "sections": [{"name": n, "seconds": 2.0, "goal": f"new {n}", "figures": [], "blocks": []}
                         for n in ("pose", "noise")]}
     doc = bench.update(old, new)
-    assert [s["name"] for s in doc["sections"]] == ["junctions", "pose", "noise"]
+    rank = {n: i for i, n in enumerate(bench.SECTIONS)}
+    expected = sorted(["junctions", "pose", "noise"], key=lambda n: rank.get(n, len(rank)))  # SECTIONS' order
+    assert [s["name"] for s in doc["sections"]] == expected
     goals = {s["name"]: s["goal"] for s in doc["sections"]}
     assert goals == {"junctions": "old junctions", "pose": "new pose", "noise": "new noise"}
     assert doc["date"] == "d0" and doc["commit"] == "c0"  # the document's own run is the full one
