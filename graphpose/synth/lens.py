@@ -148,7 +148,7 @@ def region_edges(camera, T_WC, polygons, gains, window, tol_px: float, limit: fl
     segments : (4, n) ndarray
         ``(u0, v0, u1, v1)`` of every segment; together the closed outlines of each
         polygon's image clipped to the cone, each with its region on the positive side
-        (the orientation of :func:`graphpose.synth.render.polygon_coverage`'s polygons after
+        (the orientation of :func:`graphpose.synth.raster.polygon_coverage`'s polygons after
         their shoelace test: ``u0 v1 - u1 v0`` sums to twice the area).
     weights : (n,) ndarray
         The gain of each segment's polygon.

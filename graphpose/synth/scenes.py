@@ -22,7 +22,8 @@ from .._checks import check_board, check_K, check_number, check_size
 from ..board import Board
 from ..camera import project
 from ..errors import InputError
-from .render import Rendering, random_pose, render
+from .poses import random_pose
+from .render import Rendering, render
 
 #: Occluder kinds :func:`random_scene` draws from.
 OCCLUDERS = ("bar", "blob", "reflection", "edge")

@@ -49,7 +49,8 @@ from ..camera import project, rot_x, rot_y, rot_z, to_camera
 from ..errors import InputError
 from ..io.files import write_json, write_png
 from ..io.tum import write_tum
-from .render import loose_polygon, render, render_ideal
+from .poses import loose_polygon
+from .render import render, render_ideal
 
 #: Border, pixels, inside which a junction counts as visible.
 VISIBLE_BORDER_PX = 8.0

@@ -25,7 +25,8 @@ from graphpose import Board
 from graphpose.image import read_image
 from graphpose.io.cases import bundled_cases
 from graphpose.pose.estimate import estimate_pose
-from graphpose.synth.render import loose_polygon, random_pose, render
+from graphpose.synth.poses import loose_polygon, random_pose
+from graphpose.synth.render import render
 
 SIZE = (320, 240)
 

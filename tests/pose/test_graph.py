@@ -20,7 +20,7 @@ from graphpose.pose.graph import (
     params_from_tangent_jacobian,
     projection_factor,
 )
-from graphpose.synth.render import perturb_pose
+from graphpose.synth.poses import perturb_pose
 from tests.conftest import BOARD_WPTS as WPTS
 from tests.conftest import LENS_CAMERAS
 from tests.conftest import PROJECT_K as K
