@@ -3,8 +3,9 @@
 Ties the pieces together, one frame at a time: the frame is read
 (:class:`graphpose.track.frames.FrameSource`), the front end finds its junctions and its own
 pose (:class:`graphpose.track.frontend.FrontEnd`), the back end adds them to its factor graph
-and updates it (:class:`graphpose.track.backend.FixedLagGraph`, a fixed-lag smoother over the
-last ``config.lag_s`` seconds, by default; :class:`graphpose.track.backend.SequenceGraph`,
+and updates it (a :class:`graphpose.track.backend.Backend`:
+:class:`graphpose.track.fixed_lag.FixedLagGraph`, a fixed-lag smoother over the last
+``config.lag_s`` seconds, by default; :class:`graphpose.track.sequence_graph.SequenceGraph`,
 iSAM2 over the whole sequence, with ``lag_s=None``), and the back end's pose goes back to the
 front end to predict the next frame. A frame without a usable board, or a frame file that
 cannot be read, is lost: it gets no pose, and no motion factor spans it. At the end the whole
