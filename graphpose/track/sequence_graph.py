@@ -84,25 +84,8 @@ class SequenceGraph:
     def add_frame(self, k: int, timestamp: float, points, ids, T_init, pixel_sigma: float) -> BackendResult:
         """Add frame ``k`` and update iSAM2.
 
-        Parameters
-        ----------
-        k : int
-            Frame index, increasing.
-        timestamp : float
-            Seconds.
-        points : (2, m) ndarray
-            Junction pixels (u, v) seen in the frame.
-        ids : (m,) int ndarray
-            Which junction (row-major board index) each point is.
-        T_init : (4, 4) ndarray
-            Initial guess of the pose (the frame's single-frame fit).
-        pixel_sigma : float
-            Standard deviation of a junction position, pixels.
-
-        Returns
-        -------
-        BackendResult
-            The incremental (filtered) estimate of the frame and its marginal covariance.
+        Parameters and return as :meth:`graphpose.track.backend.Backend.add_frame` (the
+        frame's incremental, filtered, estimate and its marginal covariance).
         """
         start = time.perf_counter()
         points = np.asarray(points, dtype=float)
