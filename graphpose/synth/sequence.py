@@ -75,7 +75,7 @@ class Sequence:
         Ideal renders averaged for the frame (1: no motion blur).
     bounds : (2, 4) ndarray
         A loose bounding polygon of the first frame's board (see
-        :func:`graphpose.synth.render.loose_polygon`).
+        :func:`graphpose.synth.poses.loose_polygon`).
     K : (3, 3) ndarray
         Intrinsics.
     board : Board

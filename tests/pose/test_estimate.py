@@ -88,13 +88,13 @@ def test_target_01_is_near_the_course_reference(real_cases, real_images):
 
 
 def test_synthetic_images_give_accurate_poses_and_honest_uncertainty():
-    from graphpose.synth import render
+    from graphpose.synth import poses, render
     rng = np.random.default_rng(2024)
     errors_t, errors_r, nees = [], [], []
     for _ in range(40):
-        T = render.random_pose(rng, K)
+        T = poses.random_pose(rng, K)
         image = render.render(K, T, noise_sigma=2.0, blur_sigma=1.0, rng=rng)
-        est = estimate_pose(image.image, render.loose_polygon(image, rng), K)
+        est = estimate_pose(image.image, poses.loose_polygon(image, rng), K)
         assert_good(est)
         dt, dr = pose_difference(est.T_WC, T)
         errors_t.append(dt)
