@@ -45,7 +45,8 @@ from graphpose.image import read_image
 from graphpose.io.files import encode_png
 from graphpose.pose.estimate import estimate_pose, fit_pose
 from graphpose.pose.graph import graph_pose
-from graphpose.synth.render import loose_polygon, random_pose, render
+from graphpose.synth.poses import loose_polygon, random_pose
+from graphpose.synth.render import render
 
 DATA = REPO.parent / "shared" / "data" / "rob501"
 K = K_from_params(564.9, 564.3, 337.3, 226.5)
