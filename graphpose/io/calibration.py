@@ -8,13 +8,15 @@
   ``fisheye_model: 1`` for a fisheye calibration (else the coefficient count decides:
   4, 5, 8 are radial-tangential);
 - ROS ``camera_info`` YAML: ``camera_matrix``, ``distortion_model`` (``plumb_bob``,
-  ``rational_polynomial`` or ``equidistant``), ``distortion_coefficients``,
+  ``rational_polynomial`` or ``equidistant``), ``distortion_coefficients`` (none at all with
+  ``plumb_bob``: a camera without distortion),
   ``image_width``/``image_height``;
 - Kalibr camchain YAML: ``cam0``, ``cam1``, ... each with ``camera_model: pinhole``,
   ``intrinsics: [fu, fv, pu, pv]``, ``distortion_model`` (``radtan``, ``equidistant``,
   ``none``), ``distortion_coeffs``, ``resolution``; the camera is chosen by name, ``cam0``
   by default;
-- graphpose's JSON camera file, which :func:`write_camera` writes::
+- graphpose's JSON camera file, which :func:`write_camera` writes (it writes the other three
+  as well: :mod:`graphpose.io.camera_files`)::
 
       {"model": "radtan", "K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]],
        "distortion": [k1, k2, p1, p2, k3], "size": [width, height]}
@@ -37,9 +39,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..cameras import Camera, FisheyeCamera, PinholeCamera, RadTanCamera, as_camera
+from ..cameras import Camera, FisheyeCamera, PinholeCamera, RadTanCamera
 from ..errors import InputError
-from .files import atomic_write
+from .camera_files import FORMATS, camera_to_dict, write_camera  # noqa: F401  (the writers)
 
 #: graphpose's camera models by their JSON names.
 MODELS = {"pinhole": PinholeCamera, "radtan": RadTanCamera, "fisheye": FisheyeCamera}
@@ -292,7 +294,8 @@ def _from_ros(doc: dict, path: Path, name) -> Camera:
     K = _matrix(doc["camera_matrix"], "camera_matrix", path, (3, 3))
     d = _matrix(_require(doc, "distortion_coefficients", path, what),
                 "distortion_coefficients", path).ravel()
-    counts = {"plumb_bob": (4, 5), "rational_polynomial": (8,), "equidistant": (4,)}[model]
+    # plumb_bob with no coefficients is a camera without distortion (as ROS's own tools read it).
+    counts = {"plumb_bob": (0, 4, 5), "rational_polynomial": (8,), "equidistant": (4,)}[model]
     if model == "rational_polynomial":
         d = _trim(d)
     if d.size not in counts:
@@ -300,6 +303,8 @@ def _from_ros(doc: dict, path: Path, name) -> Camera:
                          f"{' or '.join(map(str, counts))} coefficients, got {d.size}")
     size = _size(doc.get("image_width"), doc.get("image_height"), path,
                  "image_width and image_height")
+    if d.size == 0:
+        return _build(PinholeCamera, path, K, size)
     return _build(MODELS[ROS_MODELS[model]], path, K, d, size)
 
 
@@ -375,44 +380,3 @@ def camera_from_dict(doc: dict, what: str = "camera") -> Camera:
         return _build(PinholeCamera, what, K, size)
     d = _matrix(_require(doc, "distortion", what, f"a {model} camera"), "distortion", what)
     return _build(MODELS[model], what, K, d.ravel(), size)
-
-
-def camera_to_dict(camera) -> dict:
-    """graphpose's JSON camera mapping of a camera (or of a pinhole ``K``).
-
-    Returns
-    -------
-    dict
-        ``{"model", "K", "distortion", "size"}``, plain lists and numbers; ``size`` is None
-        when the camera's is unknown.
-    """
-    camera = as_camera(camera)
-    return {
-        "model": camera.model,
-        "K": camera.K.tolist(),
-        "distortion": camera.distortion.tolist(),
-        "size": None if camera.size is None else list(camera.size),
-    }
-
-
-def write_camera(path, camera) -> None:
-    """Write a camera as graphpose's JSON camera file, whole or not at all.
-
-    Parameters
-    ----------
-    path : str or Path
-        Destination; its folder must exist.
-    camera : Camera or (3, 3) array_like
-        The camera (a ``K`` is written as a pinhole camera).
-
-    Raises
-    ------
-    InputError
-        If the camera is invalid or the file cannot be written.
-    """
-    doc = camera_to_dict(camera)
-    if doc["size"] is None:
-        del doc["size"]
-    # One key a line, each value on its line (K's rows together); floats in full (repr).
-    lines = ",\n".join(f"  {json.dumps(key)}: {json.dumps(value)}" for key, value in doc.items())
-    atomic_write(path, "{\n" + lines + "\n}\n")
