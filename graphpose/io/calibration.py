@@ -22,7 +22,9 @@
        "distortion": [k1, k2, p1, p2, k3], "size": [width, height]}
 
   with ``model`` one of ``pinhole`` (``distortion`` ``[]`` or absent), ``radtan``,
-  ``fisheye``, and ``size`` optional.
+  ``fisheye``, and ``size`` optional; a calibration's file adds ``"parameters"`` (``{name:
+  value}``, :func:`graphpose.calibrate.params.parameter_names`' order) and ``"covariance"``
+  (P x P, that order), which the camera then carries.
 
 Every problem is an :class:`~graphpose.errors.InputError` naming the file and what is wrong:
 a missing key, a NaN, a model graphpose does not support (named), a coefficient count that
@@ -31,6 +33,7 @@ fits no model.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import xml.etree.ElementTree as ET
@@ -377,6 +380,41 @@ def camera_from_dict(doc: dict, what: str = "camera") -> Camera:
         d = _matrix(doc.get("distortion", []), "distortion", what).ravel()
         if d.size and np.any(d != 0.0):
             raise InputError(f"{what}: a pinhole camera has no distortion, got {d.tolist()}")
-        return _build(PinholeCamera, what, K, size)
-    d = _matrix(_require(doc, "distortion", what, f"a {model} camera"), "distortion", what)
-    return _build(MODELS[model], what, K, d.ravel(), size)
+        camera = _build(PinholeCamera, what, K, size)
+    else:
+        d = _matrix(_require(doc, "distortion", what, f"a {model} camera"), "distortion", what)
+        camera = _build(MODELS[model], what, K, d.ravel(), size)
+    return _with_covariance(camera, doc, what)
+
+
+def _with_covariance(camera: Camera, doc: dict, what: str) -> Camera:
+    """The camera with the file's ``covariance`` of its ``parameters``, when it has one.
+
+    ``parameters`` (``{name: value}``) must name the model's parameters in order and agree
+    with ``K`` and ``distortion`` (to 1e-12): the covariance belongs to those numbers.
+    """
+    parameters, cov = doc.get("parameters"), doc.get("covariance")
+    if parameters is None and cov is None:
+        return camera
+    from ..calibrate.params import camera_parameters, parameter_names
+
+    names = list(parameter_names(camera))
+    if not isinstance(parameters, dict):
+        raise InputError(f"{what}: a covariance needs 'parameters', the mapping of the "
+                         f"{camera.model} camera's {', '.join(names)} to their values, got "
+                         f"{parameters!r}"[:300])
+    if list(parameters) != names:
+        raise InputError(f"{what}: parameters must be {', '.join(names)} (a {camera.model} "
+                         f"camera's, in this order), got {', '.join(map(str, parameters))}")
+    values = _matrix(list(parameters.values()), "parameters", what).ravel()
+    mine = camera_parameters(camera)
+    if not np.allclose(values, mine, rtol=1e-12, atol=0.0):
+        raise InputError(f"{what}: parameters {values.tolist()} disagree with K and distortion "
+                         f"({mine.tolist()}); the covariance belongs to the parameters")
+    if cov is None:
+        return camera
+    cov = _matrix(cov, "covariance", what, (len(names), len(names)))
+    try:
+        return dataclasses.replace(camera, covariance=cov)
+    except InputError as exc:
+        raise InputError(f"{what}: {exc}") from None

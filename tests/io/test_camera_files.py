@@ -1,5 +1,7 @@
 """Calibration files out: every model in every format, read back to 1e-12, and the refusals."""
 
+import json
+
 import numpy as np
 import pytest
 import yaml
@@ -141,3 +143,51 @@ def test_opencv_round_trip_of_an_opencv_written_file(tmp_path):
 
 def test_covariance_note_only_where_it_is_lost():
     assert covariance_note(CAMERAS["radtan4"], "opencv") is None  # no covariance to lose
+
+
+# ---- the covariance: kept by the JSON file -----------------------------------------------
+def _with_covariance(camera, rng):
+    from graphpose.calibrate.params import camera_parameters, camera_with_parameters, parameter_names
+
+    A = rng.normal(size=(len(parameter_names(camera)),) * 2) * 1e-3
+    return camera_with_parameters(camera, camera_parameters(camera), A @ A.T)
+
+
+@pytest.mark.parametrize("which", ["pinhole", "radtan4", "radtan5", "rational", "fisheye"])
+def test_json_keeps_parameters_and_covariance(tmp_path, which):
+    from graphpose.calibrate.params import camera_parameters, parameter_names
+
+    camera = _with_covariance(CAMERAS[which], np.random.default_rng(3))
+    path = tmp_path / "camera.json"
+    write_camera(path, camera)
+    doc = json.loads(path.read_text())
+    assert list(doc["parameters"]) == list(parameter_names(camera))
+    np.testing.assert_array_equal(list(doc["parameters"].values()), camera_parameters(camera))
+    back = read_camera(path)
+    assert back == camera and type(back) is type(camera)
+    np.testing.assert_array_equal(back.covariance, camera.covariance)  # repr floats: to the bit
+    for fmt in ("opencv", "ros"):
+        write_camera(tmp_path / f"c.{fmt}", camera, format=fmt)
+        other = read_camera(tmp_path / f"c.{fmt}")
+        assert other == camera and other.covariance is None
+        assert "no place for the intrinsics' covariance" in covariance_note(camera, fmt)
+    assert covariance_note(camera, "json") is None
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda d: d.pop("parameters"), r"a covariance needs 'parameters', the mapping of the radtan camera's fx"),
+    (lambda d: d.update(parameters=dict(reversed(list(d["parameters"].items())))),
+     r"parameters must be fx, fy, cx, cy, k1, k2, p1, p2, k3 \(a radtan camera's, in this order\), got k3"),
+    (lambda d: d["parameters"].update(fx=d["parameters"]["fx"] + 1e-6), r"disagree with K and distortion"),
+    (lambda d: d.update(covariance=d["covariance"][:3]), r"covariance must hold 81 numbers"),
+    (lambda d: d["covariance"][0].__setitem__(1, 1.0), r"covariance"),
+])
+def test_json_covariance_errors(tmp_path, edit, message):
+    camera = _with_covariance(CAMERAS["radtan5"], np.random.default_rng(4))
+    path = tmp_path / "camera.json"
+    write_camera(path, camera)
+    doc = json.loads(path.read_text())
+    edit(doc)
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InputError, match=message):
+        read_camera(path)
