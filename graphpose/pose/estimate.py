@@ -90,7 +90,8 @@ class PoseEstimate:
     iterations : int
         Gauss-Newton iterations.
     reprojection_rms_px : float
-        RMS of the residuals of the points used, pixels.
+        ``sqrt(mean(du^2 + dv^2))`` over the points used, pixels: OpenCV's definition
+        (:func:`graphpose.pose.gauss_newton.reprojection_rms`).
     residuals : (2, n) ndarray
         Measured minus predicted pixels for every point, used or not (see ``mask``); NaN
         where a junction was not measured.
