@@ -289,6 +289,25 @@ def _weights(r, huber_px):
     return np.repeat(w, 2)
 
 
+def huber_weights(residuals, huber_px) -> np.ndarray:
+    """The weight Gauss-Newton gives each residual at a solution, with the Huber kernel.
+
+    Parameters
+    ----------
+    residuals : (2, m) ndarray
+        Measured minus predicted pixels of the used points (trusted: no NaN).
+    huber_px : float
+        Huber threshold on each point's 2-D error norm, pixels.
+
+    Returns
+    -------
+    w : (2m,) ndarray
+        In the stacked order ``(u0, v0, u1, v1, ...)`` of :func:`projection_jacobians`' rows:
+        1 up to the threshold, ``huber_px / e`` beyond.
+    """
+    return _weights(np.asarray(residuals).T.ravel(), huber_px)
+
+
 def reprojection_cost(residuals, huber_px=None) -> float:
     """The cost Gauss-Newton minimises, from reprojection residuals.
 
