@@ -48,6 +48,7 @@ _EXPORTS = {
     "FisheyeCamera": "cameras",
     "as_camera": "cameras",
     "check_image_size": "cameras",
+    "Calibration": "calibrate.result",
     "read_camera": "io.calibration",
     "write_camera": "io.calibration",
     "check_K": "_checks",

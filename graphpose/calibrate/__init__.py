@@ -1,7 +1,10 @@
 """Camera calibration from images of the board: intrinsics, lens and their covariance.
 
 One module per idea: :mod:`.params` (the parameter vectors and the projection's derivative in
-them, the interface the camera files and the pose covariance share).
+them, the interface the camera files and the pose covariance share), :mod:`.zhang` (the
+closed-form start), :mod:`.graph` (the GTSAM graph), :mod:`.lm` (the hand-written
+Levenberg-Marquardt that cross-checks it), :mod:`.result` (:class:`Calibration` and the
+uncertainty map) and :mod:`.run` (:func:`calibrate`, the steps from images to the result).
 
 ``graphpose.calibrate`` is this package, and it is callable: ``graphpose.calibrate(images,
 ...)`` is :func:`calibrate` (the package and the function must share the name the issue gives
@@ -23,7 +26,7 @@ from .params import (  # noqa: F401  (re-exported: listed in __all__)
 )
 
 #: Public name -> the module of this package that defines it (imported lazily, PEP 562).
-_EXPORTS: dict = {}
+_EXPORTS = {"calibrate": "run", "Calibration": "result"}
 
 __all__ = sorted(["camera_parameters", "camera_with_parameters", "parameter_names",
                   "projection_jacobian_intrinsics", *_EXPORTS])
