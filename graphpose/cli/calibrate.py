@@ -107,7 +107,7 @@ def run(args) -> int:
     elif args.json is not None:
         write_json(args.json, record)
     if not calibration.ok:
-        raise CalibrationFailed(f"the calibration failed, no camera file written: {calibration.summary}")
+        raise CalibrationFailed(f"{calibration.summary} (no camera file written)")
     write_camera(args.out, calibration.camera, format=args.format)
     note = covariance_note(calibration.camera, args.format)
     if args.plot is not None:

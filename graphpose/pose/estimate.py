@@ -337,11 +337,13 @@ def _estimate(camera, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
         converged, message = _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn)
     check = cross_check(gn, graph)
     cov, kind = graph.cov, SIGMA_PIXEL
-    if getattr(camera, "covariance", None) is not None and np.all(np.isfinite(graph.cov)):
-        r = gn.residuals[:, mask]
-        weights = None if huber_px is None else huber_weights(r, huber_px)
-        cov = pose_cov_with_intrinsics(camera, gn.T_WC, Wpts[:, mask], graph.cov, weights)
+    if getattr(camera, "covariance", None) is not None:
         kind = SIGMA_CALIBRATION
+        weights = None if huber_px is None else huber_weights(gn.residuals[:, mask], huber_px)
+        try:
+            cov = pose_cov_with_intrinsics(camera, gn.T_WC, Wpts[:, mask], graph.cov, weights)
+        except (np.linalg.LinAlgError, InputError):  # singular normal equations; a point behind
+            cov = np.full((6, 6), np.nan)
     if not check.agree:
         message = ("" if message == "ok" else message + "; ") + (
             f"Gauss-Newton and GTSAM disagree by {check.translation_m:.3g} m and "

@@ -146,3 +146,20 @@ def test_robust_fit_propagates_with_its_weights():
     np.testing.assert_allclose(est.cov, expected, rtol=1e-12)
     unweighted = pose_cov_with_intrinsics(camera, est.T_WC, W, est.cov_pixel)
     assert not np.allclose(est.cov, unweighted, rtol=1e-6)
+
+
+def test_a_propagation_that_cannot_be_solved_is_nan_not_a_crash(monkeypatch):
+    import graphpose.pose.estimate as estimate_module
+
+    camera = calibrated(LENS_CAMERAS["radtan"])
+    rng = np.random.default_rng(6)
+    T = pose(rng, camera)
+    uv = camera.project(to_camera(T, W)) + rng.normal(0.0, 0.1, (2, W.shape[1]))
+
+    def singular(*args, **kwargs):
+        raise np.linalg.LinAlgError("Singular matrix")
+
+    monkeypatch.setattr(estimate_module, "pose_cov_with_intrinsics", singular)
+    est = estimate_pose_from_points(camera, uv, W)
+    assert est.sigma_kind == SIGMA_CALIBRATION and np.all(np.isnan(est.cov))
+    assert np.all(np.isfinite(est.cov_pixel))  # the pixel noise's share is still known
