@@ -38,7 +38,11 @@ Sections
    parameter vectors' difference against what their covariances predict
    (``d^T (C1 + C2)^-1 d``, whose mean would be 9 if the model and the noise were all), and
    the two cameras' projection difference over the image beside its predicted 1-sigma.
-4. Speed: 40 rendered radtan images of 640 x 480: ``graphpose.calibrate`` against
+4. The pose with the calibration's uncertainty (``scripts/calibration_pose_nees.py``): over 30
+   trials (20 in ``--quick``) calibrate on 8 rendered views, write and read the camera file,
+   estimate held-out views; the pose NEES with the covariance that includes the
+   calibration's (goal 4.5-7.5) beside the pixel-noise-only one.
+5. Speed: 40 rendered radtan images of 640 x 480: ``graphpose.calibrate`` against
    ``findChessboardCornersSB`` on each image + ``calibrateCamera``, wall and process CPU
    seconds (goal: graphpose faster).
 """
@@ -267,6 +271,9 @@ def main(quick: bool = False) -> dict:
     out["nees"] = nees(quick)
     out["samples"] = samples(cv2, quick) if SAMPLES.is_dir() else f"absent: {SAMPLES}"
     out["speed"] = speed(cv2, quick)
+    from calibration_pose_nees import pose_nees  # scripts/, beside this one
+
+    out["pose_nees"] = pose_nees(quick)
     goals = []
     for name in ("radtan", "fisheye"):
         r = out["rendered"][name]
@@ -279,6 +286,12 @@ def main(quick: bool = False) -> dict:
     goals.append({"figure": f"calibration NEES mean over {n['trials']} rendered calibrations (9 parameters)",
                   "unit": "", "graphpose": n["mean"], "peer": None, "goal": "6.3-11.7 (0.7-1.3 x 9), >= 20 trials",
                   "met": bool(6.3 <= n["mean"] <= 11.7 and (quick or n["trials"] >= 20))})
+    pn = out["pose_nees"]
+    goals.append({"figure": f"pose NEES with the calibration's covariance over {pn['trials']} trials",
+                  "unit": "", "graphpose": pn["nees_first"], "peer": None,
+                  "goal": "4.5-7.5 (>= 20 trials)", "met": bool(4.5 <= pn["nees_first"] <= 7.5 and pn["trials"] >= 20)})
+    goals.append({"figure": "pose NEES with the pixel noise's covariance alone (same trials)", "unit": "",
+                  "graphpose": pn["nees_pixel_first"], "peer": None, "goal": "reference", "met": None})
     if isinstance(out["samples"], dict):
         for side in ("left", "right"):
             s = out["samples"][side]
@@ -343,6 +356,18 @@ def section(out) -> dict:
                 "formats": ["", ".6g", ".2g", ".6g", ".6g", ".2f"],
                 "rows": [[k, s["graphpose"][i], s["sigmas"][i], s["opencv"][i], s["published"][i], s["halves_z"][i]]
                          for i, k in enumerate(s["names"])]})
+    pn = out["pose_nees"]
+    blocks.append({"title": "The pose with the calibration's uncertainty",
+                   "text": ("{trials} trials ({failed} calibrations failed): calibrate on 8 rendered views, write and "
+                            "read the camera file, estimate held-out views of the same camera "
+                            "(scripts/calibration_pose_nees.py). Pose NEES of each trial's first held-out view: "
+                            "{full:.2f} with the covariance that includes the calibration's, {pixel:.1f} with the "
+                            "pixel noise's alone; over all {views} held-out views {full_all:.2f} and {pixel_all:.1f}; "
+                            "the along-axis 1-sigma grows {ratio:.1f} times with the calibration's share."),
+                   "values": {"trials": pn["trials"], "failed": pn["failed"], "full": pn["nees_first"],
+                              "pixel": pn["nees_pixel_first"], "views": pn["views"], "full_all": pn["nees_all"],
+                              "pixel_all": pn["nees_pixel_all"], "ratio": pn["sigma_ratio_z"]},
+                   "columns": [], "formats": [], "rows": []})
     sp = out["speed"]
     blocks.append({"title": "Speed", "text": ("{images} rendered images of 640 x 480: graphpose.calibrate {g:.2f} s wall "
                                               "({gc:.2f} s CPU), OpenCV findChessboardCornersSB + calibrateCamera "
