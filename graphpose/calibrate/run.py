@@ -4,7 +4,7 @@ The steps (``docs/calibration.md``):
 
 1. **First pass.** Every image's junctions, found as :func:`graphpose.estimate_pose` finds
    them (:func:`graphpose.detect.junctions.extract_junctions`, no camera: the board and its
-   labels come from the image), the trusted ones only. An image without a board is named
+   labels come from the image; or through a ``camera`` given), the trusted ones only. An image without a board is named
    and the others go on; at least three images must have one. A fisheye hides most boards
    from a search without its camera (only those near the image's centre are found): the
    error says so. (An equidistant camera fitted to one or two boards, or guessed from the
@@ -144,7 +144,7 @@ def _solve(camera, poses, obs, huber_k):
     return keys, rejected, graph, lm, sigma0
 
 
-def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=None,
+def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=None, camera=None,
               huber_k: float = HUBER_K, rng=None, progress=None) -> Calibration:
     """Calibrate a camera from images of the board.
 
@@ -159,6 +159,11 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         ``"pinhole"``, ``"radtan"`` (OpenCV's five coefficients) or ``"fisheye"``.
     names : sequence of str, optional
         The images' names in messages; their file names, or ``image i``, by default.
+    camera : Camera, optional
+        A camera to search the first pass with (an earlier calibration of this camera, or a
+        nominal one of the lens): its boards are then found through the lens from the start.
+        Only the detection uses it; the calibration starts from Zhang's closed form as
+        without it.
     huber_k : float
         Huber threshold, in sigmas of the pixel noise.
     rng : numpy.random.Generator, int or None
@@ -190,9 +195,15 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
     n = len(images)
 
     # 1. First pass: no camera.
+    if camera is not None:
+        from ..cameras import Camera, check_image_size
+
+        if not isinstance(camera, Camera):
+            raise InputError(f"camera must be a graphpose camera, got {type(camera).__name__}")
+        check_image_size(camera, images[0], labels[0])
     obs, found_in, why = {}, {}, {}
     for i, image in enumerate(images):
-        o, reason = _detect(image, board, None)
+        o, reason = _detect(image, board, camera)
         if o is None:
             why[i] = reason
         else:
@@ -243,10 +254,12 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         report("solve", pass_number, pass_number)
         if not grew:
             break
-    return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why)
+    return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
+                   "no camera" if camera is None else "with the given camera")
 
 
-def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why) -> Calibration:
+def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
+            first_camera) -> Calibration:
     P = len(cls.parameter_names)
     p_lm, p_g = camera_parameters(lm.camera), camera_parameters(graph.camera)
     r_all = np.hstack(lm.residuals)
@@ -277,7 +290,7 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
     solved = {k: (T, r) for k, T, r in zip(keys, lm.poses, lm.residuals)}
     for i in range(n):
         k = found_in.get(i)
-        found = ("" if k is None else "board found in pass 1 (no camera)" if k == 1
+        found = ("" if k is None else f"board found in pass 1 ({first_camera})" if k == 1
                  else f"board found in pass {k} (with pass {k - 1}'s camera)")
         if i in solved:
             T, r = solved[i]

@@ -6,8 +6,9 @@ through one camera at poses that cover the image and vary in tilt, so that a cal
 come ready (:func:`radtan_camera`, :func:`fisheye_camera`): a radial-tangential lens with
 ``k1 = -0.3`` at 640 x 480, and a fisheye of about 185 degrees across 1280 x 960.
 
-Poses: the board's centre lies on the ray of a pixel drawn on a grid of cells over the image
-(one cell per view, visited in a shuffled order, so the views cover the image), at a distance
+Poses: the board's centre lies near the ray of a pixel drawn on a grid of cells over the image
+(one cell per view, visited in a shuffled order, so the views cover the image; the first
+``centre_views`` near the image's centre instead), at a distance
 drawn from ``distance``, tilted by ``min_tilt_deg``-``max_tilt_deg`` about a random in-plane
 axis (a calibration needs the board seen at different angles: parallel views leave the
 focal length and the distance indistinguishable), and the whole sheet is in the image
@@ -73,8 +74,8 @@ class CalibrationSet:
 
 def calibration_set(camera, n_views: int = 30, *, rng=None, board: Board = Board(), distance=None,
                     min_tilt_deg: float = 15.0, max_tilt_deg: float = 50.0, max_roll_deg: float = 30.0,
-                    max_angle_deg: float = 88.0, noise_sigma: float = 2.0, blur_sigma: float = 1.0
-                    ) -> CalibrationSet:
+                    max_angle_deg: float = 88.0, centre_views: int = 3, noise_sigma: float = 2.0,
+                    blur_sigma: float = 1.0) -> CalibrationSet:
     """Render a calibration set: ``n_views`` raw images of the board through ``camera``.
 
     Parameters
@@ -96,6 +97,12 @@ def calibration_set(camera, n_views: int = 30, *, rng=None, board: Board = Board
         Largest in-plane rotation, degrees (below 45: junction 0 stays unambiguous).
     max_angle_deg : float
         Largest angle of a junction off the optical axis, degrees.
+    centre_views : int
+        How many of the views (the first ones) have the board near the image's centre, at
+        the far end of ``distance`` and beyond (to 1.5 times it) and tilted by at most 30
+        degrees, as a user is told to take them: a fisheye's raw boards are found without a
+        camera only where they are little distorted (:func:`graphpose.calibrate`'s first
+        pass).
     noise_sigma, blur_sigma : float
         As :func:`graphpose.synth.render.render` (grey levels of 255; pixels).
 
@@ -128,13 +135,21 @@ def calibration_set(camera, n_views: int = 30, *, rng=None, board: Board = Board
     cols = int(np.ceil(np.sqrt(n_views * width / height)))
     rows = int(np.ceil(n_views / cols))
     cells = rng.permutation(cols * rows)[:n_views]
+    centre_views = check_count("centre_views", centre_views, 0)
     renderings = []
-    for cell in cells:
+    for k, cell in enumerate(cells):
         r, c = divmod(int(cell), cols)
+        d, tilts = distance, (lo_tilt, hi_tilt)
+        if k < centre_views:  # smaller and less tilted: little distortion across the board
+            near, reach = (0.5 * (width - 1), 0.5 * (height - 1)), (0.1 * width, 0.1 * height)
+            d, tilts = (distance[1], 1.5 * distance[1]), (lo_tilt, max(lo_tilt, min(hi_tilt, 30.0)))
+        else:
+            near = ((c + 0.5) / cols * width, (r + 0.5) / rows * height)
+            reach = (max(0.5 * width / cols, 0.1 * width), max(0.5 * height / rows, 0.1 * height))
         T = None
-        for _ in range(200):
-            T = _pose(rng, camera, board, distance, lo_tilt, hi_tilt, max_roll_deg,
-                      ((c + 0.5) / cols * width, (r + 0.5) / rows * height))
+        for attempt in range(200):  # the reach widens where the cell is hard to fill (a rim)
+            grow = 1.0 + attempt / 20.0
+            T = _pose(rng, camera, board, d, *tilts, max_roll_deg, near, (grow * reach[0], grow * reach[1]))
             if T is None:
                 continue
             P_C = to_camera(T, W)
@@ -148,11 +163,11 @@ def calibration_set(camera, n_views: int = 30, *, rng=None, board: Board = Board
     return CalibrationSet(camera, renderings, board)
 
 
-def _pose(rng, camera, board, distance, lo_tilt, hi_tilt, max_roll, near_px):
-    """A :func:`random_pose` with the tilt in range and the board's centre near ``near_px``."""
-    width, height = camera.size
-    # random_pose draws the centre's pixel uniformly: retry until it lands within a cell-sized
-    # neighbourhood of the wanted pixel, and the tilt is at least the minimum.
+def _pose(rng, camera, board, distance, lo_tilt, hi_tilt, max_roll, near_px, reach):
+    """A :func:`random_pose` with the tilt in range and the board's centre within ``reach``
+    (pixels, along u and v) of ``near_px``."""
+    # random_pose draws the centre's pixel uniformly: retry until it lands near the wanted
+    # pixel, and the tilt is at least the minimum.
     for _ in range(50):
         try:
             T = random_pose(rng, camera, board, distance=distance, max_tilt_deg=hi_tilt,
@@ -164,7 +179,7 @@ def _pose(rng, camera, board, distance, lo_tilt, hi_tilt, max_roll, near_px):
         normal_C = T[:3, :3].T @ np.array([0.0, 0.0, 1.0])  # the board's z in the camera frame
         ray = to_camera(T, centre[:, None])[:, 0]
         tilt = np.degrees(np.arccos(abs(normal_C @ ray) / np.linalg.norm(ray)))
-        close = abs(uv[0] - near_px[0]) < 0.35 * width and abs(uv[1] - near_px[1]) < 0.35 * height
+        close = abs(uv[0] - near_px[0]) < reach[0] and abs(uv[1] - near_px[1]) < reach[1]
         if tilt >= lo_tilt and close:
             return T
     return None
