@@ -192,7 +192,7 @@ def test_other_formats_and_the_note_that_they_drop_the_covariance(one_calibratio
 
 def test_kalibr_takes_the_fisheye_and_pinhole_models(one_calibration, tmp_path, capsys):
     folder = one_calibration
-    files = [str(folder / f"view_{k:02d}.png") for k in range(4)]
+    files = [str(folder / f"view_{k:02d}.png") for k in range(6)]
     assert main(["calibrate", *files, "--board", "8x6x0.0635", "--model", "pinhole",
                  "--out", str(tmp_path / "chain.yaml"), "--format", "kalibr", "-q"]) == 0
     camera = read_camera(tmp_path / "chain.yaml")
