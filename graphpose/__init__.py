@@ -7,6 +7,8 @@ Data flows one way, one subpackage per step:
   Lucchese & Mitra in :mod:`graphpose.detect.saddle`);
 - :mod:`graphpose.pose` solves for the pose twice, by Gauss-Newton and by a GTSAM factor
   graph, and holds the two against each other (:func:`graphpose.pose.estimate.estimate_pose`);
+- :mod:`graphpose.calibrate` finds a camera's intrinsics, lens and their covariance from
+  images of the board;
 - :mod:`graphpose.track` follows the camera over a sequence with iSAM2;
 - :mod:`graphpose.io` reads and writes case files, TUM trajectories, JSON and PNG;
 - :mod:`graphpose.viz` draws overlays and trajectory plots; :mod:`graphpose.synth` renders
@@ -29,6 +31,8 @@ from .errors import (  # noqa: F401  (re-exported: listed in __all__)
     SaddleError,
 )
 
+#: Public names that are subpackages themselves (``graphpose.calibrate`` is callable).
+_PACKAGES = {"calibrate"}
 #: Public name -> the module that defines it (imported lazily, PEP 562).
 _EXPORTS = {
     "Board": "board",
@@ -44,6 +48,7 @@ _EXPORTS = {
     "FisheyeCamera": "cameras",
     "as_camera": "cameras",
     "check_image_size": "cameras",
+    "Calibration": "calibrate.result",
     "read_camera": "io.calibration",
     "write_camera": "io.calibration",
     "check_K": "_checks",
@@ -86,12 +91,14 @@ _EXPORTS = {
 
 __all__ = sorted(
     ["BoardNotFoundError", "ConvergenceError", "GraphposeError", "InputError", "SaddleError",
-     *_EXPORTS],
+     *_PACKAGES, *_EXPORTS],
     key=str.lower,
 )
 
 
 def __getattr__(name: str):
+    if name in _PACKAGES:
+        return importlib.import_module(f".{name}", __name__)  # sets the attribute itself
     module = _EXPORTS.get(name)
     if module is None:
         raise AttributeError(f"module 'graphpose' has no attribute {name!r}")

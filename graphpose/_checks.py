@@ -12,7 +12,8 @@ polygon in an image (:func:`check_bounds`), intrinsics (:func:`check_K`), poses
 (:func:`check_transform`), correspondences (:func:`check_correspondences`, and with a camera
 model and unseen points :func:`check_observations`), points in front
 of a camera (:func:`check_in_front`), boards (:func:`check_board`), and scalar settings and
-ranges (:func:`check_number`, :func:`check_range`, :func:`check_count`, :func:`check_size`).
+ranges (:func:`check_number`, :func:`check_range`, :func:`check_count`, :func:`check_size`),
+and covariance matrices (:func:`check_covariance`).
 Other modules raise InputError themselves only for what belongs to them alone (a file's
 syntax, a parameter no other function has).
 """
@@ -460,6 +461,45 @@ def check_size(size) -> tuple:
         if not isinstance(value, (int, np.integer)) or isinstance(value, (bool, np.bool_)) or value < 1:
             raise InputError(f"size {name} must be a positive integer, got {value!r}")
     return int(width), int(height)
+
+
+def check_covariance(cov, n: int, name: str = "covariance") -> np.ndarray:
+    """A covariance matrix: (n, n), finite, symmetric and positive semi-definite, as float64.
+
+    Symmetry and definiteness are judged on the correlation matrix ``D^-1/2 cov D^-1/2``
+    (``D`` its diagonal; a zero variance counts as 1 there), so parameters of very different
+    scales (a focal length in pixels, a distortion coefficient) are judged alike: asymmetry
+    and negative eigenvalues up to 1e-9 are rounding and are accepted.
+
+    Returns
+    -------
+    cov : (n, n) ndarray
+        ``(cov + cov.T) / 2``, exactly symmetric.
+
+    Raises
+    ------
+    InputError
+        If it is not a finite (n, n) array of real numbers, not symmetric, or has a negative
+        variance or eigenvalue.
+    """
+    cov = as_float_array(cov, name)
+    if cov.shape != (n, n):
+        raise InputError(f"{name} must have shape ({n}, {n}), got {cov.shape}")
+    if not np.all(np.isfinite(cov)):
+        raise InputError(f"{name} contains NaN or infinite values")
+    d = np.diag(cov)
+    if np.any(d < 0):
+        raise InputError(f"{name} has negative variances at {np.flatnonzero(d < 0).tolist()}")
+    s = np.where(d > 0, np.sqrt(np.where(d > 0, d, 1.0)), 1.0)
+    corr = cov / np.outer(s, s)
+    if np.max(np.abs(corr - corr.T), initial=0.0) > 1e-9:
+        raise InputError(f"{name} is not symmetric")
+    sym = 0.5 * (cov + cov.T)
+    low = np.linalg.eigvalsh(0.5 * (corr + corr.T))[0] if n else 0.0
+    if low < -1e-9:
+        raise InputError(f"{name} is not positive semi-definite (its correlation matrix has "
+                         f"eigenvalue {low:.3g})")
+    return sym
 
 
 def check_board(board):

@@ -32,6 +32,13 @@ Every camera offers
   distortion-free pinhole camera with the same ``K`` (:meth:`Camera.pinhole`);
 - ``gtsam_calibration()``: the matching GTSAM calibration (Cal3_S2, Cal3DS2, Cal3Fisheye)
   or None where GTSAM has none (a radial-tangential camera with k3..k6 not all zero).
+
+A camera may carry the ``covariance`` of its intrinsic parameters (a calibration's, see
+:mod:`graphpose.calibrate`): (P, P) in the order of the class's ``parameter_names``, pixels and
+unitless, None (unknown) by default; symmetric positive semi-definite, read-only. It is not
+part of equality or the hash: two cameras are equal when they project alike (same model, ``K``,
+coefficients, size), so a camera read back from a file format that cannot hold a covariance
+(OpenCV, ROS, Kalibr) still equals the calibrated one it was written from.
 """
 
 from __future__ import annotations
@@ -41,7 +48,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from ._checks import as_float_array, as_points, check_K, check_size
+from ._checks import as_float_array, as_points, check_covariance, check_K, check_size
 from .errors import InputError
 
 #: Iterative inversions stop when the forward model reproduces its target to within this,
@@ -108,9 +115,16 @@ class Camera:
         unknown (then :func:`check_image_size` accepts any image).
     model : str
         ``"pinhole"``, ``"radtan"`` or ``"fisheye"`` (the names of the JSON camera file).
+    parameter_names : tuple of str
+        The intrinsic parameters a calibration estimates, in the order of ``covariance``
+        (:func:`graphpose.calibrate.parameter_names`).
+    covariance : (P, P) ndarray or None
+        Covariance of those parameters (pixels, unitless), read-only; None when unknown. Not
+        part of equality (see the module docstring).
     """
 
     model: ClassVar[str] = ""
+    parameter_names: ClassVar[tuple] = ()
     K: np.ndarray
     distortion: np.ndarray
     size: tuple | None
@@ -340,6 +354,11 @@ _NONE = _readonly(np.zeros(0))
 def _init_common(camera, K, size) -> None:
     object.__setattr__(camera, "K", _readonly(check_K(K)))
     object.__setattr__(camera, "size", None if size is None else check_size(size))
+    if camera.covariance is not None:
+        names = type(camera).parameter_names
+        cov = check_covariance(camera.covariance, len(names),
+                               f"{type(camera).__name__} covariance (of {', '.join(names)})")
+        object.__setattr__(camera, "covariance", _readonly(cov))
 
 
 def _rays(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -372,16 +391,22 @@ class PinholeCamera(Camera):
         Intrinsics, pixels; skew ``K[0, 1]`` allowed.
     size : (int, int), optional
         Image ``(width, height)``, pixels.
+    covariance : (P, P) array_like, optional
+        Covariance of the intrinsic parameters in ``parameter_names`` order (pixels,
+        unitless), symmetric positive semi-definite; None (unknown) by default.
 
     Raises
     ------
     InputError
-        If ``K`` fails :func:`graphpose.check_K` or ``size`` is not two positive integers.
+        If ``K`` fails :func:`graphpose.check_K`, ``size`` is not two positive integers or
+        ``covariance`` fails :func:`graphpose._checks.check_covariance`.
     """
 
     K: np.ndarray
     size: tuple | None = None
+    covariance: np.ndarray | None = field(default=None, repr=False, compare=False)
     model: ClassVar[str] = "pinhole"
+    parameter_names: ClassVar[tuple] = ("fx", "fy", "cx", "cy")
 
     def __post_init__(self):
         _init_common(self, self.K, self.size)
@@ -431,18 +456,24 @@ class RadTanCamera(Camera):
         accepted.
     size : (int, int), optional
         Image ``(width, height)``, pixels.
+    covariance : (P, P) array_like, optional
+        Covariance of the intrinsic parameters in ``parameter_names`` order (pixels,
+        unitless), symmetric positive semi-definite; None (unknown) by default.
 
     Raises
     ------
     InputError
         If ``K`` is invalid or has skew, a coefficient is not finite, their count is not 4,
-        5 or 8 (the message says which models the count would fit), or ``size`` is bad.
+        5 or 8 (the message says which models the count would fit), or ``size`` or
+        ``covariance`` is bad.
     """
 
     K: np.ndarray
     distortion: np.ndarray
     size: tuple | None = None
+    covariance: np.ndarray | None = field(default=None, repr=False, compare=False)
     model: ClassVar[str] = "radtan"
+    parameter_names: ClassVar[tuple] = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
 
     def __post_init__(self):
         _init_common(self, self.K, self.size)
@@ -617,6 +648,9 @@ class FisheyeCamera(Camera):
         ``(k1, k2, k3, k4)``; shapes (1, 4) and (4, 1) are accepted.
     size : (int, int), optional
         Image ``(width, height)``, pixels.
+    covariance : (P, P) array_like, optional
+        Covariance of the intrinsic parameters in ``parameter_names`` order (pixels,
+        unitless), symmetric positive semi-definite; None (unknown) by default.
 
     Attributes
     ----------
@@ -628,14 +662,17 @@ class FisheyeCamera(Camera):
     Raises
     ------
     InputError
-        If ``K`` is invalid, a coefficient is not finite, there are not 4, or ``size`` is bad.
+        If ``K`` is invalid, a coefficient is not finite, there are not 4, or ``size`` or
+        ``covariance`` is bad.
     """
 
     K: np.ndarray
     distortion: np.ndarray
     size: tuple | None = None
     theta_max: float = field(init=False, repr=False)
+    covariance: np.ndarray | None = field(default=None, repr=False, compare=False)
     model: ClassVar[str] = "fisheye"
+    parameter_names: ClassVar[tuple] = ("fx", "fy", "cx", "cy", "k1", "k2", "k3", "k4")
 
     def __post_init__(self):
         _init_common(self, self.K, self.size)

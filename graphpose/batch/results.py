@@ -57,6 +57,9 @@ SCHEMA = {
     "cross_check_rotation_deg": "double",
     "cross_check_agree": "bool",
     "orientation_ambiguous": "bool",
+    "sigma_kind": "string",
+    "sigma_pixel_xyz_m": "list<double>",
+    "sigma_pixel_rpy_deg": "list<double>",
     "time_s": "double",
     "worker": "string",
 }

@@ -23,7 +23,7 @@ import sys
 from ..errors import GraphposeError, InputError
 
 #: Subcommand modules under graphpose/cli/, in the order ``--help`` lists them.
-SUBCOMMANDS = ("estimate", "track", "render", "batch")
+SUBCOMMANDS = ("estimate", "track", "render", "batch", "calibrate")
 
 #: Exit codes.
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130

@@ -24,6 +24,7 @@ from ..image import read_image
 from ..io.cases import bundled_cases_path, load_cases, load_pose
 from ..io.files import dumps_json, write_json, write_png
 from ..pose.estimate import estimate_pose, pose_difference
+from ..pose.intrinsics import SIGMA_PIXEL
 from ..viz.overlay import draw_overlay
 from . import EXIT_OK, UsageError, exit_code, print_error
 from .options import (
@@ -274,6 +275,7 @@ def format_report(name: str, estimate, record: dict) -> str:
         f"  {'':16}{'roll':>10}{'pitch':>10}{'yaw':>10}",
         f"  {'angles (deg)':16}{roll:10.3f}{pitch:10.3f}{yaw:10.3f}",
         f"  {'1-sigma (deg)':16}{sr:10.3f}{sp:10.3f}{sw:10.3f}",
+        *_sigma_kind_rows(estimate),
         f"  {'reprojection':16}{estimate.reprojection_rms_px:.3f} px RMS over {trusted.size} junctions, "
         f"{int(trusted.sum())} trusted",
         f"  {'GN vs GTSAM':16}{1000.0 * check.translation_m:.2g} mm, {check.rotation_deg:.2g} deg apart: "
@@ -287,3 +289,12 @@ def format_report(name: str, estimate, record: dict) -> str:
     return "\n".join(rows) + "\n"
 
 
+def _sigma_kind_rows(estimate) -> list:
+    """With a calibration's covariance in the sigmas: say so, and give the pixel noise's share."""
+    if getattr(estimate, "sigma_kind", SIGMA_PIXEL) == SIGMA_PIXEL:
+        return []
+    sigma = np.sqrt(np.diag(estimate.cov_pixel))
+    mm, deg = 1000.0 * sigma[:3], np.degrees(sigma[3:])
+    return [f"  {'1-sigma from':16}{estimate.sigma_kind}; pixel noise alone:",
+            f"  {'  (mm)':16}{mm[0]:10.2f}{mm[1]:10.2f}{mm[2]:10.2f}",
+            f"  {'  (deg)':16}{deg[0]:10.3f}{deg[1]:10.3f}{deg[2]:10.3f}"]

@@ -28,6 +28,7 @@ import numpy as np
 
 from ..camera import params_from_T
 from ..io.files import to_jsonable
+from ..pose.intrinsics import SIGMA_PIXEL
 
 #: The keys every record has, in order.
 POSE_KEYS = ("status", "message", "T_WC", "xyz_m", "rpy_deg", "sigma_xyz_m", "sigma_rpy_deg",
@@ -91,17 +92,21 @@ def result_record(image, estimate=None, error=None) -> dict:
         ``junctions`` (2 x n pixels, null where a junction was not measured; null
         altogether for an estimate from given points), ``trusted`` (n booleans: the
         junctions' flags, or the estimate's ``mask`` without junctions),
-        ``cross_check`` (``translation_m``, ``rotation_deg``, ``agree``) and
+        ``cross_check`` (``translation_m``, ``rotation_deg``, ``agree``),
         ``orientation_ambiguous`` (true when the board is unchanged by a half turn and no
         bounds named junction 0's corner: junction 0 is then the corner nearest the image's
-        upper left; null without an estimate).
+        upper left; null without an estimate), and ``sigma_kind`` (what the sigmas describe:
+        ``"pixel noise"``, or ``"pixel noise and calibration"`` for a camera file with the
+        intrinsics' covariance) with ``sigma_pixel_xyz_m`` and ``sigma_pixel_rpy_deg`` (the
+        pixel noise's share alone; the sigmas themselves when that is all there is).
     """
     status = "failed" if error else "ok"
     record = {"image": str(image)}
     if estimate is None:
         record.update(pose_block(status, error))
         record.update(converged=False, iterations=None, junctions=None, trusted=None, cross_check=None,
-                      orientation_ambiguous=None)
+                      orientation_ambiguous=None, sigma_kind=None, sigma_pixel_xyz_m=None,
+                      sigma_pixel_rpy_deg=None)
         return to_jsonable(record)
     check = estimate.cross_check
     junctions = estimate.junctions
@@ -116,6 +121,9 @@ def result_record(image, estimate=None, error=None) -> dict:
                      "rotation_deg": float(check.rotation_deg), "agree": bool(check.agree)},
         orientation_ambiguous=bool(getattr(estimate, "orientation_ambiguous", False)),
     )
+    pixel = pose_block(status, None, estimate.T_WC, getattr(estimate, "cov_pixel", estimate.cov))
+    record.update(sigma_kind=getattr(estimate, "sigma_kind", SIGMA_PIXEL), sigma_pixel_xyz_m=pixel["sigma_xyz_m"],
+                  sigma_pixel_rpy_deg=pixel["sigma_rpy_deg"])
     return to_jsonable(record)
 
 

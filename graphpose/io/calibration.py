@@ -8,19 +8,23 @@
   ``fisheye_model: 1`` for a fisheye calibration (else the coefficient count decides:
   4, 5, 8 are radial-tangential);
 - ROS ``camera_info`` YAML: ``camera_matrix``, ``distortion_model`` (``plumb_bob``,
-  ``rational_polynomial`` or ``equidistant``), ``distortion_coefficients``,
+  ``rational_polynomial`` or ``equidistant``), ``distortion_coefficients`` (none at all with
+  ``plumb_bob``: a camera without distortion),
   ``image_width``/``image_height``;
 - Kalibr camchain YAML: ``cam0``, ``cam1``, ... each with ``camera_model: pinhole``,
   ``intrinsics: [fu, fv, pu, pv]``, ``distortion_model`` (``radtan``, ``equidistant``,
   ``none``), ``distortion_coeffs``, ``resolution``; the camera is chosen by name, ``cam0``
   by default;
-- graphpose's JSON camera file, which :func:`write_camera` writes::
+- graphpose's JSON camera file, which :func:`write_camera` writes (it writes the other three
+  as well: :mod:`graphpose.io.camera_files`)::
 
       {"model": "radtan", "K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]],
        "distortion": [k1, k2, p1, p2, k3], "size": [width, height]}
 
   with ``model`` one of ``pinhole`` (``distortion`` ``[]`` or absent), ``radtan``,
-  ``fisheye``, and ``size`` optional.
+  ``fisheye``, and ``size`` optional; a calibration's file adds ``"parameters"`` (``{name:
+  value}``, :func:`graphpose.calibrate.params.parameter_names`' order) and ``"covariance"``
+  (P x P, that order), which the camera then carries.
 
 Every problem is an :class:`~graphpose.errors.InputError` naming the file and what is wrong:
 a missing key, a NaN, a model graphpose does not support (named), a coefficient count that
@@ -29,6 +33,7 @@ fits no model.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import xml.etree.ElementTree as ET
@@ -37,9 +42,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..cameras import Camera, FisheyeCamera, PinholeCamera, RadTanCamera, as_camera
+from ..cameras import Camera, FisheyeCamera, PinholeCamera, RadTanCamera
 from ..errors import InputError
-from .files import atomic_write
+from .camera_files import FORMATS, camera_to_dict, write_camera  # noqa: F401  (the writers)
 
 #: graphpose's camera models by their JSON names.
 MODELS = {"pinhole": PinholeCamera, "radtan": RadTanCamera, "fisheye": FisheyeCamera}
@@ -292,7 +297,8 @@ def _from_ros(doc: dict, path: Path, name) -> Camera:
     K = _matrix(doc["camera_matrix"], "camera_matrix", path, (3, 3))
     d = _matrix(_require(doc, "distortion_coefficients", path, what),
                 "distortion_coefficients", path).ravel()
-    counts = {"plumb_bob": (4, 5), "rational_polynomial": (8,), "equidistant": (4,)}[model]
+    # plumb_bob with no coefficients is a camera without distortion (as ROS's own tools read it).
+    counts = {"plumb_bob": (0, 4, 5), "rational_polynomial": (8,), "equidistant": (4,)}[model]
     if model == "rational_polynomial":
         d = _trim(d)
     if d.size not in counts:
@@ -300,6 +306,8 @@ def _from_ros(doc: dict, path: Path, name) -> Camera:
                          f"{' or '.join(map(str, counts))} coefficients, got {d.size}")
     size = _size(doc.get("image_width"), doc.get("image_height"), path,
                  "image_width and image_height")
+    if d.size == 0:
+        return _build(PinholeCamera, path, K, size)
     return _build(MODELS[ROS_MODELS[model]], path, K, d, size)
 
 
@@ -372,47 +380,41 @@ def camera_from_dict(doc: dict, what: str = "camera") -> Camera:
         d = _matrix(doc.get("distortion", []), "distortion", what).ravel()
         if d.size and np.any(d != 0.0):
             raise InputError(f"{what}: a pinhole camera has no distortion, got {d.tolist()}")
-        return _build(PinholeCamera, what, K, size)
-    d = _matrix(_require(doc, "distortion", what, f"a {model} camera"), "distortion", what)
-    return _build(MODELS[model], what, K, d.ravel(), size)
+        camera = _build(PinholeCamera, what, K, size)
+    else:
+        d = _matrix(_require(doc, "distortion", what, f"a {model} camera"), "distortion", what)
+        camera = _build(MODELS[model], what, K, d.ravel(), size)
+    return _with_covariance(camera, doc, what)
 
 
-def camera_to_dict(camera) -> dict:
-    """graphpose's JSON camera mapping of a camera (or of a pinhole ``K``).
+def _with_covariance(camera: Camera, doc: dict, what: str) -> Camera:
+    """The camera with the file's ``covariance`` of its ``parameters``, when it has one.
 
-    Returns
-    -------
-    dict
-        ``{"model", "K", "distortion", "size"}``, plain lists and numbers; ``size`` is None
-        when the camera's is unknown.
+    ``parameters`` (``{name: value}``) must name the model's parameters in order and agree
+    with ``K`` and ``distortion`` (to 1e-12): the covariance belongs to those numbers.
     """
-    camera = as_camera(camera)
-    return {
-        "model": camera.model,
-        "K": camera.K.tolist(),
-        "distortion": camera.distortion.tolist(),
-        "size": None if camera.size is None else list(camera.size),
-    }
+    parameters, cov = doc.get("parameters"), doc.get("covariance")
+    if parameters is None and cov is None:
+        return camera
+    from ..calibrate.params import camera_parameters, parameter_names
 
-
-def write_camera(path, camera) -> None:
-    """Write a camera as graphpose's JSON camera file, whole or not at all.
-
-    Parameters
-    ----------
-    path : str or Path
-        Destination; its folder must exist.
-    camera : Camera or (3, 3) array_like
-        The camera (a ``K`` is written as a pinhole camera).
-
-    Raises
-    ------
-    InputError
-        If the camera is invalid or the file cannot be written.
-    """
-    doc = camera_to_dict(camera)
-    if doc["size"] is None:
-        del doc["size"]
-    # One key a line, each value on its line (K's rows together); floats in full (repr).
-    lines = ",\n".join(f"  {json.dumps(key)}: {json.dumps(value)}" for key, value in doc.items())
-    atomic_write(path, "{\n" + lines + "\n}\n")
+    names = list(parameter_names(camera))
+    if not isinstance(parameters, dict):
+        raise InputError(f"{what}: a covariance needs 'parameters', the mapping of the "
+                         f"{camera.model} camera's {', '.join(names)} to their values, got "
+                         f"{parameters!r}"[:300])
+    if list(parameters) != names:
+        raise InputError(f"{what}: parameters must be {', '.join(names)} (a {camera.model} "
+                         f"camera's, in this order), got {', '.join(map(str, parameters))}")
+    values = _matrix(list(parameters.values()), "parameters", what).ravel()
+    mine = camera_parameters(camera)
+    if not np.allclose(values, mine, rtol=1e-12, atol=0.0):
+        raise InputError(f"{what}: parameters {values.tolist()} disagree with K and distortion "
+                         f"({mine.tolist()}); the covariance belongs to the parameters")
+    if cov is None:
+        return camera
+    cov = _matrix(cov, "covariance", what, (len(names), len(names)))
+    try:
+        return dataclasses.replace(camera, covariance=cov)
+    except InputError as exc:
+        raise InputError(f"{what}: {exc}") from None

@@ -18,6 +18,10 @@ A guess far off can lead Gauss-Newton to another local minimum. When a guess is 
 the target is planar, Gauss-Newton is also run from the homography start; if that reaches
 a clearly lower cost, the estimate is marked not converged and says so in ``message``
 rather than returning the worse pose as if it were right.
+
+A camera that carries the covariance of its intrinsics (a calibration file written by
+``graphpose calibrate``) adds that uncertainty to the pose's covariance
+(:mod:`graphpose.pose.intrinsics`); the pixel-noise-only covariance stays in ``cov_pixel``.
 """
 
 from __future__ import annotations
@@ -32,9 +36,10 @@ from ..board import Board
 from ..camera import to_camera
 from ..cameras import as_camera
 from ..errors import BoardNotFoundError, InputError
-from .gauss_newton import GNResult, gauss_newton, reprojection_cost
+from .gauss_newton import GNResult, gauss_newton, huber_weights, reprojection_cost
 from .graph import HUBER_K, GraphResult, graph_pose
 from .homography import on_target_plane, pose_from_homography
+from .intrinsics import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
 
 #: GN and the graph must agree this closely (metres, degrees): the same cost, two solvers.
 AGREE_TRANSLATION_M = 1e-6
@@ -76,12 +81,13 @@ class PoseEstimate:
     params : (6,) ndarray
         ``(x, y, z, roll, pitch, yaw)``, metres and radians.
     cov : (6, 6) ndarray
-        Covariance of ``params`` (m, rad) from the GTSAM marginals, pixel noise estimated
-        from the residuals.
+        Covariance of ``params`` (m, rad): ``cov_pixel``, plus, when the camera carries the
+        covariance of its intrinsics (a calibration's), that covariance carried into the
+        pose to first order (:mod:`graphpose.pose.intrinsics`); ``sigma_kind`` says which.
     sigma_xyz_m : (3,) ndarray
-        1-sigma of x, y, z, metres.
+        1-sigma of x, y, z, metres (from ``cov``).
     sigma_rpy_rad : (3,) ndarray
-        1-sigma of roll, pitch, yaw, radians.
+        1-sigma of roll, pitch, yaw, radians (from ``cov``).
     sigma_px : float
         Pixel noise behind ``cov`` (estimated; robustly when ``robust``).
     converged : bool
@@ -90,7 +96,8 @@ class PoseEstimate:
     iterations : int
         Gauss-Newton iterations.
     reprojection_rms_px : float
-        RMS of the residuals of the points used, pixels.
+        ``sqrt(mean(du^2 + dv^2))`` over the points used, pixels: OpenCV's definition
+        (:func:`graphpose.pose.gauss_newton.reprojection_rms`).
     residuals : (2, n) ndarray
         Measured minus predicted pixels for every point, used or not (see ``mask``); NaN
         where a junction was not measured.
@@ -115,6 +122,14 @@ class PoseEstimate:
         (``docs/conventions.md``), and the board turned by the symmetry fits as well (its
         pose differs by that turn about the board's centre). False for estimates from
         points.
+    cov_pixel : (6, 6) ndarray
+        Covariance of ``params`` from the pixel noise alone: the GTSAM marginals, pixel
+        noise estimated from the residuals, the intrinsics taken as exact. The same as
+        ``cov`` for a camera without a covariance.
+    sigma_kind : str
+        What ``cov`` and the sigmas describe: ``"pixel noise"``
+        (:data:`~graphpose.pose.intrinsics.SIGMA_PIXEL`) or ``"pixel noise and
+        calibration"`` (:data:`~graphpose.pose.intrinsics.SIGMA_CALIBRATION`).
     """
 
     T_WC: np.ndarray
@@ -135,6 +150,12 @@ class PoseEstimate:
     gn: GNResult
     graph: GraphResult
     orientation_ambiguous: bool = False
+    cov_pixel: np.ndarray | None = None
+    sigma_kind: str = SIGMA_PIXEL
+
+    def __post_init__(self):
+        if self.cov_pixel is None:  # no calibration covariance: the two are one
+            object.__setattr__(self, "cov_pixel", self.cov)
 
     @property
     def ok(self) -> bool:
@@ -315,6 +336,14 @@ def _estimate(camera, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
     if guess is not None and gn.converged and on_target_plane(Wpts):
         converged, message = _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn)
     check = cross_check(gn, graph)
+    cov, kind = graph.cov, SIGMA_PIXEL
+    if getattr(camera, "covariance", None) is not None:
+        kind = SIGMA_CALIBRATION
+        weights = None if huber_px is None else huber_weights(gn.residuals[:, mask], huber_px)
+        try:
+            cov = pose_cov_with_intrinsics(camera, gn.T_WC, Wpts[:, mask], graph.cov, weights)
+        except (np.linalg.LinAlgError, InputError):  # singular normal equations; a point behind
+            cov = np.full((6, 6), np.nan)
     if not check.agree:
         message = ("" if message == "ok" else message + "; ") + (
             f"Gauss-Newton and GTSAM disagree by {check.translation_m:.3g} m and "
@@ -323,9 +352,9 @@ def _estimate(camera, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
     return PoseEstimate(
         T_WC=gn.T_WC,
         params=gn.params,
-        cov=graph.cov,
-        sigma_xyz_m=graph.sigma_xyz_m,
-        sigma_rpy_rad=graph.sigma_rpy_rad,
+        cov=cov,
+        sigma_xyz_m=np.sqrt(np.diag(cov)[:3]),
+        sigma_rpy_rad=np.sqrt(np.diag(cov)[3:]),
         sigma_px=graph.sigma_px,
         converged=converged,
         iterations=gn.iterations,
@@ -338,6 +367,8 @@ def _estimate(camera, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
         message=message,
         gn=gn,
         graph=graph,
+        cov_pixel=graph.cov,
+        sigma_kind=kind,
     )
 
 

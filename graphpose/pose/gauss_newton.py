@@ -72,7 +72,8 @@ class GNResult:
     residuals : (2, n) ndarray
         Measured minus predicted pixels at the solution, NaN for points left out by the mask.
     residual_rms_px : float
-        RMS of the used residuals over both coordinates, pixels.
+        ``sqrt(mean(du^2 + dv^2))`` over the used points, pixels (:func:`reprojection_rms`:
+        OpenCV's definition, the RMS length of the residual vectors).
     sigma_px : float
         Pixel noise behind ``cov``: ``pixel_sigma`` if given, else estimated from the residuals
         as ``sqrt(sum r^2 / (2m - 6))`` over the m used points (with a Huber kernel, the
@@ -288,6 +289,25 @@ def _weights(r, huber_px):
     return np.repeat(w, 2)
 
 
+def huber_weights(residuals, huber_px) -> np.ndarray:
+    """The weight Gauss-Newton gives each residual at a solution, with the Huber kernel.
+
+    Parameters
+    ----------
+    residuals : (2, m) ndarray
+        Measured minus predicted pixels of the used points (trusted: no NaN).
+    huber_px : float
+        Huber threshold on each point's 2-D error norm, pixels.
+
+    Returns
+    -------
+    w : (2m,) ndarray
+        In the stacked order ``(u0, v0, u1, v1, ...)`` of :func:`projection_jacobians`' rows:
+        1 up to the threshold, ``huber_px / e`` beyond.
+    """
+    return _weights(np.asarray(residuals).T.ravel(), huber_px)
+
+
 def reprojection_cost(residuals, huber_px=None) -> float:
     """The cost Gauss-Newton minimises, from reprojection residuals.
 
@@ -308,6 +328,30 @@ def reprojection_cost(residuals, huber_px=None) -> float:
         return 0.5 * float(np.sum(residuals * residuals))
     e = np.hypot(residuals[0], residuals[1])
     return float(np.sum(np.where(e <= huber_px, 0.5 * e * e, huber_px * (e - 0.5 * huber_px))))
+
+
+def reprojection_rms(residuals) -> float:
+    """The RMS reprojection error, OpenCV's definition: ``sqrt(mean(du^2 + dv^2))``.
+
+    One definition for every RMS graphpose reports (the pose's, the tracker's frames', the
+    calibration's): the RMS length of the residual vectors, as ``calibrateCamera`` returns
+    it. (Until issue 20 the pose's was the RMS over both coordinates taken apart, 1/sqrt(2)
+    of this.)
+
+    Parameters
+    ----------
+    residuals : (2, m) ndarray
+        Measured minus predicted pixels of the used points (trusted: no NaN).
+
+    Returns
+    -------
+    float
+        Pixels; NaN for no point.
+    """
+    r = np.asarray(residuals, dtype=float)
+    if r.size == 0:
+        return float("nan")
+    return float(np.sqrt(np.sum(r * r) / r.shape[1]))
 
 
 def _cost(r, huber_px):
@@ -390,7 +434,7 @@ def _result(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, J, r, converged,
         converged=bool(converged),
         iterations=it,
         residuals=residuals,
-        residual_rms_px=float(np.sqrt(np.mean(r * r))),
+        residual_rms_px=reprojection_rms(residuals[:, mask]),
         sigma_px=float(sigma),
         cov=cov,
         mask=mask.copy(),

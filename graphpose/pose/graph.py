@@ -41,6 +41,7 @@ from gtsam.symbol_shorthand import L, X
 
 from .._checks import check_in_front, check_number, check_observations, check_transform
 from ..camera import params_from_T, to_camera
+from .gauss_newton import reprojection_rms
 
 #: Standard deviation (metres) of the prior that pins each target point: far below anything
 #: the pixels can resolve (about 1e-6 px at 1 m), yet finite so the marginals exist.
@@ -90,7 +91,8 @@ class GraphResult:
     residuals : (2, n) ndarray
         Measured minus predicted pixels at the solution, NaN for masked points.
     residual_rms_px : float
-        RMS of the used residuals, pixels.
+        ``sqrt(mean(du^2 + dv^2))`` over the used points, pixels
+        (:func:`graphpose.pose.gauss_newton.reprojection_rms`).
     mask : (n,) ndarray of bool
         The junctions with a projection factor.
     message : str
@@ -196,7 +198,7 @@ def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robu
         converged=converged,
         iterations=iterations,
         residuals=residuals,
-        residual_rms_px=float(np.sqrt(np.mean(used**2))),
+        residual_rms_px=reprojection_rms(used),
         mask=mask.copy(),
         message=message,
     )

@@ -147,7 +147,10 @@ class TrackerConfig:
         junctions it is slightly less efficient than least squares. The back end's pose is
         the same either way up to the fit's pixel sigma, which sets the junctions' weight.
     max_rms_px : float
-        A frame whose fit leaves more RMS residual than this is not believed (lost).
+        A frame whose fit leaves more RMS residual than this is not believed (lost). The
+        RMS is OpenCV's ``sqrt(mean(du^2 + dv^2))``; 2.1 px and the floor's 0.042 px are the
+        1.5 and 0.03 px the tracker had when its RMS was taken over the coordinates apart
+        (sqrt(2) smaller), so the gate refuses the same frames.
     rms_factor, rms_floor_px : float
         Once five frames have a pose, a frame whose fit RMS exceeds ``rms_factor`` times the
         median of those frames (and ``rms_floor_px``) is not believed either: heavy motion
@@ -186,9 +189,9 @@ class TrackerConfig:
     window_px: tuple = (4.0, 6.0)
     gate_px: float = 4.0
     robust: bool = False
-    max_rms_px: float = 1.5
+    max_rms_px: float = 2.1
     rms_factor: float = 3.0
-    rms_floor_px: float = 0.03
+    rms_floor_px: float = 0.042
     max_speed: float = 0.5
     min_pixel_sigma_px: float = 0.02
     target: str = "resection"

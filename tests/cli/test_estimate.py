@@ -461,7 +461,7 @@ def test_a_raw_image_with_its_calibration_file(tmp_path):
     assert "agree" in result.stdout and "orientation" not in result.stdout
     (record,) = json.loads((tmp_path / "out.json").read_text())
     assert record["status"] == "ok" and record["orientation_ambiguous"] is False
-    assert record["reprojection_rms_px"] < 0.2  # 0.11 px; fitted as a pinhole the raw image gives 0.99
+    assert record["reprojection_rms_px"] < 0.3  # 0.16 px; fitted as a pinhole the raw image gives 0.85
     assert png_size(tmp_path / "left01.png") == (640, 480)
     camera = read_camera(opencv_file("left.opencv.yml"))
     est = estimate_pose(read_image(opencv_file("left01.jpg")), None, camera, Board(9, 6, 0.03))

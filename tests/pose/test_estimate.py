@@ -331,8 +331,9 @@ def test_raw_images_with_their_camera_converge_and_solvers_agree(opencv_estimate
         assert_good(est)
         assert est.mask.sum() == 54 and not est.orientation_ambiguous, name  # 9 + 6 is odd: oriented
         rms.append(est.reprojection_rms_px)
-    # Measured 0.097-0.165 px over the 26 images (GN and GTSAM within 3e-10 m, 5e-8 deg).
-    assert max(rms) < 0.2
+    # Measured 0.136-0.235 px (median 0.165) over the 26 images, OpenCV's RMS definition
+    # (GN and GTSAM within 3e-10 m, 5e-8 deg).
+    assert max(rms) < 0.28
 
 
 def test_raw_pose_is_the_undistort_first_pose(opencv_estimates):

@@ -1,0 +1,270 @@
+"""The calibration as a GTSAM factor graph: one calibration variable, one ``Pose3`` per view,
+one factor per junction, a Huber kernel, Levenberg-Marquardt, and GTSAM's marginals.
+
+Variables: the calibration ``K(0)``; the camera pose ``X(i)`` (``T_WC``) of view i. Factors:
+
+- pinhole: GTSAM's ``GeneralSFMFactor2Cal3_S2`` on ``X(i)``, the target point ``L(j)`` and a
+  ``Cal3_S2``; fisheye: ``GeneralSFMFactor2Cal3Fisheye`` with a ``Cal3Fisheye`` (GTSAM's own
+  projection code, checked against graphpose's in ``tests/test_cameras.py``; it projects
+  through ``(x/z, y/z)``, so the junctions must lie in front of the camera). The target
+  points are variables pinned by very tight priors (:data:`LANDMARK_SIGMA_M`), as in the
+  pose graph, and GTSAM's calibrations carry a skew the calibration does not
+  estimate: a prior pins it at 0 (sigma 1e-6 px) and leaves the other entries free (sigma
+  1e6).
+- radtan: GTSAM's ``Cal3DS2`` has no ``k3``, so the calibration is a 9-vector
+  ``(fx, fy, cx, cy, k1, k2, p1, p2, k3)`` in OpenCV's order and the factors are
+  ``gtsam.CustomFactor`` on ``(K(0), X(i))`` whose projection and Jacobians are written out
+  here, apart from :mod:`graphpose.cameras` (the cross-check's other solver uses those). A
+  Python callback per junction costs about 0.1 ms a call (some 6 s for 40 views), so there is
+  one custom factor per view, vectorised over its junctions, and the Huber kernel is applied
+  per junction inside it, exactly (:func:`_radtan_factor`): the cost is the same as with
+  one robust factor per junction.
+
+Each junction's noise is isotropic, ``sigma`` px, under a Huber kernel of ``huber_k`` sigmas
+(on the junction's 2-D error), when given. After Levenberg-Marquardt undamped Gauss-Newton
+steps polish the solution (as in :mod:`graphpose.pose.graph`: LM stops when the cost stops
+falling visibly, the steps stay accurate below that) until the calibration's step is below
+1e-10 of its parameters' scale. The covariance is GTSAM's marginal of ``K(0)`` (the skew's
+row and column dropped), at the given ``sigma``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import gtsam
+import numpy as np
+from gtsam.symbol_shorthand import K as KEY
+from gtsam.symbol_shorthand import L, X
+
+from ..cameras import FisheyeCamera, PinholeCamera
+from ..errors import InputError
+from .params import camera_parameters, camera_with_parameters
+
+#: Standard deviation (metres) of the priors that pin the target points. Tighter than the
+#: pose graph's 1e-8 m: the points are shared by every view, and at 1e-8 m their slack moved
+#: a fisheye's k4 by 7e-7 of its sigma from the hand-written solver's (fixed points); 1e-10 m
+#: brings that to 2e-10 (1e-11 m gains nothing more).
+LANDMARK_SIGMA_M = 1e-10
+_RELATIVE_TOL = 1e-10
+_ABSOLUTE_TOL = 1e-14
+_MAX_ITERATIONS = 200
+#: Undamped steps after Levenberg-Marquardt, until the step is below _POLISH_STEP of the
+#: parameters' scale (the Huber kernel's reweighted steps converge linearly, at ~0.5).
+_POLISH_ITERATIONS = 80
+_POLISH_STEP = 1e-11
+#: Prior sigmas on a GTSAM calibration: the skew pinned, the rest free.
+_SKEW_SIGMA = 1e-6
+_FREE_SIGMA = 1e6
+
+
+@dataclass(frozen=True)
+class GraphCalibration:
+    """The graph's solution.
+
+    Attributes
+    ----------
+    camera : Camera
+        The calibrated camera (no covariance attached).
+    poses : list of (4, 4) ndarray
+        ``T_WC`` per view.
+    cov : (P, P) ndarray
+        Marginal covariance of the parameters (:func:`graphpose.calibrate.parameter_names`
+        order) at the factors' ``sigma``; NaN if GTSAM could not compute it.
+    converged : bool
+        LM stopped on its tolerances and the polishing steps shrank below their tolerance.
+    iterations : int
+        Levenberg-Marquardt iterations.
+    message : str
+        Empty, or what GTSAM reported.
+    """
+
+    camera: object
+    poses: list
+    cov: np.ndarray
+    converged: bool
+    iterations: int
+    message: str = ""
+
+
+def _radtan_factor(uv, W, cal_key, pose_key, sigma, huber_k):
+    """One view's factor on the 9-vector calibration and the pose, vectorised over its m
+    junctions; error (2m,) predicted - measured, whitened by ``sigma`` and, with ``huber_k``,
+    scaled per junction so that half its squared norm is the Huber loss.
+
+    Junction j's whitened residual ``r = (pi - uv) / sigma`` of norm ``a`` becomes
+    ``e = s(a) r`` with ``s = 1`` up to ``k`` and ``s = sqrt(2 rho(a)) / a`` beyond, ``rho(a)
+    = k a - k^2 / 2``: ``|e|^2 / 2 = rho(a)``, GTSAM's robust loss; the Jacobian is the exact
+    derivative of ``e`` (``s`` is continuous with its derivative at ``k``), so the
+    stationary point is the Huber cost's.
+    """
+    measured = np.array(uv, dtype=float)
+    W = np.array(W, dtype=float)
+    m = measured.shape[1]
+
+    def error(factor, values, jacobians):
+        fx, fy, cx, cy, k1, k2, p1, p2, k3 = values.atVector(factor.keys()[0])
+        T = values.atPose3(factor.keys()[1])
+        R = T.rotation().matrix()
+        P = R.T @ (W - T.translation()[:, None])  # (3, m)
+        Z = P[2]
+        if np.any(Z <= 0):
+            if jacobians is not None:
+                jacobians[0], jacobians[1] = np.zeros((2 * m, 9)), np.zeros((2 * m, 6))
+            return np.full(2 * m, 2.0 * fx / sigma)
+        x, y = P[0] / Z, P[1] / Z
+        r2 = x * x + y * y
+        radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
+        yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
+        r = np.stack([fx * xd + cx - measured[0], fy * yd + cy - measured[1]]) / sigma  # (2, m)
+        if jacobians is not None:
+            r4 = r2 * r2
+            zero, one = np.zeros(m), np.ones(m)
+            Jc = np.stack([
+                np.stack([xd, zero, one, zero, fx * x * r2, fx * x * r4, 2.0 * fx * x * y,
+                          fx * (r2 + 2.0 * x * x), fx * x * r4 * r2], axis=1),
+                np.stack([zero, yd, zero, one, fy * y * r2, fy * y * r4, fy * (r2 + 2.0 * y * y),
+                          2.0 * fy * x * y, fy * y * r4 * r2], axis=1)], axis=1) / sigma  # (m, 2, 9)
+            dr = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
+            a00 = radial + 2.0 * x * x * dr + 2.0 * p1 * y + 6.0 * p2 * x
+            a01 = 2.0 * x * y * dr + 2.0 * p1 * x + 2.0 * p2 * y
+            a11 = radial + 2.0 * y * y * dr + 6.0 * p1 * y + 2.0 * p2 * x
+            # d uv / dP = diag(fx, fy) A d(x, y)/dP, row by row (m, 2, 3).
+            G = np.empty((m, 2, 3))
+            G[:, 0, 0], G[:, 0, 1] = fx * a00 / Z, fx * a01 / Z
+            G[:, 0, 2] = -fx * (a00 * x + a01 * y) / Z
+            G[:, 1, 0], G[:, 1, 1] = fy * a01 / Z, fy * a11 / Z
+            G[:, 1, 2] = -fy * (a01 * x + a11 * y) / Z
+            # Right perturbation T Exp(omega, v): dP = P x omega - v, so a row g gives
+            # (g x P) for omega and -g for v.
+            Jp = np.concatenate([np.cross(G, P.T[:, None, :]), -G], axis=2) / sigma  # (m, 2, 6)
+        e = r
+        if huber_k is not None:
+            a = np.hypot(r[0], r[1])
+            far = a > huber_k
+            rho = huber_k * a - 0.5 * huber_k * huber_k
+            root = np.sqrt(np.where(far, 2.0 * rho, 1.0))
+            s = np.where(far, root / np.where(far, a, 1.0), 1.0)
+            e = r * s
+            if jacobians is not None:
+                # d e / d theta = s J + r (ds/da) (r^T J) / a, ds/da = (k^2 - k a) / (a^2 sqrt(2 rho)).
+                ds = np.where(far, (huber_k * huber_k - huber_k * a) / (np.where(far, a, 1.0) ** 3 * root), 0.0)
+                outer = (r.T[:, :, None] * r.T[:, None, :]) * ds[:, None, None]  # (m, 2, 2)
+                Jc = s[:, None, None] * Jc + outer @ Jc
+                Jp = s[:, None, None] * Jp + outer @ Jp
+        if jacobians is not None:
+            jacobians[0], jacobians[1] = Jc.reshape(2 * m, 9), Jp.reshape(2 * m, 6)
+        return e.T.ravel()
+
+    noise = gtsam.noiseModel.Unit.Create(2 * m)
+    return gtsam.CustomFactor(noise, [cal_key, pose_key], error)
+
+
+def _gtsam_calibration(camera, p):
+    if isinstance(camera, PinholeCamera):
+        return gtsam.Cal3_S2(p[0], p[1], 0.0, p[2], p[3])
+    if isinstance(camera, FisheyeCamera):
+        return gtsam.Cal3Fisheye(p[0], p[1], 0.0, p[2], p[3], *p[4:8])
+    return None
+
+
+def _from_gtsam(values, camera):
+    """The parameters (P,) of the calibration variable."""
+    if isinstance(camera, PinholeCamera):
+        c = values.atCal3_S2(KEY(0))
+        return np.array([c.fx(), c.fy(), c.px(), c.py()])
+    if isinstance(camera, FisheyeCamera):
+        c = values.atCal3Fisheye(KEY(0))
+        return np.array([c.fx(), c.fy(), c.px(), c.py(), c.k1(), c.k2(), c.k3(), c.k4()])
+    return np.array(values.atVector(KEY(0)))
+
+
+def solve_graph(camera, poses, observations, sigma: float, huber_k=None) -> GraphCalibration:
+    """Calibrate with a GTSAM graph from a start.
+
+    Parameters
+    ----------
+    camera : Camera
+        The starting camera (its model and size are kept; skew 0).
+    poses : list of (4, 4) ndarray
+        Starting ``T_WC`` per view.
+    observations : list of (uv (2, m), W (3, m), index (m,))
+        Each view's used junctions: raw pixels, board points (metres), board indices.
+    sigma : float
+        Pixel noise of every factor, pixels.
+    huber_k : float, optional
+        Huber threshold in sigmas; plain least squares when None.
+
+    Returns
+    -------
+    GraphCalibration
+    """
+    p0 = camera_parameters(camera)
+    graph = gtsam.NonlinearFactorGraph()
+    initial = gtsam.Values()
+    noise = gtsam.noiseModel.Isotropic.Sigma(2, sigma)
+    if huber_k is not None:
+        noise = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(huber_k), noise)
+    cal = _gtsam_calibration(camera, p0)
+    if cal is None:
+        initial.insert(KEY(0), p0)
+    else:
+        initial.insert(KEY(0), cal)
+        sigmas = np.full(cal.dim(), _FREE_SIGMA)
+        sigmas[2] = _SKEW_SIGMA
+        prior = gtsam.noiseModel.Diagonal.Sigmas(sigmas)
+        graph.add((gtsam.PriorFactorCal3_S2 if isinstance(camera, PinholeCamera)
+                   else gtsam.PriorFactorCal3Fisheye)(KEY(0), cal, prior))
+        factor = (gtsam.GeneralSFMFactor2Cal3_S2 if isinstance(camera, PinholeCamera)
+                  else gtsam.GeneralSFMFactor2Cal3Fisheye)
+        landmark_noise = gtsam.noiseModel.Isotropic.Sigma(3, LANDMARK_SIGMA_M)
+        landmarks = {}
+        for _, W, index in observations:
+            for j, w in zip(index, W.T):
+                landmarks[int(j)] = w
+        for j, w in landmarks.items():
+            initial.insert(L(j), w)
+            graph.add(gtsam.PriorFactorPoint3(L(j), w, landmark_noise))
+    for i, ((uv, W, index), T) in enumerate(zip(observations, poses)):
+        initial.insert(X(i), gtsam.Pose3(T))
+        if cal is None:
+            graph.add(_radtan_factor(uv, W, KEY(0), X(i), sigma, huber_k))
+            continue
+        for k in range(uv.shape[1]):
+            graph.add(factor(uv[:, k], noise, X(i), L(int(index[k])), KEY(0)))
+    params = gtsam.LevenbergMarquardtParams()
+    params.setRelativeErrorTol(_RELATIVE_TOL)
+    params.setAbsoluteErrorTol(_ABSOLUTE_TOL)
+    params.setMaxIterations(_MAX_ITERATIONS)
+    optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
+    nan = np.full((p0.size, p0.size), np.nan)
+    try:
+        result = optimizer.optimize()
+        polished = False
+        for _ in range(_POLISH_ITERATIONS):
+            delta = graph.linearize(result).optimize()
+            result = result.retract(delta)
+            p = _from_gtsam(result, camera)
+            step = np.asarray(delta.at(KEY(0)))
+            if cal is not None:
+                step = np.delete(step, 2)
+            if np.max(np.abs(step) / np.maximum(np.abs(p), 1e-3)) < _POLISH_STEP:
+                polished = True
+                break
+        cov = np.asarray(gtsam.Marginals(graph, result).marginalCovariance(KEY(0)))
+        if cal is not None:
+            cov = np.delete(np.delete(cov, 2, axis=0), 2, axis=1)
+    except RuntimeError as exc:
+        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+        return GraphCalibration(camera, list(poses), nan, False, int(optimizer.iterations()),
+                                lines[0] if lines else type(exc).__name__)
+    p = _from_gtsam(result, camera)
+    out = [result.atPose3(X(i)).matrix() for i in range(len(observations))]
+    converged = bool(optimizer.iterations() < _MAX_ITERATIONS and polished and np.isfinite(optimizer.error()))
+    try:
+        solved = camera_with_parameters(camera, p)
+    except InputError as exc:  # an invalid camera (a focal length <= 0): a failed solve
+        return GraphCalibration(camera, out, nan, False, int(optimizer.iterations()), str(exc))
+    return GraphCalibration(solved, out, 0.5 * (cov + cov.T), converged, int(optimizer.iterations()),
+                            "" if converged else "GTSAM did not converge")

@@ -1,0 +1,200 @@
+"""The calibration's cross-check: a hand-written Levenberg-Marquardt over the same cost.
+
+Unknowns: the intrinsic parameters ``p`` (:func:`graphpose.calibrate.parameter_names`) and
+each view's pose as ``(x, y, z, roll, pitch, yaw)`` (:mod:`graphpose.camera`). The cost is
+the one of :mod:`.graph`: ``sum_j rho(||r_j||)`` over the junctions, ``r_j`` the raw pixel
+residual, ``rho`` the Huber function of threshold ``huber_px`` (``e^2 / 2`` without one).
+Each step solves the dense normal equations with the exact analytic Jacobian: in ``p`` from
+:func:`graphpose.calibrate.params.projection_jacobian_intrinsics`, in the pose from
+:mod:`graphpose.pose.gauss_newton` (the chain of the Euler angles' partials with the camera's
+``d uv / d p_C``). Huber weights are reweighted at every step (iteratively reweighted least
+squares, which lowers the Huber cost at each accepted step). The plain Gauss-Newton step is
+tried first; a step that raises the cost is damped (``H + lambda diag(H)``) until it falls.
+
+It stops when every parameter's step is below 1e-10 of its own standard deviation
+(``sqrt(diag(H^-1))`` at unit pixel noise) or, once the promised decrease is below the cost's
+rounding, after a few more undamped steps.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..camera import T_from_params, params_from_T, to_camera
+from ..errors import InputError
+from ..pose.gauss_newton import _project, _weights, reprojection_cost
+from .params import camera_parameters, camera_with_parameters, projection_jacobian_intrinsics
+
+MAX_ITERATIONS = 200
+#: Convergence: the step below this many of each parameter's standard deviations.
+STEP_SIGMAS = 1e-10
+_COST_RTOL = 1e-13
+_MAX_POLISH_STEPS = 60
+_LAMBDA_MAX = 1e12
+
+
+@dataclass(frozen=True)
+class LMCalibration:
+    """The hand-written solver's solution.
+
+    Attributes
+    ----------
+    camera : Camera
+        The calibrated camera.
+    poses : list of (4, 4) ndarray
+        ``T_WC`` per view.
+    information : (P, P) ndarray
+        The intrinsics' information at unit pixel noise: the Schur complement of the poses
+        in ``J^T W J`` (``W`` the Huber weights); its inverse is the intrinsics' block of
+        ``(J^T W J)^-1``.
+    residuals : list of (2, m) ndarray
+        Measured minus predicted pixels per view.
+    weights : list of (m,) ndarray
+        The Huber weight of each junction (1 without a kernel).
+    converged : bool
+    iterations : int
+    message : str
+    """
+
+    camera: object
+    poses: list
+    information: np.ndarray
+    residuals: list
+    weights: list
+    converged: bool
+    iterations: int
+    message: str
+
+
+def _evaluate(camera, x, observations, P):
+    """Per view: residuals (2m,), the Jacobians in the intrinsics (2m, P) and the pose
+    (2m, 6); and the smallest depth."""
+    out, z_min = [], np.inf
+    for i, (uv, W, _) in enumerate(observations):
+        e = x[P + 6 * i: P + 6 * i + 6]
+        m = uv.shape[1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pred, z, Je = _project(camera, e, W, True)
+            Jp = projection_jacobian_intrinsics(camera, to_camera(T_from_params(e), W))
+        z_min = min(z_min, float(np.min(z)))
+        out.append(((uv - pred).T.ravel(), Jp.reshape(2 * m, P), Je))
+    return out, z_min
+
+
+def _cost(views, huber_px):
+    return sum(reprojection_cost(r.reshape(-1, 2).T, huber_px) for r, _, _ in views)
+
+
+def _normal(views, huber_px, P):
+    """The normal equations by blocks: U (P, P), V (n, 6, 6), Wb (n, P, 6), gp (P,), ge (n, 6)."""
+    n = len(views)
+    U, gp = np.zeros((P, P)), np.zeros(P)
+    V, Wb, ge = np.empty((n, 6, 6)), np.empty((n, P, 6)), np.empty((n, 6))
+    for i, (r, Jp, Je) in enumerate(views):
+        w = _weights(r, huber_px)
+        wr = r if w is None else w * r
+        Jpw = Jp if w is None else Jp * w[:, None]
+        U += Jpw.T @ Jp
+        gp += Jp.T @ wr
+        V[i] = (Je if w is None else Je * w[:, None]).T @ Je
+        Wb[i] = Jpw.T @ Je
+        ge[i] = Je.T @ wr
+    return U, V, Wb, gp, ge
+
+
+def _step(U, V, Wb, gp, ge, lam):
+    """The (damped) step by the Schur complement of the poses; the complement S; and the
+    standard deviations of every unknown at unit pixel noise (undamped only)."""
+    if lam:
+        U = U + lam * np.diag(np.diag(U))
+        V = V + lam * np.einsum("ij,nj->nij", np.eye(6), np.diagonal(V, axis1=1, axis2=2))
+    Vi = np.linalg.inv(V)
+    WVi = Wb @ Vi  # (n, P, 6)
+    S = U - np.einsum("nij,nkj->ik", WVi, Wb)
+    b = gp - np.einsum("nij,nj->i", WVi, ge)
+    dp = np.linalg.solve(S, b)
+    de = np.einsum("nij,nj->ni", Vi, ge - np.einsum("nij,i->nj", Wb, dp))
+    Si = np.linalg.inv(S)
+    # Pose block of the inverse: Vi + Vi W^T S^-1 W Vi.
+    pose_var = np.diagonal(Vi, axis1=1, axis2=2) + np.einsum("nij,ik,nkj->nj", WVi, Si, WVi)
+    sd = np.sqrt(np.abs(np.concatenate([np.diag(Si), pose_var.ravel()])))
+    return np.concatenate([dp, de.ravel()]), S, sd
+
+
+def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = MAX_ITERATIONS) -> LMCalibration:
+    """Calibrate by the hand-written Levenberg-Marquardt from a start.
+
+    Parameters
+    ----------
+    camera : Camera
+        The starting camera (model, size and what is not a parameter are kept).
+    poses : list of (4, 4) ndarray
+        Starting ``T_WC`` per view.
+    observations : list of (uv (2, m), W (3, m), index (m,))
+        Each view's used junctions.
+    huber_px : float, optional
+        Huber threshold on each junction's 2-D error, pixels.
+    max_iterations : int
+        Steps tried (accepted or not).
+
+    Returns
+    -------
+    LMCalibration
+    """
+    P = camera_parameters(camera).size
+    x = np.concatenate([camera_parameters(camera)] + [params_from_T(T) for T in poses])
+    views, _ = _evaluate(camera, x, observations, P)
+    cost = _cost(views, huber_px)
+    lam, converged, message, it, polish = 0.0, False, "iteration cap reached", 0, 0
+    S = np.full((P, P), np.nan)
+    while it < max_iterations:
+        it += 1
+        blocks = _normal(views, huber_px, P)
+        gp, ge = blocks[3], blocks[4]
+        try:
+            delta_gn, S, sd = _step(*blocks, 0.0)
+        except np.linalg.LinAlgError:
+            message = "normal equations singular (the views do not constrain the calibration)"
+            break
+        if np.all(np.abs(delta_gn) <= STEP_SIGMAS * sd):
+            converged, message = True, "converged"
+            break
+        g = np.concatenate([gp, ge.ravel()])
+        polishing = 0.5 * (g @ delta_gn) <= _COST_RTOL * cost
+        if polishing:
+            polish += 1
+            if polish > _MAX_POLISH_STEPS:
+                converged, message = True, "converged (step at the rounding limit)"
+                break
+        try:
+            delta = delta_gn if lam == 0.0 or polishing else _step(*blocks, lam)[0]
+        except np.linalg.LinAlgError:
+            message = "damped normal equations singular"
+            break
+        x_new = x + delta
+        try:
+            trial = camera_with_parameters(camera, x_new[:P])
+            views_new, z_new = _evaluate(trial, x_new, observations, P)
+            cost_new = _cost(views_new, huber_px) if z_new > 0 else np.inf
+        except InputError:  # a focal length <= 0
+            cost_new = np.inf
+        if not np.isfinite(cost_new):
+            cost_new = np.inf
+        if cost_new < cost or (polishing and cost_new <= cost * (1.0 + 100 * _COST_RTOL)):
+            x, views, cost, camera = x_new, views_new, cost_new, trial
+            lam = 0.0 if lam < 1e-6 else lam / 10.0
+        else:
+            lam = 1e-4 if lam == 0.0 else lam * 10.0
+            if lam > _LAMBDA_MAX:
+                message = "damped steps cannot lower the cost"
+                break
+    residuals, weights = [], []
+    for r, _, _ in views:
+        m = r.size // 2
+        w = _weights(r, huber_px)
+        residuals.append(r.reshape(m, 2).T)
+        weights.append(np.ones(m) if w is None else w[0::2].copy())
+    poses = [T_from_params(x[P + 6 * i: P + 6 * i + 6]) for i in range(len(observations))]
+    return LMCalibration(camera, poses, S, residuals, weights, converged, it, message)

@@ -1,0 +1,341 @@
+"""``calibrate(images, board, model)``: the calibration from images to :class:`Calibration`.
+
+The steps (``docs/calibration.md``):
+
+1. **First pass.** Every image's junctions, found as :func:`graphpose.estimate_pose` finds
+   them (:func:`graphpose.detect.junctions.extract_junctions`, no camera: the board and its
+   labels come from the image; or through a ``camera`` given), the trusted ones only. An image without a board is named
+   and the others go on; at least three images must have one. A fisheye hides most boards
+   from a search without its camera (only those near the image's centre are found): the
+   error says so. (An equidistant camera fitted to one or two boards, or guessed from the
+   image's size, was tried as a bootstrap: it is not close enough for the detector's
+   planarity check away from the centre, and found no more boards.)
+2. **Start.** :func:`.zhang.start`: Zhang's closed form (the fisheye: the equidistant model's
+   own), poses from the homographies.
+3. **Solve.** A plain least-squares solve (:func:`.lm.solve_lm`) from the start; the pixel
+   noise ``sigma`` from its residuals (1.4826 x their median absolute value); images whose
+   RMS exceeds :data:`REJECT_RATIO` times the median image's are rejected and the rest solved
+   again. Then the robust solve twice, from the plain solution: GTSAM's graph
+   (:func:`.graph.solve_graph`, Huber at ``huber_k`` sigmas) and the hand-written
+   Levenberg-Marquardt over the same cost (:func:`.lm.solve_lm`). They must agree on every
+   parameter to :data:`CROSS_CHECK_TOL` of ``max(|p|, sigma_p)`` or the calibration is not ok.
+4. **Passes with the camera.** Every image again, with the camera found (lens-aware
+   detection and refinement find boards a raw fisheye image hides from the first pass, and
+   refine every junction through the lens), and step 3 again from the previous solution;
+   repeated while a pass finds a board the previous did not (at most
+   :data:`MAX_CAMERA_PASSES` times: a first camera from a few central boards may not yet
+   find those at the rim). The last pass is always one with the final pass's camera
+   before the final solve.
+
+The covariance is GTSAM's marginal of the calibration at ``sigma``, scaled by the pixel
+noise the final residuals give, ``sqrt(sum w r^2 / (2M - P - 6n))`` (``w`` the Huber
+weights, M junctions, n images). A focal length whose relative sigma exceeds
+:data:`MAX_FOCAL_SIGMA` means the views do not constrain it: an error saying so.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .._checks import check_board, check_number
+from ..board import Board
+from ..errors import BoardNotFoundError, InputError
+from .params import camera_parameters, camera_with_parameters, model_class, parameter_names
+from .result import Calibration
+
+#: An image whose RMS exceeds this many times the median image's is rejected.
+REJECT_RATIO = 3.0
+#: ... unless it is below this (pixels): rendered images fit to a few hundredths of a pixel.
+REJECT_FLOOR_PX = 0.1
+#: The two solvers must agree on each parameter to this fraction of max(|p|, sigma_p).
+CROSS_CHECK_TOL = 1e-6
+#: Huber threshold, in sigmas (95 % efficiency under Gaussian noise, as the pose's).
+HUBER_K = 1.345
+#: Fewest images with a board; fewest trusted junctions an image must give.
+MIN_IMAGES = 3
+MIN_JUNCTIONS = 8
+#: Passes with the camera after the first: they stop when one finds no new board.
+MAX_CAMERA_PASSES = 3
+#: Largest relative 1-sigma of fx or fy a calibration may have.
+MAX_FOCAL_SIGMA = 0.02
+
+
+def _load(images, names):
+    """The images as arrays and their names; image files are read."""
+    from ..image import read_image
+    from .._checks import check_image
+
+    if isinstance(images, (str, Path)) or (isinstance(images, np.ndarray) and images.ndim == 2):
+        raise InputError("images must be a sequence of images (arrays or file paths), not one image")
+    images = list(images)
+    out, labels = [], []
+    for i, image in enumerate(images):
+        if isinstance(image, (str, Path)):
+            labels.append(Path(image).name)
+            out.append(read_image(image, as_float=False))
+        else:
+            labels.append(f"image {i}")
+            out.append(check_image(image, f"image {i}"))
+    if names is not None:
+        labels = [str(n) for n in names]
+        if len(labels) != len(out):
+            raise InputError(f"names must name every image: {len(out)} images, {len(labels)} names")
+    if not out:
+        raise InputError(f"calibrate needs images of the board, at least {MIN_IMAGES}; got none")
+    sizes = [(im.shape[1], im.shape[0]) for im in out]
+    if len(set(sizes)) > 1:
+        first = sizes[0]
+        other = next(k for k, s in enumerate(sizes) if s != first)
+        raise InputError(
+            f"the images differ in size: {labels[0]} is {first[0]} x {first[1]} but {labels[other]} is "
+            f"{sizes[other][0]} x {sizes[other][1]}; one calibration holds for one image size: give "
+            "images of one camera at one resolution")
+    return out, labels, sizes[0]
+
+
+def _detect(image, board, camera):
+    """The trusted junctions (uv (2, m), W (3, m), index (m,)) or the reason there are none."""
+    from ..detect.junctions import extract_junctions
+
+    try:
+        J = extract_junctions(image, None, board, camera=camera)
+    except BoardNotFoundError as exc:
+        return None, str(exc)
+    index = np.flatnonzero(J.trusted)
+    if index.size < MIN_JUNCTIONS:
+        return None, f"only {index.size} trusted junctions (need {MIN_JUNCTIONS})"
+    return (J.points[:, index], board.world_points()[:, index], index), ""
+
+
+def _rms(r):
+    """sqrt(mean(du^2 + dv^2)) of residuals (2, m)."""
+    return float(np.sqrt(np.mean(np.sum(r * r, axis=0)))) if r.size else float("nan")
+
+
+def _solve(camera, poses, obs, huber_k):
+    """Step 3 on the images ``obs`` (a dict image -> observation): the plain solve, the
+    rejections, the robust solve twice. Returns what the result needs."""
+    from .graph import solve_graph
+    from .lm import solve_lm
+
+    keys = list(obs)
+    rejected = {}
+    while True:
+        plain = solve_lm(camera, [poses[k] for k in keys], [obs[k] for k in keys])
+        rms = np.array([_rms(r) for r in plain.residuals])
+        limit = max(REJECT_RATIO * float(np.median(rms)), REJECT_FLOOR_PX)
+        worst = int(np.argmax(rms))
+        if rms[worst] <= limit or len(keys) <= MIN_IMAGES:
+            break
+        rejected[keys[worst]] = (f"rejected: RMS {rms[worst]:.3f} px, more than {REJECT_RATIO:g} times the "
+                                 f"median image's {np.median(rms):.3f} px (a moved board, a wrong label, "
+                                 "a blurred image?)")
+        camera, poses = plain.camera, dict(zip(keys, plain.poses))
+        keys.pop(worst)
+    r_all = np.hstack(plain.residuals)
+    sigma0 = max(1.4826 * float(np.median(np.abs(r_all))), 1e-6)
+    starts = dict(zip(keys, plain.poses))
+    view = [obs[k] for k in keys]
+    start_poses = [starts[k] for k in keys]
+    graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k)
+    lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0)
+    return keys, rejected, graph, lm, sigma0
+
+
+def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=None, camera=None,
+              huber_k: float = HUBER_K, rng=None, progress=None) -> Calibration:
+    """Calibrate a camera from images of the board.
+
+    Parameters
+    ----------
+    images : sequence of (H, W) array_like or path
+        Raw images of one camera at one resolution (arrays, or files read with
+        :func:`graphpose.read_image`).
+    board : Board
+        The board in the images.
+    model : str
+        ``"pinhole"``, ``"radtan"`` (OpenCV's five coefficients) or ``"fisheye"``.
+    names : sequence of str, optional
+        The images' names in messages; their file names, or ``image i``, by default.
+    camera : Camera, optional
+        A camera to search the first pass with (an earlier calibration of this camera, or a
+        nominal one of the lens): its boards are then found through the lens from the start.
+        Only the detection uses it; the calibration starts from Zhang's closed form as
+        without it.
+    huber_k : float
+        Huber threshold, in sigmas of the pixel noise.
+    rng : numpy.random.Generator, int or None
+        Accepted for the API's uniformity; the calibration draws nothing (it is
+        deterministic).
+    progress : callable, optional
+        Called as ``progress(stage, done, total)`` after each image of each pass
+        (``stage`` ``"first pass"``, ``"pass 2"``, ...) and after each solve (``"solve"``),
+        for a progress bar.
+
+    Returns
+    -------
+    Calibration
+        ``ok`` False (with ``summary``) when a solver did not converge or the two disagree.
+
+    Raises
+    ------
+    InputError
+        If the model is not known, the images differ in size, fewer than three images show
+        the board (each image without one is named), or the views do not constrain the
+        focal length (all boards parallel).
+    """
+    cls = model_class(model)
+    check_board(board)
+    huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
+    del rng  # nothing is drawn
+    images, labels, size = _load(images, names)
+    report = progress or (lambda stage, done, total: None)
+    n = len(images)
+
+    # 1. First pass: no camera.
+    if camera is not None:
+        from ..cameras import Camera, check_image_size
+
+        if not isinstance(camera, Camera):
+            raise InputError(f"camera must be a graphpose camera, got {type(camera).__name__}")
+        check_image_size(camera, images[0], labels[0])
+    obs, found_in, why = {}, {}, {}
+    for i, image in enumerate(images):
+        o, reason = _detect(image, board, camera)
+        if o is None:
+            why[i] = reason
+        else:
+            obs[i], found_in[i] = o, 1
+        report("first pass", i + 1, n)
+    if len(obs) < MIN_IMAGES:
+        missing = "; ".join(f"{labels[i]}: {why[i]}" for i in sorted(why)[:5])
+        raise InputError(f"fewer than {MIN_IMAGES} images show the board ({len(obs)} of {n}); a calibration "
+                         f"needs at least {MIN_IMAGES} views at different tilts"
+                         + (" (a fisheye's boards are found without a camera near the image's centre: "
+                            "include views with the board there)" if cls.model == "fisheye" else "")
+                         + f". No board in: {missing}" + (" ..." if len(why) > 5 else ""))
+
+    # 2-3. Start and solve.
+    from .zhang import start
+
+    keys = sorted(obs)
+    camera0, poses0 = start(cls.model, size, [obs[k][:2] for k in keys])
+    keys, rejected, graph, lm, sigma0 = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k)
+    report("solve", 1, 2)
+
+    # 4. Passes with the camera: every image again, until no new board is found.
+    from ..pose.homography import pose_from_homography
+
+    for pass_number in range(2, 2 + MAX_CAMERA_PASSES):
+        camera1 = lm.camera
+        poses1 = dict(zip(keys, lm.poses))
+        obs2 = {}
+        for i, image in enumerate(images):
+            o, reason = _detect(image, board, camera1)
+            if o is not None and i not in poses1:
+                try:
+                    poses1[i] = pose_from_homography(camera1, o[0], o[1])
+                except InputError as exc:
+                    o, reason = None, f"no pose from its junctions: {exc}"
+            if o is not None:
+                obs2[i] = o
+                found_in.setdefault(i, pass_number)
+                why.pop(i, None)
+            elif i in obs:
+                obs2[i] = obs[i]  # the earlier pass's junctions stand
+            else:
+                why[i] = reason
+            report(f"pass {pass_number}", i + 1, n)
+        grew = len(obs2) > len(obs)
+        obs = obs2
+        keys, rejected, graph, lm, sigma0 = _solve(camera1, poses1, obs, huber_k)
+        report("solve", pass_number, pass_number)
+        if not grew:
+            break
+    return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
+                   "no camera" if camera is None else "with the given camera")
+
+
+def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
+            first_camera) -> Calibration:
+    P = len(cls.parameter_names)
+    p_lm, p_g = camera_parameters(lm.camera), camera_parameters(graph.camera)
+    r_all = np.hstack(lm.residuals)
+    w_all = np.concatenate(lm.weights)
+    M = r_all.shape[1]
+    dof = 2 * M - P - 6 * len(keys)
+    sigma = float(np.sqrt(np.sum(w_all * np.sum(r_all * r_all, axis=0)) / max(dof, 1)))
+    cov = graph.cov * (sigma / sigma0) ** 2
+    sd = np.sqrt(np.abs(np.diag(cov)))
+    if not np.all(np.isfinite(cov)):
+        sd = np.sqrt(np.abs(np.diag(np.linalg.pinv(lm.information)))) * sigma
+    scale = np.maximum(np.abs(p_lm), sd)
+    difference = float(np.max(np.abs(p_g - p_lm) / scale))
+    converged = bool(graph.converged and lm.converged)
+    ok = converged and difference <= CROSS_CHECK_TOL and np.all(np.isfinite(cov))
+    focal = sd[:2] / p_lm[:2]
+    if np.any(focal > MAX_FOCAL_SIGMA) or not np.all(np.isfinite(focal)):
+        raise InputError(
+            f"the views do not constrain the focal length (relative 1-sigma of fx, fy "
+            f"{focal[0]:.2g}, {focal[1]:.2g}): the board must be seen at different tilts (boards "
+            "all parallel to each other leave the focal length and the distance indistinguishable); "
+            "tilt it by 20-50 degrees in different directions")
+    camera = camera_with_parameters(graph.camera if ok else lm.camera, p_g if ok else p_lm,
+                                    cov if np.all(np.isfinite(cov)) else None)
+    n = len(labels)
+    status, message, poses, rms = [], [], [], np.full(n, np.nan)
+    points, residuals = [], []
+    solved = {k: (T, r) for k, T, r in zip(keys, lm.poses, lm.residuals)}
+    for i in range(n):
+        k = found_in.get(i)
+        found = ("" if k is None else f"board found in pass 1 ({first_camera})" if k == 1
+                 else f"board found in pass {k} (with pass {k - 1}'s camera)")
+        if i in solved:
+            T, r = solved[i]
+            status.append("used"), message.append(found), poses.append(T)
+            rms[i] = _rms(r)
+            points.append(obs[i][0]), residuals.append(r)
+        elif i in rejected:
+            # Its residuals against the calibration, for the report.
+            from ..pose.gauss_newton import gauss_newton
+            from ..pose.homography import pose_from_homography
+
+            uv, W, _ = obs[i]
+            fit = gauss_newton(camera, pose_from_homography(camera, uv, W), uv, W)
+            status.append("rejected"), message.append(f"{found}; {rejected[i]}"), poses.append(None)
+            rms[i] = _rms(fit.residuals)
+            points.append(uv), residuals.append(fit.residuals)
+        else:
+            status.append("no board"), message.append(why.get(i, "no board")), poses.append(None)
+            points.append(np.zeros((2, 0))), residuals.append(np.zeros((2, 0)))
+    used_r = np.hstack([r for r, s in zip(residuals, status) if s == "used"])
+    if ok:
+        summary = (f"calibrated from {len(keys)} of {n} images, {M} junctions: RMS {_rms(used_r):.3f} px, "
+                   f"the solvers agree to {difference:.1e}")
+    elif not converged:
+        summary = (f"calibration failed: GTSAM {'converged' if graph.converged else 'did not converge'} "
+                   f"({graph.message or graph.iterations}), the hand-written LM "
+                   f"{'converged' if lm.converged else 'did not converge'} ({lm.message})")
+    else:
+        summary = (f"calibration failed: the two solvers disagree by {difference:.2e} of a parameter "
+                   f"(tolerance {CROSS_CHECK_TOL:g})")
+    return Calibration(
+        camera=camera,
+        cov=cov,
+        parameter_names=parameter_names(cls.model),
+        images=tuple(labels),
+        status=tuple(status),
+        message=tuple(message),
+        poses=tuple(poses),
+        image_rms_px=rms,
+        points=tuple(points),
+        residuals=tuple(residuals),
+        rms_px=_rms(used_r),
+        sigma_px=sigma,
+        ok=bool(ok),
+        cross_check={"gtsam": p_g.tolist(), "lm": p_lm.tolist(), "max_difference": difference,
+                     "tolerance": CROSS_CHECK_TOL, "converged": {"gtsam": graph.converged, "lm": lm.converged}},
+        summary=summary,
+    )

@@ -1,0 +1,240 @@
+"""``graphpose calibrate``: the camera's intrinsics and lens from images of the board.
+
+Turns the arguments into typed values (image files in order, a :class:`Board`, a model
+name, an output format), checks every output before the work starts (folders, the ``plot``
+extra, whether the format can hold the model), calls :func:`graphpose.calibrate.calibrate`
+with a progress bar on stderr, and writes the camera file (:func:`graphpose.io.calibration.write_camera`),
+optionally the ``--json`` report (:func:`calibration_record`) and the ``--plot`` picture
+(:func:`graphpose.viz.calibration.plot_calibration`), and a summary on stdout.
+
+Exit codes: 0 calibrated; 1 the calibration failed (a solver did not converge, or the two
+solvers disagree: nothing is written but the report); 2 bad usage or input (fewer than three
+images with a board, images of different sizes, views that do not constrain the focal
+length, a file that is not an image, ...).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+
+from ..calibrate.params import MODELS as CALIBRATION_MODELS
+from ..errors import GraphposeError, InputError
+from ..io.camera_files import FORMATS
+from . import EXIT_OK, UsageError
+from .options import Progress, parse_board
+
+#: The models ``--model`` takes, and the formats of ``--format``.
+MODELS = tuple(CALIBRATION_MODELS)
+
+_EXAMPLES = """\
+examples:
+  graphpose calibrate shots/ --board 9x6x0.03 --out camera.json
+  graphpose calibrate left*.jpg --board 9x6x0.03 --model radtan --out left.yml --format opencv \\
+      --json report.json --plot calibration.png
+  graphpose calibrate fisheye/ --board 8x6x0.0635 --model fisheye --out cam.yaml --format kalibr
+
+IMAGES are image files or folders (a folder's image files in name order). --board gives the
+inner junctions per row and per column and the square side in metres. The camera file holds
+the intrinsics, the lens and the image size; the json format also holds the parameters'
+covariance, which 'graphpose estimate --camera FILE' then carries into every pose's sigmas.
+Kalibr's radtan keeps four coefficients, so --format kalibr takes --model pinhole or fisheye.
+exit codes: 0 calibrated, 1 the calibration failed (solvers not converged or disagreeing),
+2 bad usage or input (fewer than three images with a board, images of different sizes,
+views that do not constrain the focal length, ...)."""
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``calibrate`` subcommand's parser to ``subparsers``."""
+    p = subparsers.add_parser(
+        "calibrate",
+        help="the camera's intrinsics and lens, with their covariance, from images of the board",
+        description=textwrap.fill(
+            "Calibrate a camera from raw images of the checkerboard: the intrinsics K, the lens "
+            "distortion and their covariance, each image's pose and residual. Images without a "
+            "board, and images whose residuals do not fit the others, are named and left out.", 88),
+        epilog=_EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("images", nargs="+", type=Path, metavar="IMAGES",
+                   help="image files, or folders of them (name order)")
+    p.add_argument("--board", type=parse_board, required=True, metavar="COLSxROWSxSQUARE_M",
+                   help="inner junctions per row and per column, square side in metres (e.g. 9x6x0.03)")
+    p.add_argument("--model", choices=MODELS, default="radtan",
+                   help="the lens model: pinhole (none), radtan (OpenCV's k1, k2, p1, p2, k3) or "
+                   "fisheye (OpenCV's k1..k4); default radtan")
+    p.add_argument("--out", type=Path, required=True, metavar="CAMERA_FILE",
+                   help="the calibrated camera's file (read by 'graphpose estimate --camera')")
+    p.add_argument("--format", choices=FORMATS, default="json",
+                   help="the camera file's format: graphpose's json (with the covariance; default), "
+                   "OpenCV FileStorage YAML, ROS camera_info, Kalibr camchain")
+    p.add_argument("--json", metavar="REPORT.json",
+                   help="write the report: the camera, the covariance, the RMS and every image's status, "
+                   "message, RMS and pose ('-': stdout, no summary)")
+    p.add_argument("--plot", type=Path, metavar="PNG",
+                   help="draw the residuals and the coverage and uncertainty map over the image "
+                   "(needs the plot extra: pip install -e \".[plot]\")")
+    p.add_argument("-q", "--quiet", action="store_true", help="no summary on stdout (errors still on stderr)")
+    return p
+
+
+def run(args) -> int:
+    """Run ``graphpose calibrate`` with parsed ``args``; returns the exit code."""
+    from ..calibrate import calibrate
+    from ..io.calibration import write_camera
+    from ..io.camera_files import covariance_note
+    from ..io.files import dumps_json, write_json
+
+    _check_outputs(args)
+    files = image_files(args.images)
+    progress = Progress(len(files), sys.stderr)
+
+    def show(stage, done, total):
+        progress.total = max(int(total), 1)
+        progress.show(int(done), stage)
+
+    try:
+        calibration = calibrate(files, args.board, args.model, names=[str(f) for f in files], progress=show)
+    finally:
+        progress.clear()
+    record = calibration_record(calibration)
+    if args.json == "-":
+        sys.stdout.write(dumps_json(record))
+    elif args.json is not None:
+        write_json(args.json, record)
+    if not calibration.ok:
+        raise CalibrationFailed(f"{calibration.summary} (no camera file written)")
+    write_camera(args.out, calibration.camera, format=args.format)
+    note = covariance_note(calibration.camera, args.format)
+    if args.plot is not None:
+        from ..viz.calibration import plot_calibration
+
+        plot_calibration(calibration, args.plot, title=f"graphpose calibrate: {args.model}, "
+                         f"{calibration.status.count('used')} images")
+    if not args.quiet and args.json != "-":
+        print(format_summary(calibration, args.out, args.format), flush=True)
+    if note is not None:
+        print(f"graphpose calibrate: note: {note}", file=sys.stderr)
+    return EXIT_OK
+
+
+class CalibrationFailed(GraphposeError):
+    """The solvers did not converge or disagree (exit code 1)."""
+
+
+def _check_outputs(args) -> None:
+    """Every output can be written and every option fits, before the work starts."""
+    outputs = [(args.out, "--out"), (args.plot, "--plot")]
+    if args.json not in (None, "-"):
+        outputs.append((Path(args.json), "--json"))
+    for path, name in outputs:
+        if path is not None and not path.resolve().parent.is_dir():
+            raise InputError(f"{name}: folder {path.resolve().parent} does not exist")
+    if args.format == "kalibr" and args.model == "radtan":
+        raise UsageError("--format kalibr cannot hold --model radtan: Kalibr's radtan keeps four coefficients "
+                         "(k1, k2, p1, p2) and graphpose's radtan calibrates k3 as well (OpenCV's five), which is "
+                         "never dropped; write --format json, opencv or ros, or calibrate --model fisheye or pinhole")
+    if args.plot is not None:
+        if args.plot.suffix.lower() != ".png":
+            raise UsageError(f"--plot: the picture is PNG, so the name must end in .png, got {args.plot}")
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            raise InputError("--plot needs matplotlib, the plot extra: pip install -e \".[plot]\" "
+                             "(or leave --plot out)") from None
+
+
+def image_files(paths) -> list:
+    """The images of IMAGES: files as given, a folder's image files in name order.
+
+    Raises
+    ------
+    InputError
+        If a path does not exist or a folder holds no image.
+    """
+    from ..track.frames import list_frames
+
+    files = []
+    for path in paths:
+        if path.is_dir():
+            files.extend(list_frames(path))
+        elif path.is_file():
+            files.append(path)
+        else:
+            raise InputError(f"image not found: {path}")
+    return files
+
+
+def calibration_record(calibration) -> dict:
+    """The ``--json`` report of a calibration, JSON-ready.
+
+    Returns
+    -------
+    dict
+        ``model``; ``K`` (3 x 3, pixels); ``distortion`` (OpenCV's order); ``size``
+        ``[width, height]``; ``parameters`` (``{name: value}``, the covariance's order);
+        ``covariance`` (P x P); ``rms_px`` (``sqrt(mean(du^2 + dv^2))`` over the junctions
+        used); ``images``: per image ``image``, ``status`` (``used``, ``rejected``, ``no
+        board``), ``message`` (null when there is nothing to say), ``rms_px`` (null without a
+        board) and ``T_WC`` (4 x 4, the camera in the board's frame; null unless used).
+    """
+    from ..io.files import to_jsonable
+
+    camera = calibration.camera
+    images = []
+    for k, name in enumerate(calibration.images):
+        rms = float(calibration.image_rms_px[k])
+        pose = calibration.poses[k]
+        images.append({
+            "image": str(name),
+            "status": calibration.status[k],
+            "message": calibration.message[k] or None,
+            "rms_px": rms if np.isfinite(rms) else None,
+            "T_WC": None if pose is None else np.asarray(pose),
+        })
+    record = {
+        "model": camera.model,
+        "K": camera.K,
+        "distortion": camera.distortion,
+        "size": None if camera.size is None else list(camera.size),
+        "parameters": dict(zip(calibration.parameter_names, np.asarray(calibration.parameters, float).tolist())),
+        "covariance": np.asarray(calibration.cov),
+        "rms_px": float(calibration.rms_px),
+        "images": images,
+    }
+    return to_jsonable(record)
+
+
+#: How each parameter is printed: its unit and format.
+_UNITS = {"fx": "px", "fy": "px", "cx": "px", "cy": "px"}
+
+
+def format_summary(calibration, out, fmt: str) -> str:
+    """The readable summary of a calibration (several lines, no trailing newline)."""
+    camera = calibration.camera
+    status = list(calibration.status)
+    counts = {s: status.count(s) for s in ("used", "rejected", "no board")}
+    used = [p for p, s in zip(calibration.points, status) if s == "used"]
+    junctions = sum(p.shape[1] for p in used)
+    rows = [
+        f"{camera.model} camera, {camera.size[0]} x {camera.size[1]} pixels, from {len(status)} images: "
+        f"{counts['used']} used, {counts['rejected']} rejected, {counts['no board']} without a board",
+        f"  {'reprojection':16}{calibration.rms_px:.3f} px RMS over {junctions} junctions",
+        f"  {'parameter':16}{'value':>14}{'1-sigma':>12}",
+    ]
+    for name, value, sigma in zip(calibration.parameter_names, calibration.parameters, calibration.sigmas):
+        unit = _UNITS.get(name, "")
+        rows.append(f"  {name:16}{value:14.6g}{sigma:12.3g} {unit}".rstrip())
+    kept = "with the covariance" if fmt == "json" else "without the covariance"
+    rows.append(f"  {'camera file':16}{out} ({fmt}, {kept})")
+    for name, s, message, rms in zip(calibration.images, status, calibration.message, calibration.image_rms_px):
+        figure = f"{rms:.3f} px" if np.isfinite(rms) else ""
+        line = f"    {Path(str(name)).name:24} {s:9}{figure:>10}"
+        if s != "used" and message:
+            line += f"  {' '.join(str(message).split())}"
+        rows.append(line.rstrip())
+    return "\n".join(rows) + "\n"

@@ -1,0 +1,400 @@
+#!/usr/bin/env python
+"""Calibration benchmark: ``graphpose.calibrate`` beside OpenCV's calibration, on rendered sets
+with exact truth and on OpenCV's own samples.
+
+    python scripts/bench_calibration.py [--quick] [--json PATH]
+
+Every figure is measured in this run (``--quick``: small sets, to check that it works).
+OpenCV (the peer) is imported here only; its corners are its own: ``findChessboardCorners``
+(default flags) + ``cornerSubPix`` with ``winSize=(5, 5)`` (an 11 x 11 window, as the other
+sections), then ``calibrateCamera`` (five coefficients, OpenCV's defaults) or
+``cv2.fisheye.calibrate`` (``CALIB_USE_INTRINSIC_GUESS | CALIB_RECOMPUTE_EXTRINSIC |
+CALIB_FIX_SKEW`` from f = width / pi at the image's centre: without a start it diverges on
+these images).
+
+Sections
+--------
+1. Rendered calibration sets (:mod:`graphpose.synth.calibration`; noise 2 grey levels, blur
+   1 px, 8 bits): radtan (k1 = -0.3, 640 x 480, 40 views) and fisheye (about 185 degrees,
+   1280 x 960, 30 views). For each calibration: the projection error against the true
+   camera at the observed junctions: the ray the true camera sees at each junction's exact
+   pixel ``u``, projected through the calibrated camera, ``sqrt(mean |cal.project(
+   true.unproject(u)) - u|^2)`` over every junction of the views that method used (the same
+   camera-frame ray through both, no alignment of the frames, so a principal point off by
+   half a pixel counts in full; goal: graphpose at most 0.3 x OpenCV's); the same over the
+   whole image (every 8th pixel); the prediction error (each view's junctions predicted
+   through the method's own pose of it, against the exact pixels: what the calibration
+   reproduces, frame alignment included); and each parameter's error in graphpose's
+   reported sigmas (goal: all within 3).
+2. Calibration NEES: ``e^T cov^-1 e`` of the intrinsic parameters over 20 independent
+   rendered radtan calibrations (20 views each; 3 in ``--quick``); goal: the mean within
+   0.7-1.3 x the parameter count (9).
+3. OpenCV's samples (``../shared/data/opencv_samples``, 13 left and 13 right raw images, 9 x 6
+   junctions, 30 mm): the reprojection RMS (``sqrt(mean(du^2 + dv^2))``, each on its own
+   junctions; goal: graphpose at most OpenCV's), the parameters beside OpenCV's and the
+   published ones (read from ``left.opencv.yml``, ``right.opencv.xml``); and mrcal's
+   cross-validation: graphpose calibrated on the odd and on the even images (their boards
+   searched through the whole set's camera: alone, a half finds too few without one), the two
+   parameter vectors' difference against what their covariances predict
+   (``d^T (C1 + C2)^-1 d``, whose mean would be 9 if the model and the noise were all), and
+   the two cameras' projection difference over the image beside its predicted 1-sigma.
+4. The pose with the calibration's uncertainty (``scripts/calibration_pose_nees.py``): over 30
+   trials (20 in ``--quick``) calibrate on 8 rendered views, write and read the camera file,
+   estimate held-out views; the pose NEES with the covariance that includes the
+   calibration's (goal 4.5-7.5) beside the pixel-noise-only one.
+5. Speed: 40 rendered radtan images of 640 x 480: ``graphpose.calibrate`` against
+   ``findChessboardCornersSB`` on each image + ``calibrateCamera``, wall and process CPU
+   seconds (goal: graphpose faster).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+import graphpose  # noqa: E402
+from graphpose import Board, read_camera  # noqa: E402
+from graphpose.calibrate import camera_parameters, camera_with_parameters, parameter_names  # noqa: E402
+from graphpose.synth.calibration import calibration_set, fisheye_camera, radtan_camera  # noqa: E402
+
+SAMPLES = REPO.parent / "shared" / "data" / "opencv_samples"
+SAMPLE_BOARD = Board(9, 6, 0.03)
+
+
+def _opencv_corners(cv2, image, pattern, sb=False):
+    """OpenCV's corners (2, n): findChessboardCorners + cornerSubPix 5 x 5, or the SB detector."""
+    if sb:
+        ok, corners = cv2.findChessboardCornersSB(image, pattern)
+        return corners.reshape(-1, 2).T.astype(float) if ok else None
+    ok, corners = cv2.findChessboardCorners(image, pattern)
+    if not ok:
+        return None
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4)
+    corners = cv2.cornerSubPix(image, corners, (5, 5), (-1, -1), criteria)
+    return corners.reshape(-1, 2).T.astype(float)
+
+
+def _opencv_calibrate(cv2, images, board, model, size, sb=False):
+    """OpenCV's camera, RMS and the used views' corners (list of (index, (2, n)))."""
+    pattern = (board.cols, board.rows)
+    W = board.world_points().T.astype(np.float64)
+    found = [(i, c) for i, c in ((i, _opencv_corners(cv2, im, pattern, sb)) for i, im in enumerate(images))
+             if c is not None]
+    obj = [W.reshape(1, -1, 3).copy() for _ in found]
+    img = [c.T.reshape(1, -1, 2).astype(np.float64).copy() for _, c in found]
+    poses = None
+    if model == "fisheye":
+        # OpenCV 5's names (4.x: cv2.fisheye.CALIB_...). Without a starting K OpenCV's fisheye
+        # calibration diverges on these images (RMS > 100 px): it starts from f = width / pi
+        # at the image's centre, as a user would be told to.
+        flags = cv2.CALIB_USE_INTRINSIC_GUESS | cv2.CALIB_RECOMPUTE_EXTRINSIC | cv2.CALIB_FIX_SKEW
+        criteria = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
+        w, h = size
+        K0 = np.array([[w / np.pi, 0.0, 0.5 * w], [0.0, w / np.pi, 0.5 * h], [0.0, 0.0, 1.0]])
+        rms, K, D, rvecs, tvecs = cv2.fisheye.calibrate(obj, img, size, K0, np.zeros(4), flags=flags,
+                                                         criteria=criteria)
+        camera = graphpose.FisheyeCamera(K, D.ravel(), size)
+    else:
+        rms, K, D, rvecs, tvecs = cv2.calibrateCamera([o.reshape(-1, 3).astype(np.float32) for o in obj],
+                                                      [m.reshape(-1, 2).astype(np.float32) for m in img], size,
+                                                      None, None)
+        camera = graphpose.RadTanCamera(K, D.ravel()[:5], size)
+    poses = []
+    for rvec, tvec in zip(rvecs, tvecs):  # OpenCV's target-to-camera -> T_WC
+        R, _ = cv2.Rodrigues(np.asarray(rvec, dtype=float))
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = R.T, -R.T @ np.asarray(tvec, dtype=float).ravel()
+        poses.append(T)
+    return camera, float(rms), [(i, c, T) for (i, c), T in zip(found, poses)]
+
+
+def _prediction_error(camera, views):
+    """RMS |prediction - truth| over views [(T_WC, true pixels (2, n))]: the calibrated camera
+    and its own pose of each view against the exact junctions."""
+    from graphpose.camera import to_camera
+
+    W = Board().world_points()
+    errors = []
+    for T, uv in views:
+        p = camera.project(to_camera(T, W))
+        # Matched by position: a method's labels may be the renderer's turned half round.
+        d = np.hypot(p[0][:, None] - uv[0][None], p[1][:, None] - uv[1][None])
+        errors.append(np.nanmin(d, axis=1))
+    e = np.concatenate(errors)
+    return float(np.sqrt(np.mean(e[np.isfinite(e)] ** 2)))
+
+
+def _projection_error(camera, truth, uv):
+    """RMS |camera.project(truth.unproject(uv)) - uv| over pixels (2, n) of the true camera: the
+    same camera-frame ray through both (no alignment of the frames)."""
+    rays = truth.unproject(uv)
+    d = camera.project(rays) - uv
+    ok = np.all(np.isfinite(d), axis=0)
+    return float(np.sqrt(np.mean(np.sum(d[:, ok] ** 2, axis=0))))
+
+
+def _whole_image(camera, step=8):
+    w, h = camera.size
+    u, v = np.meshgrid(np.arange(0.0, w, step), np.arange(0.0, h, step))
+    uv = np.stack([u.ravel(), v.ravel()])
+    return uv[:, np.all(np.isfinite(camera.unproject(uv)), axis=0)]
+
+
+def rendered(cv2, quick):
+    """Section 1."""
+    out = {}
+    for name, camera, views in (("radtan", radtan_camera(), 12 if quick else 40),
+                                ("fisheye", fisheye_camera(), 12 if quick else 30)):
+        views_set = calibration_set(camera, views, rng=2026)
+        t = time.perf_counter()
+        cal = graphpose.calibrate(views_set.images, model=camera.model)
+        seconds = time.perf_counter() - t
+        ours = [(T, r.junctions) for r, s, T in zip(views_set.renderings, cal.status, cal.poses) if s == "used"]
+        cv_camera, cv_rms, cv_found = _opencv_calibrate(cv2, views_set.images, views_set.board, camera.model,
+                                                       camera.size)
+        theirs = [(T, views_set.renderings[i].junctions) for i, _, T in cv_found]
+        whole = _whole_image(camera)
+        z = (cal.parameters - camera_parameters(camera)) / cal.sigmas
+        out[name] = {
+            "views": views, "graphpose_used": cal.status.count("used"), "opencv_used": len(cv_found),
+            "ok": cal.ok, "seconds": seconds, "summary": cal.summary,
+            "passes": {m.split(" (")[0]: sum(1 for x in cal.message if x.startswith(m.split(" (")[0]))
+                       for m in set(cal.message) if m.startswith("board found")},
+            "graphpose_projection_px": _projection_error(cal.camera, camera, np.hstack([uv for _, uv in ours])),
+            "opencv_projection_px": _projection_error(cv_camera, camera, np.hstack([uv for _, uv in theirs])),
+            "graphpose_prediction_px": _prediction_error(cal.camera, ours),
+            "opencv_prediction_px": _prediction_error(cv_camera, theirs),
+            "graphpose_projection_whole_px": _projection_error(cal.camera, camera, whole),
+            "opencv_projection_whole_px": _projection_error(cv_camera, camera, whole),
+            "graphpose_rms_px": cal.rms_px, "opencv_rms_px": cv_rms,
+            "z": dict(zip(cal.parameter_names, z.tolist())), "max_abs_z": float(np.max(np.abs(z))),
+            "truth": camera_parameters(camera).tolist(), "graphpose": cal.parameters.tolist(),
+            "sigmas": cal.sigmas.tolist(), "opencv": camera_parameters(cv_camera).tolist(),
+            "cross_check": cal.cross_check["max_difference"],
+        }
+        o = out[name]
+        o["ratio"] = o["graphpose_projection_px"] / o["opencv_projection_px"]
+    return out
+
+
+def nees(quick):
+    """Section 2."""
+    camera = radtan_camera()
+    truth = camera_parameters(camera)
+    values, failed = [], 0
+    for trial in range(3 if quick else 20):
+        views = calibration_set(camera, 20, rng=10_000 + trial)
+        try:
+            cal = graphpose.calibrate(views.images)
+        except graphpose.GraphposeError:
+            failed += 1
+            continue
+        if not cal.ok:
+            failed += 1
+            continue
+        e = cal.parameters - truth
+        values.append(float(e @ np.linalg.solve(cal.cov, e)))
+    return {"trials": len(values), "failed": failed, "mean": float(np.mean(values)),
+            "median": float(np.median(values)), "parameters": len(truth), "values": values}
+
+
+def samples(cv2, quick):
+    """Section 3."""
+    out = {}
+    for side, published in (("left", "left.opencv.yml"), ("right", "right.opencv.xml")):
+        files = sorted(SAMPLES.glob(f"{side}*.jpg"))
+        images = [graphpose.read_image(f, as_float=False) for f in files]
+        size = (images[0].shape[1], images[0].shape[0])
+        cal = graphpose.calibrate(files, SAMPLE_BOARD, "radtan")
+        cv_camera, cv_rms, cv_found = _opencv_calibrate(cv2, images, SAMPLE_BOARD, "radtan", size)
+        pub = read_camera(SAMPLES / published)
+        # Each half on its own finds too few boards without a camera (left: 2 of 6): its first
+        # pass searches through the whole set's camera (the detection only; each half is
+        # calibrated from its own junctions, as mrcal's test uses the same detections).
+        halves = [graphpose.calibrate(files[k::2], SAMPLE_BOARD, "radtan", camera=cal.camera) for k in (0, 1)]
+        d = halves[0].parameters - halves[1].parameters
+        C = halves[0].cov + halves[1].cov
+        # The two halves' cameras over the image, beside the 1-sigma of their difference.
+        grid = _whole_image(halves[0].camera, 16)
+        rays = halves[0].camera.unproject(grid)
+        diff = np.hypot(*(halves[1].camera.project(rays) - grid))
+        from graphpose.calibrate import projection_jacobian_intrinsics
+
+        J = projection_jacobian_intrinsics(halves[0].camera, rays)
+        S = J @ C @ J.transpose(0, 2, 1)
+        predicted = np.sqrt(S[:, 0, 0] + S[:, 1, 1])
+        out[side] = {
+            "images": len(files), "graphpose_used": cal.status.count("used"), "opencv_used": len(cv_found),
+            "ok": cal.ok, "graphpose_rms_px": cal.rms_px, "opencv_rms_px": cv_rms,
+            "names": list(cal.parameter_names), "graphpose": cal.parameters.tolist(), "sigmas": cal.sigmas.tolist(),
+            "opencv": camera_parameters(cv_camera).tolist(), "published": camera_parameters(pub).tolist(),
+            "halves_mahalanobis": float(d @ np.linalg.solve(C, d)),
+            "halves_z": (d / np.sqrt(np.diag(C))).tolist(),
+            "halves_projection_median_px": float(np.median(diff)), "halves_predicted_median_px": float(np.median(predicted)),
+            "halves_projection_max_px": float(np.max(diff)), "halves_predicted_max_px": float(np.max(predicted)),
+        }
+    return out
+
+
+def speed(cv2, quick):
+    """Section 4."""
+    camera = radtan_camera()
+    views = calibration_set(camera, 10 if quick else 40, rng=77)
+    images = views.images
+    t, c = time.perf_counter(), time.process_time()
+    cal = graphpose.calibrate(images)
+    g_wall, g_cpu = time.perf_counter() - t, time.process_time() - c
+    t, c = time.perf_counter(), time.process_time()
+    _, _, found = _opencv_calibrate(cv2, images, views.board, "radtan", camera.size, sb=True)
+    o_wall, o_cpu = time.perf_counter() - t, time.process_time() - c
+    return {"images": len(images), "graphpose_s": g_wall, "graphpose_cpu_s": g_cpu, "opencv_s": o_wall,
+            "opencv_cpu_s": o_cpu, "graphpose_used": cal.status.count("used"), "opencv_used": len(found),
+            "ratio": g_wall / o_wall, "cpu_ratio": g_cpu / o_cpu}
+
+
+def main(quick: bool = False) -> dict:
+    """Measure every section; returns the figures (the JSON written by ``--json``)."""
+    import cv2
+
+    started = time.time()
+    out = {"quick": quick, "load_average_at_start": list(os.getloadavg()), "opencv": cv2.__version__}
+    out["rendered"] = rendered(cv2, quick)
+    out["nees"] = nees(quick)
+    out["samples"] = samples(cv2, quick) if SAMPLES.is_dir() else f"absent: {SAMPLES}"
+    out["speed"] = speed(cv2, quick)
+    from calibration_pose_nees import pose_nees  # scripts/, beside this one
+
+    out["pose_nees"] = pose_nees(quick)
+    goals = []
+    for name in ("radtan", "fisheye"):
+        r = out["rendered"][name]
+        goals.append({"figure": f"{name}: projection error vs the true camera at the observed junctions", "unit": "px",
+                      "graphpose": r["graphpose_projection_px"], "peer": r["opencv_projection_px"],
+                      "goal": "<= 0.3 x OpenCV's", "met": bool(r["ratio"] <= 0.3)})
+        goals.append({"figure": f"{name}: largest |parameter error| / reported sigma", "unit": "",
+                      "graphpose": r["max_abs_z"], "peer": None, "goal": "<= 3", "met": bool(r["max_abs_z"] <= 3)})
+    n = out["nees"]
+    goals.append({"figure": f"calibration NEES mean over {n['trials']} rendered calibrations (9 parameters)",
+                  "unit": "", "graphpose": n["mean"], "peer": None, "goal": "6.3-11.7 (0.7-1.3 x 9), >= 20 trials",
+                  "met": bool(6.3 <= n["mean"] <= 11.7 and (quick or n["trials"] >= 20))})
+    pn = out["pose_nees"]
+    goals.append({"figure": f"pose NEES with the calibration's covariance over {pn['trials']} trials",
+                  "unit": "", "graphpose": pn["nees_first"], "peer": None,
+                  "goal": "4.5-7.5 (>= 20 trials)", "met": bool(4.5 <= pn["nees_first"] <= 7.5 and pn["trials"] >= 20)})
+    goals.append({"figure": "pose NEES with the pixel noise's covariance alone (same trials)", "unit": "",
+                  "graphpose": pn["nees_pixel_first"], "peer": None, "goal": "reference", "met": None})
+    if isinstance(out["samples"], dict):
+        for side in ("left", "right"):
+            s = out["samples"][side]
+            goals.append({"figure": f"OpenCV samples {side}: reprojection RMS", "unit": "px",
+                          "graphpose": s["graphpose_rms_px"], "peer": s["opencv_rms_px"],
+                          "goal": "<= OpenCV's", "met": bool(s["graphpose_rms_px"] <= s["opencv_rms_px"])})
+    sp = out["speed"]
+    goals.append({"figure": f"speed: {sp['images']} images of 640 x 480, wall", "unit": "s", "graphpose": sp["graphpose_s"],
+                  "peer": sp["opencv_s"], "goal": "< OpenCV (SB + calibrateCamera)", "met": bool(sp["ratio"] < 1)})
+    out["goals"] = goals
+    out["seconds"] = time.time() - started
+    return out
+
+
+def section(out) -> dict:
+    """The figures of :func:`main` as a section of scripts/bench.py (its documented dict)."""
+    figures = [{"figure": g["figure"], "unit": g["unit"], "fmt": ".3g", "graphpose": g["graphpose"],
+                "peer_name": None if g["peer"] is None else "OpenCV", "peer": g["peer"],
+                "ratio": None if g["peer"] is None else g["graphpose"] / g["peer"], "goal": g["goal"], "met": g["met"]}
+               for g in out["goals"]]
+    rows = []
+    for name in ("radtan", "fisheye"):
+        r = out["rendered"][name]
+        rows.append([name, r["views"], r["graphpose_used"], r["opencv_used"], r["graphpose_projection_px"],
+                     r["opencv_projection_px"], r["graphpose_projection_whole_px"], r["opencv_projection_whole_px"],
+                     r["graphpose_prediction_px"], r["opencv_prediction_px"],
+                     r["graphpose_rms_px"], r["opencv_rms_px"], r["max_abs_z"], r["cross_check"]])
+    blocks = [{"title": "Rendered calibration sets against the true camera", "text": None, "values": {},
+               "columns": ["lens", "views", "graphpose used", "OpenCV used", "graphpose at junctions px",
+                           "OpenCV at junctions px", "graphpose whole image px", "OpenCV whole image px",
+                           "graphpose prediction px", "OpenCV prediction px",
+                           "graphpose RMS px", "OpenCV RMS px", "max abs z", "solvers' difference"],
+               "formats": ["", "d", "d", "d", ".4f", ".4f", ".3f", ".3f", ".4f", ".4f", ".4f", ".4f", ".2f", ".1e"],
+               "rows": rows}]
+    for name in ("radtan", "fisheye"):
+        r = out["rendered"][name]
+        names = parameter_names(name)
+        blocks.append({"title": f"{name}: parameters (truth, graphpose +- sigma, OpenCV)", "text": None, "values": {},
+                       "columns": ["parameter", "truth", "graphpose", "sigma", "z", "OpenCV"],
+                       "formats": ["", ".6g", ".6g", ".2g", ".2f", ".6g"],
+                       "rows": [[k, r["truth"][i], r["graphpose"][i], r["sigmas"][i], r["z"][k], r["opencv"][i]]
+                                for i, k in enumerate(names)]})
+    n = out["nees"]
+    blocks.append({"title": "Calibration NEES", "text": ("{trials} rendered radtan calibrations of 20 views ({failed} "
+                                                          "failed): mean {mean:.2f}, median {median:.2f}; 9 parameters."),
+                   "values": {k: n[k] for k in ("trials", "failed", "mean", "median")}, "columns": [], "formats": [],
+                   "rows": []})
+    if isinstance(out["samples"], dict):
+        for side in ("left", "right"):
+            s = out["samples"][side]
+            blocks.append({
+                "title": f"OpenCV samples, {side}: {s['images']} images",
+                "text": ("graphpose RMS {g:.3f} px on {gu} images, OpenCV calibrateCamera {o:.3f} px on {ou}. "
+                         "Two halves (odd, even images): d^T (C1 + C2)^-1 d = {m:.1f} (9 if the noise were all); "
+                         "their projections differ by {pm:.3f} px median, {px:.3f} px at most over the image, "
+                         "against a predicted 1-sigma of {qm:.3f} px median, {qx:.3f} px at most."),
+                "values": {"g": s["graphpose_rms_px"], "gu": s["graphpose_used"], "o": s["opencv_rms_px"],
+                           "ou": s["opencv_used"], "m": s["halves_mahalanobis"],
+                           "pm": s["halves_projection_median_px"], "px": s["halves_projection_max_px"],
+                           "qm": s["halves_predicted_median_px"], "qx": s["halves_predicted_max_px"]},
+                "columns": ["parameter", "graphpose", "sigma", "OpenCV", "published", "halves z"],
+                "formats": ["", ".6g", ".2g", ".6g", ".6g", ".2f"],
+                "rows": [[k, s["graphpose"][i], s["sigmas"][i], s["opencv"][i], s["published"][i], s["halves_z"][i]]
+                         for i, k in enumerate(s["names"])]})
+    pn = out["pose_nees"]
+    blocks.append({"title": "The pose with the calibration's uncertainty",
+                   "text": ("{trials} trials ({failed} calibrations failed): calibrate on 8 rendered views, write and "
+                            "read the camera file, estimate held-out views of the same camera "
+                            "(scripts/calibration_pose_nees.py). Pose NEES of each trial's first held-out view: "
+                            "{full:.2f} with the covariance that includes the calibration's, {pixel:.1f} with the "
+                            "pixel noise's alone; over all {views} held-out views {full_all:.2f} and {pixel_all:.1f}; "
+                            "the along-axis 1-sigma grows {ratio:.1f} times with the calibration's share."),
+                   "values": {"trials": pn["trials"], "failed": pn["failed"], "full": pn["nees_first"],
+                              "pixel": pn["nees_pixel_first"], "views": pn["views"], "full_all": pn["nees_all"],
+                              "pixel_all": pn["nees_pixel_all"], "ratio": pn["sigma_ratio_z"]},
+                   "columns": [], "formats": [], "rows": []})
+    sp = out["speed"]
+    blocks.append({"title": "Speed", "text": ("{images} rendered images of 640 x 480: graphpose.calibrate {g:.2f} s wall "
+                                              "({gc:.2f} s CPU), OpenCV findChessboardCornersSB + calibrateCamera "
+                                              "{o:.2f} s ({oc:.2f} s CPU)."),
+                   "values": {"images": sp["images"], "g": sp["graphpose_s"], "gc": sp["graphpose_cpu_s"],
+                              "o": sp["opencv_s"], "oc": sp["opencv_cpu_s"]}, "columns": [], "formats": [], "rows": []})
+    goal = ("Calibration (issue 20): graphpose.calibrate on rendered raw images of two lenses with exact truth and on "
+            "OpenCV's samples, beside OpenCV's calibrateCamera / fisheye.calibrate on its own corners; the reported "
+            "covariance judged by the parameters' errors (z, NEES) and by two disjoint halves.")
+    return {"goal": goal, "figures": figures, "blocks": blocks}
+
+
+def report(out) -> str:
+    lines = []
+    for g in out["goals"]:
+        peer = "" if g["peer"] is None else f" (OpenCV {g['peer']:.4g})"
+        met = "" if g["met"] is None else "met" if g["met"] else "NOT met"
+        lines.append(f"{g['figure']:75s} {g['graphpose']:.4g}{peer}  goal {g['goal']}  {met}")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="small sets, to check it works")
+    parser.add_argument("--json", metavar="PATH", help="also write the figures here")
+    args = parser.parse_args()
+    figures = main(args.quick)
+    print(report(figures))
+    if args.json:
+        Path(args.json).write_text(json.dumps(figures, indent=1, default=lambda x: x.tolist()) + "\n")

@@ -1,0 +1,147 @@
+"""graphpose.calibrate on rendered calibration sets with exact truth: the parameters against
+the camera that took the images, the two solvers' agreement, the passes, rejections, the
+uncertainty map, and every error path."""
+
+import numpy as np
+import pytest
+
+import graphpose
+from graphpose import Board, InputError, PinholeCamera
+from graphpose.calibrate import camera_parameters, parameter_names
+from graphpose.calibrate import run as calibrate_run
+from graphpose.synth.calibration import calibration_set, fisheye_camera, radtan_camera
+from graphpose.synth.render import render
+
+
+@pytest.fixture(scope="module")
+def radtan_set():
+    return calibration_set(radtan_camera(), 10, rng=3)
+
+
+@pytest.fixture(scope="module")
+def radtan_calibration(radtan_set):
+    blank = np.full((480, 640), 128, dtype=np.uint8)
+    return graphpose.calibrate(radtan_set.images + [blank], model="radtan")
+
+
+def test_radtan_calibration_finds_the_camera(radtan_set, radtan_calibration):
+    c = radtan_calibration
+    truth = camera_parameters(radtan_set.camera)
+    assert c.ok, c.summary
+    assert isinstance(c, graphpose.Calibration)
+    assert c.parameter_names == parameter_names("radtan") and c.camera.model == "radtan"
+    assert c.camera.size == (640, 480)
+    np.testing.assert_array_equal(c.camera.covariance, c.cov)
+    z = (c.parameters - truth) / c.sigmas
+    assert np.all(np.abs(z) < 3.0), z
+    assert c.cross_check["max_difference"] <= 1e-6
+    # Rendered junctions: a few hundredths of a pixel.
+    assert 0.0 < c.rms_px < 0.05 and 0.0 < c.sigma_px < 0.05
+    used = np.hstack([r for r, s in zip(c.residuals, c.status) if s == "used"])
+    assert c.rms_px == pytest.approx(np.sqrt(np.mean(np.sum(used ** 2, axis=0))))
+    for T, rendering in zip(c.poses, radtan_set.renderings):
+        assert np.allclose(T[:3, 3], rendering.T_WC[:3, 3], atol=2e-3)
+
+
+def test_an_image_without_a_board_is_named_and_the_others_go_on(radtan_calibration):
+    c = radtan_calibration
+    assert c.status == ("used",) * 10 + ("no board",)
+    assert c.images[-1] == "image 10" and c.poses[-1] is None and np.isnan(c.image_rms_px[-1])
+    assert c.message[-1]  # the detector's reason
+    assert all(m.startswith("board found in pass 1") for m in c.message[:10])
+
+
+def test_uncertainty_map_and_coverage(radtan_calibration):
+    c = radtan_calibration
+    us, vs, sigma = c.uncertainty_map(step=32)
+    assert sigma.shape == (vs.size, us.size) == (15, 20)
+    centre = sigma[7, 10]
+    corner = sigma[0, 0]
+    assert 0.0 < centre < corner  # extrapolation grows towards the corners
+    us, vs, counts = c.coverage(step=64)
+    assert counts.shape == (8, 10)
+    assert counts.sum() == sum(p.shape[1] for p, s in zip(c.points, c.status) if s == "used")
+
+
+def test_fisheye_calibration_needs_the_camera_pass():
+    camera = fisheye_camera()
+    views = calibration_set(camera, 10, rng=1)  # four boards are found without a camera
+    c = graphpose.calibrate(views.images, model="fisheye")
+    assert c.ok, c.summary
+    z = (c.parameters - camera_parameters(camera)) / c.sigmas
+    assert np.all(np.abs(z) < 3.0), z
+    first = [m for m in c.message if m.startswith("board found in pass 1")]
+    assert len(first) == 4
+    assert any(m.startswith("board found in pass 2 (with pass 1's camera)") for m in c.message)
+    assert c.status.count("used") >= 9
+    with pytest.raises(InputError, match="fisheye's boards are found without a camera near the image's centre"):
+        graphpose.calibrate([im for im, m in zip(views.images, c.message) if not m.startswith("board found in pass 1")],
+                            model="fisheye")
+
+
+def test_pinhole_calibration():
+    camera = PinholeCamera([[600.0, 0.0, 318.0], [0.0, 598.0, 243.0], [0.0, 0.0, 1.0]], (640, 480))
+    views = calibration_set(camera, 6, rng=5)
+    c = graphpose.calibrate(views.images, model="pinhole")
+    assert c.ok, c.summary and c.camera.model == "pinhole"
+    z = (c.parameters - camera_parameters(camera)) / c.sigmas
+    assert np.all(np.abs(z) < 3.0), z
+
+
+def test_an_image_that_does_not_fit_is_rejected(radtan_set):
+    other = radtan_set.camera
+    stranger = type(other)(other.K * np.diag([1.15, 1.15, 1.0]), [0.1, 0.0, 0.0, 0.0, 0.0], other.size)
+    odd = render(stranger, radtan_set.renderings[0].T_WC, Board(), rng=1).image
+    c = graphpose.calibrate(radtan_set.images[:6] + [odd], model="radtan", names=[f"v{i}" for i in range(7)])
+    assert c.status == ("used",) * 6 + ("rejected",)
+    assert "rejected: RMS" in c.message[-1] and c.image_rms_px[-1] > 0.2
+    assert c.ok
+
+
+def test_the_cross_check_failing_is_reported(radtan_set, monkeypatch):
+    monkeypatch.setattr(calibrate_run, "CROSS_CHECK_TOL", 0.0)
+    c = graphpose.calibrate(radtan_set.images[:5])
+    assert not c.ok and "disagree" in c.summary
+
+
+def test_bad_input(radtan_set):
+    images = radtan_set.images
+    blank = np.full((480, 640), 128, dtype=np.uint8)
+    with pytest.raises(InputError, match=r"fewer than 3 images show the board \(2 of 3\).*image 2"):
+        graphpose.calibrate(images[:2] + [blank])
+    with pytest.raises(InputError, match="the images differ in size: image 0 is 640 x 480 but image 1 is 320 x 240"):
+        graphpose.calibrate([images[0], images[1][:240, :320], images[2]])
+    with pytest.raises(InputError, match="unknown camera model 'omni'"):
+        graphpose.calibrate(images[:3], model="omni")
+    with pytest.raises(InputError, match="sequence of images"):
+        graphpose.calibrate(images[0])
+    with pytest.raises(InputError, match="names must name every image"):
+        graphpose.calibrate(images[:3], names=["a"])
+    # The same view over and over: the focal length is not constrained.
+    T = radtan_set.renderings[0].T_WC
+    same = [render(radtan_set.camera, T, Board(), rng=k).image for k in range(4)]
+    with pytest.raises(InputError, match="do not constrain the focal length"):
+        graphpose.calibrate(same)
+
+
+def test_progress_is_reported(radtan_set):
+    seen = []
+    graphpose.calibrate(radtan_set.images[:4], progress=lambda *a: seen.append(a))
+    assert seen[0] == ("first pass", 1, 4) and ("pass 2", 4, 4) in seen and seen[-1][0] == "solve"
+
+
+def test_calibration_set_truth_and_coverage():
+    camera = radtan_camera()
+    views = calibration_set(camera, 6, rng=11)
+    assert len(views.images) == 6 and views.images[0].shape == (480, 640)
+    W = Board().world_points()
+    from graphpose.camera import to_camera
+
+    for rendering in views.renderings:
+        np.testing.assert_allclose(rendering.junctions, camera.project(to_camera(rendering.T_WC, W)), atol=1e-9)
+    centres = np.array([np.nanmean(r.junctions, axis=1) for r in views.renderings])
+    assert np.ptp(centres[:, 0]) > 150 and np.ptp(centres[:, 1]) > 100  # spread over the image
+    with pytest.raises(InputError, match="image size"):
+        calibration_set(PinholeCamera(np.diag([500.0, 500.0, 1.0])), 3)
+    with pytest.raises(InputError, match="n_views"):
+        calibration_set(camera, 0)
