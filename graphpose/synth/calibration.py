@@ -28,7 +28,8 @@ from ..board import Board
 from ..camera import to_camera
 from ..cameras import FisheyeCamera, RadTanCamera, as_camera
 from ..errors import InputError
-from .render import Rendering, random_pose, render
+from .poses import random_pose
+from .render import Rendering, render
 
 
 def radtan_camera() -> RadTanCamera:
