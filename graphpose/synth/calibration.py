@@ -12,7 +12,7 @@ Poses: the board's centre lies near the ray of a pixel drawn on a grid of cells 
 drawn from ``distance``, tilted by ``min_tilt_deg``-``max_tilt_deg`` about a random in-plane
 axis (a calibration needs the board seen at different angles: parallel views leave the
 focal length and the distance indistinguishable), and the whole sheet is in the image
-(:func:`graphpose.synth.render.random_pose`). For the fisheye every junction stays within
+(:func:`graphpose.synth.poses.random_pose`). For the fisheye every junction stays within
 ``max_angle_deg`` of the optical axis (88 degrees by default: in front of the camera, where
 GTSAM's ``Cal3Fisheye`` projects).
 """

@@ -13,7 +13,7 @@ from graphpose import Board, estimate_pose, read_camera, read_image
 from graphpose.calibrate.params import camera_parameters, camera_with_parameters
 from graphpose.cli import main
 from graphpose.io.calibration import write_camera
-from graphpose.synth import render
+from graphpose.synth import poses, render
 from tests.conftest import LENS_CAMERAS
 from tests.pose.test_intrinsics import COV_K
 
@@ -28,7 +28,7 @@ def raw_view(tmp_path_factory):
     folder = tmp_path_factory.mktemp("raw-view")
     camera = LENS_CAMERAS["radtan"]
     rng = np.random.default_rng(21)
-    scene = render.render(camera, render.random_pose(rng, camera, BOARD, SIZE), BOARD, SIZE, rng=rng)
+    scene = render.render(camera, poses.random_pose(rng, camera, BOARD, SIZE), BOARD, SIZE, rng=rng)
     from graphpose.io.files import write_png
 
     write_png(folder / "view.png", scene.image)

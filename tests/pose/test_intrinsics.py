@@ -14,7 +14,7 @@ from graphpose.pose.intrinsics import (
     pose_cov_with_intrinsics,
     pose_intrinsics_jacobian,
 )
-from graphpose.synth import render
+from graphpose.synth import poses, render
 from tests.conftest import LENS_CAMERAS
 
 BOARD = Board()
@@ -36,7 +36,7 @@ def calibrated(camera, cov=COV_K):
 
 
 def pose(rng, camera):
-    return render.random_pose(rng, camera, BOARD, (640, 480))
+    return poses.random_pose(rng, camera, BOARD, (640, 480))
 
 
 @pytest.mark.parametrize("name", ["pinhole", "radtan", "fisheye"])
