@@ -204,6 +204,7 @@ class ParquetResults(Results):
         self.path.mkdir(exist_ok=True)
         self._lock(self.path / ".lock")
         self._rows, self._since, self._parts = [], None, 0
+        self._landing = None  # the part being written, until its rows are forgotten
         pq = _pyarrow("parquet")
         for stale in self.path.glob(".part-*.tmp"):  # a part being written when a run was killed
             stale.unlink()
@@ -230,6 +231,10 @@ class ParquetResults(Results):
             self.flush()
 
     def flush(self) -> None:
+        if self._landing is not None and (self.path / self._landing).exists():
+            # Ctrl-C (or SIGTERM) came between the rename and forgetting the rows: they are
+            # written, and writing them again at close would give their images two rows.
+            self._forget()
         if not self._rows:
             return
         pa, pq = _pyarrow(), _pyarrow("parquet")
@@ -238,10 +243,15 @@ class ParquetResults(Results):
         when = time.strftime("%Y%m%dT%H%M%S", time.gmtime(stamp // 10**9)) + f".{stamp % 10**9:09d}"
         name = f"part-{when}-{self._run}-{self._parts:06d}.parquet"
         tmp = self.path / f".{name}.tmp"
+        self._landing = name
         pq.write_table(table, tmp)
         os.replace(tmp, self.path / name)
+        self._forget()
+
+    def _forget(self) -> None:
+        """The waiting rows are in the part :attr:`_landing`: start the next part."""
+        self._rows, self._since, self._landing = [], None, None
         self._parts += 1
-        self._rows, self._since = [], None
 
 
 class JsonLinesResults(Results):

@@ -117,8 +117,7 @@ def failed_record(path, status: str, message: str, camera=None, board: Board = B
     the parameters it was to be estimated with (``camera`` None: no ``camera`` nor ``board``)."""
     record = result_record(path, None, message)
     record["status"] = status
-    if camera is not None:
-        record.update(target_keys(camera, board))
+    record.update(target_keys(camera, board) if camera is not None else {"camera": None, "board": None})
     record.update(bounds=None if bounds is None else bounds.tolist(), robust=bool(robust), time_s=None, worker=None)
     return record
 

@@ -218,7 +218,7 @@ def _jobs(args):
     """The images to estimate, from images and folders, --cases or the bundled example; the
     case file (None for images) and its name as shown."""
     if args.images and args.cases is not None:
-        raise UsageError("give either IMAGE (images or folders) or --cases, not both")
+        raise UsageError("give either IMAGE or --cases, not both (IMAGE: images or folders of them)")
     check_camera_options(args)  # before any file is read
     if args.images:
         if args.no_guess and args.guess is not None:

@@ -126,7 +126,7 @@ def run(args) -> int:
         from .._extras import require
 
         require("matplotlib", "plot", "graphpose track --plot")
-    camera, board, source = _camera(args)
+    check_camera_options(args)
     files = _frame_files(args.frames, list_frames)
     timestamps = None if args.timestamps is None else read_timestamps(args.timestamps, len(files))
     polygons = None if args.polygons is None else _read_polygons(args.polygons)
@@ -135,6 +135,7 @@ def run(args) -> int:
             raise InputError(f"{name}: folder {Path(path).resolve().parent} does not exist")
     seconds = frame_timestamps(timestamps, args.fps, len(files))
     truth, truth_note = _truth(args, len(files), seconds)
+    camera, board, source = _camera(args)  # after the other inputs: each says first what is wrong with it
     progress = Progress(len(files), sys.stderr)
     lag = default_lag_s(args.motion, seconds) if args.lag == AUTO_LAG else args.lag
     config = TrackerConfig(motion=MotionPrior(args.motion), target=args.target, robust=args.robust, lag_s=lag)
