@@ -7,6 +7,7 @@ each checks several things.
 import argparse
 import io
 import json
+import os
 import re
 import struct
 import subprocess
@@ -574,3 +575,49 @@ def test_bad_camera_files_are_one_clear_error(tmp_path, capsys, name, text, frag
     assert "\n" not in line and line.startswith("graphpose: error: ")
     for fragment in fragments:
         assert fragment in line, line
+
+
+# --- several images and folders --------------------------------------------------------------
+
+
+def test_folders_and_images_in_name_order_into_one_json_list(bundled, tmp_path, capsys):
+    folder = tmp_path / "shots"
+    folder.mkdir()
+    for name, case in zip(("c.png", "a.png", "b.png"), bundled.cases):
+        os.symlink(case.image, folder / name)
+    (folder / "notes.txt").write_text("not an image")
+    single = tmp_path / "single.png"
+    os.symlink(bundled.cases[3].image, single)
+    out = tmp_path / "out.json"
+    assert main(["estimate", str(folder), str(single), "--K", K_BUNDLED, "--json", str(out)]) == 0
+    report = capsys.readouterr().out
+    records = json.loads(out.read_text())
+    assert [r["image"] for r in records] == [str(folder / n) for n in ("a.png", "b.png", "c.png")] + [str(single)]
+    assert {r["status"] for r in records} == {"ok"} and "4 images: 4 estimated, 0 failed" in report
+    # Paths as given: the symbolic links are not resolved, in the report either.
+    assert f"{folder / 'a.png'}  (converged" in report
+    truth = {str(folder / n): c.true_T_WC for n, c in zip(("c.png", "a.png", "b.png"), bundled.cases)}
+    for r in records[:3]:
+        assert pose_difference(np.array(r["T_WC"]), truth[r["image"]])[0] < 2e-3
+    # Images given one by one keep the order given.
+    assert main(["estimate", str(folder / "c.png"), str(folder / "a.png"), "--K", K_BUNDLED, "--json", "-"]) == 0
+    assert [r["image"] for r in json.loads(capsys.readouterr().out)] == [str(folder / "c.png"), str(folder / "a.png")]
+
+
+def test_opencv_samples_a_folder_of_left_images_and_right_images_as_paths(tmp_path, capsys):
+    # The check on OpenCV's raw samples, two of each side (all 13 + 13 in the report).
+    left = tmp_path / "left"
+    left.mkdir()
+    for name in ("left02.jpg", "left01.jpg"):
+        os.symlink(opencv_file(name), left / name)
+    assert main(["estimate", str(left), "--camera", str(opencv_file("left.opencv.yml")), "--board", "9x6x0.03",
+                 "--json", "-"]) == 0
+    records = json.loads(capsys.readouterr().out)
+    assert [Path(r["image"]).name for r in records] == ["left01.jpg", "left02.jpg"]
+    assert all(r["status"] == "ok" and r["junctions_used"] == 54 for r in records)
+    assert records[0]["camera"]["file"] == str(opencv_file("left.opencv.yml"))
+    assert records[0]["board"] == {"cols": 9, "rows": 6, "square_m": 0.03}
+    right = [str(opencv_file(n)) for n in ("right01.jpg", "right02.jpg")]
+    assert main(["estimate", *right, "--camera", str(opencv_file("right.opencv.xml")), "--board", "9x6x0.03",
+                 "--json", "-"]) == 0
+    assert [r["status"] for r in json.loads(capsys.readouterr().out)] == ["ok", "ok"]
