@@ -44,7 +44,7 @@ def add_target_options(parser: argparse.ArgumentParser, file_note: str = "") -> 
     note = f"; {file_note}" if file_note else ""
     parser.add_argument("--K", dest="K", type=parse_K, metavar="FX,FY,CX,CY",
                         help="camera intrinsics in pixels (a fifth number is the skew), images "
-                        f"undistorted; this or --camera is needed{note}")
+                        f"undistorted; an image needs this or --camera (no default){note}")
     parser.add_argument("--board", type=parse_board, metavar="COLSxROWSxSQUARE_M",
                         help=f"inner junctions per row and per column, square side in metres (default: "
                         f"the project's target, {board.cols}x{board.rows}x{board.square_m}{note})")
