@@ -89,6 +89,8 @@ def read_image(path, *, as_float: bool = True) -> np.ndarray:
         raise InputError(f"{path} is a folder, not an image file")
     if not path.is_file():
         raise InputError(f"image file not found: {path}")
+    if path.stat().st_size == 0:  # no decoder to ask (imageio would try every plugin it has)
+        raise InputError(f"cannot read image {path}: {_unreadable(path)}")
     if not as_float:
         grey = _read_eight_bit(path)
         if grey is not None:
