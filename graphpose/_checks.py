@@ -358,13 +358,31 @@ def check_bounds(bounds, shape, name: str = "bounds") -> np.ndarray:
     edges = np.roll(poly, -1, axis=1) - poly
     turns = edges[0] * np.roll(edges[1], -1) - edges[1] * np.roll(edges[0], -1)
     area = 0.5 * np.sum(poly[0] * np.roll(poly[1], -1) - np.roll(poly[0], -1) * poly[1])
+    if _edges_cross(poly):
+        raise InputError(f"{name} is a self-intersecting polygon (two of its edges cross): list its corners in "
+                         f"order around the board, clockwise, starting at the corner nearest junction 0; got "
+                         f"{poly.round(1).tolist()}")
     if abs(area) < 100.0:
         raise InputError(f"{name} is degenerate (area {abs(area):.1f} px^2): {poly.round(1).tolist()}")
     if area < 0:
-        raise InputError(f"{name} must run clockwise (in the image, v down) from the upper-left vertex")
+        raise InputError(f"{name} must run clockwise (in the image, v down), starting at the corner nearest "
+                         f"junction 0; these corners run counter-clockwise: {poly.round(1).tolist()}")
     if np.any(turns <= 0):
         raise InputError(f"{name} must be a convex quadrilateral, got {poly.round(1).tolist()}")
     return poly
+
+
+def _edges_cross(poly: np.ndarray) -> bool:
+    """Whether a quadrilateral's opposite edges (0-1 with 2-3, 1-2 with 3-0) properly cross."""
+    def side(a, b, c):
+        return np.sign((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+
+    p = poly.T
+    for i, j in ((0, 2), (1, 3)):
+        a, b, c, d = p[i], p[(i + 1) % 4], p[j], p[(j + 1) % 4]
+        if side(a, b, c) * side(a, b, d) < 0 and side(c, d, a) * side(c, d, b) < 0:
+            return True
+    return False
 
 
 def check_number(name: str, value, minimum=None, *, strict: bool = False, maximum=None) -> float:

@@ -1,6 +1,7 @@
 """Shared fixtures: the real ROB501 images beside the checkout, skipped only when absent.
 
-GRAPHPOSE_ROB501 points at another copy of the folder. With GRAPHPOSE_REQUIRE_REAL=1 a
+GRAPHPOSE_ROB501 points at another copy of the folder, GRAPHPOSE_OPENCV_SAMPLES at another
+copy of OpenCV's samples. With GRAPHPOSE_REQUIRE_REAL=1 a
 missing folder or file fails the tests that need it instead of skipping them (for CI
 machines that are meant to have the data).
 """
@@ -13,7 +14,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 REAL_DIR = Path(os.environ.get("GRAPHPOSE_ROB501", REPO.parent / "shared" / "data" / "rob501"))
 #: OpenCV's raw calibration samples (9 x 6 board) and their camera files.
-OPENCV_DIR = REPO.parent / "shared" / "data" / "opencv_samples"
+OPENCV_DIR = Path(os.environ.get("GRAPHPOSE_OPENCV_SAMPLES", REPO.parent / "shared" / "data" / "opencv_samples"))
 
 
 def _data_file(path: Path) -> Path:

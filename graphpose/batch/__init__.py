@@ -11,7 +11,7 @@
   paths, and reads per-image bounding polygons.
 
 ``graphpose batch`` (:mod:`graphpose.cli.batch`) is the command line; docs/batch.md the
-guide. Dask and pyarrow are the optional ``batch`` extra (``pip install "graphpose[batch]"``)
+guide. Dask and pyarrow are the optional ``batch`` extra (``pip install "graphpose[batch]"``, or ``pip install -e ".[batch]"`` in a checkout)
 and are imported only when used: the names below load on first use.
 """
 

@@ -133,12 +133,14 @@ class FrontEnd:
             found, message = _attempt(self._track, image, prediction)
             status = TRACKED if found is not None else LOST
         if found is None:
+            whys = []
             for poly in self._detection_polygons(polygon, prediction, image.shape[:2]):
                 found, why = _attempt(self._detect, image, poly)
                 if found is not None:
                     status = DETECTED
                     break
-                message = f"{message}; {why}" if message else why
+                whys.append(why)
+            message = "; ".join(m for m in (message, _detection_message(whys)) if m)
         if found is None:
             return Measurement(LOST, message=message or "no polygon to search")
         points, ids, fit = found
@@ -342,6 +344,24 @@ def _se3_exp(xi):
     T[:3, :3] = np.eye(3) + a * W + b * W2
     T[:3, 3] = (np.eye(3) + b * W + c * W2) @ v
     return T
+
+
+def _detection_message(whys) -> str:
+    """One message for the failed detection attempts of a frame: each distinct reason once,
+    with how many search areas gave it, under one ``extraction failed`` (not the same words
+    once per area)."""
+    prefix = "extraction failed: "
+    counts = {}
+    for why in whys:
+        counts[why] = counts.get(why, 0) + 1
+    if not counts:
+        return ""
+    parts = [(w[len(prefix):] if w.startswith(prefix) else w) + (f" ({n} search areas)" if n > 1 else "")
+             for w, n in counts.items()]
+    head = "extraction failed: " if all(w.startswith(prefix) for w in counts) else ""
+    if len(whys) > 1:
+        head = f"extraction failed in {len(whys)} search areas: " if head else ""
+    return head + "; ".join(parts)
 
 
 def _attempt(method, *args):

@@ -34,8 +34,11 @@ def test_a_good_image_gives_the_estimate_json_record_of_estimate_pose(images):
     [row] = estimate_images([(path, images.bounds[path])], images.K, images.board)
     expected = result_record(path, images.expected[path], None)
     assert row["status"] == OK and row["time_s"] > 0 and row["worker"] is None
-    assert list(row) == [*expected, *EXTRA_KEYS]
+    assert list(row) == [*expected, "camera", "board", *EXTRA_KEYS]
     assert {k: row[k] for k in expected} == expected
+    assert row["camera"]["model"] == "pinhole" and row["camera"]["K"] == images.K.tolist()
+    assert row["board"] == {"cols": 8, "rows": 6, "square_m": 0.0635}
+    assert row["bounds"] == images.bounds[path].tolist() and row["robust"] is False
 
 
 def test_each_failure_is_its_own_row_and_the_rest_go_on(images, tmp_path):
