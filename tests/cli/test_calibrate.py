@@ -259,4 +259,4 @@ def test_usage_and_input_errors_exit_2_with_one_line(views, tmp_path, capsys, mo
     assert not (tmp_path / "c.json").exists()
     monkeypatch.setitem(__import__("sys").modules, "matplotlib", None)  # the plot extra not installed
     assert main(["calibrate", view, *board, *out, "--plot", str(tmp_path / "p.png")]) == 2
-    assert 'needs matplotlib, the plot extra: pip install -e ".[plot]"' in capsys.readouterr().err
+    assert "graphpose calibrate --plot needs matplotlib (the plot extra): pip install" in capsys.readouterr().err
