@@ -14,7 +14,7 @@ Data flows one way, one subpackage per step:
 - :mod:`graphpose.viz` draws overlays and trajectory plots; :mod:`graphpose.synth` renders
   synthetic images with exact truth.
 
-Conventions are stated once, in :mod:`graphpose.camera`; input checks live in
+Conventions are stated once, in :mod:`graphpose.geometry`; input checks live in
 :mod:`graphpose._checks`. The names below are imported on first use, so that
 ``import graphpose`` (or ``import graphpose.detect.saddle``) does not load GTSAM.
 """
@@ -36,18 +36,18 @@ _PACKAGES = {"calibrate"}
 #: Public name -> the module that defines it (imported lazily, PEP 562).
 _EXPORTS = {
     "Board": "board",
-    "C_from_rpy": "camera",
-    "K_from_params": "camera",
-    "T_from_params": "camera",
-    "params_from_T": "camera",
-    "project": "camera",
-    "rpy_from_C": "camera",
-    "Camera": "cameras",
-    "PinholeCamera": "cameras",
-    "RadTanCamera": "cameras",
-    "FisheyeCamera": "cameras",
-    "as_camera": "cameras",
-    "check_image_size": "cameras",
+    "C_from_rpy": "geometry",
+    "K_from_params": "geometry",
+    "T_from_params": "geometry",
+    "params_from_T": "geometry",
+    "project": "geometry",
+    "rpy_from_C": "geometry",
+    "Camera": "camera_models",
+    "PinholeCamera": "camera_models",
+    "RadTanCamera": "camera_models",
+    "FisheyeCamera": "camera_models",
+    "as_camera": "camera_models",
+    "check_image_size": "camera_models",
     "Calibration": "calibrate.result",
     "read_camera": "io.calibration",
     "write_camera": "io.calibration",

@@ -9,12 +9,13 @@ behind them trusts its callers.
 Concepts: arrays of numbers (:func:`as_float_array`), point sets (:func:`as_points`),
 images (:func:`check_image`), polygons (:func:`as_polygon`) and a board's bounding
 polygon in an image (:func:`check_bounds`), intrinsics (:func:`check_K`), poses
-(:func:`check_transform`), correspondences (:func:`check_correspondences`, and with a camera
-model and unseen points :func:`check_observations`), points in front
-of a camera (:func:`check_in_front`), boards (:func:`check_board`), and scalar settings and
-ranges (:func:`check_number`, :func:`check_range`, :func:`check_count`, :func:`check_size`),
+(:func:`check_transform`), correspondences (:func:`check_correspondences`; with a camera model and unseen points,
+:func:`graphpose.observations.check_observations`), points in front of a camera
+(:func:`check_in_front`), and scalar settings and ranges (:func:`check_number`, :func:`check_range`, :func:`check_count`, :func:`check_size`),
 and covariance matrices (:func:`check_covariance`).
-Other modules raise InputError themselves only for what belongs to them alone (a file's
+This module imports nothing of graphpose but its errors, so every layer may use it; the
+checks that need a board or a camera model live beside them (:func:`graphpose.board.check_board`,
+:func:`graphpose.observations.check_observations`). Other modules raise InputError themselves only for what belongs to them alone (a file's
 syntax, a parameter no other function has).
 """
 
@@ -254,50 +255,6 @@ def check_correspondences(K, Ipts, Wpts, mask=None):
     return K, Ipts, Wpts, mask
 
 
-def check_observations(camera, Ipts, Wpts, mask=None):
-    """Validate a camera, image and target points and a trust mask at a public edge.
-
-    As :func:`check_correspondences`, with a camera object accepted for
-    ``K`` and image points that may be NaN where the mask leaves them out (junctions the
-    image does not show, :class:`graphpose.detect.junctions.Junctions`).
-
-    Parameters
-    ----------
-    camera : Camera or (3, 3) array_like
-        A camera model (:mod:`graphpose.cameras`) or pinhole intrinsics, pixels.
-    Ipts : (2, n) array_like
-        Image points (u, v), pixels; NaN allowed where ``mask`` is False.
-    Wpts : (3, n) array_like
-        Matching target points, metres.
-    mask : (n,) array_like of bool, optional
-        The points to use; all when None.
-
-    Returns
-    -------
-    camera : Camera
-    Ipts : (2, n) ndarray
-    Wpts : (3, n) ndarray
-    mask : (n,) ndarray of bool
-
-    Raises
-    ------
-    InputError
-        As :func:`check_correspondences`, and if a used point is NaN.
-    """
-    from .cameras import as_camera  # cameras.py imports this module
-
-    camera = as_camera(camera)
-    Ipts = as_float_array(Ipts, "Ipts")
-    finite = np.isfinite(Ipts)
-    shown = np.where(finite, Ipts, 0.0) if Ipts.ndim == 2 and Ipts.shape[0] == 2 else Ipts
-    _, _, Wpts, mask = check_correspondences(camera.K, shown, Wpts, mask)
-    bad = np.flatnonzero(mask & ~np.all(finite, axis=0))
-    if bad.size:
-        raise InputError(f"Ipts contains NaN or infinite values at {bad.size} used point(s) (first index "
-                         f"{bad[0]}); leave unmeasured points out with the mask")
-    return camera, Ipts, Wpts, mask
-
-
 def check_in_front(depth, name: str, index=None) -> None:
     """Refuse points at or behind the camera.
 
@@ -518,21 +475,6 @@ def check_covariance(cov, n: int, name: str = "covariance") -> np.ndarray:
         raise InputError(f"{name} is not positive semi-definite (its correlation matrix has "
                          f"eigenvalue {low:.3g})")
     return sym
-
-
-def check_board(board):
-    """A :class:`graphpose.board.Board`, returned as it is.
-
-    Raises
-    ------
-    InputError
-        If ``board`` is anything else.
-    """
-    from .board import Board  # board.py imports this module
-
-    if not isinstance(board, Board):
-        raise InputError(f"board must be a graphpose.Board, got {type(board).__name__}")
-    return board
 
 
 def check_timestamps(t, name: str = "timestamps") -> np.ndarray:

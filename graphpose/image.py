@@ -1,6 +1,6 @@
 """Images in: reading files and converting arrays to the grey images the detector reads.
 
-Pixel conventions are in :mod:`graphpose.camera`.
+Pixel conventions are in :mod:`graphpose.geometry`.
 """
 
 from __future__ import annotations

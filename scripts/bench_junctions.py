@@ -70,7 +70,7 @@ def _match(points, reference):
 
 def _pose_residuals(K, guess, points, board):
     """Reprojection residual lengths (n,) in pixels of a pinhole pose fitted to ``points``."""
-    from graphpose.camera import project
+    from graphpose.geometry import project
     from graphpose.pose.gauss_newton import pose_estimate_nls
 
     W = board.world_points()

@@ -165,7 +165,7 @@ def _match(truth, corners):
 
 
 def _nees(estimate, T):
-    from graphpose.camera import params_from_T
+    from graphpose.geometry import params_from_T
 
     d = estimate.params - params_from_T(T)
     d[3:] = (d[3:] + np.pi) % (2 * np.pi) - np.pi
@@ -177,7 +177,7 @@ def _nees(estimate, T):
 
 def _draw_pose(rng, camera, board, distance, with_pinhole):
     """A pose with the whole sheet in the raw image (and, if asked, in the pinhole image)."""
-    from graphpose.camera import project
+    from graphpose.geometry import project
     from graphpose.synth.poses import random_pose
 
     sheet = board.sheet_corners(0.5)
@@ -266,8 +266,8 @@ def _crb(camera, T, board):
     measures it): the smallest RMS errors any unbiased estimator of the pose from these junctions
     can reach. The same pixel noise costs more pose where a lens shrinks the board's image.
     """
-    from graphpose.camera import to_camera
-    from graphpose.cameras import as_camera
+    from graphpose.geometry import to_camera
+    from graphpose.camera_models import as_camera
     from graphpose.synth.information import junction_information
 
     # Quantisation adds 1/12 grey level^2 of noise (render's documentation).
@@ -424,7 +424,7 @@ def samples(quick):
     import cv2
 
     from graphpose import Board, estimate_pose
-    from graphpose.camera import to_camera
+    from graphpose.geometry import to_camera
     from graphpose.errors import GraphposeError
     from graphpose.pose.estimate import pose_difference
 

@@ -80,7 +80,7 @@ def _T_WC_from_opencv(cv2, rvec, tvec):
 
 def _speed_sets(quick):
     from graphpose import Board, load_cases
-    from graphpose.camera import project
+    from graphpose.geometry import project
     from graphpose.synth.poses import perturb_pose, random_pose
 
     W = Board().world_points()
@@ -103,7 +103,7 @@ def speed(quick):
     """Solver times on 48 points beside OpenCV's, and every solver's pose against IPPE + LM's."""
     import cv2
 
-    from graphpose.camera import project
+    from graphpose.geometry import project
     from graphpose.pose.estimate import pose_difference
     from graphpose.pose.gauss_newton import gauss_newton
     from graphpose.pose.graph import graph_pose
@@ -257,7 +257,7 @@ def synthetic(quick):
     from scipy.stats import chi2
 
     from graphpose import estimate_pose
-    from graphpose.camera import params_from_T
+    from graphpose.geometry import params_from_T
     from graphpose.errors import GraphposeError
     from graphpose.pose.estimate import pose_difference
     from graphpose.synth.information import junction_information
@@ -356,7 +356,7 @@ def synthetic(quick):
 def basin(quick):
     """Gauss-Newton from guesses up to 30 degrees and 50 cm off: how often it reaches the right pose."""
     from graphpose import Board, gauss_newton, pose_from_homography
-    from graphpose.camera import project
+    from graphpose.geometry import project
     from graphpose.errors import InputError
     from graphpose.pose.estimate import pose_difference
     from graphpose.synth.poses import perturb_pose, random_pose

@@ -38,7 +38,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from graphpose import Board, BoardNotFoundError, K_from_params
-from graphpose.cameras import as_camera, check_image_size
+from graphpose.camera_models import as_camera, check_image_size
 from graphpose.detect.find import find_board
 from graphpose.detect.junctions import extract_junctions
 from graphpose.image import read_image

@@ -54,11 +54,11 @@ def real_images(real_cases):
     return [(case, read_image(case.image)) for case in real_cases.cases]
 
 
-# --- shared constants: the project's camera and target (appended; graphpose.camera and
+# --- shared constants: the project's camera and target (appended; graphpose.geometry and
 # graphpose.cli.options load no GTSAM) ---------------------------------------------------
 
 from graphpose import Board as _Board  # noqa: E402
-from graphpose.camera import K_from_params as _K_from_params  # noqa: E402
+from graphpose.geometry import K_from_params as _K_from_params  # noqa: E402
 from graphpose.cli.options import DEFAULT_K as _DEFAULT_K  # noqa: E402
 
 #: The project's camera (the ROB501 images'), (3, 3) pixels; read-only.
@@ -68,9 +68,9 @@ PROJECT_K.setflags(write=False)
 BOARD_WPTS = _Board().world_points()
 BOARD_WPTS.setflags(write=False)
 
-from graphpose.cameras import FisheyeCamera as _Fisheye  # noqa: E402
-from graphpose.cameras import PinholeCamera as _Pinhole  # noqa: E402
-from graphpose.cameras import RadTanCamera as _RadTan  # noqa: E402
+from graphpose.camera_models import FisheyeCamera as _Fisheye  # noqa: E402
+from graphpose.camera_models import PinholeCamera as _Pinhole  # noqa: E402
+from graphpose.camera_models import RadTanCamera as _RadTan  # noqa: E402
 
 #: One camera of each model on the project's K. GTSAM has a calibration (Cal3_S2, Cal3DS2,
 #: Cal3Fisheye) for "pinhole", "radtan" and "fisheye", not for k3 or the rational model's

@@ -37,9 +37,9 @@ from collections import deque
 
 import numpy as np
 
-from .._checks import check_board
+from ..board import check_board
 from ..board import Board
-from ..cameras import as_camera
+from ..camera_models import as_camera
 from ..errors import GraphposeError, InputError
 from .inputs import check_polygon
 from .work import CRASHED, estimate_images, failed_record, warm_up
@@ -78,7 +78,7 @@ def estimate_many(paths, camera, board: Board = Board(), *, bounds=None, robust:
         read them by that path, so on a cluster of several machines it must name the same
         file on every one (a shared file system).
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`, e.g. from
+        The camera model (:mod:`graphpose.camera_models`, e.g. from
         :func:`graphpose.io.calibration.read_camera`; the images raw, with its lens
         distortion), or pinhole intrinsics ``K``, pixels, for undistorted images.
     board : Board

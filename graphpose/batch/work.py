@@ -55,7 +55,7 @@ def estimate_images(items, camera, board: Board = Board(), robust: bool = False)
         pixels, or None to search the whole image (as ``graphpose estimate IMAGE`` without
         ``--bounds``).
     camera : Camera or (3, 3) ndarray
-        The camera model (:mod:`graphpose.cameras`; images raw, with its lens distortion), or
+        The camera model (:mod:`graphpose.camera_models`; images raw, with its lens distortion), or
         pinhole intrinsics ``K``, pixels, for undistorted images (checked by the caller).
     board : Board
         The target.

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..cameras import FisheyeCamera, PinholeCamera, RadTanCamera
+from ..camera_models import FisheyeCamera, PinholeCamera, RadTanCamera
 from ..errors import InputError
 from ..pose.homography import homography_dlt, pose_from_homography
 

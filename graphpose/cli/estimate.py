@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cameras import check_image_size
+from ..camera_models import check_image_size
 from ..errors import BoardNotFoundError, GraphposeError, InputError
 from ..image import read_image
 from ..io.cases import bundled_cases_path, load_cases, load_pose

@@ -19,8 +19,8 @@ import numpy as np
 
 from .._checks import check_count, check_number, check_range
 from ..board import Board
-from ..camera import K_from_params
-from ..cameras import PinholeCamera
+from ..geometry import K_from_params
+from ..camera_models import PinholeCamera
 from ..errors import InputError
 
 #: The project's camera (the ROB501 sample set's): fx, fy, cx, cy in pixels. Only what the

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import params_from_T
+from ..geometry import params_from_T
 from ..io.files import to_jsonable
 from ..pose.intrinsics import SIGMA_PIXEL
 

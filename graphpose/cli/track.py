@@ -178,7 +178,7 @@ def _camera(args):
     if args.camera is not None or args.K is not None or meta is None or not meta.is_file():
         return (*camera_from_args(args), None)
     from ..board import Board
-    from ..cameras import PinholeCamera
+    from ..camera_models import PinholeCamera
 
     doc = read_json(meta, "the rendered sequence's bounds.json")
     try:

@@ -4,7 +4,7 @@ A homography fitted to a board's junctions is the exact grid-to-image map of a p
 camera: :mod:`graphpose.detect.junctions` uses it to size the refinement windows and to
 judge which refined junctions agree with a planar grid.
 
-Coordinates follow :mod:`graphpose.camera`.
+Coordinates follow :mod:`graphpose.geometry`.
 """
 
 from __future__ import annotations

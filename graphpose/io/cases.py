@@ -5,7 +5,7 @@ A case file is the JSON format of ``../shared/data/rob501/cases.json``:
 ``K``
     3 x 3 intrinsics, pixels, of a camera without lens distortion; or
 ``camera``
-    the camera with its lens model (:mod:`graphpose.cameras`): a calibration file's path,
+    the camera with its lens model (:mod:`graphpose.camera_models`): a calibration file's path,
     relative to the case file (any format :func:`graphpose.io.calibration.read_camera`
     reads), or an inline object ``{"model", "K", "distortion", "size"}`` as graphpose's JSON
     camera file holds. A case file gives ``K`` or ``camera``, not both; or neither, when the
@@ -46,7 +46,7 @@ from .._checks import (
     check_transform,
 )
 from ..board import Board
-from ..cameras import Camera, PinholeCamera
+from ..camera_models import Camera, PinholeCamera
 from ..errors import InputError
 from .calibration import camera_from_dict, read_camera
 from .files import read_json
@@ -69,8 +69,8 @@ class Case:
 class CaseFile:
     """A parsed case file: intrinsics K (3, 3), the board, its cases, and the camera.
 
-    ``camera`` is the file's camera (:mod:`graphpose.cameras`), a
-    :class:`~graphpose.cameras.PinholeCamera` of ``K`` when the file gives ``K``; ``K`` is
+    ``camera`` is the file's camera (:mod:`graphpose.camera_models`), a
+    :class:`~graphpose.camera_models.PinholeCamera` of ``K`` when the file gives ``K``; ``K`` is
     the camera's intrinsics either way. Both are None for a file that names no camera, read
     with ``load_cases(path, require_camera=False)``: the camera then comes from elsewhere
     (``--camera`` or ``--K``).

@@ -8,7 +8,7 @@ same cost, so GTSAM must stay at that answer: their poses must agree to
 :data:`AGREE_TRANSLATION_M` and :data:`AGREE_ROTATION_DEG`; the difference is always reported
 in :class:`CrossCheck`, and a larger one makes ``agree`` False.
 
-The camera is a :mod:`graphpose.cameras` object (or a pinhole ``K``): with lens distortion the
+The camera is a :mod:`graphpose.camera_models` object (or a pinhole ``K``): with lens distortion the
 junctions are found on the raw image and both solvers fit the raw pixels through the lens
 model; the homography start works on the undistorted junctions. A partial board (junctions
 hidden or off the image are NaN) gives its pose from the trusted junctions alone, at least
@@ -31,10 +31,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._checks import check_board, check_observations, check_transform
+from .._checks import check_transform
+from ..board import check_board
+from ..observations import check_observations
 from ..board import Board
-from ..camera import to_camera
-from ..cameras import as_camera
+from ..geometry import to_camera
+from ..camera_models import as_camera
 from ..errors import BoardNotFoundError, InputError
 from .gauss_newton import GNResult, gauss_newton, huber_weights, reprojection_cost
 from .graph import HUBER_K, GraphResult, graph_pose
@@ -177,7 +179,7 @@ def estimate_pose(image, bounds, camera, board: Board = Board(), guess=None, *,
         (see :func:`graphpose.detect.junctions.extract_junctions`): it only narrows the
         search and names junction 0's corner. None searches the whole image.
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`, e.g. from
+        The camera model (:mod:`graphpose.camera_models`, e.g. from
         :func:`graphpose.io.calibration.read_camera`), or pinhole intrinsics ``K``, pixels,
         for an image without distortion.
     board : Board
@@ -197,7 +199,7 @@ def estimate_pose(image, bounds, camera, board: Board = Board(), guess=None, *,
     ------
     InputError
         On a malformed image, polygon, camera or guess, an image of another size than the
-        camera's calibration (:func:`graphpose.cameras.check_image_size`), or a guess with
+        camera's calibration (:func:`graphpose.camera_models.check_image_size`), or a guess with
         junctions behind the camera.
     BoardNotFoundError
         If the junction grid is not found, or fewer than six junctions not all on one line
@@ -237,7 +239,7 @@ def estimate_pose_from_points(camera, Ipts, Wpts, guess=None, mask=None, *, robu
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`; raw, distorted pixels), or pinhole
+        The camera model (:mod:`graphpose.camera_models`; raw, distorted pixels), or pinhole
         intrinsics ``K``, pixels.
     Ipts : (2, n) array_like
         Image points (u, v), pixels; NaN allowed where ``mask`` is False.
@@ -279,7 +281,7 @@ def fit_pose(camera, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False)
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`), or pinhole intrinsics ``K``, pixels.
+        The camera model (:mod:`graphpose.camera_models`), or pinhole intrinsics ``K``, pixels.
     Ipts : (2, n) array_like
         Image points (u, v), pixels; NaN allowed where ``mask`` is False.
     Wpts : (3, n) array_like

@@ -5,14 +5,14 @@ The target is the plane z = 0, so a target point ``(x, y, 0)`` images as
     [u, v, 1]^T ~ K [r1 r2 t_CW] [x, y, 1]^T,
 
 with ``C^T = [r1 r2 r3]`` the rotation from target to camera and ``t_CW = -C^T t`` (see
-:mod:`graphpose.camera`). The homography ``H ~ K [r1 r2 t_CW]`` is found by the normalised
+:mod:`graphpose.geometry`). The homography ``H ~ K [r1 r2 t_CW]`` is found by the normalised
 direct linear transform (Hartley & Zisserman, Multiple View Geometry, 2nd ed., alg. 4.2) and
 split with K into a rotation (made orthonormal by SVD) and a translation whose sign puts the
 board in front of the camera. The result minimises an algebraic error, not the reprojection
 error: it is a starting point for :func:`graphpose.pose.gauss_newton.gauss_newton`.
 
-A camera with lens distortion (:mod:`graphpose.cameras`) is handled by undistorting the image
-points first (:meth:`graphpose.cameras.Camera.undistort_pixels`, to the pixels of the
+A camera with lens distortion (:mod:`graphpose.camera_models`) is handled by undistorting the image
+points first (:meth:`graphpose.camera_models.Camera.undistort_pixels`, to the pixels of the
 distortion-free camera with the same ``K``): the homography holds for those.
 """
 
@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._checks import check_observations
+from ..observations import check_observations
 from ..errors import InputError
 
 #: Target points farther than this (metres, relative to the board's extent) from z = 0 are refused.
@@ -37,7 +37,7 @@ def pose_from_homography(camera, Ipts, Wpts) -> np.ndarray:
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`; the points are then raw pixels,
+        The camera model (:mod:`graphpose.camera_models`; the points are then raw pixels,
         undistorted here), or pinhole intrinsics ``K``, pixels.
     Ipts : (2, n) array_like
         Image points (u, v), pixels; n >= 4.

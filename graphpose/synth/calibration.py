@@ -23,10 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._checks import check_board, check_count, check_number
+from .._checks import check_count, check_number
+from ..board import check_board
 from ..board import Board
-from ..camera import to_camera
-from ..cameras import FisheyeCamera, RadTanCamera, as_camera
+from ..geometry import to_camera
+from ..camera_models import FisheyeCamera, RadTanCamera, as_camera
 from ..errors import InputError
 from .poses import random_pose
 from .render import Rendering, render

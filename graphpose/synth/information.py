@@ -12,7 +12,7 @@ import numpy as np
 
 from .._checks import check_count, check_number, check_transform
 from ..board import Board
-from ..cameras import as_camera
+from ..camera_models import as_camera
 from .render import image_points, image_size, render_ideal
 
 

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._checks import check_board, check_count, check_number, check_range, check_transform
+from .._checks import check_count, check_number, check_range, check_transform
+from ..board import check_board
 from ..board import Board
-from ..camera import project, rot_x, rot_z, to_camera
-from ..cameras import as_camera
+from ..geometry import project, rot_x, rot_z, to_camera
+from ..camera_models import as_camera
 from ..errors import InputError
 from .lens import in_view, view_limit
 from .render import Rendering, image_points, image_size
@@ -53,7 +54,7 @@ def random_pose(
     rng : numpy.random.Generator or int
         Source of randomness.
     camera : Camera or (3, 3) array_like
-        A :mod:`graphpose.cameras` camera or the intrinsics ``K`` of a pinhole camera,
+        A :mod:`graphpose.camera_models` camera or the intrinsics ``K`` of a pinhole camera,
         pixels.
     board : Board
         The target.

@@ -40,7 +40,7 @@ How it is computed
 
 Lens distortion
 ---------------
-:func:`render` also takes a :mod:`graphpose.cameras` camera with lens distortion
+:func:`render` also takes a :mod:`graphpose.camera_models` camera with lens distortion
 (:class:`~graphpose.RadTanCamera`, :class:`~graphpose.FisheyeCamera`) and renders the raw,
 distorted image. The squares and the sheet are then regions with curved outlines, traced as
 polylines whose chords lie within ``edge_tol_px`` of the true curves
@@ -58,7 +58,7 @@ Around the rendering: :mod:`graphpose.synth.raster` holds the exact areas and th
 junctions' Cramer-Rao bound (:func:`~graphpose.synth.information.junction_information`).
 
 Ground truth: the junctions are ``camera.project(to_camera(T_WC, board.world_points()))``
-(``graphpose.camera.project(K, T_WC, ...)`` for a pinhole); NaN for a junction outside the
+(``graphpose.geometry.project(K, T_WC, ...)`` for a pinhole); NaN for a junction outside the
 model's cone.
 """
 
@@ -69,10 +69,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import correlate1d
 
-from .._checks import check_board, check_count, check_number, check_size, check_transform
+from .._checks import check_count, check_number, check_size, check_transform
+from ..board import check_board
 from ..board import Board
-from ..camera import project, to_camera
-from ..cameras import Camera, as_camera, check_image_size
+from ..geometry import project, to_camera
+from ..camera_models import Camera, as_camera, check_image_size
 from ..errors import InputError
 from .lens import in_view, region_edges, view_limit
 from .raster import coverage_entries, pixel_kernel, segment_entries, sum_upwards, x_pass
@@ -112,7 +113,7 @@ class Rendering:
     noise_sigma : float
         Additive Gaussian noise, grey levels of 255.
     camera : Camera
-        The camera (:mod:`graphpose.cameras`); a :class:`~graphpose.PinholeCamera` when
+        The camera (:mod:`graphpose.camera_models`); a :class:`~graphpose.PinholeCamera` when
         rendered from ``K``.
     """
 
@@ -152,10 +153,10 @@ def render_ideal(
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        A :mod:`graphpose.cameras` camera (the raw, distorted image is rendered), or the
+        A :mod:`graphpose.camera_models` camera (the raw, distorted image is rendered), or the
         intrinsics ``K`` of a pinhole camera, pixels.
     T_WC : (4, 4) array_like
-        Camera pose in the target frame (see :mod:`graphpose.camera`).
+        Camera pose in the target frame (see :mod:`graphpose.geometry`).
     board : Board
         The target; its squares area spans ``[-s, cols * s] x [-s, rows * s]`` metres.
     size : (int, int), optional
@@ -238,7 +239,7 @@ def render(
     Parameters
     ----------
     camera, T_WC, board, size
-        As in :func:`render_ideal`: a :mod:`graphpose.cameras` camera renders the raw
+        As in :func:`render_ideal`: a :mod:`graphpose.camera_models` camera renders the raw
         (distorted) image, a ``K`` the pinhole one.
     noise_sigma : float
         Standard deviation of the additive Gaussian noise, grey levels of 255 (0: none).
@@ -290,7 +291,7 @@ def image_points(camera, T_WC, P_W, size=None) -> np.ndarray:
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        A :mod:`graphpose.cameras` camera or a pinhole ``K``.
+        A :mod:`graphpose.camera_models` camera or a pinhole ``K``.
     T_WC : (4, 4) array_like
         Camera pose in the target frame.
     P_W : (3, N) array_like
@@ -303,7 +304,7 @@ def image_points(camera, T_WC, P_W, size=None) -> np.ndarray:
     Returns
     -------
     uv : (2, N) ndarray
-        Pixels: ``graphpose.camera.project(K, T_WC, P_W)`` for a pinhole camera, else
+        Pixels: ``graphpose.geometry.project(K, T_WC, P_W)`` for a pinhole camera, else
         ``camera.project(to_camera(T_WC, P_W))`` with NaN columns for points outside the
         cone of rays the model images (where ``project`` folds back).
     """
@@ -322,7 +323,7 @@ def image_size(camera, size) -> tuple:
     Parameters
     ----------
     camera : Camera
-        A :mod:`graphpose.cameras` camera (already checked, :func:`graphpose.cameras.as_camera`).
+        A :mod:`graphpose.camera_models` camera (already checked, :func:`graphpose.camera_models.as_camera`).
     size : (int, int) or None
         Image ``(width, height)`` in pixels, or None for the camera's.
 

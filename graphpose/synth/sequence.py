@@ -36,16 +36,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .._checks import (
-    check_board,
-    check_count,
-    check_K,
-    check_number,
-    check_range,
-    check_size,
-)
+from .._checks import check_count, check_K, check_number, check_range, check_size
+from ..board import check_board
 from ..board import Board
-from ..camera import project, rot_x, rot_y, rot_z, to_camera
+from ..geometry import project, rot_x, rot_y, rot_z, to_camera
 from ..errors import InputError
 from ..io.files import write_json, write_png
 from ..io.tum import write_tum

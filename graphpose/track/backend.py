@@ -38,7 +38,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from ..board import Board
-from ..cameras import Camera
+from ..camera_models import Camera
 from .config import DEFAULT_LAG_S, MotionPrior
 from .fixed_lag import FixedLagGraph
 from .model import FrameMeasurement

@@ -12,7 +12,7 @@ from gtsam.symbol_shorthand import L, V, X
 
 from .._checks import check_number
 from ..board import Board
-from ..cameras import as_camera
+from ..camera_models import as_camera
 from ..pose.graph import LANDMARK_SIGMA_M
 from .config import DEFAULT_LAG_S, MotionPrior
 from .isam import fixed_lag_isam_params, refine_pose
@@ -29,7 +29,7 @@ class FixedLagGraph:
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`; raw, distorted pixels), or pinhole
+        The camera model (:mod:`graphpose.camera_models`; raw, distorted pixels), or pinhole
         intrinsics ``K``, pixels.
     board : Board
         The target.

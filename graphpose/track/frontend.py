@@ -1,7 +1,7 @@
 """The tracker's front end: one frame's junctions and its own pose, before the back end.
 
 Per frame (:class:`FrontEnd`; thresholds in :class:`graphpose.track.config.TrackerConfig`; every
-projection through the sequence's camera, :mod:`graphpose.cameras`, on the raw frames):
+projection through the sequence's camera, :mod:`graphpose.camera_models`, on the raw frames):
 
 1. **Predict** the pose from the last two frames with a constant body-frame twist
    (:func:`constant_velocity_prediction`), and every junction's pixel position from it.
@@ -41,8 +41,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..board import Board
-from ..camera import to_camera
-from ..cameras import as_camera
+from ..geometry import to_camera
+from ..camera_models import as_camera
 from ..detect.junctions import extract_junctions
 from ..detect.refine import refine_junctions
 from ..errors import BoardNotFoundError, InputError
@@ -82,7 +82,7 @@ class FrontEnd:
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`; the frames are raw), or pinhole
+        The camera model (:mod:`graphpose.camera_models`; the frames are raw), or pinhole
         intrinsics ``K``, pixels.
     board : Board
         The target.

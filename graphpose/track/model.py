@@ -129,7 +129,7 @@ class FactorBuilder:
     Parameters
     ----------
     camera : Camera
-        The camera model (already checked, :func:`graphpose.cameras.as_camera`).
+        The camera model (already checked, :func:`graphpose.camera_models.as_camera`).
     board : Board
         The target.
     motion : MotionPrior

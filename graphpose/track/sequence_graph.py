@@ -11,7 +11,7 @@ import numpy as np
 from gtsam.symbol_shorthand import X
 
 from ..board import Board
-from ..cameras import as_camera
+from ..camera_models import as_camera
 from ..pose.graph import LANDMARK_SIGMA_M
 from .config import MotionPrior
 from .isam import default_isam_params, refine_pose
@@ -27,7 +27,7 @@ class SequenceGraph:
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`; raw, distorted pixels), or pinhole
+        The camera model (:mod:`graphpose.camera_models`; raw, distorted pixels), or pinhole
         intrinsics ``K``, pixels.
     board : Board
         The target.
@@ -44,7 +44,7 @@ class SequenceGraph:
     Raises
     ------
     InputError
-        If the camera is invalid (:func:`graphpose.cameras.as_camera`) or ``target`` is not
+        If the camera is invalid (:func:`graphpose.camera_models.as_camera`) or ``target`` is not
         one of :data:`graphpose.track.config.TARGET_FORMS`.
 
     Notes

@@ -8,7 +8,7 @@ marginal covariances from ``gtsam.Marginals``: :func:`smooth_frames`, which rebu
 graph from the frames' measurements (the fixed lag's way, since it no longer holds the old
 factors), or :func:`smooth_graph` on a graph already whole (the whole-sequence back end's).
 Covariances are reported in the pose parameters
-``(x, y, z, roll, pitch, yaw)`` of :mod:`graphpose.camera` (metres, radians).
+``(x, y, z, roll, pitch, yaw)`` of :mod:`graphpose.geometry` (metres, radians).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import numpy as np
 from gtsam.symbol_shorthand import V, X
 
 from ..board import Board
-from ..cameras import as_camera
+from ..camera_models import as_camera
 from ..pose.graph import LANDMARK_SIGMA_M, params_cov_from_tangent
 from .config import MotionPrior
 from .model import FactorBuilder

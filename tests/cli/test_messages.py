@@ -16,7 +16,8 @@ from graphpose import Board
 from graphpose.cli import main
 from graphpose.cli.options import NO_CAMERA
 from graphpose.io.files import encode_png
-from graphpose.synth.render import loose_polygon, render
+from graphpose.synth.poses import loose_polygon
+from graphpose.synth.render import render
 from tests.batch.helpers import SIZE, half_K
 from tests.conftest import REPO
 

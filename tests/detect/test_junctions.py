@@ -12,7 +12,7 @@ from graphpose import (
     extract_junctions,
     refine_junctions,
 )
-from graphpose.camera import project
+from graphpose.geometry import project
 from graphpose.pose.gauss_newton import pose_estimate_nls
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
@@ -358,7 +358,7 @@ def test_junctions_through_a_strong_lens_are_fitted_where_the_lens_straightens_t
     # 190 degrees); fitted on the raw pixel grid, the curved edges biased it to 0.0071 and
     # 0.021 px, the same way at neighbouring junctions, and so the pose's NEES to 35-134.
     from graphpose import K_from_params
-    from graphpose.cameras import FisheyeCamera, RadTanCamera
+    from graphpose.camera_models import FisheyeCamera, RadTanCamera
     from graphpose.synth.poses import random_pose
 
     if kind == "radtan":
@@ -385,7 +385,7 @@ def test_refine_junctions_takes_the_camera_as_extract_junctions_does():
     # The tracker refines predicted positions with refine_junctions: through a fisheye its
     # camera makes the fit as exact as extract_junctions' (noise-free render).
     from graphpose import K_from_params
-    from graphpose.cameras import FisheyeCamera
+    from graphpose.camera_models import FisheyeCamera
     from graphpose.synth.poses import random_pose
 
     camera = FisheyeCamera(K_from_params(203.0, 203.0, 321.0, 241.0), [-0.013, -0.004, 0.0035, -0.001],

@@ -12,7 +12,7 @@ from graphpose import (
     read_camera,
     read_image,
 )
-from graphpose.camera import T_from_params, params_from_T, project, to_camera
+from graphpose.geometry import T_from_params, params_from_T, project, to_camera
 from graphpose.pose.estimate import (
     AGREE_ROTATION_DEG,
     AGREE_TRANSLATION_M,

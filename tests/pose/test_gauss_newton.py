@@ -8,7 +8,7 @@ from graphpose import (
     ConvergenceError,
     InputError,
 )
-from graphpose.camera import (
+from graphpose.geometry import (
     C_from_rpy,
     T_from_params,
     params_from_T,

@@ -4,7 +4,7 @@ import pytest
 from gtsam.symbol_shorthand import L, X
 
 from graphpose import InputError
-from graphpose.camera import T_from_params, params_from_T, project, to_camera
+from graphpose.geometry import T_from_params, params_from_T, project, to_camera
 from graphpose.io.cases import bundled_cases
 from graphpose.pose.estimate import (
     AGREE_ROTATION_DEG,

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from graphpose import InputError
-from graphpose.camera import T_from_params, project, to_camera
+from graphpose.geometry import T_from_params, project, to_camera
 from graphpose.pose.gauss_newton import gauss_newton
 from graphpose.pose.homography import (
     homography_dlt,

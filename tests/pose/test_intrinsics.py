@@ -5,7 +5,7 @@ import pytest
 
 from graphpose import Board, estimate_pose, estimate_pose_from_points
 from graphpose.calibrate.params import camera_parameters, camera_with_parameters
-from graphpose.camera import params_from_T, to_camera
+from graphpose.geometry import params_from_T, to_camera
 from graphpose.pose.estimate import _estimate
 from graphpose.pose.gauss_newton import gauss_newton
 from graphpose.pose.intrinsics import (

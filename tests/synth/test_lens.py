@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from graphpose import Board, FisheyeCamera, RadTanCamera
-from graphpose.camera import T_from_params, to_camera
+from graphpose.geometry import T_from_params, to_camera
 from graphpose.synth.lens import FAR_DIAGONALS, in_view, region_edges, view_limit
 from graphpose.synth.poses import random_pose
 

@@ -10,8 +10,8 @@ from skimage.io import imread
 from skimage.measure import points_in_poly
 
 from graphpose.board import Board
-from graphpose.camera import K_from_params, T_from_params, project, to_camera
-from graphpose.cameras import FisheyeCamera, PinholeCamera, RadTanCamera
+from graphpose.geometry import K_from_params, T_from_params, project, to_camera
+from graphpose.camera_models import FisheyeCamera, PinholeCamera, RadTanCamera
 from graphpose.detect.saddle import saddle_point
 from graphpose.errors import InputError
 from graphpose.pose.estimate import pose_difference

@@ -13,7 +13,7 @@ from graphpose import (
     T_from_params,
     project,
 )
-from graphpose.camera import to_camera
+from graphpose.geometry import to_camera
 from graphpose.track.backend import Backend, make_backend
 from graphpose.track.config import MotionPrior
 from graphpose.track.fixed_lag import FixedLagGraph

@@ -1,4 +1,8 @@
-"""Camera model and the conventions that every module of graphpose uses.
+"""The conventions that every module of graphpose uses, and the geometry on them: rotations,
+poses and their parameters, the pinhole projection.
+
+Lens models (radial-tangential, fisheye) are in :mod:`graphpose.camera_models`; this module
+is the distortion-free geometry under them.
 
 Conventions (one set, everywhere; the README repeats them)
 -----------------------------------------------------------
@@ -17,8 +21,10 @@ Pose
     ``t = T_WC[:3, 3]``; a camera in front of the board has ``t_z < 0``. This is the same
     object as GTSAM's ``Pose3`` of a camera in the world.
 Projection
-    ``[u, v, 1]^T ~ K p_C`` with ``K = [[fx, s, cx], [0, fy, cy], [0, 0, 1]]`` in pixels;
-    images are already undistorted.
+    ``[u, v, 1]^T ~ K p_C`` with ``K = [[fx, s, cx], [0, fy, cy], [0, 0, 1]]`` in pixels:
+    the pinhole camera. A raw image from a real lens is modelled by a camera of
+    :mod:`graphpose.camera_models`, whose distortion maps these pinhole coordinates to the
+    raw image's; every function that takes ``K`` there takes such a camera too.
 Euler angles
     ``C = C_z(yaw) C_y(pitch) C_x(roll)``, each an active rotation about the named axis.
     Pose parameters are the 6-vector ``(x, y, z, roll, pitch, yaw)`` in metres and radians;
