@@ -6,6 +6,7 @@ the repository's root, as a reader would paste it. A block that reads ../shared 
 skipped when that data is absent (failed under GRAPHPOSE_REQUIRE_REAL=1, as in conftest).
 """
 
+import glob
 import importlib.util
 import json
 import os
@@ -19,7 +20,7 @@ from tests.conftest import REPO
 
 PAGES = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
 README_MAX_LINES = 300
-SHARED = re.compile(r"\.\./shared/[\w./-]+")
+SHARED = re.compile(r"\.\./shared/[\w./*-]+")  # a path or a glob pattern of paths
 
 
 def _blocks():
@@ -49,7 +50,7 @@ def test_there_are_examples_to_run():
 def test_python_example_runs_on_its_own(block):
     code = block[2]
     for path in SHARED.findall(code):
-        if not (REPO / path).exists():
+        if not glob.glob(str(REPO / path)):  # the file, or a pattern's files
             message = f"{path} is absent"
             if os.environ.get("GRAPHPOSE_REQUIRE_REAL") == "1":
                 pytest.fail(f"{message} and GRAPHPOSE_REQUIRE_REAL=1")
