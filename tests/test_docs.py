@@ -157,8 +157,8 @@ def test_every_subcommand_and_option_is_documented():
 
 
 def test_json_record_keys_are_those_of_records_docstring():
-    """docs/cli.md's pose-block table has every key of graphpose/cli/records.py's docstring."""
-    from graphpose.cli import records
+    """docs/cli.md's pose-block table has every key of graphpose/io/records.py's docstring."""
+    from graphpose.io import records
 
     keys = re.findall(r"^``(\w+)``\s", records.__doc__, re.MULTILINE)
     assert keys == list(records.POSE_KEYS)

@@ -11,7 +11,7 @@ Two formats, chosen by the name's ending:
   flushed to the operating system) as its row arrives. A last line cut short by a killed
   writer is dropped when the file is opened again, and its image is done again.
 
-A row is the record of :func:`graphpose.cli.records.result_record` with the batch's status
+A row is the record of :func:`graphpose.io.records.result_record` with the batch's status
 word and ``time_s`` and ``worker`` (:mod:`graphpose.batch.work`). JSON lines keep it as it
 is; Parquet has one column per key, with its fixed type (:data:`SCHEMA`), except
 ``cross_check``, whose three fields become ``cross_check_translation_m``,

@@ -3,13 +3,13 @@
 :func:`estimate_images` is what a Dask worker runs (and what a plain loop runs, for a
 comparison): for each image it does what ``graphpose estimate IMAGE [--bounds ...]`` does
 (:func:`graphpose.image.read_image`, then :func:`graphpose.pose.estimate.estimate_pose`) and
-turns the outcome into the record of :func:`graphpose.cli.records.result_record`, so the pose
+turns the outcome into the record of :func:`graphpose.io.records.result_record`, so the pose
 of a row is the pose that command gives for that image (up to the last bits BLAS may change,
 docs/batch.md). A failure of one image
 becomes that image's row and never stops the others. The record's ``status`` says why an
 image has no usable pose (:data:`STATUSES`), where ``estimate --json`` only says ``failed``;
 the record names what the pose was made with, as every record does (``camera`` and
-``board``, :func:`graphpose.cli.records.target_keys`), and four keys are added: ``bounds``
+``board``, :func:`graphpose.io.records.target_keys`), and four keys are added: ``bounds``
 (the polygon the image was searched in, 2 x 4 pixels, or None: the whole image), ``robust``
 (the robust loss or not), ``time_s`` (seconds spent on the image) and ``worker`` (the Dask
 worker's address, None outside Dask). ``camera``, ``board``, ``bounds`` and ``robust`` are
@@ -25,7 +25,7 @@ import sys
 import time
 
 from ..board import Board
-from ..cli.records import result_record, target_keys
+from ..io.records import result_record, target_keys
 from ..errors import BoardNotFoundError, GraphposeError
 
 #: Status words of a row, from best to worst.
@@ -40,8 +40,8 @@ CRASHED = "crashed"                  # the worker process died on this image, ag
 
 STATUSES = (OK, NOT_CONVERGED, BOARD_NOT_FOUND, FAILED, MISSING, UNREADABLE, ERROR, CRASHED)
 
-#: Keys a batch record adds to :func:`graphpose.cli.records.result_record`'s and
-#: :func:`graphpose.cli.records.target_keys`' ``camera`` and ``board``.
+#: Keys a batch record adds to :func:`graphpose.io.records.result_record`'s and
+#: :func:`graphpose.io.records.target_keys`' ``camera`` and ``board``.
 EXTRA_KEYS = ("bounds", "robust", "time_s", "worker")
 
 

@@ -109,7 +109,7 @@ def run(args) -> int:
     from ..batch.engine import distributed_module, estimate_many
     from ..batch.inputs import collect_images, read_bounds_file
     from ..batch.results import open_results, parameters, results_format
-    from .records import target_keys, target_words
+    from ..io.records import target_keys, target_words
 
     kind = results_format(args.out)  # a wrong ending fails before anything is read
     camera, board = camera_from_args(args)

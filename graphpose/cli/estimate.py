@@ -37,7 +37,7 @@ from .options import (
     check_camera_options,
     parse_bounds,
 )
-from .records import result_record, target_keys, target_words
+from ..io.records import result_record, target_keys, target_words
 
 #: The bundled example, package data made by scripts/make_data.py with graphpose.synth.render.
 DEFAULT_CASES = bundled_cases_path()
@@ -148,7 +148,7 @@ def _run_one(job, camera, board, target, robust, overlay, report, progress):
 
     Every failure of this image, writing its overlay included, is reported and recorded here,
     so the batch goes on and its JSON is still written. ``target`` holds the record's
-    ``camera`` and ``board`` keys (:func:`graphpose.cli.records.target_keys`).
+    ``camera`` and ``board`` keys (:func:`graphpose.io.records.target_keys`).
     """
     estimate, error, code, image = None, None, EXIT_OK, None
     try:

@@ -34,7 +34,7 @@ from .options import (
     parse_bounds,
     parse_positive,
 )
-from .records import frame_record, target_keys, target_words
+from ..io.records import frame_record, target_keys, target_words
 
 #: ``--lag``'s default: :func:`graphpose.track.config.default_lag_s` of the frames' timestamps.
 AUTO_LAG = "auto"

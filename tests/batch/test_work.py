@@ -18,7 +18,7 @@ from graphpose.batch.work import (
     failed_record,
     warm_up,
 )
-from graphpose.cli.records import result_record
+from graphpose.io.records import result_record
 from graphpose.image import read_image
 from graphpose.pose.estimate import estimate_pose
 from tests.batch.helpers import make_image_set

@@ -21,7 +21,7 @@ import pytest
 from graphpose import Board, estimate_pose, load_cases, read_camera, read_image
 from graphpose.cli import main
 from graphpose.cli.options import Progress, parse_bounds, parse_K, parse_positive
-from graphpose.cli.records import POSE_KEYS
+from graphpose.io.records import POSE_KEYS
 from graphpose.io.calibration import write_camera
 from graphpose.io.files import encode_png
 from graphpose.pose.estimate import pose_difference

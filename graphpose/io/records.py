@@ -1,4 +1,4 @@
-"""The command line's JSON records: one format, one set of units, for every subcommand.
+"""JSON records of results: one format, one set of units, for every subcommand and the batch.
 
 Every record, whether one image of ``graphpose estimate`` or one frame of ``graphpose
 track``, carries the same pose block:
@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry import params_from_T
-from ..io.files import to_jsonable
+from .files import to_jsonable
 from ..pose.intrinsics import SIGMA_PIXEL
 
 #: The keys every record has, in order.
