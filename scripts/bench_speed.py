@@ -43,7 +43,8 @@ from graphpose.detect.find import find_board
 from graphpose.detect.junctions import extract_junctions
 from graphpose.image import read_image
 from graphpose.io.files import encode_png
-from graphpose.pose.estimate import estimate_pose, fit_pose
+from graphpose.pipeline import estimate_pose
+from graphpose.pose.estimate import fit_pose
 from graphpose.pose.graph import graph_pose
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render

@@ -2,7 +2,7 @@
 
 :func:`estimate_images` is what a Dask worker runs (and what a plain loop runs, for a
 comparison): for each image it does what ``graphpose estimate IMAGE [--bounds ...]`` does
-(:func:`graphpose.image.read_image`, then :func:`graphpose.pose.estimate.estimate_pose`) and
+(:func:`graphpose.image.read_image`, then :func:`graphpose.pipeline.estimate_pose`) and
 turns the outcome into the record of :func:`graphpose.io.records.result_record`, so the pose
 of a row is the pose that command gives for that image (up to the last bits BLAS may change,
 docs/batch.md). A failure of one image
@@ -60,7 +60,7 @@ def estimate_images(items, camera, board: Board = Board(), robust: bool = False)
     board : Board
         The target.
     robust : bool
-        As :func:`graphpose.pose.estimate.estimate_pose`.
+        As :func:`graphpose.pipeline.estimate_pose`.
 
     Returns
     -------
@@ -69,7 +69,7 @@ def estimate_images(items, camera, board: Board = Board(), robust: bool = False)
     """
     from ..cli.options import board_hint
     from ..image import read_image
-    from ..pose.estimate import estimate_pose
+    from ..pipeline import estimate_pose
 
     worker = _worker_address()
     target = target_keys(camera, board)
@@ -107,8 +107,7 @@ def warm_up() -> None:
     """Import what :func:`estimate_images` needs, so that a worker's first image is not slower."""
     from skimage import io  # noqa: F401  (read_image's reader, imported on first use)
 
-    from ..detect import junctions  # noqa: F401  (estimate_pose imports it on first use)
-    from ..pose import estimate  # noqa: F401
+    from .. import pipeline  # noqa: F401  (estimate_pose, with the detector and the solvers)
 
 
 def failed_record(path, status: str, message: str, camera=None, board: Board = Board(), bounds=None,

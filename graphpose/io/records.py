@@ -85,7 +85,7 @@ def result_record(image, estimate=None, error=None) -> dict:
     image : str or Path
         The image, as the user named it.
     estimate : PoseEstimate or None
-        The pose (see :func:`graphpose.pose.estimate.estimate_pose`); None when the image failed.
+        The pose (see :func:`graphpose.pipeline.estimate_pose`); None when the image failed.
     error : str or None
         Why the image failed, or None.
 

@@ -11,7 +11,7 @@ projection through the sequence's camera, :mod:`graphpose.camera_models`, on the
 3. **Fit** the frame's own pose with the single-image pipeline's fit,
    :func:`graphpose.pose.estimate.fit_pose`: from the prediction, Gauss-Newton and, with
    ``robust``, its Huber gate on outlying junctions; the same input checks as
-   :func:`graphpose.pose.estimate.estimate_pose`.
+   :func:`graphpose.pipeline.estimate_pose`.
 4. **Fall back** to full extraction (:func:`graphpose.detect.junctions.extract_junctions`, then
    ``fit_pose`` from the homography) when too few junctions survive, when the motion is too
    fast to predict, or after a loss. Polygons are tried in turn: the caller's polygon for the

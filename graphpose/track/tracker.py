@@ -11,7 +11,7 @@ front end to predict the next frame. A frame without a usable board, or a frame 
 cannot be read, is lost: it gets no pose, and no motion factor spans it. At the end the whole
 sequence can be smoothed in batch.
 
-Inputs are checked once, here, as :func:`graphpose.pose.estimate.estimate_pose` checks them
+Inputs are checked once, here, as :func:`graphpose.pipeline.estimate_pose` checks them
 (:func:`graphpose._checks.check_bounds` for the bounds and every per-frame polygon, and
 :func:`graphpose.camera_models.check_image_size` for every frame against the camera's calibration).
 One camera (:mod:`graphpose.camera_models`) serves the whole chain: the front end's predictions,

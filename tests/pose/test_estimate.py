@@ -13,13 +13,13 @@ from graphpose import (
     read_image,
 )
 from graphpose.geometry import T_from_params, params_from_T, project, to_camera
+from graphpose.pipeline import estimate_pose
 from graphpose.pose.estimate import (
     AGREE_ROTATION_DEG,
     AGREE_TRANSLATION_M,
     CrossCheck,
     PoseEstimate,
     cross_check,
-    estimate_pose,
     estimate_pose_from_points,
     pose_difference,
 )
@@ -392,7 +392,9 @@ def test_without_bounds_a_symmetric_board_is_orientation_ambiguous(real_cases, r
 
 
 def _fake_extraction(monkeypatch, points, trusted, ambiguous=False):
-    """extract_junctions replaced by one returning these junctions (seen where finite)."""
+    """extract_junctions replaced, where the pipeline calls it, by one returning these junctions
+    (seen where finite)."""
+    from graphpose import pipeline
     from graphpose.detect import junctions as module
 
     seen = np.all(np.isfinite(points), axis=0)
@@ -404,7 +406,7 @@ def _fake_extraction(monkeypatch, points, trusted, ambiguous=False):
         calls.append((bounds, camera))
         return J
 
-    monkeypatch.setattr(module, "extract_junctions", fake)
+    monkeypatch.setattr(pipeline, "extract_junctions", fake)
     return calls
 
 
