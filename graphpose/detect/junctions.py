@@ -19,12 +19,14 @@ from .._checks import check_bounds, check_number
 from ..board import Board
 from ..errors import BoardNotFoundError
 from .find import find_board
+from .noise import estimate_noise, grey_range
 from .grid import apply_homography, fit_homography, square_sides
 from .refine import (
     MAX_RADIUS,
     SMOOTH_SIGMA,
     WINDOW_FRACTION,
     grey_and_scale,
+    noise_smoothing,
     refine_points,
 )
 
@@ -130,7 +132,7 @@ def cross_junctions(I, bpoly, Wpts) -> np.ndarray:
 
 
 def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, window: float = WINDOW_FRACTION,
-                      smooth_sigma: float = SMOOTH_SIGMA) -> Junctions:
+                      smooth_sigma: float | None = None) -> Junctions:
     """Find, label and refine the cross-junctions of a checkerboard.
 
     Parameters
@@ -151,8 +153,10 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
         and :attr:`Junctions.homography` then maps the grid to undistorted pixels.
     window : float
         Refinement window radius as a fraction of the local square side, in (0, 0.7].
-    smooth_sigma : float
-        Gaussian smoothing of refinement patches, pixels (>= 0).
+    smooth_sigma : float, optional
+        Gaussian smoothing of refinement patches, pixels (>= 0). By default it follows the
+        image's noise over the board's contrast (:func:`graphpose.detect.refine.noise_smoothing`):
+        :data:`graphpose.detect.refine.SMOOTH_SIGMA` on clean images, more under noise.
 
     Returns
     -------
@@ -183,7 +187,8 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
     image, scale = grey_and_scale(I, _MIN_SIDE)
     poly = None if bounds is None else check_bounds(bounds, image.shape)
     window = check_number("window (a fraction of the square)", window, 0.0, strict=True, maximum=0.7)
-    smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
+    if smooth_sigma is not None:
+        smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
     lens = None
     if camera is not None:
         from ..cameras import as_camera, check_image_size
@@ -197,12 +202,27 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
     square = np.full(board.n, np.nan)
     square[seen] = square_sides(fit_homography(grid[:, seen], found.points[:, seen]), grid[:, seen])
     radius = np.minimum(window * square[seen], MAX_RADIUS)
+    if smooth_sigma is None:
+        smooth_sigma = board_smoothing(image, found.points[:, seen], square[seen])
     points = np.full((2, board.n), np.nan)
     ok = np.zeros(board.n, dtype=bool)
     residual = np.full(board.n, np.nan)
     points[:, seen], ok[seen], residual[seen] = refine_points(image, found.points[:, seen], radius, smooth_sigma,
                                                               lens=lens)
     return _judge(points, ok, residual * scale, square, grid, seen, found.orientation_ambiguous, lens)
+
+
+def board_smoothing(image: np.ndarray, points: np.ndarray, square: np.ndarray) -> float:
+    """Refinement smoothing for the board at ``points`` (2, m) with squares ``square`` (m,)
+    px: :func:`graphpose.detect.refine.noise_smoothing` of the image's noise over the grey
+    range of the board's bounding box (5th to 95th percentile: its black and white squares)."""
+    lo = np.maximum(np.floor(np.nanmin(points, axis=1)).astype(int), 0)
+    hi = np.ceil(np.nanmax(points, axis=1)).astype(int) + 1
+    crop = image[lo[1]:hi[1], lo[0]:hi[0]]
+    if min(crop.shape) < 3:
+        return SMOOTH_SIGMA
+    contrast = grey_range(crop, stride=2, tail=5.0)
+    return noise_smoothing(estimate_noise(image), contrast, float(np.nanmedian(square)))
 
 
 def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None) -> Junctions:
