@@ -196,14 +196,15 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
         lens = as_camera(camera)
         check_image_size(lens, image.shape)
         lens = None if not np.any(lens.distortion) else lens
-    found = find_board(image, board, poly)
+    noise = estimate_noise(image) if smooth_sigma is None else None
+    found = find_board(image, board, poly, noise=noise)
     seen = found.seen
     grid = board.grid_indices().astype(float)
     square = np.full(board.n, np.nan)
     square[seen] = square_sides(fit_homography(grid[:, seen], found.points[:, seen]), grid[:, seen])
     radius = np.minimum(window * square[seen], MAX_RADIUS)
     if smooth_sigma is None:
-        smooth_sigma = board_smoothing(image, found.points[:, seen], square[seen])
+        smooth_sigma = board_smoothing(image, found.points[:, seen], square[seen], noise)
     points = np.full((2, board.n), np.nan)
     ok = np.zeros(board.n, dtype=bool)
     residual = np.full(board.n, np.nan)
@@ -212,17 +213,19 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
     return _judge(points, ok, residual * scale, square, grid, seen, found.orientation_ambiguous, lens)
 
 
-def board_smoothing(image: np.ndarray, points: np.ndarray, square: np.ndarray) -> float:
+def board_smoothing(image: np.ndarray, points: np.ndarray, square: np.ndarray, noise: float | None = None) -> float:
     """Refinement smoothing for the board at ``points`` (2, m) with squares ``square`` (m,)
-    px: :func:`graphpose.detect.refine.noise_smoothing` of the image's noise over the grey
-    range of the board's bounding box (5th to 95th percentile: its black and white squares)."""
+    px: :func:`graphpose.detect.refine.noise_smoothing` of the image's ``noise`` (measured
+    when None) over the grey range of the board's bounding box (5th to 95th percentile: its
+    black and white squares)."""
     lo = np.maximum(np.floor(np.nanmin(points, axis=1)).astype(int), 0)
     hi = np.ceil(np.nanmax(points, axis=1)).astype(int) + 1
     crop = image[lo[1]:hi[1], lo[0]:hi[0]]
     if min(crop.shape) < 3:
         return SMOOTH_SIGMA
     contrast = grey_range(crop, stride=2, tail=5.0)
-    return noise_smoothing(estimate_noise(image), contrast, float(np.nanmedian(square)))
+    noise = estimate_noise(image) if noise is None else noise
+    return noise_smoothing(noise, contrast, float(np.nanmedian(square)))
 
 
 def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None) -> Junctions:

@@ -17,7 +17,7 @@ sum to 36, so white noise of ``sigma`` grey levels gives a response of standard 
 ``6 sigma``; instead of Immerkaer's mean of absolute values, the median of absolute values
 (over 0.6745, the median of ``|N(0, 1)|``) is used, which the edges of a board, up to half
 the pixels, do not move. Rows and columns are taken every ``stride`` pixels (the default
-3 reads a ninth of the mask's positions): the noise is the same everywhere, and so is its estimate.
+4 reads a sixteenth of the mask's positions, some 19,000 at 640 x 480): the noise is the same everywhere, and so is its estimate.
 
 Quantisation to whole grey levels adds its own noise (1/12 grey level squared), which is
 also noise to the search: it is part of the figure.
@@ -38,7 +38,7 @@ from ..errors import InputError
 _MAD_TO_SIGMA = 1.0 / 0.6744897501960817
 
 
-def estimate_noise(image: np.ndarray, *, stride: int = 3) -> float:
+def estimate_noise(image: np.ndarray, *, stride: int = 4) -> float:
     """Standard deviation of the image's pixel noise, in the image's grey units.
 
     Parameters
@@ -83,9 +83,14 @@ def estimate_noise(image: np.ndarray, *, stride: int = 3) -> float:
 
 
 def grey_range(image: np.ndarray, *, stride: int = 3, tail: float = 1.0) -> float:
-    """The image's grey range: its ``100 - tail`` th percentile less its ``tail`` th, over
+    """The image's grey range: its ``100 - tail`` th percentile less its ``tail`` th (the
+    nearest sample's), over
     every ``stride``-th row and column, in the image's grey units (the scale
     :func:`estimate_noise` is read against: a board's black and white squares, or the
     scene's darkest and brightest)."""
-    lo, hi = np.percentile(image[::stride, ::stride], [tail, 100.0 - tail])
-    return float(hi - lo)
+    values = image[::stride, ::stride].ravel()
+    if values.size == 0:
+        return 0.0
+    k = np.rint(np.array([tail, 100.0 - tail]) / 100.0 * (values.size - 1)).astype(int)
+    lo, hi = np.partition(values, k)[k]
+    return float(hi) - float(lo)
