@@ -57,6 +57,7 @@ SCHEMA = {
     "cross_check_rotation_deg": "double",
     "cross_check_agree": "bool",
     "orientation_ambiguous": "bool",
+    "junction0_square": "string",
     "time_s": "double",
     "worker": "string",
 }

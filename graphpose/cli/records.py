@@ -94,14 +94,16 @@ def result_record(image, estimate=None, error=None) -> dict:
         ``cross_check`` (``translation_m``, ``rotation_deg``, ``agree``) and
         ``orientation_ambiguous`` (true when the board is unchanged by a half turn and no
         bounds named junction 0's corner: junction 0 is then the corner nearest the image's
-        upper left; null without an estimate).
+        upper left; null without an estimate) and ``junction0_square`` (``"dark"`` or
+        ``"light"``: the colour of junction 0's outer corner square as seen in the image, light
+        when bounds named a corner the colours would not; null without junctions).
     """
     status = "failed" if error else "ok"
     record = {"image": str(image)}
     if estimate is None:
         record.update(pose_block(status, error))
         record.update(converged=False, iterations=None, junctions=None, trusted=None, cross_check=None,
-                      orientation_ambiguous=None)
+                      orientation_ambiguous=None, junction0_square=None)
         return to_jsonable(record)
     check = estimate.cross_check
     junctions = estimate.junctions
@@ -115,6 +117,7 @@ def result_record(image, estimate=None, error=None) -> dict:
         cross_check={"translation_m": float(check.translation_m),
                      "rotation_deg": float(check.rotation_deg), "agree": bool(check.agree)},
         orientation_ambiguous=bool(getattr(estimate, "orientation_ambiguous", False)),
+        junction0_square=getattr(junctions, "junction0_square", None),
     )
     return to_jsonable(record)
 

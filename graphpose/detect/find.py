@@ -49,12 +49,15 @@ class FoundBoard:
         Local lattice step (pixels) at each seen junction; NaN elsewhere.
     orientation_ambiguous : bool
         See :class:`graphpose.detect.identify.Identity`.
+    junction0_square : str or None
+        ``"dark"`` or ``"light"``, see :class:`graphpose.detect.identify.Identity`.
     """
 
     points: np.ndarray
     seen: np.ndarray
     step_px: np.ndarray
     orientation_ambiguous: bool
+    junction0_square: str | None = None
 
 
 def find_board(image: np.ndarray, board: Board, bounds=None, *, noise: float | None = None) -> FoundBoard:
@@ -210,7 +213,7 @@ def _found(lattice, identity, board) -> FoundBoard:
     step[identity.index] = step_lengths(nodes, [tuple(k) for k in lattice.keys])
     seen = np.zeros(board.n, dtype=bool)
     seen[identity.index] = True
-    return FoundBoard(points, seen, step, identity.orientation_ambiguous)
+    return FoundBoard(points, seen, step, identity.orientation_ambiguous, identity.junction0_square)
 
 
 def _grow(bounds) -> np.ndarray:

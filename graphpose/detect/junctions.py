@@ -11,7 +11,7 @@ Coordinates follow :mod:`graphpose.camera`: ``(u, v)`` pixels, 0-based, 2 x N ar
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -83,6 +83,12 @@ class Junctions:
         bounds said which corner is junction 0: the labels then follow the rule that
         junction 0 is the corner junction nearest the image's upper-left corner
         (``docs/conventions.md``), and the pose is one of two (or four) that fit equally.
+    junction0_square : str or None
+        ``"dark"`` or ``"light"``: the colour of junction 0's outer corner square (the
+        board's corner square diagonally beyond junction 0 from its neighbours), measured in
+        the image. Dark unless bounds named junction 0 at a corner whose square is light
+        (``docs/conventions.md``), so two images that name different physical corners say
+        so. None when the junctions were not extracted from an image.
     """
 
     points: np.ndarray
@@ -92,6 +98,7 @@ class Junctions:
     homography: np.ndarray
     seen: np.ndarray
     orientation_ambiguous: bool = False
+    junction0_square: str | None = None
 
 
 def cross_junctions(I, bpoly, Wpts) -> np.ndarray:
@@ -210,7 +217,8 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
     residual = np.full(board.n, np.nan)
     points[:, seen], ok[seen], residual[seen] = refine_points(image, found.points[:, seen], radius, smooth_sigma,
                                                               lens=lens)
-    return _judge(points, ok, residual * scale, square, grid, seen, found.orientation_ambiguous, lens)
+    J = _judge(points, ok, residual * scale, square, grid, seen, found.orientation_ambiguous, lens)
+    return replace(J, junction0_square=found.junction0_square)
 
 
 def board_smoothing(image: np.ndarray, points: np.ndarray, square: np.ndarray, noise: float | None = None) -> float:

@@ -27,7 +27,8 @@ from graphpose.pose.estimate import pose_difference
 from tests.conftest import REPO, opencv_file, real_file
 
 BUNDLED = REPO / "graphpose" / "data" / "cases.json"
-KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check", "orientation_ambiguous"}
+KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check", "orientation_ambiguous",
+        "junction0_square"}
 
 
 def graphpose(*args, cwd=None):
@@ -461,6 +462,7 @@ def test_a_raw_image_with_its_calibration_file(tmp_path):
     assert "agree" in result.stdout and "orientation" not in result.stdout
     (record,) = json.loads((tmp_path / "out.json").read_text())
     assert record["status"] == "ok" and record["orientation_ambiguous"] is False
+    assert record["junction0_square"] == "dark"  # the colour rule's corner: no bounds
     assert record["reprojection_rms_px"] < 0.2  # 0.11 px; fitted as a pinhole the raw image gives 0.99
     assert png_size(tmp_path / "left01.png") == (640, 480)
     camera = read_camera(opencv_file("left.opencv.yml"))
