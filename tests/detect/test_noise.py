@@ -15,6 +15,7 @@ from graphpose.detect.noise import estimate_noise, grey_range
 from graphpose.detect.refine import MAX_SMOOTH_SIGMA, SMOOTH_SIGMA, noise_smoothing
 from graphpose.detect.search import find_candidates, noise_floor
 from graphpose.synth.render import loose_polygon, random_pose, render
+from graphpose.track.frontend import board_symmetries
 
 K = K_from_params(564.9, 564.3, 337.3, 226.5)
 
@@ -120,18 +121,8 @@ def test_noisy_images_are_never_mislabelled():
             continue
         truth = R.junctions
         errors = [np.hypot(*(J.points[:, J.trusted] - truth[:, perm][:, J.trusted])).max()
-                  for perm in _symmetries(board)]
+                  for perm in board_symmetries(board)]
         assert min(errors) < 1.0, (seed, errors)
-
-
-def _symmetries(board):
-    idx = np.arange(board.n)
-    c, r = idx % board.cols, idx // board.cols
-    perms = [idx, idx[::-1]]
-    if board.cols == board.rows:
-        n = board.cols - 1
-        perms += [c * board.cols + (n - r), (n - c) * board.cols + r]
-    return perms
 
 
 def test_clean_images_take_the_fast_path_only(monkeypatch):
