@@ -6,6 +6,14 @@ each with board indices from the evidence of its edges (:mod:`.identify`). The l
 lattice that can be labelled is the board. Without bounds, a second lattice that can be
 labelled as a board of its own (half the board's junctions or more, away from the first)
 makes the image ambiguous and is refused: bounds must say which board is meant.
+
+The search runs its fast path first (:func:`graphpose.detect.search.search_levels`, with
+candidates relative to the strongest peaks). Where that finds no whole board in an image
+whose noise (:func:`graphpose.detect.noise.estimate_noise`) is at least :data:`NOISY` of
+its grey range, the noise-aware search follows (:func:`noise_levels`): coarser levels,
+where a large square's junction is judged at its square's scale, and candidates above a
+floor set by the measured noise (:func:`graphpose.detect.search.noise_floor`). Both grow
+and label lattices the same way, from the same evidence; the most complete board is kept.
 """
 
 from __future__ import annotations
