@@ -12,6 +12,11 @@ from ._checks import as_float_array, check_correspondences
 from .camera_models import as_camera
 from .errors import InputError
 
+#: Fewest junctions a pose rests on (six, not all on one line): the detector's verdict
+#: (:func:`graphpose.detect.junctions.extract_junctions`) and the pipeline
+#: (:func:`graphpose.pipeline.estimate_pose`) refuse fewer trusted ones.
+MIN_JUNCTIONS = 6
+
 
 def check_observations(camera, Ipts, Wpts, mask=None):
     """Validate a camera, image and target points and a trust mask at a public edge.

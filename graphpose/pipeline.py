@@ -19,10 +19,8 @@ from .board import Board, check_board
 from .camera_models import as_camera
 from .detect.junctions import extract_junctions
 from .errors import BoardNotFoundError
+from .observations import MIN_JUNCTIONS
 from .pose.estimate import PoseEstimate, estimate_pose_unchecked
-
-#: Fewest trusted junctions :func:`estimate_pose` rests a pose on (not all on one line).
-MIN_JUNCTIONS = 6
 
 
 def estimate_pose(image, bounds, camera, board: Board = Board(), guess=None, *,
@@ -79,7 +77,7 @@ def estimate_pose(image, bounds, camera, board: Board = Board(), guess=None, *,
 
 
 def _check_geometry(trusted, board) -> None:
-    """Refuse fewer than :data:`MIN_JUNCTIONS` trusted junctions, or ones all on one line."""
+    """Refuse fewer than :data:`graphpose.observations.MIN_JUNCTIONS` trusted junctions, or ones all on one line."""
     m = int(np.count_nonzero(trusted))
     if m < MIN_JUNCTIONS:
         raise BoardNotFoundError(f"only {m} junctions are trusted; a pose needs {MIN_JUNCTIONS}, not all on one line")

@@ -6,7 +6,7 @@
     python scripts/bench.py SECTION ... --update [--json PATH] [--page PATH]
     python scripts/bench_<section>.py [--quick]       # the same as: bench.py SECTION [--quick]
 
-SECTION is any of: junctions, detect, pose, lens, calibration, speed, tracking, batch (default: all). Each section lives in
+SECTION is any of: junctions, detect, noise, pose, lens, calibration, speed, tracking, batch (default: all). Each section lives in
 ``scripts/bench_<section>.py``; its ``main(quick)`` measures and returns its figures as a
 dict (below). This script adds the run's header (date, machine, versions, commit), writes
 everything to ``docs/benchmarks.json`` and renders ``docs/benchmarks.md`` from that JSON with
@@ -54,7 +54,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 JSON_PATH = REPO / "docs" / "benchmarks.json"
 PAGE_PATH = REPO / "docs" / "benchmarks.md"
-SECTIONS = ("junctions", "detect", "pose", "lens", "calibration", "speed", "tracking", "batch")
+SECTIONS = ("junctions", "detect", "noise", "pose", "lens", "calibration", "speed", "tracking", "batch")
 #: Version of the JSON layout described in the module docstring.
 FORMAT = 1
 #: Distributions whose versions move the figures; OpenCV ships under several names.

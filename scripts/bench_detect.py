@@ -66,13 +66,21 @@ def symmetries(board: Board) -> list:
     return out
 
 
+def best_errors(points, trusted, truth, perms) -> np.ndarray:
+    """Distances (px) of the trusted points to the truth under the relabelling in ``perms`` that
+    fits best (smallest largest distance); empty when nothing is trusted."""
+    best = None
+    for perm in perms:
+        err = np.hypot(*(points[:, trusted] - truth[:, perm[trusted]]))
+        if err.size and (best is None or err.max() < best.max()):
+            best = err
+    return np.array([]) if best is None else best
+
+
 def verdict(points, trusted, truth, board) -> str:
     """'right' or 'mislabelled' for a result (points (2, n) in label order, trusted mask)."""
-    best = np.inf
-    for perm in symmetries(board):
-        err = np.hypot(*(points[:, trusted] - truth[:, perm[trusted]]))
-        best = min(best, float(err.max()) if err.size else np.inf)
-    return "right" if best <= 1.0 else "mislabelled"
+    err = best_errors(points, trusted, truth, symmetries(board))
+    return "right" if err.size and err.max() <= 1.0 else "mislabelled"
 
 
 def scene(rng, k: int, cls: str, size=(640, 480)):
@@ -94,10 +102,10 @@ def scene(rng, k: int, cls: str, size=(640, 480)):
         margin=float(rng.choice([0.15, 0.5, 1.0]))), board
 
 
-def run_ours(image, board):
+def run_ours(image, board, polygon=None):
     t = time.perf_counter()
     try:
-        J = extract_junctions(image, None, board)
+        J = extract_junctions(image, polygon, board)
     except BoardNotFoundError:
         return None, time.perf_counter() - t
     return (J.points, J.trusted), time.perf_counter() - t

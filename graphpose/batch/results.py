@@ -65,6 +65,7 @@ SCHEMA = {
     "sigma_kind": "string",
     "sigma_pixel_xyz_m": "list<double>",
     "sigma_pixel_rpy_deg": "list<double>",
+    "junction0_square": "string",
     "time_s": "double",
     "worker": "string",
     "camera": "string",

@@ -6,6 +6,14 @@ each with board indices from the evidence of its edges (:mod:`.identify`). The l
 lattice that can be labelled is the board. Without bounds, a second lattice that can be
 labelled as a board of its own (half the board's junctions or more, away from the first)
 makes the image ambiguous and is refused: bounds must say which board is meant.
+
+The search runs its fast path first (:func:`graphpose.detect.search.search_levels`, with
+candidates relative to the strongest peaks). Where that finds no whole board in an image
+whose noise (:func:`graphpose.detect.noise.estimate_noise`) is at least :data:`NOISY` of
+its grey range, the noise-aware search follows (:func:`noise_levels`): coarser levels,
+where a large square's junction is judged at its square's scale, and candidates above a
+floor set by the measured noise (:func:`graphpose.detect.search.noise_floor`). Both grow
+and label lattices the same way, from the same evidence; the most complete board is kept.
 """
 
 from __future__ import annotations
@@ -18,6 +26,7 @@ from ..board import Board
 from ..errors import BoardNotFoundError, InputError
 from .identify import identify
 from .lattice import grow_lattices, step_lengths
+from .noise import estimate_noise, grey_range
 from .search import find_candidates, search_levels
 
 #: Bounds are grown by this fraction of their size (and 4 px) before they select seeds.
@@ -26,6 +35,12 @@ BOUNDS_SLACK = 0.1
 #: part of one a bar splits) while their response is at least this fraction of its seed's:
 #: a board of a third of the first's contrast still seeds (the response goes as contrast^2).
 SECOND_BOARD_FRACTION = 0.05
+#: The noise-aware search's coarsest level is at least this many pixels on its shorter side.
+MIN_LEVEL_SIDE = 48
+#: The noise-aware search runs when the image's noise is at least this fraction of its grey
+#: range (:func:`graphpose.detect.noise.grey_range`): 2 grey levels of noise on a board's
+#: black (35) to white (215) is about 0.011, real images of the course's camera 0.006.
+NOISY = 0.015
 
 
 @dataclass(frozen=True)
@@ -42,15 +57,18 @@ class FoundBoard:
         Local lattice step (pixels) at each seen junction; NaN elsewhere.
     orientation_ambiguous : bool
         See :class:`graphpose.detect.identify.Identity`.
+    junction0_square : str or None
+        ``"dark"`` or ``"light"``, see :class:`graphpose.detect.identify.Identity`.
     """
 
     points: np.ndarray
     seen: np.ndarray
     step_px: np.ndarray
     orientation_ambiguous: bool
+    junction0_square: str | None = None
 
 
-def find_board(image: np.ndarray, board: Board, bounds=None) -> FoundBoard:
+def find_board(image: np.ndarray, board: Board, bounds=None, *, noise: float | None = None) -> FoundBoard:
     """Find and label the board's junctions in a grey image.
 
     Parameters
@@ -64,6 +82,9 @@ def find_board(image: np.ndarray, board: Board, bounds=None) -> FoundBoard:
         are taken inside it (grown by :data:`BOUNDS_SLACK`) and its first vertex fixes the
         orientation. Growth and labels come from the image, so bounds a little off change
         nothing.
+    noise : float, optional
+        The image's pixel noise, grey units, if already measured; else the noise-aware
+        search measures it (:func:`graphpose.detect.noise.estimate_noise`) when it runs.
 
     Returns
     -------
@@ -84,26 +105,70 @@ def find_board(image: np.ndarray, board: Board, bounds=None) -> FoundBoard:
         raise InputError(f"find_board takes a grey (H, W) image, got shape {image.shape}")
     region = None if bounds is None else _grow(bounds)
     best, refusals = None, []
-    # Coarsest level first (half resolution for a VGA image, an eighth for 12 MP); squares
-    # too small for it (under about 6 of its pixels) hide there: then the next finer level.
-    # A partial board found above half resolution may have its far, small squares hidden
-    # there: the levels down to half resolution are searched too, the most complete kept.
+    # The fast path: coarsest level first (half resolution for a VGA image, an eighth for
+    # 12 MP); squares too small for it (under about 6 of its pixels) hide there: then the
+    # next finer level. A partial board found above half resolution may have its far,
+    # small squares hidden there: the levels down to half resolution are searched too.
+    searched = []
     for level in search_levels(image.shape):
-        try:
-            found = _search(image, board, bounds, region, level)
-        except BoardNotFoundError as exc:
-            refusals.append(exc)
-        else:
-            if best is None or found.seen.sum() > best.seen.sum():
-                best = found
+        searched.append(level)
+        best = _keep(best, refusals, image, board, bounds, region, level, None)
         if best is not None and (best.seen.all() or level <= 1):
-            return best
+            break
+    if best is not None and best.seen.all():
+        return best
+    # The noise-aware search, where the fast path found no board or part of one in an
+    # image whose noise is at least NOISY of its grey range: every level from the coarsest
+    # a board fits (where a large square's junction is judged at the scale of its square,
+    # and block means average the noise away) to half resolution, its candidates above the
+    # response's noise floor (search.noise_floor) rather than only above a fraction of the
+    # strongest peaks, which noise on the board's edges raises. On cleaner images the fast
+    # path has seen all there is.
+    sigma = estimate_noise(image) if noise is None else float(noise)
+    if sigma >= NOISY * grey_range(image):
+        searched = set(searched)
+        for level in noise_levels(image.shape):
+            best = _keep(best, refusals, image, board, bounds, region, level, sigma, level in searched)
+            if best is not None and best.seen.all():
+                break
+    if best is not None:
+        return best
     raise max(refusals, key=lambda e: getattr(e, "junctions_seen", 0)) from None
 
 
-def _search(image, board, bounds, region, level) -> FoundBoard:
-    """:func:`find_board` at one search level."""
-    cands = find_candidates(image, region, level=level)
+def noise_levels(shape, *, side: int = MIN_LEVEL_SIDE) -> range:
+    """Levels of the noise-aware search, coarsest first: from the coarsest whose image is
+    at least ``side`` pixels on its shorter side (a board of a few squares of about 6 of its
+    pixels fits) down to half resolution (the full image for images too small for that)."""
+    short = min(shape[:2])
+    coarsest = 0
+    while short / 2 ** (coarsest + 1) >= side:
+        coarsest += 1
+    return range(coarsest, min(coarsest, 1) - 1, -1)
+
+
+def _keep(best, refusals, image, board, bounds, region, level, noise, again=False):
+    """The more complete of ``best`` and the board found at ``level`` (refusals noted);
+    ``again``: the level was searched without the noise floor, and is searched again only
+    if the floor changes its candidates."""
+    try:
+        found = _search(image, board, bounds, region, level, noise, again)
+    except BoardNotFoundError as exc:
+        if getattr(exc, "two_boards", False):
+            raise  # two boards seen at any level: only bounds can say which is meant
+        refusals.append(exc)
+        return best
+    if found is None or (best is not None and found.seen.sum() <= best.seen.sum()):
+        return best
+    return found
+
+
+def _search(image, board, bounds, region, level, noise=None, again=False) -> FoundBoard | None:
+    """:func:`find_board` at one search level (with ``noise``, above its floor); ``again``:
+    None at once when the floor leaves the candidates as they were (searched already)."""
+    cands = find_candidates(image, region, level=level, noise=noise)
+    if again and not cands.noise_limited:
+        return None
     where = "inside the bounds" if bounds is not None else "in the image"
     if cands.seed.sum() < 1 or cands.points.shape[1] < 4:
         raise _refusal(f"no checkerboard {where}: {int(cands.seed.sum())} junction-like points", 0)
@@ -132,8 +197,10 @@ def _search(image, board, bounds, region, level) -> FoundBoard:
     # board of half the spec's junctions or more makes the image ambiguous.
     if bounds is None and len(labelled) > 1 and len(labelled[1][0].keys) >= board.n // 2:
         a, b = (li[0].points.mean(axis=1) for li in labelled[:2])
-        raise _refusal(f"two checkerboards in the image, around ({a[0]:.0f}, {a[1]:.0f}) and "
+        exc = _refusal(f"two checkerboards in the image, around ({a[0]:.0f}, {a[1]:.0f}) and "
                        f"({b[0]:.0f}, {b[1]:.0f}) px; give bounds to say which one", board.n)
+        exc.two_boards = True
+        raise exc
     lattice, identity = labelled[0]
     return _found(lattice, identity, board)
 
@@ -154,7 +221,7 @@ def _found(lattice, identity, board) -> FoundBoard:
     step[identity.index] = step_lengths(nodes, [tuple(k) for k in lattice.keys])
     seen = np.zeros(board.n, dtype=bool)
     seen[identity.index] = True
-    return FoundBoard(points, seen, step, identity.orientation_ambiguous)
+    return FoundBoard(points, seen, step, identity.orientation_ambiguous, identity.junction0_square)
 
 
 def _grow(bounds) -> np.ndarray:

@@ -27,12 +27,18 @@ dark. A board whose pattern is unchanged by a half turn (``cols + rows`` even) o
 quarter turn (square boards with ``cols`` even) cannot be oriented from the image alone.
 When all four corner squares share one colour (``cols`` and ``rows`` both even) the
 colours are not checked at all (a board printed with light corners is found as well);
-otherwise only labellings that put a dark corner square at junction 0 are kept (on a
-square board with ``cols`` odd, that rules out the quarter turns). Labellings that differ only by such a symmetry are the same physical
-ambiguity: without bounds the one whose junction 0 lies nearest the image's upper-left
-corner is chosen and ``orientation_ambiguous`` is set; with bounds, the bounds' first
-vertex names junction 0's corner. Labellings that differ otherwise (a small corner of a
-board could be any corner) are refused.
+otherwise, without bounds, only labellings that put a dark corner square at junction 0 are
+kept (on a square board with ``cols`` odd, that rules out the quarter turns). Labellings
+that differ only by such a symmetry are the same physical ambiguity: without bounds the one
+whose junction 0 lies nearest the image's upper-left corner is chosen and
+``orientation_ambiguous`` is set. With bounds, the bounds' first vertex names junction 0's
+corner whatever the colours say (the user's convention, e.g. the corner nearest the image's
+upper left): the colour rule orders boards found without bounds only, and
+``Identity.junction0_square`` says which colour junction 0's outer corner square has, so that
+two images naming different physical corners can be told apart. Bounds a quarter turn off
+(their first edge along a column of a board that is not square) are refused, and so are
+labellings that differ otherwise (a small corner of a board could be any corner) without
+bounds.
 """
 
 from __future__ import annotations
@@ -87,6 +93,10 @@ class Identity:
     sides : dict
         Evidence per lattice side ``(axis, direction)``: ``"edge"``, ``"continues"`` or
         ``"unknown"``.
+    junction0_square : str
+        ``"dark"`` or ``"light"``: the colour, measured in the image, of junction 0's outer
+        corner square (the board's corner square diagonally beyond junction 0 from its
+        neighbours). Dark under the colour rule; light when bounds named the other corner.
     """
 
     index: np.ndarray
@@ -94,6 +104,7 @@ class Identity:
     offset: np.ndarray
     orientation_ambiguous: bool
     sides: dict
+    junction0_square: str
 
 
 def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> Identity:
@@ -108,8 +119,9 @@ def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> 
     board : Board
         The spec: ``cols x rows`` inner junctions.
     bounds : (2, 4) ndarray, optional
-        The board's outline, clockwise from the corner nearest junction 0; it fixes the
-        orientation among the labellings the evidence allows.
+        The board's outline, clockwise from the corner nearest junction 0, its first edge
+        along a row: it names junction 0's corner among the labellings the board's edges
+        allow, whatever the square colours say.
 
     Returns
     -------
@@ -119,8 +131,10 @@ def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> 
     ------
     BoardNotFoundError
         If the lattice is larger than the board, a board of another size is seen whole,
-        the edges that would fix the labels are hidden, or the visible part fits several
-        places on the board. The message says which.
+        the edges that would fix the labels are hidden, the visible part fits several
+        places on the board, or the bounds do not run round the board from a corner with
+        their first edge along a row (a quarter turn off, or another corner order). The
+        message says which.
     """
     nodes = lattice.as_dict()
     step = float(np.median(step_lengths(nodes, [tuple(k) for k in lattice.keys])))
@@ -135,7 +149,8 @@ def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> 
     extent = hi - lo + 1
     # Junction 0's outer corner square is dark. When the four corner squares share one
     # colour (cols and rows both even), colours cannot tell the corners apart and are not
-    # checked, so a board printed with light corners is found as well.
+    # checked, so a board printed with light corners is found as well. Bounds name junction
+    # 0's corner themselves, whatever its colour.
     same_corners = board.cols % 2 == 0 and board.rows % 2 == 0
     found, reasons = [], []
     for M in ROTATIONS:
@@ -143,7 +158,7 @@ def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> 
         if isinstance(fit, tuple):
             reasons.append((M, *fit))
             continue
-        if not same_corners and not _colours_agree(M, fit, keys[0], dark_parity):
+        if bounds is None and not same_corners and not _colours_agree(M, fit, keys[0], dark_parity):
             reasons.append((M, "colour", None))
             continue
         found.append((M, fit))
@@ -163,7 +178,7 @@ def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> 
         M, t = min(found, key=lambda f: _corner_distance(f, H, board))
         ambiguous = len(found) > 1
     cr = keys @ M.T + t
-    return Identity(cr[:, 1] * board.cols + cr[:, 0], M, t, ambiguous, sides)
+    return Identity(cr[:, 1] * board.cols + cr[:, 0], M, t, ambiguous, sides, _junction0_square(M, t, dark_parity))
 
 
 def board_to_lattice(identity: Identity, board: Board) -> np.ndarray:
@@ -323,6 +338,12 @@ def _colours_agree(M, t, key, dark_parity) -> bool:
     return ((i + j) % 2 == dark_parity) == ((c + r) % 2 == 0)
 
 
+def _junction0_square(M, t, dark_parity) -> str:
+    """Colour of junction 0's outer corner square (board square (-1, -1) to (0, 0)) under a labelling."""
+    i, j = np.floor(M.T @ (np.array([-0.5, -0.5]) - t)).astype(int)  # its upper-left lattice key
+    return "dark" if (i + j) % 2 == dark_parity else "light"
+
+
 def _symmetric_pair(a, b, board) -> bool:
     """Do labellings a and b differ by a symmetry of the board (a rotation onto itself)?"""
     (Ma, ta), (Mb, tb) = a, b
@@ -355,12 +376,18 @@ def _check_bounds_order(fit, H, board, bounds) -> None:
     """Refuse bounds whose vertices do not run round the board from junction 0's corner.
 
     Each vertex must lie nearer its own corner junction (0, cols - 1, n - 1, (rows - 1)
-    cols, in that order) than any other: bounds started a corner late, or drawn round
-    one corner of the board, would otherwise name the wrong corner junction 0.
+    cols, in that order) than any other: bounds started a corner late (a quarter turn off,
+    said so on a board that is not square), or drawn round one corner of the board, would
+    otherwise name the wrong corner junction 0.
     """
     corners = _corners_in_image(fit, H, board)
     P = np.asarray(bounds, dtype=float)
     nearest = np.argmin(np.hypot(P[0][:, None] - corners[0][None], P[1][:, None] - corners[1][None]), axis=1)
+    if board.cols != board.rows and any(np.array_equal(nearest, np.roll(np.arange(4), s)) for s in (1, 3)):
+        raise BoardNotFoundError(
+            f"the bounds do not outline the board found: they are a quarter turn off (their first edge "
+            f"runs along a column of the {board.cols} x {board.rows} board); start them at junction 0's "
+            f"corner with the first edge along a row ({board.cols} junctions)")
     if not np.array_equal(nearest, np.arange(4)):
         k = int(np.flatnonzero(nearest != np.arange(4))[0])
         raise BoardNotFoundError(

@@ -11,20 +11,24 @@ Coordinates follow :mod:`graphpose.geometry`: ``(u, v)`` pixels, 0-based, 2 x N 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .._checks import check_bounds, check_number
 from ..board import Board
 from ..errors import BoardNotFoundError
+from ..geometry import apply_homography
+from ..observations import MIN_JUNCTIONS
 from .find import find_board
-from .grid import apply_homography, fit_homography, square_sides
+from .noise import estimate_noise, grey_range
+from .grid import fit_homography, square_sides
 from .refine import (
     MAX_RADIUS,
     SMOOTH_SIGMA,
     WINDOW_FRACTION,
     grey_and_scale,
+    noise_smoothing,
     refine_points,
 )
 
@@ -42,9 +46,6 @@ _GATE_PX = (0.3, 1.0)
 #: A junction whose fit residual exceeds this multiple of the board's median is not trusted
 #: (the six real images stay within 0.85-1.14 of their medians).
 _RESIDUAL_RATIO = 1.5
-
-#: Fewest trusted junctions a result may rest on (a pose needs six, not all on one line).
-MIN_TRUSTED = 6
 
 
 @dataclass(frozen=True)
@@ -81,6 +82,12 @@ class Junctions:
         bounds said which corner is junction 0: the labels then follow the rule that
         junction 0 is the corner junction nearest the image's upper-left corner
         (``docs/conventions.md``), and the pose is one of two (or four) that fit equally.
+    junction0_square : str or None
+        ``"dark"`` or ``"light"``: the colour of junction 0's outer corner square (the
+        board's corner square diagonally beyond junction 0 from its neighbours), measured in
+        the image. Dark unless bounds named junction 0 at a corner whose square is light
+        (``docs/conventions.md``), so two images that name different physical corners say
+        so. None when the junctions were not extracted from an image.
     """
 
     points: np.ndarray
@@ -90,6 +97,7 @@ class Junctions:
     homography: np.ndarray
     seen: np.ndarray
     orientation_ambiguous: bool = False
+    junction0_square: str | None = None
 
 
 def cross_junctions(I, bpoly, Wpts) -> np.ndarray:
@@ -130,7 +138,7 @@ def cross_junctions(I, bpoly, Wpts) -> np.ndarray:
 
 
 def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, window: float = WINDOW_FRACTION,
-                      smooth_sigma: float = SMOOTH_SIGMA) -> Junctions:
+                      smooth_sigma: float | None = None) -> Junctions:
     """Find, label and refine the cross-junctions of a checkerboard.
 
     Parameters
@@ -151,8 +159,10 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
         and :attr:`Junctions.homography` then maps the grid to undistorted pixels.
     window : float
         Refinement window radius as a fraction of the local square side, in (0, 0.7].
-    smooth_sigma : float
-        Gaussian smoothing of refinement patches, pixels (>= 0).
+    smooth_sigma : float, optional
+        Gaussian smoothing of refinement patches, pixels (>= 0). By default it follows the
+        image's noise over the board's contrast (:func:`graphpose.detect.refine.noise_smoothing`):
+        :data:`graphpose.detect.refine.SMOOTH_SIGMA` on clean images, more under noise.
 
     Returns
     -------
@@ -183,7 +193,8 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
     image, scale = grey_and_scale(I, _MIN_SIDE)
     poly = None if bounds is None else check_bounds(bounds, image.shape)
     window = check_number("window (a fraction of the square)", window, 0.0, strict=True, maximum=0.7)
-    smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
+    if smooth_sigma is not None:
+        smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
     lens = None
     if camera is not None:
         from ..camera_models import as_camera, check_image_size
@@ -191,18 +202,37 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
         lens = as_camera(camera)
         check_image_size(lens, image.shape)
         lens = None if not np.any(lens.distortion) else lens
-    found = find_board(image, board, poly)
+    noise = estimate_noise(image) if smooth_sigma is None else None
+    found = find_board(image, board, poly, noise=noise)
     seen = found.seen
     grid = board.grid_indices().astype(float)
     square = np.full(board.n, np.nan)
     square[seen] = square_sides(fit_homography(grid[:, seen], found.points[:, seen]), grid[:, seen])
     radius = np.minimum(window * square[seen], MAX_RADIUS)
+    if smooth_sigma is None:
+        smooth_sigma = board_smoothing(image, found.points[:, seen], square[seen], noise)
     points = np.full((2, board.n), np.nan)
     ok = np.zeros(board.n, dtype=bool)
     residual = np.full(board.n, np.nan)
     points[:, seen], ok[seen], residual[seen] = refine_points(image, found.points[:, seen], radius, smooth_sigma,
                                                               lens=lens)
-    return _judge(points, ok, residual * scale, square, grid, seen, found.orientation_ambiguous, lens)
+    J = _judge(points, ok, residual * scale, square, grid, seen, found.orientation_ambiguous, lens)
+    return replace(J, junction0_square=found.junction0_square)
+
+
+def board_smoothing(image: np.ndarray, points: np.ndarray, square: np.ndarray, noise: float | None = None) -> float:
+    """Refinement smoothing for the board at ``points`` (2, m) with squares ``square`` (m,)
+    px: :func:`graphpose.detect.refine.noise_smoothing` of the image's ``noise`` (measured
+    when None) over the grey range of the board's bounding box (5th to 95th percentile: its
+    black and white squares)."""
+    lo = np.maximum(np.floor(np.nanmin(points, axis=1)).astype(int), 0)
+    hi = np.ceil(np.nanmax(points, axis=1)).astype(int) + 1
+    crop = image[lo[1]:hi[1], lo[0]:hi[0]]
+    if min(crop.shape) < 3:
+        return SMOOTH_SIGMA
+    contrast = grey_range(crop, stride=2, tail=5.0)
+    noise = estimate_noise(image) if noise is None else noise
+    return noise_smoothing(noise, contrast, float(np.nanmedian(square)))
 
 
 def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None) -> Junctions:
@@ -216,7 +246,7 @@ def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None) -> Ju
         flat[:, seen] = lens.undistort_pixels(points[:, seen])
     ok = ok & np.all(np.isfinite(flat), axis=0)
     n_seen = int(seen.sum())
-    need = max(MIN_TRUSTED, n_seen // 2)
+    need = max(MIN_JUNCTIONS, n_seen // 2)
     if ok.sum() < need:
         raise BoardNotFoundError(
             f"only {int(ok.sum())} of the {n_seen} junctions seen could be refined to a saddle "

@@ -101,7 +101,10 @@ def result_record(image, estimate=None, error=None) -> dict:
         ``cross_check`` (``translation_m``, ``rotation_deg``, ``agree``),
         ``orientation_ambiguous`` (true when the board is unchanged by a half turn and no
         bounds named junction 0's corner: junction 0 is then the corner nearest the image's
-        upper left; null without an estimate), and ``sigma_kind`` (what the sigmas describe:
+        upper left; null without an estimate), ``junction0_square`` (``"dark"`` or
+        ``"light"``: the colour of junction 0's outer corner square as seen in the image, light
+        when bounds named a corner the colours would not; null without junctions), and
+        ``sigma_kind`` (what the sigmas describe:
         ``"pixel noise"``, or ``"pixel noise and calibration"`` for a camera file with the
         intrinsics' covariance) with ``sigma_pixel_xyz_m`` and ``sigma_pixel_rpy_deg`` (the
         pixel noise's share alone; the sigmas themselves when that is all there is).
@@ -111,8 +114,8 @@ def result_record(image, estimate=None, error=None) -> dict:
     if estimate is None:
         record.update(pose_block(status, error))
         record.update(converged=False, iterations=None, junctions=None, trusted=None, cross_check=None,
-                      orientation_ambiguous=None, sigma_kind=None, sigma_pixel_xyz_m=None,
-                      sigma_pixel_rpy_deg=None)
+                      orientation_ambiguous=None, junction0_square=None, sigma_kind=None,
+                      sigma_pixel_xyz_m=None, sigma_pixel_rpy_deg=None)
         return to_jsonable(record)
     check = estimate.cross_check
     junctions = estimate.junctions
@@ -126,6 +129,7 @@ def result_record(image, estimate=None, error=None) -> dict:
         cross_check={"translation_m": float(check.translation_m),
                      "rotation_deg": float(check.rotation_deg), "agree": bool(check.agree)},
         orientation_ambiguous=bool(getattr(estimate, "orientation_ambiguous", False)),
+        junction0_square=getattr(junctions, "junction0_square", None),
     )
     pixel = pose_block(status, None, estimate.T_WC, getattr(estimate, "cov_pixel", estimate.cov))
     record.update(sigma_kind=getattr(estimate, "sigma_kind", SIGMA_PIXEL), sigma_pixel_xyz_m=pixel["sigma_xyz_m"],

@@ -5,14 +5,18 @@ projection through the sequence's camera, :mod:`graphpose.camera_models`, on the
 
 1. **Predict** the pose from the last two frames with a constant body-frame twist
    (:func:`constant_velocity_prediction`), and every junction's pixel position from it.
-2. **Refine** the predictions with the saddle fit (:func:`graphpose.detect.refine.refine_junctions`);
+2. **Refine** the predictions with the saddle fit (:func:`graphpose.detect.refine.refine_junctions`),
+   its smoothing set from the image's noise over the board's contrast as measured at the
+   last detection (:func:`graphpose.detect.junctions.board_smoothing`: as on single images,
+   more smoothing on noisy frames, so that the fits converge and pass the ring test there);
    drop the untrusted fits and the fits that wandered more than ``gate_px`` from their
    prediction.
 3. **Fit** the frame's own pose with the single-image pipeline's fit,
    :func:`graphpose.pose.estimate.fit_pose`: from the prediction, Gauss-Newton and, with
    ``robust``, its Huber gate on outlying junctions; the same input checks as
    :func:`graphpose.pipeline.estimate_pose`.
-4. **Fall back** to full extraction (:func:`graphpose.detect.junctions.extract_junctions`, then
+4. **Fall back** to full extraction (:func:`graphpose.detect.junctions.extract_junctions`, with
+   its noise-aware search on noisy frames, then
    ``fit_pose`` from the homography) when too few junctions survive, when the motion is too
    fast to predict, or after a loss. Polygons are tried in turn: the caller's polygon for the
    frame, the predicted outline, the outline of the last frame whose junctions were all in
@@ -43,8 +47,8 @@ import numpy as np
 from ..board import Board
 from ..geometry import to_camera
 from ..camera_models import as_camera
-from ..detect.junctions import extract_junctions
-from ..detect.refine import refine_junctions
+from ..detect.junctions import board_smoothing, extract_junctions
+from ..detect.refine import MAX_RADIUS, SMOOTH_SIGMA, WINDOW_FRACTION, refine_junctions
 from ..errors import BoardNotFoundError, InputError
 from ..pose.estimate import fit_pose
 from .config import TrackerConfig
@@ -100,6 +104,10 @@ class FrontEnd:
         self._reference = None  # the pose a fresh detection is oriented by (this frame's)
         self._outline = None  # sheet outline of the last frame whose junctions were all in view
         self._rms = []  # fit RMS of every frame with a pose
+        # Smoothing of the tracked refinement, from the noise over the board's contrast as
+        # measured at the last detection (noise changes slowly; measuring it costs a
+        # detection's time, not a tracked frame's).
+        self._smooth = SMOOTH_SIGMA
 
     def project(self, T_WC, P_W) -> np.ndarray:
         """Pixels (2, N) of target points ``P_W`` (3, N) seen from ``T_WC``, through the camera."""
@@ -201,12 +209,16 @@ class FrontEnd:
         if speed > cfg.max_speed:
             return None, f"predicted motion {speed:.2f} squares a frame is too fast to track"
         radius = np.clip(cfg.window_fraction * side, *cfg.window_px)
+        if self._smooth > SMOOTH_SIGMA:
+            # A noisy frame: the single image's window, whose longer edges average the noise.
+            radius = np.maximum(radius, np.clip(WINDOW_FRACTION * side, cfg.window_px[0], MAX_RADIUS))
         h, w = image.shape
         inside = (uv[0] - radius >= 0) & (uv[0] + radius <= w - 1) & (uv[1] - radius >= 0) & (uv[1] + radius <= h - 1)
         ids = np.flatnonzero(inside)
         if ids.size < cfg.min_junctions:
             return None, f"only {ids.size} predicted junctions in the image"
-        points, trusted, _ = refine_junctions(image, uv[:, ids], radius[ids], camera=self.camera)
+        points, trusted, _ = refine_junctions(image, uv[:, ids], radius[ids], camera=self.camera,
+                                              smooth_sigma=self._smooth)
         keep = trusted & (np.hypot(*(points - uv[:, ids])) < cfg.gate_px)
         if np.count_nonzero(keep) < cfg.min_junctions:
             return None, (f"only {np.count_nonzero(keep)} of {ids.size} junctions refined within "
@@ -227,7 +239,10 @@ class FrontEnd:
         need = max(self.config.min_junctions, int(np.ceil(self.config.min_detected_fraction * self.board.n)))
         if ids.size < need:
             return None, f"extraction trusted only {ids.size} of {self.board.n} junctions (need {need})"
-        return self._fit(points[:, ids], ids, None)
+        found, why = self._fit(points[:, ids], ids, None)
+        if found is not None:
+            self._smooth = board_smoothing(image, J.points[:, J.seen], J.square_px[J.seen])
+        return found, why
 
     def _orient(self, points, trusted, T_ref):
         """The labelling of a symmetric board's junctions nearest the pose ``T_ref``'s.

@@ -30,7 +30,8 @@ from tests.conftest import REPO, opencv_file, real_file
 BUNDLED = REPO / "graphpose" / "data" / "cases.json"
 #: The bundled example's camera as --K (its case file's K): a user's image needs one.
 K_BUNDLED = "564.9,564.3,337.3,226.5"
-KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check", "orientation_ambiguous"}
+KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check", "orientation_ambiguous",
+        "junction0_square"}
 
 
 def graphpose(*args, cwd=None):
@@ -472,6 +473,7 @@ def test_a_raw_image_with_its_calibration_file(tmp_path):
     assert "agree" in result.stdout and "orientation" not in result.stdout
     (record,) = json.loads((tmp_path / "out.json").read_text())
     assert record["status"] == "ok" and record["orientation_ambiguous"] is False
+    assert record["junction0_square"] == "dark"  # the colour rule's corner: no bounds
     assert record["reprojection_rms_px"] < 0.3  # 0.16 px; fitted as a pinhole the raw image gives 0.85
     assert png_size(tmp_path / "left01.png") == (640, 480)
     camera = read_camera(opencv_file("left.opencv.yml"))

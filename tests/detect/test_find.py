@@ -266,32 +266,43 @@ def test_a_large_image_is_searched_at_an_eighth_and_labelled_right():
 def test_a_partial_board_above_half_resolution_is_searched_again_at_half(monkeypatch):
     # Far squares hide at a coarse level: a partial board found above half resolution is
     # searched for at the finer levels down to half resolution too, the more complete kept.
+    # A partial board (or none) then calls the noise-aware search, from the coarsest level
+    # a board fits down to half resolution, levels searched already marked as such.
     board = Board()
     seen_part = np.arange(board.n) < 30
     whole = find_module.FoundBoard(np.zeros((2, board.n)), np.ones(board.n, bool), np.ones(board.n), False)
     part = find_module.FoundBoard(np.zeros((2, board.n)), seen_part, np.ones(board.n), False)
     calls = []
 
-    def searches(results):
-        def search(image, board_, bounds, region, level):
-            calls.append(level)
-            if results.get(level) is None:
+    def searches(results, noisy=None):
+        def search(image, board_, bounds, region, level, noise=None, again=False):
+            calls.append(level if noise is None else ("noise", level, again))
+            found = results.get(level) if noise is None else (noisy or {}).get(level)
+            if found is None:
                 raise BoardNotFoundError(f"nothing at level {level}")
-            return results[level]
+            return found
         calls.clear()
         monkeypatch.setattr(find_module, "_search", search)
 
-    image = np.zeros((1200, 1600), np.uint8)  # levels 2, 1, 0
+    image = np.zeros((1200, 1600), np.uint8)  # levels 2, 1, 0; the noise-aware search's 4 to 1
     searches({2: part, 1: whole})
     assert find_board(image, board) is whole and calls == [2, 1]
     # Half resolution refusing, the partial board stands; a whole board at a quarter is final.
     searches({2: part})
-    assert find_board(image, board) is part and calls == [2, 1]
+    noisy = [("noise", 4, False), ("noise", 3, False), ("noise", 2, True), ("noise", 1, True)]
+    assert find_board(image, board) is part and calls == [2, 1] + noisy
     searches({2: whole, 1: part})
     assert find_board(image, board) is whole and calls == [2]
     # Nothing at the coarsest level: the next one's partial board is searched for further.
     searches({1: part, 0: whole})
-    assert find_board(np.zeros((3024, 4032), np.uint8), board) is part and calls == [3, 2, 1]
+    assert find_board(np.zeros((3024, 4032), np.uint8), board) is part and calls[:3] == [3, 2, 1]
+    # The noise-aware search's whole board is final; its partial one only if more complete.
+    searches({}, {3: part, 2: whole})
+    assert find_board(image, board) is whole and calls == [2, 1, 0, ("noise", 4, False), ("noise", 3, False),
+                                                           ("noise", 2, True)]
+    searches({2: part}, {3: find_module.FoundBoard(np.zeros((2, board.n)), np.arange(board.n) < 10,
+                                                   np.ones(board.n), False)})
+    assert find_board(image, board) is part
 
 
 def test_small_squares_on_a_large_image_fall_back_to_finer_levels():

@@ -9,7 +9,8 @@ from graphpose import T_from_params, project
 from graphpose.io.records import POSE_KEYS, result_record
 from tests.conftest import BOARD_WPTS, PROJECT_K
 
-KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check", "orientation_ambiguous"}
+KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check", "orientation_ambiguous",
+        "junction0_square"}
 
 
 def test_result_record_of_a_failure_and_of_an_estimate():
@@ -51,6 +52,8 @@ def test_an_estimate_from_points_has_no_junctions_to_write_or_report():
     assert "over 48 junctions, 47 trusted" in report and "converged" in report
     assert record["orientation_ambiguous"] is False and "orientation" not in report
     assert result_record("a.png", None, "no board")["orientation_ambiguous"] is None
+    assert record["junction0_square"] is None  # no junctions: nothing was seen
+    assert result_record("a.png", None, "no board")["junction0_square"] is None
 
 
 def test_an_orientation_ambiguous_estimate_says_so_in_record_and_report():

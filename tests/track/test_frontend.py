@@ -108,3 +108,26 @@ def test_the_board_is_found_again_after_a_pan_when_the_sheet_was_cut_by_the_bord
     found = track.found
     err = np.linalg.norm(track.poses("online")[found, :3, 3] - seq.T_WC[found, :3, 3], axis=1)
     assert np.max(err) < 1e-3
+
+
+def test_a_noisy_board_is_redetected_after_a_loss_and_tracked_with_more_smoothing():
+    # Noise 16, blur 2: a frame the fast search alone refused. After a loss the front end
+    # detects it with the noise-aware search, then tracks the next frame (the same pose)
+    # with the smoothing the noise asks for.
+    from graphpose.detect.refine import SMOOTH_SIGMA
+    from graphpose.synth.poses import random_pose
+    from graphpose.synth.render import render
+
+    rng = np.random.default_rng(0)
+    T = random_pose(rng, K, Board(), (640, 480), distance=(0.6, 0.9))
+    frames = [render(K, T, Board(), (640, 480), noise_sigma=16.0, blur_sigma=2.0, rng=seed).image for seed in (1, 2)]
+    front = FrontEnd(K, Board(), TrackerConfig())
+    front.lose()
+    first = front.measure(0, 0.0, frames[0])
+    assert first.status == DETECTED and first.ids.size >= 44
+    np.testing.assert_allclose(first.fit.T_WC[:3, 3], T[:3, 3], atol=5e-3)
+    assert front._smooth > SMOOTH_SIGMA
+    front.accept(0, 0.0, first.fit.T_WC, frames[0].shape)
+    second = front.measure(1, 1 / 30, frames[1])
+    assert second.status == TRACKED and second.ids.size >= 44
+    np.testing.assert_allclose(second.fit.T_WC[:3, 3], T[:3, 3], atol=5e-3)

@@ -1,0 +1,96 @@
+"""The image's noise level, measured from the image itself.
+
+The search (:mod:`.find`) and the refinement (:mod:`.refine`) set their sensitivity from
+it: how far the saddle response must rise above what noise alone makes, and how much to
+smooth before fitting a saddle.
+
+The estimator is Immerkaer's (1996) mask, the difference of two discrete Laplacians,
+
+    [[ 1, -2,  1],
+     [-2,  4, -2],
+     [ 1, -2,  1]],
+
+whose response is zero on any image that is linear, and on any quadratic without a
+cross term, over its 3 x 3 pixels: smooth shading, gradients and vignetting vanish, and
+only edges and junctions (a small part of the image) and the noise remain. Its taps' squares
+sum to 36, so white noise of ``sigma`` grey levels gives a response of standard deviation
+``6 sigma``; instead of Immerkaer's mean of absolute values, the median of absolute values
+(over 0.6745, the median of ``|N(0, 1)|``) is used, which the edges of a board, up to half
+the pixels, do not move. Rows and columns are taken every ``stride`` pixels (the default
+4 reads a sixteenth of the mask's positions, some 19,000 at 640 x 480): the noise is the same everywhere, and so is its estimate.
+
+Quantisation to whole grey levels adds its own noise (1/12 grey level squared), which is
+also noise to the search: it is part of the figure.
+
+References
+----------
+J. Immerkaer, "Fast noise variance estimation", Computer Vision and Image Understanding
+64(2), 1996, pp. 300-302.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+
+#: Median of |N(0, 1)|: turns a median absolute value into a standard deviation.
+_MAD_TO_SIGMA = 1.0 / 0.6744897501960817
+
+
+def estimate_noise(image: np.ndarray, *, stride: int = 4) -> float:
+    """Standard deviation of the image's pixel noise, in the image's grey units.
+
+    Parameters
+    ----------
+    image : (H, W) ndarray
+        Grey image (uint8 or float), at least 3 x 3 pixels.
+    stride : int
+        The mask is evaluated at every ``stride``-th row and column (>= 1).
+
+    Returns
+    -------
+    float
+        Noise sigma (grey levels for an 8-bit image): the median absolute response of the
+        mask over 6 and over 0.6745. White Gaussian noise of sigma 1-20 grey levels on a
+        rendered board is measured within about 10 %; a clean 8-bit image reads about 0.3
+        (its quantisation, and the board's edges).
+
+    Raises
+    ------
+    InputError
+        If the image is not 2-D, is smaller than 3 x 3, or ``stride`` is not a whole
+        number >= 1.
+    """
+    if image.ndim != 2 or min(image.shape) < 3:
+        raise InputError(f"estimate_noise takes a grey (H, W) image of at least 3 x 3 pixels, "
+                         f"got shape {image.shape}")
+    if int(stride) != stride or stride < 1:
+        raise InputError(f"stride must be a whole number >= 1, got {stride!r}")
+    s = int(stride)
+    h, w = image.shape
+
+    def tap(dy, dx):  # the pixels under one tap of the mask, converted only where read
+        return image[dy:h - 2 + dy:s, dx:w - 2 + dx:s].astype(np.float32)
+
+    # Each row's [1, -2, 1] along the row, then [1, -2, 1] down the three rows.
+    d = [tap(k, 0) - 2 * tap(k, 1) + tap(k, 2) for k in range(3)]
+    response = np.abs(d[0] - 2 * d[1] + d[2]).ravel()
+    if response.size == 0:
+        return 0.0
+    median = np.partition(response, response.size // 2)[response.size // 2]
+    return float(median) * _MAD_TO_SIGMA / 6.0
+
+
+def grey_range(image: np.ndarray, *, stride: int = 3, tail: float = 1.0) -> float:
+    """The image's grey range: its ``100 - tail`` th percentile less its ``tail`` th (the
+    nearest sample's), over
+    every ``stride``-th row and column, in the image's grey units (the scale
+    :func:`estimate_noise` is read against: a board's black and white squares, or the
+    scene's darkest and brightest)."""
+    values = image[::stride, ::stride].ravel()
+    if values.size == 0:
+        return 0.0
+    k = np.rint(np.array([tail, 100.0 - tail]) / 100.0 * (values.size - 1)).astype(int)
+    lo, hi = np.partition(values, k)[k]
+    return float(hi) - float(lo)

@@ -1,0 +1,146 @@
+"""Detection under noise, blur and low contrast: the noise estimate, the noise-aware search,
+the refinement's smoothing, and never a mislabel.
+
+The boards here are rendered with exact truth; each of the noisy ones was refused before
+the noise-aware search (``no checkerboard in the image: N junction-like points but no grid
+of cross-junctions among them``).
+"""
+
+import numpy as np
+import pytest
+
+from graphpose import Board, BoardNotFoundError, InputError, K_from_params, extract_junctions
+from graphpose.detect import find as find_module
+from graphpose.detect.noise import estimate_noise, grey_range
+from graphpose.detect.refine import MAX_SMOOTH_SIGMA, SMOOTH_SIGMA, noise_smoothing
+from graphpose.detect.search import find_candidates, noise_floor
+from graphpose.synth.poses import loose_polygon, random_pose
+from graphpose.synth.render import render
+from graphpose.track.frontend import board_symmetries
+
+K = K_from_params(564.9, 564.3, 337.3, 226.5)
+
+
+def _rendered(seed, board, noise, blur, black=35.0, white=215.0):
+    rng = np.random.default_rng(seed)
+    T = random_pose(rng, K, board, (640, 480), distance=(0.6, 0.9) if board == Board() else (0.5, 0.7))
+    return render(K, T, board, (640, 480), noise_sigma=noise, blur_sigma=blur, black=black, white=white, rng=rng)
+
+
+def _label_error(J, truth) -> float:
+    """Largest distance (px) of a trusted junction from the true junction of its label (of the
+    labels a half turn gives too, when the board's pattern cannot tell them apart)."""
+    err = np.hypot(*(J.points[:, J.trusted] - truth[:, J.trusted])).max()
+    if J.orientation_ambiguous:
+        err = min(err, np.hypot(*(J.points[:, J.trusted] - truth[:, ::-1][:, J.trusted])).max())
+    return float(err)
+
+
+# ------------------------------------------------------------------------- the estimate
+
+
+@pytest.mark.parametrize("sigma", [1.0, 4.0, 9.0, 16.0])
+def test_noise_estimate_on_a_rendered_board_with_known_noise(sigma):
+    # Unquantised, so that the figure is the noise the renderer added, edges and all.
+    R = render(K, random_pose(3, K), noise_sigma=sigma, blur_sigma=1.5, rng=4, quantize=False)
+    assert estimate_noise(R.image) == pytest.approx(sigma, rel=0.08)
+    assert estimate_noise(R.image, stride=1) == pytest.approx(sigma, rel=0.08)
+
+
+def test_noise_estimate_ignores_smooth_shading_and_reads_quantisation():
+    v, u = np.mgrid[0:240, 0:320].astype(float)
+    shading = 40 + 0.3 * u + 0.2 * v + 1e-3 * (u - 160) ** 2
+    assert estimate_noise(shading) < 1e-3
+    noisy = shading + np.random.default_rng(0).normal(0, 5.0, shading.shape)
+    assert estimate_noise(noisy) == pytest.approx(5.0, rel=0.05)
+    assert estimate_noise(noisy.astype(np.float32) / 255) == pytest.approx(5.0 / 255, rel=0.05)
+    assert grey_range(noisy) == pytest.approx(np.percentile(noisy[::3, ::3], 99) - np.percentile(noisy[::3, ::3], 1), rel=0.01)
+
+
+def test_noise_estimate_checks_its_input():
+    with pytest.raises(InputError, match="grey"):
+        estimate_noise(np.zeros((4, 4, 3)))
+    with pytest.raises(InputError, match="3 x 3"):
+        estimate_noise(np.zeros((2, 9)))
+    with pytest.raises(InputError, match="stride"):
+        estimate_noise(np.zeros((9, 9)), stride=0)
+
+
+def test_the_noise_floor_removes_the_peaks_of_pure_noise():
+    image = np.random.default_rng(1).normal(128.0, 10.0, (240, 320))
+    assert find_candidates(image).points.shape[1] > 300  # relative to the strongest: noise is all there is
+    cands = find_candidates(image, noise=10.0)
+    assert cands.points.shape[1] == 0 or cands.points.shape[1] < 3
+    assert noise_floor(10.0, 2) == pytest.approx(noise_floor(10.0, 1) / 4)
+
+
+def test_smoothing_follows_the_noise_over_the_contrast():
+    assert noise_smoothing(0.5, 180.0, 30.0) == SMOOTH_SIGMA  # a clean image: as before
+    assert noise_smoothing(2.0, 180.0, 30.0) == SMOOTH_SIGMA
+    grown = [noise_smoothing(s, 180.0, 30.0) for s in (4.0, 8.0, 12.0)]
+    assert SMOOTH_SIGMA < grown[0] < grown[1] < grown[2] <= MAX_SMOOTH_SIGMA
+    assert noise_smoothing(16.0, 35.0, 30.0) == MAX_SMOOTH_SIGMA
+    assert noise_smoothing(16.0, 35.0, 8.0) == pytest.approx(0.8)  # a small square bounds it
+
+
+# ---------------------------------------------------------------------- noisy boards
+
+
+@pytest.mark.parametrize("seed, board, noise, blur, black, white", [
+    (0, Board(), 16.0, 2.0, 35.0, 215.0),
+    (2, Board(9, 6, 0.03), 12.0, 3.0, 35.0, 215.0),
+    (3, Board(), 6.0, 2.0, 100.0, 135.0),  # low contrast
+])
+def test_noisy_blurred_and_low_contrast_boards_are_found_and_labelled(seed, board, noise, blur, black, white):
+    R = _rendered(seed, board, noise, blur, black, white)
+    J = extract_junctions(R.image, None, board)
+    assert J.seen.all() and J.trusted.sum() >= 0.9 * board.n
+    assert _label_error(J, R.junctions) < 0.6
+    # Their accuracy: well under a tenth of a square, as the grid gate demands.
+    assert np.sqrt(np.mean(np.sum((J.points - R.junctions) ** 2, axis=0)[J.trusted])) < 0.3 or J.orientation_ambiguous
+
+
+def test_a_noisy_board_inside_loose_bounds_is_found():
+    board = Board(7, 5, 0.04)
+    R = _rendered(4, board, 16.0, 3.0)
+    J = extract_junctions(R.image, loose_polygon(R, 5), board)
+    assert J.seen.all() and _label_error(J, R.junctions) < 0.6
+    assert not J.orientation_ambiguous
+
+
+def test_noisy_images_are_never_mislabelled():
+    # Boards of every symmetry, some partly off the image: found right or refused.
+    boards = [Board(), Board(7, 5, 0.04), Board(6, 6, 0.04), Board(9, 6, 0.03)]
+    for seed, board in enumerate(boards):
+        rng = np.random.default_rng(40 + seed)
+        T = random_pose(rng, K, board, (640, 480), distance=(0.7, 1.0))
+        T[0, 3] += 0.3 * (seed % 2)  # the camera moved right: the board runs off the image's left
+        R = render(K, T, board, (640, 480), noise_sigma=16.0, blur_sigma=3.0, rng=rng)
+        try:
+            J = extract_junctions(R.image, None, board)
+        except BoardNotFoundError:
+            continue
+        truth = R.junctions
+        errors = [np.hypot(*(J.points[:, J.trusted] - truth[:, perm][:, J.trusted])).max()
+                  for perm in board_symmetries(board)]
+        assert min(errors) < 1.0, (seed, errors)
+
+
+def test_clean_images_take_the_fast_path_only(monkeypatch):
+    # A clean image whose fast path finds nothing is not searched again: its noise is
+    # under NOISY of its grey range.
+    calls = []
+    real = find_module._search
+
+    def search(*args, **kwargs):
+        calls.append(args[5] if len(args) > 5 else kwargs.get("noise"))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(find_module, "_search", search)
+    R = render(K, random_pose(5, K), noise_sigma=1.0, rng=6)
+    blank = R.image.copy()
+    blank[:] = np.clip(np.rint(R.image.mean() + np.random.default_rng(7).normal(0, 0.5, R.image.shape)), 0, 255)
+    blank[100:300, 100:400] = 200  # a white sheet, no board
+    with pytest.raises(BoardNotFoundError, match="no grid of cross-junctions"):
+        find_module.find_board(blank, Board())
+    assert calls and all(noise is None for noise in calls)
