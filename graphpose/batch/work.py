@@ -24,7 +24,7 @@ import os
 import sys
 import time
 
-from ..board import Board
+from ..board import Board, board_hint
 from ..io.records import result_record, target_keys
 from ..errors import BoardNotFoundError, GraphposeError
 
@@ -67,7 +67,6 @@ def estimate_images(items, camera, board: Board = Board(), robust: bool = False)
     list of dict
         JSON-ready records (see the module docstring); never raises for one image's failure.
     """
-    from ..cli.options import board_hint
     from ..image import read_image
     from ..pipeline import estimate_pose
 

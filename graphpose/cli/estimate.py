@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..camera_models import check_image_size
+from ..board import board_hint
 from ..errors import BoardNotFoundError, GraphposeError, InputError
 from ..image import read_image
 from ..io.cases import bundled_cases_path, load_cases, load_pose
@@ -32,7 +33,6 @@ from .options import (
     Progress,
     add_camera_option,
     add_target_options,
-    board_hint,
     camera_file,
     camera_from_args,
     check_camera_options,

@@ -128,16 +128,6 @@ def camera_file(args, source=None):
     return (None if source is None else str(source)), None
 
 
-def board_hint(message: str) -> str:
-    """``message`` with how to give the board when it says the board found is not the spec's
-    (the detector's ``found a 9 x 6 board ...; the board spec says 8 x 6``)."""
-    if "board spec" not in message:
-        return message
-    d = Board()
-    return (f"{message} (the default board is {d.cols}x{d.rows}x{d.square_m}; give yours with --board "
-            f"COLSxROWSxSQUARE_M: inner junctions along a row and down a column, and the square's side in metres)")
-
-
 def parse_bounds(text: str) -> np.ndarray:
     """``"u1,v1,...,u4,v4"`` -> (2, 4) polygon in pixels (row 0 = u); ArgumentTypeError if malformed."""
     values = _numbers(text, (8,), "bounds", "U1,V1,U2,V2,U3,V3,U4,V4")
