@@ -119,10 +119,11 @@ def _mad_sigma(residuals):
     return max(1.4826 * float(np.median(np.abs(np.hstack(residuals)))), 1e-6)
 
 
-def _solve(camera, poses, obs, huber_k):
+def _solve(camera, poses, obs, huber_k, final=True):
     """Step 3 on the images ``obs`` (a dict image -> observation): the plain solve, the
-    robust screening and the rejections, the robust solve twice. Returns what the result
-    needs."""
+    robust screening and the rejections, the robust solve twice (``final``; else only the
+    screening's fit, which a pass before the last needs for its camera). Returns what the
+    result needs (``graph`` None when not ``final``)."""
     from .graph import solve_graph
     from .lm import solve_lm
 
@@ -149,6 +150,8 @@ def _solve(camera, poses, obs, huber_k):
     sigma0 = _mad_sigma(fit.residuals)
     plain = fit
     start_poses = fit.poses
+    if not final:
+        return keys, rejected, None, fit, sigma0
     graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k)
     lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0)
     return keys, rejected, graph, lm, sigma0
@@ -232,7 +235,7 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
 
     keys = sorted(obs)
     camera0, poses0 = start(cls.model, size, [obs[k][:2] for k in keys])
-    keys, rejected, graph, lm, sigma0 = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k)
+    keys, rejected, graph, lm, sigma0 = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k, final=False)
     report("solve", 1, 2)
 
     # 4. Passes with the camera: every image again, until no new board is found.
@@ -260,9 +263,11 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
             report(f"pass {pass_number}", i + 1, n)
         grew = len(obs2) > len(obs)
         obs = obs2
-        keys, rejected, graph, lm, sigma0 = _solve(camera1, poses1, obs, huber_k)
+        last = not grew or pass_number == 1 + MAX_CAMERA_PASSES
+        # Only the last pass's solve is the calibration: GTSAM and the cross-check run there.
+        keys, rejected, graph, lm, sigma0 = _solve(camera1, poses1, obs, huber_k, final=last)
         report("solve", pass_number, pass_number)
-        if not grew:
+        if last:
             break
     return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
                    "no camera" if camera is None else "with the given camera")
