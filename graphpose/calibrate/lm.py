@@ -13,7 +13,8 @@ tried first; a step that raises the cost is damped (``H + lambda diag(H)``) unti
 
 It stops when every parameter's step is below 1e-10 of its own standard deviation
 (``sqrt(diag(H^-1))`` at unit pixel noise) or, once the promised decrease is below the cost's
-rounding, after a few more undamped steps.
+rounding, after a few more undamped steps; where no damped step lowers the cost any more it
+has converged if the undamped step is below 1e-6 of every sigma, and failed otherwise.
 """
 
 from __future__ import annotations
@@ -30,6 +31,8 @@ from .params import camera_parameters, camera_with_parameters, projection_jacobi
 MAX_ITERATIONS = 200
 #: Convergence: the step below this many of each parameter's standard deviations.
 STEP_SIGMAS = 1e-10
+#: ... or, where no step can lower the cost any more (its rounding), below this many.
+ROUNDING_SIGMAS = 1e-6
 _COST_RTOL = 1e-13
 _MAX_POLISH_STEPS = 60
 _LAMBDA_MAX = 1e12
@@ -188,7 +191,12 @@ def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = M
         else:
             lam = 1e-4 if lam == 0.0 else lam * 10.0
             if lam > _LAMBDA_MAX:
-                message = "damped steps cannot lower the cost"
+                # At the cost's rounding no step can lower it: converged if the undamped step
+                # is already far below every parameter's sigma.
+                if np.all(np.abs(delta_gn) <= ROUNDING_SIGMAS * sd):
+                    converged, message = True, "converged (at the cost's rounding)"
+                else:
+                    message = "damped steps cannot lower the cost"
                 break
     residuals, weights = [], []
     for r, _, _ in views:
