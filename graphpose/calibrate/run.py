@@ -119,7 +119,7 @@ def _mad_sigma(residuals):
     return max(1.4826 * float(np.median(np.abs(np.hstack(residuals)))), 1e-6)
 
 
-def _solve(camera, poses, obs, huber_k, final=True):
+def _solve(camera, poses, obs, huber_k, final=True, plain=True):
     """Step 3 on the images ``obs`` (a dict image -> observation): the plain solve, the
     robust screening and the rejections, the robust solve twice (``final``; else only the
     screening's fit, which a pass before the last needs for its camera). Returns what the
@@ -131,7 +131,9 @@ def _solve(camera, poses, obs, huber_k, final=True):
     rejected = {}
     while True:
         view = [obs[k] for k in keys]
-        fit = solve_lm(camera, [poses[k] for k in keys], view)
+        # From Zhang's start a plain fit first; from an earlier pass's camera the residuals
+        # at the start (no iterations) set the first Huber threshold.
+        fit = solve_lm(camera, [poses[k] for k in keys], view, max_iterations=100 if plain else 0)
         # Robust screening: two Huber solves (the noise from the residuals' median each time)
         # give the majority's fit, against which an image that does not fit stands out (a
         # plain fit spreads one bad image's misfit over all of them).
@@ -265,7 +267,7 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         obs = obs2
         last = not grew or pass_number == 1 + MAX_CAMERA_PASSES
         # Only the last pass's solve is the calibration: GTSAM and the cross-check run there.
-        keys, rejected, graph, lm, sigma0 = _solve(camera1, poses1, obs, huber_k, final=last)
+        keys, rejected, graph, lm, sigma0 = _solve(camera1, poses1, obs, huber_k, final=last, plain=False)
         report("solve", pass_number, pass_number)
         if last:
             break
