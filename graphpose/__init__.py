@@ -6,16 +6,19 @@ Data flows one way, one subpackage per step:
 - :mod:`graphpose.detect` finds the cross-junctions (coarse grid, then the saddle fit of
   Lucchese & Mitra in :mod:`graphpose.detect.saddle`);
 - :mod:`graphpose.pose` solves for the pose twice, by Gauss-Newton and by a GTSAM factor
-  graph, and holds the two against each other (:func:`graphpose.pose.estimate.estimate_pose`);
+  graph, and holds the two against each other (:func:`graphpose.pose.estimate.estimate_pose_from_points`);
+- :mod:`graphpose.pipeline` joins the two: image to cross-checked pose
+  (:func:`graphpose.pipeline.estimate_pose`);
 - :mod:`graphpose.calibrate` finds a camera's intrinsics, lens and their covariance from
   images of the board;
-- :mod:`graphpose.track` follows the camera over a sequence with iSAM2;
+- :mod:`graphpose.track` follows the camera over a sequence with GTSAM's fixed-lag smoother;
 - :mod:`graphpose.io` reads and writes case files, TUM trajectories, JSON and PNG;
 - :mod:`graphpose.viz` draws overlays and trajectory plots; :mod:`graphpose.synth` renders
   synthetic images with exact truth.
 
-Conventions are stated once, in :mod:`graphpose.camera`; input checks live in
-:mod:`graphpose._checks`. The names below are imported on first use, so that
+Conventions are stated once, in :mod:`graphpose.geometry`; input checks live in
+:mod:`graphpose._checks`. The layers the imports follow are in ``docs/index.md`` (and
+``tests/test_layers.py`` holds them). The names below are imported on first use, so that
 ``import graphpose`` (or ``import graphpose.detect.saddle``) does not load GTSAM.
 """
 
@@ -36,18 +39,18 @@ _PACKAGES = {"calibrate"}
 #: Public name -> the module that defines it (imported lazily, PEP 562).
 _EXPORTS = {
     "Board": "board",
-    "C_from_rpy": "camera",
-    "K_from_params": "camera",
-    "T_from_params": "camera",
-    "params_from_T": "camera",
-    "project": "camera",
-    "rpy_from_C": "camera",
-    "Camera": "cameras",
-    "PinholeCamera": "cameras",
-    "RadTanCamera": "cameras",
-    "FisheyeCamera": "cameras",
-    "as_camera": "cameras",
-    "check_image_size": "cameras",
+    "C_from_rpy": "geometry",
+    "K_from_params": "geometry",
+    "T_from_params": "geometry",
+    "params_from_T": "geometry",
+    "project": "geometry",
+    "rpy_from_C": "geometry",
+    "Camera": "camera_models",
+    "PinholeCamera": "camera_models",
+    "RadTanCamera": "camera_models",
+    "FisheyeCamera": "camera_models",
+    "as_camera": "camera_models",
+    "check_image_size": "camera_models",
     "Calibration": "calibrate.result",
     "read_camera": "io.calibration",
     "write_camera": "io.calibration",
@@ -74,7 +77,7 @@ _EXPORTS = {
     "graph_pose": "pose.graph",
     "CrossCheck": "pose.estimate",
     "PoseEstimate": "pose.estimate",
-    "estimate_pose": "pose.estimate",
+    "estimate_pose": "pipeline",
     "estimate_pose_from_points": "pose.estimate",
     "TumTrajectory": "io.tum",
     "read_tum": "io.tum",

@@ -9,12 +9,13 @@ behind them trusts its callers.
 Concepts: arrays of numbers (:func:`as_float_array`), point sets (:func:`as_points`),
 images (:func:`check_image`), polygons (:func:`as_polygon`) and a board's bounding
 polygon in an image (:func:`check_bounds`), intrinsics (:func:`check_K`), poses
-(:func:`check_transform`), correspondences (:func:`check_correspondences`, and with a camera
-model and unseen points :func:`check_observations`), points in front
-of a camera (:func:`check_in_front`), boards (:func:`check_board`), and scalar settings and
-ranges (:func:`check_number`, :func:`check_range`, :func:`check_count`, :func:`check_size`),
+(:func:`check_transform`), correspondences (:func:`check_correspondences`; with a camera model and unseen points,
+:func:`graphpose.observations.check_observations`), points in front of a camera
+(:func:`check_in_front`), and scalar settings and ranges (:func:`check_number`, :func:`check_range`, :func:`check_count`, :func:`check_size`),
 and covariance matrices (:func:`check_covariance`).
-Other modules raise InputError themselves only for what belongs to them alone (a file's
+This module imports nothing of graphpose but its errors, so every layer may use it; the
+checks that need a board or a camera model live beside them (:func:`graphpose.board.check_board`,
+:func:`graphpose.observations.check_observations`). Other modules raise InputError themselves only for what belongs to them alone (a file's
 syntax, a parameter no other function has).
 """
 
@@ -254,50 +255,6 @@ def check_correspondences(K, Ipts, Wpts, mask=None):
     return K, Ipts, Wpts, mask
 
 
-def check_observations(camera, Ipts, Wpts, mask=None):
-    """Validate a camera, image and target points and a trust mask at a public edge.
-
-    As :func:`check_correspondences`, with a camera object accepted for
-    ``K`` and image points that may be NaN where the mask leaves them out (junctions the
-    image does not show, :class:`graphpose.detect.junctions.Junctions`).
-
-    Parameters
-    ----------
-    camera : Camera or (3, 3) array_like
-        A camera model (:mod:`graphpose.cameras`) or pinhole intrinsics, pixels.
-    Ipts : (2, n) array_like
-        Image points (u, v), pixels; NaN allowed where ``mask`` is False.
-    Wpts : (3, n) array_like
-        Matching target points, metres.
-    mask : (n,) array_like of bool, optional
-        The points to use; all when None.
-
-    Returns
-    -------
-    camera : Camera
-    Ipts : (2, n) ndarray
-    Wpts : (3, n) ndarray
-    mask : (n,) ndarray of bool
-
-    Raises
-    ------
-    InputError
-        As :func:`check_correspondences`, and if a used point is NaN.
-    """
-    from .cameras import as_camera  # cameras.py imports this module
-
-    camera = as_camera(camera)
-    Ipts = as_float_array(Ipts, "Ipts")
-    finite = np.isfinite(Ipts)
-    shown = np.where(finite, Ipts, 0.0) if Ipts.ndim == 2 and Ipts.shape[0] == 2 else Ipts
-    _, _, Wpts, mask = check_correspondences(camera.K, shown, Wpts, mask)
-    bad = np.flatnonzero(mask & ~np.all(finite, axis=0))
-    if bad.size:
-        raise InputError(f"Ipts contains NaN or infinite values at {bad.size} used point(s) (first index "
-                         f"{bad[0]}); leave unmeasured points out with the mask")
-    return camera, Ipts, Wpts, mask
-
-
 def check_in_front(depth, name: str, index=None) -> None:
     """Refuse points at or behind the camera.
 
@@ -358,13 +315,31 @@ def check_bounds(bounds, shape, name: str = "bounds") -> np.ndarray:
     edges = np.roll(poly, -1, axis=1) - poly
     turns = edges[0] * np.roll(edges[1], -1) - edges[1] * np.roll(edges[0], -1)
     area = 0.5 * np.sum(poly[0] * np.roll(poly[1], -1) - np.roll(poly[0], -1) * poly[1])
+    if _edges_cross(poly):
+        raise InputError(f"{name} is a self-intersecting polygon (two of its edges cross): list its corners in "
+                         f"order around the board, clockwise, starting at the corner nearest junction 0; got "
+                         f"{poly.round(1).tolist()}")
     if abs(area) < 100.0:
         raise InputError(f"{name} is degenerate (area {abs(area):.1f} px^2): {poly.round(1).tolist()}")
     if area < 0:
-        raise InputError(f"{name} must run clockwise (in the image, v down) from the upper-left vertex")
+        raise InputError(f"{name} must run clockwise (in the image, v down), starting at the corner nearest "
+                         f"junction 0; these corners run counter-clockwise: {poly.round(1).tolist()}")
     if np.any(turns <= 0):
         raise InputError(f"{name} must be a convex quadrilateral, got {poly.round(1).tolist()}")
     return poly
+
+
+def _edges_cross(poly: np.ndarray) -> bool:
+    """Whether a quadrilateral's opposite edges (0-1 with 2-3, 1-2 with 3-0) properly cross."""
+    def side(a, b, c):
+        return np.sign((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+
+    p = poly.T
+    for i, j in ((0, 2), (1, 3)):
+        a, b, c, d = p[i], p[(i + 1) % 4], p[j], p[(j + 1) % 4]
+        if side(a, b, c) * side(a, b, d) < 0 and side(c, d, a) * side(c, d, b) < 0:
+            return True
+    return False
 
 
 def check_number(name: str, value, minimum=None, *, strict: bool = False, maximum=None) -> float:
@@ -500,21 +475,6 @@ def check_covariance(cov, n: int, name: str = "covariance") -> np.ndarray:
         raise InputError(f"{name} is not positive semi-definite (its correlation matrix has "
                          f"eigenvalue {low:.3g})")
     return sym
-
-
-def check_board(board):
-    """A :class:`graphpose.board.Board`, returned as it is.
-
-    Raises
-    ------
-    InputError
-        If ``board`` is anything else.
-    """
-    from .board import Board  # board.py imports this module
-
-    if not isinstance(board, Board):
-        raise InputError(f"board must be a graphpose.Board, got {type(board).__name__}")
-    return board
 
 
 def check_timestamps(t, name: str = "timestamps") -> np.ndarray:

@@ -1,6 +1,6 @@
 """The checkerboard target: its grid of inner cross-junctions and their target-frame points.
 
-The target frame is stated in :mod:`graphpose.camera`. Junction ``j = cols * r + c``
+The target frame is stated in :mod:`graphpose.geometry`. Junction ``j = cols * r + c``
 (row-major from the upper left) lies at ``(square_m * c, square_m * r, 0)``.
 """
 
@@ -134,3 +134,16 @@ class Board:
                 "Wpts is not a row-major grid (s*c, s*r, 0) starting at the upper-left junction"
             )
         return board
+
+
+def check_board(board):
+    """A :class:`graphpose.board.Board`, returned as it is.
+
+    Raises
+    ------
+    InputError
+        If ``board`` is anything else.
+    """
+    if not isinstance(board, Board):
+        raise InputError(f"board must be a graphpose.Board, got {type(board).__name__}")
+    return board

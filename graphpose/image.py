@@ -1,6 +1,6 @@
 """Images in: reading files and converting arrays to the grey images the detector reads.
 
-Pixel conventions are in :mod:`graphpose.camera`.
+Pixel conventions are in :mod:`graphpose.geometry`.
 """
 
 from __future__ import annotations
@@ -89,6 +89,8 @@ def read_image(path, *, as_float: bool = True) -> np.ndarray:
         raise InputError(f"{path} is a folder, not an image file")
     if not path.is_file():
         raise InputError(f"image file not found: {path}")
+    if path.stat().st_size == 0:  # no decoder to ask (imageio would try every plugin it has)
+        raise InputError(f"cannot read image {path}: {_unreadable(path)}")
     if not as_float:
         grey = _read_eight_bit(path)
         if grey is not None:
@@ -97,9 +99,41 @@ def read_image(path, *, as_float: bool = True) -> np.ndarray:
 
     try:
         data = skio.imread(str(path))
-    except Exception as exc:  # decoders raise many types; all mean "not an image"
-        raise InputError(f"cannot read image {path}: {exc}") from None
+    except Exception:  # decoders raise many types; all mean "not an image"
+        raise InputError(f"cannot read image {path}: {_unreadable(path)}") from None
     return as_grey(data)
+
+
+#: File name endings of the formats graphpose's readers decode (Pillow through scikit-image).
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm")
+
+
+def _unreadable(path: Path) -> str:
+    """Why a file no decoder read is not an image, in words that say what to do.
+
+    The decoders' own messages are no help here: for a PNG cut short, imageio's last
+    fallback says that no backend was found and to install a video plugin. An empty file, or
+    one of a known image ending or whose first bytes Pillow recognises, is a broken file.
+    """
+    if path.stat().st_size == 0:
+        return "not a readable image (the file is empty: truncated or corrupt)"
+    if path.suffix.lower() in IMAGE_SUFFIXES or _known_format(path):
+        return "not a readable image (truncated or corrupt)"
+    return ("not a readable image (truncated or corrupt, or not an image file at all: graphpose reads PNG, "
+            "JPEG, TIFF, BMP, PGM, PPM and the other formats Pillow knows)")
+
+
+def _known_format(path: Path) -> bool:
+    """Whether Pillow recognises the file's first bytes as an image format it knows."""
+    from PIL import Image
+
+    try:
+        with open(path, "rb") as f:
+            head = f.read(64)
+    except OSError:
+        return False
+    Image.init()
+    return any(accept is not None and bool(accept(head)) for _, accept in Image.OPEN.values())
 
 
 def _read_eight_bit(path: Path):

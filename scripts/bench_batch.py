@@ -55,7 +55,8 @@ def make_images(folder: Path, n_files: int, n_paths: int, seed: int = 3):
 
     from graphpose import Board
     from graphpose.io.cases import bundled_cases
-    from graphpose.synth.render import loose_polygon, random_pose, render
+    from graphpose.synth.poses import loose_polygon, random_pose
+    from graphpose.synth.render import render
 
     K, board = bundled_cases().K, Board()
     rng = np.random.default_rng(seed)

@@ -120,7 +120,7 @@ def _opencv_calibrate(cv2, images, board, model, size, sb=False):
 def _prediction_error(camera, views):
     """RMS |prediction - truth| over views [(T_WC, true pixels (2, n))]: the calibrated camera
     and its own pose of each view against the exact junctions."""
-    from graphpose.camera import to_camera
+    from graphpose.geometry import to_camera
 
     W = Board().world_points()
     errors = []

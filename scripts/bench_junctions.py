@@ -70,7 +70,7 @@ def _match(points, reference):
 
 def _pose_residuals(K, guess, points, board):
     """Reprojection residual lengths (n,) in pixels of a pinhole pose fitted to ``points``."""
-    from graphpose.camera import project
+    from graphpose.geometry import project
     from graphpose.pose.gauss_newton import pose_estimate_nls
 
     W = board.world_points()
@@ -125,12 +125,9 @@ def synthetic(cv2, count):
     """Junction error against the exact truth, beside cornerSubPix, SB and the Cramer-Rao bound."""
     from graphpose import Board, extract_junctions
     from graphpose.detect.refine import MAX_RADIUS
-    from graphpose.synth.render import (
-        junction_information,
-        loose_polygon,
-        random_pose,
-        render,
-    )
+    from graphpose.synth.information import junction_information
+    from graphpose.synth.poses import loose_polygon, random_pose
+    from graphpose.synth.render import render
 
     board = Board()
     half = int(np.ceil(MAX_RADIUS))

@@ -30,7 +30,7 @@ Sections
    method solved, the ratio raw / pinhole (goal <= 1.2 for the junctions; for the pose, the
    ratio of each image's pose error over its Cramer-Rao bound, raw against pinhole, since a
    lens that squeezes the board's image raises the bound itself), and the junctions'
-   Cramer-Rao bound (:func:`graphpose.synth.render.junction_information`, which works through
+   Cramer-Rao bound (:func:`graphpose.synth.information.junction_information`, which works through
    the lens too), which says how much of a ratio is the lens's (smaller, squeezed squares)
    rather than the detector's; and the detector's bias: graphpose's junction RMS on the
    noise-free (unquantised) raw and pinhole images of each scene.
@@ -165,7 +165,7 @@ def _match(truth, corners):
 
 
 def _nees(estimate, T):
-    from graphpose.camera import params_from_T
+    from graphpose.geometry import params_from_T
 
     d = estimate.params - params_from_T(T)
     d[3:] = (d[3:] + np.pi) % (2 * np.pi) - np.pi
@@ -177,8 +177,8 @@ def _nees(estimate, T):
 
 def _draw_pose(rng, camera, board, distance, with_pinhole):
     """A pose with the whole sheet in the raw image (and, if asked, in the pinhole image)."""
-    from graphpose.camera import project
-    from graphpose.synth.render import random_pose
+    from graphpose.geometry import project
+    from graphpose.synth.poses import random_pose
 
     sheet = board.sheet_corners(0.5)
     n = 16
@@ -266,9 +266,9 @@ def _crb(camera, T, board):
     measures it): the smallest RMS errors any unbiased estimator of the pose from these junctions
     can reach. The same pixel noise costs more pose where a lens shrinks the board's image.
     """
-    from graphpose.camera import to_camera
-    from graphpose.cameras import as_camera
-    from graphpose.synth.render import junction_information
+    from graphpose.geometry import to_camera
+    from graphpose.camera_models import as_camera
+    from graphpose.synth.information import junction_information
 
     # Quantisation adds 1/12 grey level^2 of noise (render's documentation).
     fim = junction_information(camera, T, board, noise_sigma=np.sqrt(NOISE**2 + 1 / 12), blur_sigma=BLUR)
@@ -424,7 +424,7 @@ def samples(quick):
     import cv2
 
     from graphpose import Board, estimate_pose
-    from graphpose.camera import to_camera
+    from graphpose.geometry import to_camera
     from graphpose.errors import GraphposeError
     from graphpose.pose.estimate import pose_difference
 

@@ -8,7 +8,7 @@ OpenCV (the peer) is imported here only.
 Sections
 --------
 1. Speed on 48 points (the real reference junctions of targets 01/02 and synthetic sets with
-   guesses from :func:`graphpose.synth.render.perturb_pose`), in
+   guesses from :func:`graphpose.synth.poses.perturb_pose`), in
    like-for-like pairs: Gauss-Newton from the case guess beside OpenCV ``solvePnPRefineLM``
    from the same guess; homography + Gauss-Newton beside ``solvePnP(SOLVEPNP_IPPE)`` +
    ``solvePnPRefineLM`` (no guess for either); the GTSAM solve with marginals beside
@@ -19,7 +19,7 @@ Sections
    pipeline (image -> junctions -> pose) beside OpenCV findChessboardCorners + cornerSubPix +
    solvePnP, both run on every image: each on all it solved, failures counted apart, and the
    ratio on the images both solved; the Cramer-Rao bound from
-   :func:`graphpose.synth.render.junction_information` (pose FIM = sum_j J_j^T FIM_j J_j); the NEES
+   :func:`graphpose.synth.information.junction_information` (pose FIM = sum_j J_j^T FIM_j J_j); the NEES
    of the 6-D error against the reported covariance beside chi-square(6) from scipy.
 4. Convergence basin: GN from guesses up to 30 degrees and 50 cm off (``perturb_pose``) on
    synthetic correspondences; converged to the homography-started pose / reported failure /
@@ -80,8 +80,8 @@ def _T_WC_from_opencv(cv2, rvec, tvec):
 
 def _speed_sets(quick):
     from graphpose import Board, load_cases
-    from graphpose.camera import project
-    from graphpose.synth.render import perturb_pose, random_pose
+    from graphpose.geometry import project
+    from graphpose.synth.poses import perturb_pose, random_pose
 
     W = Board().world_points()
     sets = []
@@ -103,7 +103,7 @@ def speed(quick):
     """Solver times on 48 points beside OpenCV's, and every solver's pose against IPPE + LM's."""
     import cv2
 
-    from graphpose.camera import project
+    from graphpose.geometry import project
     from graphpose.pose.estimate import pose_difference
     from graphpose.pose.gauss_newton import gauss_newton
     from graphpose.pose.graph import graph_pose
@@ -257,15 +257,12 @@ def synthetic(quick):
     from scipy.stats import chi2
 
     from graphpose import estimate_pose
-    from graphpose.camera import params_from_T
+    from graphpose.geometry import params_from_T
     from graphpose.errors import GraphposeError
     from graphpose.pose.estimate import pose_difference
-    from graphpose.synth.render import (
-        junction_information,
-        loose_polygon,
-        random_pose,
-        render,
-    )
+    from graphpose.synth.information import junction_information
+    from graphpose.synth.poses import loose_polygon, random_pose
+    from graphpose.synth.render import render
 
     n = 20 if quick else 200
     K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
@@ -359,10 +356,10 @@ def synthetic(quick):
 def basin(quick):
     """Gauss-Newton from guesses up to 30 degrees and 50 cm off: how often it reaches the right pose."""
     from graphpose import Board, gauss_newton, pose_from_homography
-    from graphpose.camera import project
+    from graphpose.geometry import project
     from graphpose.errors import InputError
     from graphpose.pose.estimate import pose_difference
-    from graphpose.synth.render import perturb_pose, random_pose
+    from graphpose.synth.poses import perturb_pose, random_pose
 
     n = 200 if quick else 1000
     K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
@@ -391,7 +388,7 @@ def basin(quick):
             reported += 1
     block = {"title": f"Convergence basin: {n} trials, guesses up to 30 deg and 50 cm off",
              "text": "Gauss-Newton on 48 projected junctions with 0.2 px noise, from a guess rotated by up to 30 "
-                     "degrees and moved by up to 50 cm (graphpose.synth.render.perturb_pose); success = the pose "
+                     "degrees and moved by up to 50 cm (graphpose.synth.poses.perturb_pose); success = the pose "
                      "Gauss-Newton reaches from the homography start. Iterations: median {it_med:.0f}, max "
                      "{it_max}; {redrawn} guesses redrawn (a point behind the camera).",
              "values": {"it_med": float(np.median(iterations)), "it_max": int(max(iterations)), "redrawn": redrawn},

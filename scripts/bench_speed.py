@@ -38,14 +38,16 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from graphpose import Board, BoardNotFoundError, K_from_params
-from graphpose.cameras import as_camera, check_image_size
+from graphpose.camera_models import as_camera, check_image_size
 from graphpose.detect.find import find_board
 from graphpose.detect.junctions import extract_junctions
 from graphpose.image import read_image
 from graphpose.io.files import encode_png
-from graphpose.pose.estimate import estimate_pose, fit_pose
+from graphpose.pipeline import estimate_pose
+from graphpose.pose.estimate import fit_pose
 from graphpose.pose.graph import graph_pose
-from graphpose.synth.render import loose_polygon, random_pose, render
+from graphpose.synth.poses import loose_polygon, random_pose
+from graphpose.synth.render import render
 
 DATA = REPO.parent / "shared" / "data" / "rob501"
 K = K_from_params(564.9, 564.3, 337.3, 226.5)

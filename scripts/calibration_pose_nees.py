@@ -35,7 +35,7 @@ TRIALS = (30, 20)
 
 def _pose_error(T_est, T_true) -> np.ndarray:
     """``params(T_est) - params(T_true)`` with the angles wrapped to (-pi, pi]."""
-    from graphpose.camera import params_from_T
+    from graphpose.geometry import params_from_T
 
     e = params_from_T(T_est) - params_from_T(T_true)
     e[3:] = (e[3:] + np.pi) % (2 * np.pi) - np.pi

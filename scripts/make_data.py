@@ -18,7 +18,8 @@ import numpy as np
 from skimage.io import imsave
 
 from graphpose.board import Board
-from graphpose.synth.render import loose_polygon, perturb_pose, random_pose, render
+from graphpose.synth.poses import loose_polygon, perturb_pose, random_pose
+from graphpose.synth.render import render
 
 SEED = 20261122
 COUNT = 4

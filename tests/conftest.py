@@ -1,6 +1,7 @@
 """Shared fixtures: the real ROB501 images beside the checkout, skipped only when absent.
 
-GRAPHPOSE_ROB501 points at another copy of the folder. With GRAPHPOSE_REQUIRE_REAL=1 a
+GRAPHPOSE_ROB501 points at another copy of the folder, GRAPHPOSE_OPENCV_SAMPLES at another
+copy of OpenCV's samples. With GRAPHPOSE_REQUIRE_REAL=1 a
 missing folder or file fails the tests that need it instead of skipping them (for CI
 machines that are meant to have the data).
 """
@@ -13,7 +14,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 REAL_DIR = Path(os.environ.get("GRAPHPOSE_ROB501", REPO.parent / "shared" / "data" / "rob501"))
 #: OpenCV's raw calibration samples (9 x 6 board) and their camera files.
-OPENCV_DIR = REPO.parent / "shared" / "data" / "opencv_samples"
+OPENCV_DIR = Path(os.environ.get("GRAPHPOSE_OPENCV_SAMPLES", REPO.parent / "shared" / "data" / "opencv_samples"))
 
 
 def _data_file(path: Path) -> Path:
@@ -53,11 +54,11 @@ def real_images(real_cases):
     return [(case, read_image(case.image)) for case in real_cases.cases]
 
 
-# --- shared constants: the project's camera and target (appended; graphpose.camera and
+# --- shared constants: the project's camera and target (appended; graphpose.geometry and
 # graphpose.cli.options load no GTSAM) ---------------------------------------------------
 
 from graphpose import Board as _Board  # noqa: E402
-from graphpose.camera import K_from_params as _K_from_params  # noqa: E402
+from graphpose.geometry import K_from_params as _K_from_params  # noqa: E402
 from graphpose.cli.options import DEFAULT_K as _DEFAULT_K  # noqa: E402
 
 #: The project's camera (the ROB501 images'), (3, 3) pixels; read-only.
@@ -67,9 +68,9 @@ PROJECT_K.setflags(write=False)
 BOARD_WPTS = _Board().world_points()
 BOARD_WPTS.setflags(write=False)
 
-from graphpose.cameras import FisheyeCamera as _Fisheye  # noqa: E402
-from graphpose.cameras import PinholeCamera as _Pinhole  # noqa: E402
-from graphpose.cameras import RadTanCamera as _RadTan  # noqa: E402
+from graphpose.camera_models import FisheyeCamera as _Fisheye  # noqa: E402
+from graphpose.camera_models import PinholeCamera as _Pinhole  # noqa: E402
+from graphpose.camera_models import RadTanCamera as _RadTan  # noqa: E402
 
 #: One camera of each model on the project's K. GTSAM has a calibration (Cal3_S2, Cal3DS2,
 #: Cal3Fisheye) for "pinhole", "radtan" and "fisheye", not for k3 or the rational model's

@@ -12,7 +12,6 @@ from graphpose._checks import (
     as_float_array,
     as_points,
     as_polygon,
-    check_board,
     check_bounds,
     check_correspondences,
     check_count,
@@ -25,7 +24,8 @@ from graphpose._checks import (
     check_timestamps,
     check_transform,
 )
-from graphpose.camera import T_from_params, project
+from graphpose.board import check_board
+from graphpose.geometry import T_from_params, project
 from tests.conftest import BOARD_WPTS, PROJECT_K
 
 

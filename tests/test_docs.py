@@ -6,6 +6,7 @@ the repository's root, as a reader would paste it. A block that reads ../shared 
 skipped when that data is absent (failed under GRAPHPOSE_REQUIRE_REAL=1, as in conftest).
 """
 
+import glob
 import importlib.util
 import json
 import os
@@ -19,7 +20,7 @@ from tests.conftest import REPO
 
 PAGES = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
 README_MAX_LINES = 300
-SHARED = re.compile(r"\.\./shared/[\w./-]+")
+SHARED = re.compile(r"\.\./shared/[\w./*-]+")  # a path or a glob pattern of paths
 
 
 def _blocks():
@@ -49,7 +50,7 @@ def test_there_are_examples_to_run():
 def test_python_example_runs_on_its_own(block):
     code = block[2]
     for path in SHARED.findall(code):
-        if not (REPO / path).exists():
+        if not glob.glob(str(REPO / path)):  # the file, or a pattern's files
             message = f"{path} is absent"
             if os.environ.get("GRAPHPOSE_REQUIRE_REAL") == "1":
                 pytest.fail(f"{message} and GRAPHPOSE_REQUIRE_REAL=1")
@@ -156,8 +157,8 @@ def test_every_subcommand_and_option_is_documented():
 
 
 def test_json_record_keys_are_those_of_records_docstring():
-    """docs/cli.md's pose-block table has every key of graphpose/cli/records.py's docstring."""
-    from graphpose.cli import records
+    """docs/cli.md's pose-block table has every key of graphpose/io/records.py's docstring."""
+    from graphpose.io import records
 
     keys = re.findall(r"^``(\w+)``\s", records.__doc__, re.MULTILINE)
     assert keys == list(records.POSE_KEYS)
@@ -212,3 +213,26 @@ def test_benchmark_without_opencv_says_how_to_install_it():
     assert done.returncode == 2
     assert done.stderr.count("\n") == 1 and 'pip install -e ".[bench]"' in done.stderr
     assert "Traceback" not in done.stderr
+
+
+def test_benchmark_update_replaces_only_the_sections_measured_and_says_when():
+    bench = _bench()
+    base = {"format": 1, "quick": False, "date": "d0", "python": "3", "commit": "c0", "command": "python scripts/bench.py",
+            "machine": {"node": "n", "cpu": "c", "arch": "a", "cores": 2, "load_before": None},
+            "versions": {"graphpose": "0"}}
+    old = {**base, "sections": [{"name": n, "seconds": 1.0, "goal": f"old {n}", "figures": [], "blocks": []}
+                                for n in ("junctions", "pose")]}
+    new = {**base, "date": "d1", "commit": "c1", "command": "python scripts/bench.py pose noise --update",
+           "sections": [{"name": n, "seconds": 2.0, "goal": f"new {n}", "figures": [], "blocks": []}
+                        for n in ("pose", "noise")]}
+    doc = bench.update(old, new)
+    rank = {n: i for i, n in enumerate(bench.SECTIONS)}
+    expected = sorted(["junctions", "pose", "noise"], key=lambda n: rank.get(n, len(rank)))  # SECTIONS' order
+    assert [s["name"] for s in doc["sections"]] == expected
+    goals = {s["name"]: s["goal"] for s in doc["sections"]}
+    assert goals == {"junctions": "old junctions", "pose": "new pose", "noise": "new noise"}
+    assert doc["date"] == "d0" and doc["commit"] == "c0"  # the document's own run is the full one
+    runs = {s["name"]: s.get("run") for s in doc["sections"]}
+    assert runs["junctions"] is None and runs["pose"]["commit"] == "c1"
+    page = bench.render_page(doc)
+    assert page.count("Measured in a run of its own: d1, commit c1") == 2

@@ -126,3 +126,19 @@ def test_read_image_refuses_a_decompression_bomb_as_unreadable(tmp_path, monkeyp
     for as_float in (False, True):
         with pytest.raises(InputError, match="cannot read image"):
             read_image(path, as_float=as_float)
+
+
+def test_a_broken_file_is_named_truncated_or_corrupt_never_a_missing_plugin(tmp_path):
+    cases = {"empty.png": b"", "cut.jpg": b"\xff\xd8\xff\xe0\x00\x10JFIF", "notes.dat": b"hello, not an image"}
+    for name, content in cases.items():
+        (tmp_path / name).write_bytes(content)
+        for as_float in (True, False):
+            with pytest.raises(InputError) as caught:
+                read_image(tmp_path / name, as_float=as_float)
+            text = str(caught.value)
+            assert text.startswith(f"cannot read image {tmp_path / name}: not a readable image (")
+            assert "pip" not in text and "backend" not in text
+    with pytest.raises(InputError, match="the file is empty"):
+        read_image(tmp_path / "empty.png")
+    with pytest.raises(InputError, match="not an image file at all: graphpose reads PNG, JPEG"):
+        read_image(tmp_path / "notes.dat")

@@ -1,7 +1,7 @@
 """Pose estimates for many images, on a Dask cluster: one row per image, resumable.
 
 - :func:`estimate_many` (:mod:`graphpose.batch.engine`) runs
-  :func:`graphpose.pose.estimate.estimate_pose` on each image on a local or remote Dask
+  :func:`graphpose.pipeline.estimate_pose` on each image on a local or remote Dask
   cluster and yields one record per image as results arrive;
 - :mod:`graphpose.batch.work` is what a worker runs, and says what a record holds (the
   ``estimate --json`` keys, a status word per failure, the time);
@@ -11,7 +11,7 @@
   paths, and reads per-image bounding polygons.
 
 ``graphpose batch`` (:mod:`graphpose.cli.batch`) is the command line; docs/batch.md the
-guide. Dask and pyarrow are the optional ``batch`` extra (``pip install "graphpose[batch]"``)
+guide. Dask and pyarrow are the optional ``batch`` extra (``pip install "graphpose[batch]"``, or ``pip install -e ".[batch]"`` in a checkout)
 and are imported only when used: the names below load on first use.
 """
 

@@ -37,8 +37,9 @@ from collections import deque
 
 import numpy as np
 
-from .._checks import check_board, check_K
+from ..board import check_board
 from ..board import Board
+from ..camera_models import as_camera
 from ..errors import GraphposeError, InputError
 from .inputs import check_polygon
 from .work import CRASHED, estimate_images, failed_record, warm_up
@@ -59,13 +60,13 @@ class ClusterError(GraphposeError):
     """The Dask cluster could not run the batch: no worker came, or the scheduler went away."""
 
 
-def estimate_many(paths, K, board: Board = Board(), *, bounds=None, robust: bool = False, client=None,
+def estimate_many(paths, camera, board: Board = Board(), *, bounds=None, robust: bool = False, client=None,
                   workers: int | None = None, images_per_task: int | None = None,
                   task_seconds: float = TASK_SECONDS):
     """Estimate the camera pose in many images on a Dask cluster; records as they arrive.
 
     Each image gets what ``graphpose estimate IMAGE [--bounds POLYGON]`` gives it (the same
-    pose, bit for bit), as a record of :func:`graphpose.batch.work.estimate_images`: the
+    pose, up to the last bits that BLAS's thread count and kernel may change: docs/batch.md), as a record of :func:`graphpose.batch.work.estimate_images`: the
     keys of ``estimate --json``, ``status`` one of :data:`graphpose.batch.work.STATUSES`,
     ``time_s`` and ``worker``. One image's failure is its record's status, never an
     exception.
@@ -76,8 +77,10 @@ def estimate_many(paths, K, board: Board = Board(), *, bounds=None, robust: bool
         The images, one record each. Made absolute here (``os.path.abspath``): the workers
         read them by that path, so on a cluster of several machines it must name the same
         file on every one (a shared file system).
-    K : (3, 3) array_like
-        Intrinsics, pixels; the images undistorted.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.camera_models`, e.g. from
+        :func:`graphpose.io.calibration.read_camera`; the images raw, with its lens
+        distortion), or pinhole intrinsics ``K``, pixels, for undistorted images.
     board : Board
         The target.
     bounds : (2, 4) array_like, dict or None
@@ -110,12 +113,12 @@ def estimate_many(paths, K, board: Board = Board(), *, bounds=None, robust: bool
     Raises
     ------
     InputError
-        On a malformed K, board, polygon or option, or when Dask is not installed.
+        On a malformed camera, board, polygon or option, or when Dask is not installed.
     ClusterError
         While iterating: no worker joined within :data:`WORKER_TIMEOUT_S`, or the scheduler
         was lost.
     """
-    K = check_K(K)
+    camera = as_camera(camera)
     board = check_board(board)
     items = _items(paths, bounds)
     if workers is not None:
@@ -127,16 +130,14 @@ def estimate_many(paths, K, board: Board = Board(), *, bounds=None, robust: bool
     if not (isinstance(task_seconds, (int, float)) and np.isfinite(task_seconds) and task_seconds > 0):
         raise InputError(f"task_seconds must be a positive number, got {task_seconds!r}")
     distributed_module()  # fail now, not at the first next(), when Dask is missing
-    return _stream(items, K, board, robust, client, workers, images_per_task, float(task_seconds))
+    return _stream(items, camera, board, robust, client, workers, images_per_task, float(task_seconds))
 
 
 def distributed_module():
     """``distributed`` (Dask's), or InputError saying how to install it."""
-    try:
-        import distributed
-    except ImportError:
-        raise InputError('graphpose batch needs Dask: pip install "graphpose[batch]"') from None
-    return distributed
+    from .._extras import require
+
+    return require("distributed", "batch", "graphpose batch (Dask)")
 
 
 #: Dask's nanny sets these in a worker process's environment; None leaves one unset. Dask sets
@@ -202,7 +203,7 @@ def _check_positive_int(value, name):
         raise InputError(f"{name} must be an integer >= 1, got {value!r}")
 
 
-def _stream(items, K, board, robust, client, workers, images_per_task, task_seconds):
+def _stream(items, camera, board, robust, client, workers, images_per_task, task_seconds):
     """The generator behind :func:`estimate_many` (arguments checked)."""
     if not items:
         return
@@ -220,7 +221,7 @@ def _stream(items, K, board, robust, client, workers, images_per_task, task_seco
             except (OSError, TimeoutError) as exc:
                 raise ClusterError(f"cannot reach the Dask scheduler at {client}: {exc}") from None
             owned.append(client)
-        yield from _Feeder(client, items, K, board, robust, images_per_task, task_seconds).run()
+        yield from _Feeder(client, items, camera, board, robust, images_per_task, task_seconds).run()
     finally:
         for thing in reversed(owned):
             with contextlib.suppress(Exception):  # closing after an interrupt may fail; nothing to save
@@ -230,8 +231,8 @@ def _stream(items, K, board, robust, client, workers, images_per_task, task_seco
 class _Feeder:
     """Keeps the cluster fed with tasks and hands back their records (see the module docstring)."""
 
-    def __init__(self, client, items, K, board, robust, images_per_task, task_seconds):
-        self.client, self.K, self.board, self.robust = client, K, board, robust
+    def __init__(self, client, items, camera, board, robust, images_per_task, task_seconds):
+        self.client, self.camera, self.board, self.robust = client, camera, board, robust
         self.fixed, self.task_seconds = images_per_task, task_seconds
         self.queue = deque(items)   # not yet submitted
         self.singles = deque()      # images of a failed task, to run one a task
@@ -275,8 +276,10 @@ class _Feeder:
             if len(items) > 1:
                 self.singles.extend(items)
                 return []
-            return [failed_record(items[0][0], CRASHED, f"the worker failed on this image: "
-                                  f"{type(exc).__name__}: {' '.join(str(exc).split())}")]
+            path, bounds = items[0]
+            return [failed_record(path, CRASHED, f"the worker failed on this image: "
+                                  f"{type(exc).__name__}: {' '.join(str(exc).split())}",
+                                  self.camera, self.board, bounds, self.robust)]
         self._learn(records)
         return records
 
@@ -301,7 +304,7 @@ class _Feeder:
             else:
                 n = min(self._group_size(), len(self.queue))
                 items = [self.queue.popleft() for _ in range(n)]
-            future = self.client.submit(estimate_images, items, self.K, self.board, self.robust,
+            future = self.client.submit(estimate_images, items, self.camera, self.board, self.robust,
                                         key=next(self.keys), pure=False)
             self.running[future] = items
             finished.add(future)

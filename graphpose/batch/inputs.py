@@ -94,7 +94,8 @@ def read_bounds_file(path) -> dict:
 
     The file holds either an object mapping image paths to polygons,
     ``{"img_001.png": [[u1, u2, u3, u4], [v1, v2, v3, v4]], ...}``, or a case file's
-    ``{"cases": [{"image": ..., "bounds": ...}, ...]}`` (other keys ignored). A polygon is
+    ``{"cases": [{"image": ..., "bounds": ...}, ...]}`` (other keys ignored; a case without
+    ``bounds`` is searched whole, as in ``graphpose estimate --cases``). A polygon is
     2 x 4 pixels, clockwise from the vertex nearest the board's upper-left junction, as
     ``graphpose estimate --bounds``; ``null`` searches the whole image.
 
@@ -119,10 +120,10 @@ def read_bounds_file(path) -> dict:
     if isinstance(doc, dict) and isinstance(doc.get("cases"), list):
         pairs = []
         for k, case in enumerate(doc["cases"]):
-            if not isinstance(case, dict) or not isinstance(case.get("image"), str) or "bounds" not in case:
+            if not isinstance(case, dict) or not isinstance(case.get("image"), str):
                 raise InputError(f"bounds file {path}: cases[{k}] must be an object with 'image' (a path) "
-                                 f"and 'bounds' (2 x 4)")
-            pairs.append((case["image"], case["bounds"]))
+                                 f"and optionally 'bounds' (2 x 4)")
+            pairs.append((case["image"], case.get("bounds")))  # a case without bounds: the whole image
     elif isinstance(doc, dict):
         pairs = list(doc.items())
     else:

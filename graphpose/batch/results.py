@@ -11,12 +11,17 @@ Two formats, chosen by the name's ending:
   flushed to the operating system) as its row arrives. A last line cut short by a killed
   writer is dropped when the file is opened again, and its image is done again.
 
-A row is the record of :func:`graphpose.cli.records.result_record` with the batch's status
+A row is the record of :func:`graphpose.io.records.result_record` with the batch's status
 word and ``time_s`` and ``worker`` (:mod:`graphpose.batch.work`). JSON lines keep it as it
 is; Parquet has one column per key, with its fixed type (:data:`SCHEMA`), except
 ``cross_check``, whose three fields become ``cross_check_translation_m``,
-``cross_check_rotation_deg`` and ``cross_check_agree``. :func:`read_results` gives back the
-JSON form from either.
+``cross_check_rotation_deg`` and ``cross_check_agree``, and ``camera`` and ``board``, held
+as JSON text. :func:`read_results` gives back the JSON form from either.
+
+A row's result depends on its image and on :data:`PARAMETER_KEYS` (the camera's model and
+values, the board, the polygon, the robust loss): :func:`parameters` is that key, and
+:attr:`Results.made` holds it, with the status, for every image of the set, so that a run
+with other parameters is not taken for done (``graphpose batch`` refuses it).
 
 One writer per result set at a time: :func:`open_results` takes an exclusive lock (a
 ``.lock`` file in the Parquet folder, the file itself for JSON lines), so that two runs on
@@ -62,8 +67,31 @@ SCHEMA = {
     "sigma_pixel_rpy_deg": "list<double>",
     "time_s": "double",
     "worker": "string",
+    "camera": "string",
+    "board": "string",
+    "bounds": "list<list<double>>",
+    "robust": "bool",
 }
 _CROSS_CHECK = ("translation_m", "rotation_deg", "agree")
+#: Keys held in Parquet as JSON text (objects of their own).
+_JSON_COLUMNS = ("camera", "board")
+
+#: The keys of a row, besides its image, that change its result.
+PARAMETER_KEYS = ("camera", "board", "bounds", "robust")
+
+
+def parameters(record: dict) -> str | None:
+    """What a row's result was made with, as one comparable text: :data:`PARAMETER_KEYS`,
+    the camera by its model and values (not the file it came from); None for a row that
+    does not say (written before graphpose recorded them)."""
+    if any(record.get(key) is None for key in ("camera", "board")):
+        return None
+    camera = {k: v for k, v in record["camera"].items() if k not in ("file", "name")}
+    distortion = list(camera.get("distortion") or [])
+    while distortion and distortion[-1] == 0:  # (k1, k2, p1, p2) is (k1, k2, p1, p2, 0)
+        distortion.pop()
+    camera["distortion"] = distortion
+    return json.dumps([camera, record["board"], record.get("bounds"), bool(record.get("robust"))], sort_keys=True)
 
 
 def results_format(path) -> str:
@@ -91,6 +119,7 @@ def flat_row(record: dict) -> dict:
     check = record.get("cross_check") or {}
     row = {key: record.get(key) for key in SCHEMA}
     row.update({f"cross_check_{k}": check.get(k) for k in _CROSS_CHECK})
+    row.update({k: None if row[k] is None else json.dumps(row[k]) for k in _JSON_COLUMNS})
     return row
 
 
@@ -99,6 +128,7 @@ def nested_record(row: dict) -> dict:
     record = {k: v for k, v in row.items() if not k.startswith("cross_check_")}
     check = {k: row.get(f"cross_check_{k}") for k in _CROSS_CHECK}
     record["cross_check"] = None if all(v is None for v in check.values()) else check
+    record.update({k: json.loads(record[k]) for k in _JSON_COLUMNS if record.get(k) is not None})
     return record
 
 
@@ -106,7 +136,9 @@ class Results:
     """An open result set: the images already in it, and rows to add.
 
     Use :func:`open_results`. Attributes: ``path``, ``format`` (``"parquet"`` or
-    ``"jsonl"``) and ``done`` (the set of image paths with a row, updated by :meth:`write`).
+    ``"jsonl"``), ``done`` (the set of image paths with a row, updated by :meth:`write`) and
+    ``made`` (image path -> ``(parameters(row), status)`` of its last row, see
+    :func:`parameters`).
     """
 
     format = ""
@@ -115,7 +147,13 @@ class Results:
         self.path = Path(path)
         self.flush_seconds = float(flush_seconds)
         self.done = set()
+        self.made = {}
         self._lock_fd = None
+
+    def _add(self, record: dict) -> None:
+        """Note the image of ``record`` (a row) as done, with its parameters and status."""
+        self.done.add(record["image"])
+        self.made[record["image"]] = (parameters(record), record.get("status"))
 
     def write(self, record: dict) -> None:
         """Add one image's row (a record of :mod:`graphpose.batch.work`)."""
@@ -169,22 +207,26 @@ class ParquetResults(Results):
         self.path.mkdir(exist_ok=True)
         self._lock(self.path / ".lock")
         self._rows, self._since, self._parts = [], None, 0
+        self._landing = None  # the part being written, until its rows are forgotten
         pq = _pyarrow("parquet")
         for stale in self.path.glob(".part-*.tmp"):  # a part being written when a run was killed
             stale.unlink()
         for part in _parts(self.path):
             try:
-                images = pq.read_table(part, columns=["image"]).column("image").to_pylist()
+                names = set(pq.read_schema(part).names)  # a part written before a column existed lacks it
+                columns = ["image", "status", *(k for k in PARAMETER_KEYS if k in names)]
+                rows = pq.read_table(part, columns=[c for c in columns if c in names]).to_pylist()
             except Exception as exc:  # noqa: BLE001  (pyarrow raises several types for a bad file)
                 self.close()
                 raise InputError(f"results {self.path}: cannot read the part {part.name}: {exc}") from None
-            self.done.update(images)
+            for row in rows:
+                self._add(nested_record(row))
         self._schema = arrow_schema()
         self._run = uuid.uuid4().hex[:8]
 
     def write(self, record: dict) -> None:
         self._rows.append(flat_row(record))
-        self.done.add(record["image"])
+        self._add(record)
         now = time.monotonic()
         if self._since is None:
             self._since = now
@@ -192,6 +234,10 @@ class ParquetResults(Results):
             self.flush()
 
     def flush(self) -> None:
+        if self._landing is not None and (self.path / self._landing).exists():
+            # Ctrl-C (or SIGTERM) came between the rename and forgetting the rows: they are
+            # written, and writing them again at close would give their images two rows.
+            self._forget()
         if not self._rows:
             return
         pa, pq = _pyarrow(), _pyarrow("parquet")
@@ -200,10 +246,15 @@ class ParquetResults(Results):
         when = time.strftime("%Y%m%dT%H%M%S", time.gmtime(stamp // 10**9)) + f".{stamp % 10**9:09d}"
         name = f"part-{when}-{self._run}-{self._parts:06d}.parquet"
         tmp = self.path / f".{name}.tmp"
+        self._landing = name
         pq.write_table(table, tmp)
         os.replace(tmp, self.path / name)
+        self._forget()
+
+    def _forget(self) -> None:
+        """The waiting rows are in the part :attr:`_landing`: start the next part."""
+        self._rows, self._since, self._landing = [], None, None
         self._parts += 1
-        self._rows, self._since = [], None
 
 
 class JsonLinesResults(Results):
@@ -228,8 +279,8 @@ class JsonLinesResults(Results):
             if not line.endswith(b"\n"):
                 break  # cut short by a killed writer: dropped below
             try:
-                self.done.add(json.loads(line)["image"])
-            except (ValueError, KeyError, TypeError):
+                self._add(json.loads(line))
+            except (ValueError, KeyError, TypeError, AttributeError):
                 self._file.close()
                 raise InputError(f"results {self.path}: line {number} is not a result record") from None
             good += len(line)
@@ -253,7 +304,7 @@ class JsonLinesResults(Results):
         line = json.dumps(record, allow_nan=False, separators=(",", ":")) + "\n"
         self._file.write(line.encode())
         self._file.flush()
-        self.done.add(record["image"])
+        self._add(record)
         if time.monotonic() - self._synced >= self.flush_seconds:
             self.flush()
 
@@ -334,9 +385,6 @@ def _parts(folder: Path) -> list:
 
 def _pyarrow(module: str = ""):
     """pyarrow (or pyarrow.MODULE), or InputError saying how to install it."""
-    import importlib
+    from .._extras import require
 
-    try:
-        return importlib.import_module("pyarrow" + (f".{module}" if module else ""))
-    except ImportError:
-        raise InputError('Parquet results need pyarrow: pip install "graphpose[batch]"') from None
+    return require("pyarrow" + (f".{module}" if module else ""), "batch", "Parquet results")

@@ -2,13 +2,18 @@
 
 :func:`estimate_images` is what a Dask worker runs (and what a plain loop runs, for a
 comparison): for each image it does what ``graphpose estimate IMAGE [--bounds ...]`` does
-(:func:`graphpose.image.read_image`, then :func:`graphpose.pose.estimate.estimate_pose`) and
-turns the outcome into the record of :func:`graphpose.cli.records.result_record`, so the pose
-of a row is the pose that command gives for that image, bit for bit. A failure of one image
+(:func:`graphpose.image.read_image`, then :func:`graphpose.pipeline.estimate_pose`) and
+turns the outcome into the record of :func:`graphpose.io.records.result_record`, so the pose
+of a row is the pose that command gives for that image (up to the last bits BLAS may change,
+docs/batch.md). A failure of one image
 becomes that image's row and never stops the others. The record's ``status`` says why an
 image has no usable pose (:data:`STATUSES`), where ``estimate --json`` only says ``failed``;
-two keys are added: ``time_s`` (seconds spent on the image) and ``worker`` (the Dask
-worker's address, None outside Dask).
+the record names what the pose was made with, as every record does (``camera`` and
+``board``, :func:`graphpose.io.records.target_keys`), and four keys are added: ``bounds``
+(the polygon the image was searched in, 2 x 4 pixels, or None: the whole image), ``robust``
+(the robust loss or not), ``time_s`` (seconds spent on the image) and ``worker`` (the Dask
+worker's address, None outside Dask). ``camera``, ``board``, ``bounds`` and ``robust`` are
+what makes the result: :func:`graphpose.batch.results.parameters` of a row.
 
 This module imports neither Dask nor GTSAM until it runs.
 """
@@ -20,7 +25,7 @@ import sys
 import time
 
 from ..board import Board
-from ..cli.records import result_record
+from ..io.records import result_record, target_keys
 from ..errors import BoardNotFoundError, GraphposeError
 
 #: Status words of a row, from best to worst.
@@ -35,11 +40,12 @@ CRASHED = "crashed"                  # the worker process died on this image, ag
 
 STATUSES = (OK, NOT_CONVERGED, BOARD_NOT_FOUND, FAILED, MISSING, UNREADABLE, ERROR, CRASHED)
 
-#: Keys a batch record adds to :func:`graphpose.cli.records.result_record`'s.
-EXTRA_KEYS = ("time_s", "worker")
+#: Keys a batch record adds to :func:`graphpose.io.records.result_record`'s and
+#: :func:`graphpose.io.records.target_keys`' ``camera`` and ``board``.
+EXTRA_KEYS = ("bounds", "robust", "time_s", "worker")
 
 
-def estimate_images(items, K, board: Board = Board(), robust: bool = False) -> list:
+def estimate_images(items, camera, board: Board = Board(), robust: bool = False) -> list:
     """Estimate the pose in each image of ``items``; one record per image, in order.
 
     Parameters
@@ -48,22 +54,25 @@ def estimate_images(items, K, board: Board = Board(), robust: bool = False) -> l
         Image path (as the process running this sees it) and the board's bounding polygon in
         pixels, or None to search the whole image (as ``graphpose estimate IMAGE`` without
         ``--bounds``).
-    K : (3, 3) ndarray
-        Intrinsics, pixels (checked by the caller).
+    camera : Camera or (3, 3) ndarray
+        The camera model (:mod:`graphpose.camera_models`; images raw, with its lens distortion), or
+        pinhole intrinsics ``K``, pixels, for undistorted images (checked by the caller).
     board : Board
         The target.
     robust : bool
-        As :func:`graphpose.pose.estimate.estimate_pose`.
+        As :func:`graphpose.pipeline.estimate_pose`.
 
     Returns
     -------
     list of dict
         JSON-ready records (see the module docstring); never raises for one image's failure.
     """
+    from ..cli.options import board_hint
     from ..image import read_image
-    from ..pose.estimate import estimate_pose
+    from ..pipeline import estimate_pose
 
     worker = _worker_address()
+    target = target_keys(camera, board)
     records = []
     for path, bounds in items:
         start = time.perf_counter()
@@ -77,18 +86,19 @@ def estimate_images(items, K, board: Board = Board(), robust: bool = False) -> l
                 except GraphposeError as exc:
                     status, message = UNREADABLE, _one_line(exc)
                 else:
-                    estimate = estimate_pose(image, bounds, K, board, robust=robust)
+                    estimate = estimate_pose(image, bounds, camera, board, robust=robust)
                     if not estimate.ok:
                         status, message = NOT_CONVERGED, f"no reliable pose: {estimate.message}"
         except BoardNotFoundError as exc:
-            status, message = BOARD_NOT_FOUND, _one_line(exc)
+            status, message = BOARD_NOT_FOUND, board_hint(_one_line(exc))
         except GraphposeError as exc:
             status, message = FAILED, _one_line(exc)
         except Exception as exc:  # noqa: BLE001  (one image's bug must not stop the batch)
             status, message = ERROR, f"{type(exc).__name__}: {_one_line(exc)}"
         record = result_record(path, estimate, message)
         record["status"] = status
-        record.update(time_s=time.perf_counter() - start, worker=worker)
+        record.update(target, bounds=None if bounds is None else bounds.tolist(), robust=bool(robust),
+                      time_s=time.perf_counter() - start, worker=worker)
         records.append(record)
     return records
 
@@ -97,15 +107,17 @@ def warm_up() -> None:
     """Import what :func:`estimate_images` needs, so that a worker's first image is not slower."""
     from skimage import io  # noqa: F401  (read_image's reader, imported on first use)
 
-    from ..detect import junctions  # noqa: F401  (estimate_pose imports it on first use)
-    from ..pose import estimate  # noqa: F401
+    from .. import pipeline  # noqa: F401  (estimate_pose, with the detector and the solvers)
 
 
-def failed_record(path, status: str, message: str) -> dict:
-    """The record of an image that has no result from a worker (e.g. :data:`CRASHED`)."""
+def failed_record(path, status: str, message: str, camera=None, board: Board = Board(), bounds=None,
+                  robust: bool = False) -> dict:
+    """The record of an image that has no result from a worker (e.g. :data:`CRASHED`), with
+    the parameters it was to be estimated with (``camera`` None: no ``camera`` nor ``board``)."""
     record = result_record(path, None, message)
     record["status"] = status
-    record.update(time_s=None, worker=None)
+    record.update(target_keys(camera, board) if camera is not None else {"camera": None, "board": None})
+    record.update(bounds=None if bounds is None else bounds.tolist(), robust=bool(robust), time_s=None, worker=None)
     return record
 
 

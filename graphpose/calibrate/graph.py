@@ -5,7 +5,7 @@ Variables: the calibration ``K(0)``; the camera pose ``X(i)`` (``T_WC``) of view
 
 - pinhole: GTSAM's ``GeneralSFMFactor2Cal3_S2`` on ``X(i)``, the target point ``L(j)`` and a
   ``Cal3_S2``; fisheye: ``GeneralSFMFactor2Cal3Fisheye`` with a ``Cal3Fisheye`` (GTSAM's own
-  projection code, checked against graphpose's in ``tests/test_cameras.py``; it projects
+  projection code, checked against graphpose's in ``tests/test_camera_models.py``; it projects
   through ``(x/z, y/z)``, so the junctions must lie in front of the camera). The target
   points are variables pinned by very tight priors (:data:`LANDMARK_SIGMA_M`), as in the
   pose graph, and GTSAM's calibrations carry a skew the calibration does not
@@ -14,7 +14,7 @@ Variables: the calibration ``K(0)``; the camera pose ``X(i)`` (``T_WC``) of view
 - radtan: GTSAM's ``Cal3DS2`` has no ``k3``, so the calibration is a 9-vector
   ``(fx, fy, cx, cy, k1, k2, p1, p2, k3)`` in OpenCV's order and the factors are
   ``gtsam.CustomFactor`` on ``(K(0), X(i))`` whose projection and Jacobians are written out
-  here, apart from :mod:`graphpose.cameras` (the cross-check's other solver uses those). A
+  here, apart from :mod:`graphpose.camera_models` (the cross-check's other solver uses those). A
   Python callback per junction costs about 0.1 ms a call (some 6 s for 40 views), so there is
   one custom factor per view, vectorised over its junctions, and the Huber kernel is applied
   per junction inside it, exactly (:func:`_radtan_factor`): the cost is the same as with
@@ -37,7 +37,7 @@ import numpy as np
 from gtsam.symbol_shorthand import K as KEY
 from gtsam.symbol_shorthand import L, X
 
-from ..cameras import FisheyeCamera, PinholeCamera
+from ..camera_models import FisheyeCamera, PinholeCamera
 from ..errors import InputError
 from .params import camera_parameters, camera_with_parameters
 

@@ -1,7 +1,7 @@
 """The calibration's cross-check: a hand-written Levenberg-Marquardt over the same cost.
 
 Unknowns: the intrinsic parameters ``p`` (:func:`graphpose.calibrate.parameter_names`) and
-each view's pose as ``(x, y, z, roll, pitch, yaw)`` (:mod:`graphpose.camera`). The cost is
+each view's pose as ``(x, y, z, roll, pitch, yaw)`` (:mod:`graphpose.geometry`). The cost is
 the one of :mod:`.graph`: ``sum_j rho(||r_j||)`` over the junctions, ``r_j`` the raw pixel
 residual, ``rho`` the Huber function of threshold ``huber_px`` (``e^2 / 2`` without one).
 Each step solves the dense normal equations with the exact analytic Jacobian: in ``p`` from
@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..camera import T_from_params, params_from_T, to_camera
+from ..geometry import T_from_params, params_from_T, to_camera
 from ..errors import InputError
 from ..pose.gauss_newton import _project, _weights, reprojection_cost
 from .params import camera_parameters, camera_with_parameters, projection_jacobian_intrinsics

@@ -24,7 +24,7 @@ rational radial-tangential camera's ``k4, k5, k6`` (the denominator of its radia
   for camera-frame points: the calibration's Jacobian, and the map that carries the
   parameters' covariance into pixels (``J cov J^T``).
 
-The camera's own ``covariance`` (:mod:`graphpose.cameras`) is in the same order.
+The camera's own ``covariance`` (:mod:`graphpose.camera_models`) is in the same order.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._checks import as_float_array, as_points
-from ..cameras import Camera, FisheyeCamera, PinholeCamera, RadTanCamera, as_camera
+from ..camera_models import Camera, FisheyeCamera, PinholeCamera, RadTanCamera, as_camera
 from ..errors import InputError
 
 #: The camera class of each model name.

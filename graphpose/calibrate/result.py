@@ -35,7 +35,7 @@ class Calibration:
     Attributes
     ----------
     camera : Camera
-        The calibrated camera (:mod:`graphpose.cameras`), its ``size`` the images', carrying
+        The calibrated camera (:mod:`graphpose.camera_models`), its ``size`` the images', carrying
         ``covariance`` (= ``cov``).
     cov : (P, P) ndarray
         Covariance of the intrinsic parameters, in ``parameter_names`` order (pixels,

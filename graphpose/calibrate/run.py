@@ -39,7 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .._checks import check_board, check_number
+from .._checks import check_number
+from ..board import check_board
 from ..board import Board
 from ..errors import BoardNotFoundError, InputError
 from .params import camera_parameters, camera_with_parameters, model_class, parameter_names
@@ -211,7 +212,7 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
 
     # 1. First pass: no camera.
     if camera is not None:
-        from ..cameras import Camera, check_image_size
+        from ..camera_models import Camera, check_image_size
 
         if not isinstance(camera, Camera):
             raise InputError(f"camera must be a graphpose camera, got {type(camera).__name__}")

@@ -30,9 +30,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..cameras import FisheyeCamera, PinholeCamera, RadTanCamera
+from ..camera_models import FisheyeCamera, PinholeCamera, RadTanCamera
 from ..errors import InputError
-from ..pose.homography import homography_dlt, pose_from_homography
+from ..geometry import homography_dlt
+from ..pose.homography import pose_from_homography
 
 #: Zhang's system is degenerate when its second-smallest singular value is below this
 #: fraction of the largest: its null space is then more than one-dimensional, up to the noise

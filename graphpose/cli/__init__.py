@@ -81,6 +81,7 @@ def main(argv=None) -> int:
     parser = None
     try:
         parser = build_parser()
+        _check_command(argv[0], parser.commands)
         try:
             args, extra = parser.parse_known_args(argv)
         except SystemExit as done:  # --help and --version print and exit 0
@@ -118,6 +119,15 @@ def _attach_negative_lists(argv: list) -> list:
         else:
             out.append(arg)
     return out
+
+
+def _check_command(first: str, commands) -> None:
+    """UsageError pointing to ``graphpose estimate PATH`` when the first argument is a path
+    (an existing file or folder, or a name with an ending) rather than a command."""
+    if first in commands or first.startswith("-") or not (os.path.exists(first) or os.path.splitext(first)[1]):
+        return
+    raise UsageError(f"'{first}' is not a command; for the camera pose in an image or a folder of images, "
+                     f"run: {PROG} estimate {first} --camera FILE (or --K FX,FY,CX,CY)")
 
 
 def exit_code(exc: GraphposeError) -> int:

@@ -22,10 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
+from .._extras import require
 from ..calibrate.params import MODELS as CALIBRATION_MODELS
 from ..errors import GraphposeError, InputError
 from ..io.camera_files import FORMATS
 from . import EXIT_OK, UsageError
+from .estimate import image_paths
 from .options import Progress, parse_board
 
 #: The models ``--model`` takes, and the formats of ``--format``.
@@ -77,7 +79,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "message, RMS and pose ('-': stdout, no summary)")
     p.add_argument("--plot", type=Path, metavar="PNG",
                    help="draw the residuals and the coverage and uncertainty map over the image "
-                   "(needs the plot extra: pip install -e \".[plot]\")")
+                   "(needs the plot extra, matplotlib)")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary on stdout (errors still on stderr)")
     return p
 
@@ -107,7 +109,7 @@ def run(args) -> int:
     elif args.json is not None:
         write_json(args.json, record)
     if not calibration.ok:
-        raise CalibrationFailed(f"the calibration failed, no camera file written: {calibration.summary}")
+        raise CalibrationFailed(f"{calibration.summary} (no camera file written)")
     write_camera(args.out, calibration.camera, format=args.format)
     note = covariance_note(calibration.camera, args.format)
     if args.plot is not None:
@@ -141,31 +143,22 @@ def _check_outputs(args) -> None:
     if args.plot is not None:
         if args.plot.suffix.lower() != ".png":
             raise UsageError(f"--plot: the picture is PNG, so the name must end in .png, got {args.plot}")
-        try:
-            import matplotlib  # noqa: F401
-        except ImportError:
-            raise InputError("--plot needs matplotlib, the plot extra: pip install -e \".[plot]\" "
-                             "(or leave --plot out)") from None
+        require("matplotlib", "plot", "graphpose calibrate --plot")
 
 
 def image_files(paths) -> list:
-    """The images of IMAGES: files as given, a folder's image files in name order.
+    """The images of IMAGES (:func:`graphpose.cli.estimate.image_paths`: files as given, a
+    folder's image files in name order), each of which must exist.
 
     Raises
     ------
     InputError
         If a path does not exist or a folder holds no image.
     """
-    from ..track.frames import list_frames
-
-    files = []
-    for path in paths:
-        if path.is_dir():
-            files.extend(list_frames(path))
-        elif path.is_file():
-            files.append(path)
-        else:
-            raise InputError(f"image not found: {path}")
+    files = image_paths(paths)
+    missing = [path for path in files if not Path(path).is_file()]
+    if missing:
+        raise InputError(f"image not found: {missing[0]}")
     return files
 
 

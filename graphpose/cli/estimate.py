@@ -1,7 +1,7 @@
-"""``graphpose estimate``: the camera pose from one image, a case file, or the bundled example.
+"""``graphpose estimate``: the camera pose from images, folders of them, a case file, or the bundled example.
 
 Turns the arguments into typed values (bounds (2, 4) or none, a camera (``--camera FILE``
-with its lens model, or a pinhole ``--K``), :class:`Board`, a guess (4, 4)), calls :func:`graphpose.pose.estimate.estimate_pose` once per image, and writes a report
+with its lens model, or a pinhole ``--K``), :class:`Board`, a guess (4, 4)), calls :func:`graphpose.pipeline.estimate_pose` once per image, and writes a report
 on stdout, optionally ``--json`` results and ``--overlay`` pictures. An image that fails in
 a batch is reported on stderr and in its JSON entry, and the others go on; the exit code is
 then the worst of the images' codes (see :mod:`graphpose.cli`).
@@ -18,23 +18,27 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cameras import check_image_size
-from ..errors import GraphposeError, InputError
+from ..camera_models import check_image_size
+from ..errors import BoardNotFoundError, GraphposeError, InputError
 from ..image import read_image
 from ..io.cases import bundled_cases_path, load_cases, load_pose
 from ..io.files import dumps_json, write_json, write_png
-from ..pose.estimate import estimate_pose, pose_difference
+from ..pipeline import estimate_pose
+from ..pose.estimate import pose_difference
 from ..pose.intrinsics import SIGMA_PIXEL
 from ..viz.overlay import draw_overlay
-from . import EXIT_OK, UsageError, exit_code, print_error
+from . import EXIT_OK, PROG, UsageError, error_line, exit_code, print_error
 from .options import (
     Progress,
     add_camera_option,
     add_target_options,
+    board_hint,
+    camera_file,
     camera_from_args,
+    check_camera_options,
     parse_bounds,
 )
-from .records import result_record
+from ..io.records import result_record, target_keys, target_words
 
 #: The bundled example, package data made by scripts/make_data.py with graphpose.synth.render.
 DEFAULT_CASES = bundled_cases_path()
@@ -42,13 +46,15 @@ DEFAULT_CASES = bundled_cases_path()
 _EXAMPLES = """\
 examples:
   graphpose estimate                                  # the bundled example (data/cases.json)
-  graphpose estimate board.png                        # the board searched in the whole image
+  graphpose estimate board.png --K 564.9,564.3,337.3,226.5   # the board searched in the whole image
   graphpose estimate raw.jpg --camera left.opencv.yml --board 9x6x0.03   # a raw image, its lens
+  graphpose estimate left/ right01.jpg right02.jpg --camera cam.yml --json poses.json   # folders, images
   graphpose estimate board.png --bounds 166,254,455,136,541,347,259,477 \\
       --K 564.9,564.3,337.3,226.5 --board 8x6x0.0635 --guess pose.json
   graphpose estimate --cases cases.json --json out.json --overlay overlays/
 
---bounds (optional) lists the polygon's corners (u, v) in pixels, (u, v) = (column, row)
+An image needs its camera: --camera FILE or --K (no calibration yet: 'graphpose calibrate').
+A FOLDER stands for its image files in name order. --bounds (optional) lists the polygon's corners (u, v) in pixels, (u, v) = (column, row)
 from 0, clockwise from the corner nearest junction 0: it narrows the search and names
 junction 0's corner. Without it a board unchanged by a half turn is reported orientation
 ambiguous (junction 0 is then the corner nearest the image's upper left). --camera reads
@@ -66,19 +72,22 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         help="camera pose from checkerboard images (default: the bundled example)",
         description=textwrap.fill(
             "Estimate the camera pose T_WC relative to a checkerboard, with 1-sigma uncertainties. "
-            "Give one IMAGE (optionally --bounds), or --cases CASES.json; with neither, runs the bundled "
-            "example data/cases.json. With --camera, images are raw (lens distortion modelled).", 88),
+            "Give images or folders of them (with --camera FILE or --K, optionally --bounds), or --cases "
+            "CASES.json; with neither, runs the bundled example data/cases.json. With --camera, images are "
+            "raw (lens distortion modelled).", 88),
         epilog=_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("image", nargs="?", type=Path, metavar="IMAGE", help="an image of the board (any format scikit-image reads; colour is made grey)")
+    p.add_argument("images", nargs="*", type=Path, metavar="IMAGE_OR_FOLDER",
+                   help="images of the board (any format scikit-image reads; colour is made grey), or folders "
+                   "of them (their image files in name order)")
     p.add_argument("--bounds", type=parse_bounds, metavar="U1,V1,U2,V2,U3,V3,U4,V4",
-                   help="the board's bounding polygon in IMAGE, pixels, clockwise from the corner nearest "
+                   help="the board's bounding polygon in the images, pixels, clockwise from the corner nearest "
                    "junction 0 (default: search the whole image)")
     add_target_options(p, "with --cases, the file's")
     add_camera_option(p, "with --cases, the file's K or camera")
     p.add_argument("--guess", type=Path, metavar="POSE.json",
-                   help="initial pose for IMAGE (default: the linear homography initialiser)")
+                   help="initial pose for the images (default: the linear homography initialiser)")
     p.add_argument("--cases", type=Path, metavar="CASES.json",
                    help="many images: a case file (K or camera, and per case image path relative to the "
                    "file, optional bounds and guess_T_WC)")
@@ -111,16 +120,17 @@ class Job:
 
 def run(args) -> int:
     """Run ``graphpose estimate`` with parsed ``args``; returns the exit code."""
-    jobs, camera, board = _jobs(args)
+    jobs, cases, source = _jobs(args)
     overlays = _overlay_paths(args.overlay, jobs) or [None] * len(jobs)
     if args.json not in (None, "-"):
         _check_folder(Path(args.json), "--json")
+    camera, board, target = _target(args, cases, source)
     report = not (args.quiet or args.json == "-")
     progress = Progress(len(jobs), sys.stderr)
     records, codes = [], []
     for i, (job, overlay) in enumerate(zip(jobs, overlays)):
         progress.show(i, Path(job.name).name)
-        record, code = _run_one(job, camera, board, args.robust, overlay, report, progress)
+        record, code = _run_one(job, camera, board, target, args.robust, overlay, report, progress)
         records.append(record)
         codes.append(code)
     progress.clear()
@@ -134,29 +144,38 @@ def run(args) -> int:
     return max(codes)
 
 
-def _run_one(job, camera, board, robust, overlay, report, progress):
+def _run_one(job, camera, board, target, robust, overlay, report, progress):
     """Estimate one image, report it and draw it; returns its JSON record and exit code.
 
     Every failure of this image, writing its overlay included, is reported and recorded here,
-    so the batch goes on and its JSON is still written.
+    so the batch goes on and its JSON is still written. ``target`` holds the record's
+    ``camera`` and ``board`` keys (:func:`graphpose.io.records.target_keys`).
     """
-    estimate, error, code = None, None, EXIT_OK
+    estimate, error, code, image = None, None, EXIT_OK, None
     try:
         image = read_image(job.path, as_float=False)  # 8-bit stays uint8: the detector reads it as it is
         check_image_size(camera, image.shape, str(job.path))
-        estimate = estimate_pose(image, job.bounds, camera, board, guess=job.guess, robust=robust)
+        try:
+            estimate = estimate_pose(image, job.bounds, camera, board, guess=job.guess, robust=robust)
+        except BoardNotFoundError as exc:
+            raise BoardNotFoundError(board_hint(str(exc))) from None
         # An unreliable pose is drawn too: the picture shows why.
         if overlay is not None:
             _write_overlay(overlay, image, estimate, camera, board, job)
         if not estimate.ok:
             raise _NotConverged(f"no reliable pose: {estimate.message}")
     except GraphposeError as exc:
-        progress.clear()
-        print_error(exc, "" if str(job.path) in str(exc) else job.name)
         error, code = " ".join(str(exc).split()), exit_code(exc)
+        picture = ""
+        if overlay is not None and image is not None and estimate is None:
+            picture = _write_failure_overlay(overlay, image, error, job, board, progress)
+        progress.clear()
+        line = error_line(exc, "" if str(job.path) in str(exc) else job.name)
+        print(f"{PROG}: error: {line}{picture}", file=sys.stderr, flush=True)
     record = result_record(str(job.path), estimate, error)
     record["vs_truth"] = _difference(estimate, job.true_T_WC)
     record["vs_reference"] = _difference(estimate, job.ref_T_WC)
+    record.update(target)
     # An unreliable pose goes to JSON and the overlay, not into the report.
     if report and code == EXIT_OK:
         progress.clear()
@@ -166,11 +185,31 @@ def _run_one(job, camera, board, robust, overlay, report, progress):
 
 def _write_overlay(path: Path, image, estimate, camera, board, job) -> None:
     """Draw ``estimate`` on ``image`` into the PNG ``path``, creating its folder if needed."""
+    _make_folder(path)
+    write_png(path, draw_overlay(image, estimate, camera, board, bounds=job.bounds, label=Path(job.name).name))
+
+
+def _write_failure_overlay(path: Path, image, reason: str, job, board, progress) -> str:
+    """Draw the picture of an image without a pose: its bounds, what the search found, the
+    reason (:func:`graphpose.viz.failure.draw_failure`); returns the words that add its path
+    to the image's error line (a failure to write it is one more line, and no words)."""
+    from ..viz.failure import draw_failure
+
+    try:
+        _make_folder(path)
+        write_png(path, draw_failure(image, reason, bounds=job.bounds, board=board, label=Path(job.name).name))
+    except GraphposeError as exc:
+        progress.clear()
+        print_error(exc, job.name)
+        return ""
+    return f" (its picture, with what was found: {path})"
+
+
+def _make_folder(path: Path) -> None:
     try:
         path.parent.mkdir(exist_ok=True)
     except OSError as exc:
         raise InputError(f"--overlay: cannot create folder {path.parent}: {exc.strerror or exc}") from None
-    write_png(path, draw_overlay(image, estimate, camera, board, bounds=job.bounds, label=Path(job.name).name))
 
 
 class _NotConverged(GraphposeError):
@@ -178,29 +217,51 @@ class _NotConverged(GraphposeError):
 
 
 def _jobs(args):
-    """The images to estimate, the camera and the board, from IMAGE, --cases or the bundled example."""
-    if args.image is not None and args.cases is not None:
-        raise UsageError("give either IMAGE or --cases, not both")
-    if args.image is not None:
+    """The images to estimate, from images and folders, --cases or the bundled example; the
+    case file (None for images) and its name as shown."""
+    if args.images and args.cases is not None:
+        raise UsageError("give either IMAGE or --cases, not both (IMAGE: images or folders of them)")
+    check_camera_options(args)  # before any file is read
+    if args.images:
         if args.no_guess and args.guess is not None:
             raise UsageError("--guess and --no-guess contradict each other")
-        camera, board = camera_from_args(args)
         guess = load_pose(args.guess) if args.guess is not None else None
-        return [Job(str(args.image), args.image, args.bounds, guess)], camera, board
+        return [Job(str(path), path, args.bounds, guess) for path in image_paths(args.images)], None, None
     if args.bounds is not None:
-        raise UsageError("--bounds goes with IMAGE; a case file gives each image its bounds")
-    camera_from_args(args)  # --camera with --K is a usage error before any file is read
+        raise UsageError("--bounds goes with IMAGE (images or folders); a case file gives each image its bounds")
     if args.guess is not None:
-        raise UsageError("--guess goes with IMAGE; a case file gives each image its guess_T_WC")
+        raise UsageError("--guess goes with IMAGE (images or folders); a case file gives each image its guess_T_WC")
     path = args.cases if args.cases is not None else DEFAULT_CASES
     if args.cases is None and not path.is_file():
         raise InputError(f"the bundled example {path} is missing; give IMAGE --bounds ... or --cases CASES.json")
-    cases = load_cases(path)
+    cases = load_cases(path, require_camera=False)
     if not cases.cases:
         raise InputError(f"case file {path} has no cases")
     jobs = [Job(_display(c.image), c.image, c.bounds, None if args.no_guess else c.guess_T_WC,
                 c.true_T_WC, c.ref_T_WC) for c in cases.cases]
-    return jobs, *camera_from_args(args, cases.camera, cases.board)
+    return jobs, cases, _display(path)
+
+
+def _target(args, cases, source):
+    """The camera, the board and the records' ``camera`` and ``board`` keys: from the
+    options, else the case file's; no camera at all is :data:`graphpose.cli.options.NO_CAMERA`."""
+    if cases is None:
+        camera, board = camera_from_args(args)
+    else:
+        camera, board = camera_from_args(args, cases.camera, cases.board,
+                                         source=f"case file {source} gives no K nor camera")
+    return camera, board, target_keys(camera, board, *camera_file(args, source))
+
+
+def image_paths(items) -> list:
+    """The images named by ``items`` (paths, as typed): a folder stands for its image files in
+    name order (:func:`graphpose.track.frames.list_frames`), any other path for itself."""
+    from ..track.frames import list_frames
+
+    paths = []
+    for item in items:
+        paths += list_frames(item) if Path(item).is_dir() else [Path(item)]
+    return paths
 
 
 def _display(path: Path) -> str:
@@ -281,6 +342,9 @@ def format_report(name: str, estimate, record: dict) -> str:
         f"  {'GN vs GTSAM':16}{1000.0 * check.translation_m:.2g} mm, {check.rotation_deg:.2g} deg apart: "
         + ("agree" if check.agree else "DISAGREE"),
     ]
+    if record.get("camera") is not None:
+        camera, board = target_words(record)
+        rows += [f"  {'camera':16}{camera}", f"  {'board':16}{board}"]
     if getattr(estimate, "orientation_ambiguous", False):
         rows.append(f"  {'orientation':16}{ORIENTATION_AMBIGUOUS}")
     for key, label in (("vs_truth", "error vs truth"), ("vs_reference", "vs reference")):

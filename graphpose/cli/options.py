@@ -5,7 +5,8 @@ Each parser turns one argument string into a checked value or raises
 declares ``--K`` and ``--board`` once, with the project's defaults named in ``--help``, and
 :func:`add_camera_option` ``--camera FILE`` (a calibration file with the lens model) and
 ``--camera-name NAME`` (which camera of a Kalibr camchain) for the subcommands that work on raw
-images.
+images. A user's image has no default camera: :func:`camera_from_args` refuses to go on
+without ``--camera`` or ``--K`` (or a case file's camera) in the one line :data:`NO_CAMERA`.
 """
 
 from __future__ import annotations
@@ -18,12 +19,19 @@ import numpy as np
 
 from .._checks import check_count, check_number, check_range
 from ..board import Board
-from ..camera import K_from_params
-from ..cameras import PinholeCamera
+from ..geometry import K_from_params
+from ..camera_models import PinholeCamera
 from ..errors import InputError
 
-#: The project's camera (the ROB501 sample set's): fx, fy, cx, cy in pixels.
+#: The project's camera (the ROB501 sample set's): fx, fy, cx, cy in pixels. Only what the
+#: project renders itself (``graphpose render-sequence``) and the tests use it: a user's image
+#: never falls back to it (:data:`NO_CAMERA`).
 DEFAULT_K = (564.9, 564.3, 337.3, 226.5)
+
+#: The one line (exit 2) of ``estimate``, ``track`` and ``batch`` given an image and no camera.
+NO_CAMERA = ("no camera: give --camera FILE (a calibration with the lens model: OpenCV YAML/XML, ROS, "
+             "Kalibr or graphpose JSON) or --K FX,FY,CX,CY (a pinhole camera, images undistorted); "
+             "no calibration yet? make one with 'graphpose calibrate' (see 'graphpose calibrate --help')")
 
 
 def add_target_options(parser: argparse.ArgumentParser, file_note: str = "") -> None:
@@ -32,19 +40,19 @@ def add_target_options(parser: argparse.ArgumentParser, file_note: str = "") -> 
     ``file_note`` names where else a value may come from (e.g. "with --cases, the file's"),
     for the help text; :func:`target_from_args` applies the project's defaults.
     """
-    fx, fy, cx, cy = DEFAULT_K
     board = Board()
     note = f"; {file_note}" if file_note else ""
     parser.add_argument("--K", dest="K", type=parse_K, metavar="FX,FY,CX,CY",
-                        help=f"camera intrinsics in pixels (a fifth number is the skew), images "
-                        f"undistorted (default: the project's camera, {fx},{fy},{cx},{cy}{note})")
+                        help="camera intrinsics in pixels (a fifth number is the skew), images "
+                        f"undistorted; an image needs this or --camera (no default){note}")
     parser.add_argument("--board", type=parse_board, metavar="COLSxROWSxSQUARE_M",
                         help=f"inner junctions per row and per column, square side in metres (default: "
                         f"the project's target, {board.cols}x{board.rows}x{board.square_m}{note})")
 
 
 def target_from_args(args, K=None, board=None):
-    """``(K (3, 3), Board)`` from ``--K``/``--board``, else ``K``/``board``, else the project's."""
+    """``(K (3, 3), Board)`` from ``--K``/``--board``, else ``K``/``board``, else the project's
+    (for what the project renders itself; a user's image takes :func:`camera_from_args`)."""
     K = args.K if args.K is not None else (K if K is not None else K_from_params(*DEFAULT_K))
     board = args.board if args.board is not None else (board if board is not None else Board())
     return K, board
@@ -64,19 +72,9 @@ def add_camera_option(parser: argparse.ArgumentParser, file_note: str = "") -> N
                         "default cam0); for a ROS camera_info file, checked against its camera_name")
 
 
-def camera_from_args(args, camera=None, board=None):
-    """``(Camera, Board)`` from ``--camera`` or ``--K`` and ``--board``, else ``camera``/``board``
-    (a case file's), else the project's pinhole camera and board.
-
-    Raises
-    ------
-    UsageError
-        If both ``--camera`` and ``--K`` are given, or ``--camera-name`` without ``--camera``.
-    InputError
-        If the ``--camera`` file cannot be read (:func:`graphpose.io.calibration.read_camera`),
-        or holds no camera of the ``--camera-name`` (the message names those it holds).
-    """
-    from ..io.calibration import read_camera
+def check_camera_options(args) -> None:
+    """UsageError when ``--camera`` and ``--K`` are both given, or ``--camera-name`` without
+    ``--camera`` (before any file is read)."""
     from . import UsageError
 
     if args.camera is not None and args.K is not None:
@@ -85,19 +83,59 @@ def camera_from_args(args, camera=None, board=None):
     name = getattr(args, "camera_name", None)
     if name is not None and args.camera is None:
         raise UsageError(f"--camera-name {name} chooses a camera of the --camera FILE, and no --camera was given")
+
+
+def camera_from_args(args, camera=None, board=None, source: str = ""):
+    """``(Camera, Board)`` from ``--camera`` or ``--K`` and ``--board``, else ``camera``/``board``
+    (a case file's; the board is the project's when neither gives one).
+
+    There is no default camera: without ``--camera``, ``--K`` and ``camera`` this is the
+    usage error :data:`NO_CAMERA` (preceded by ``source``, e.g. the case file, when given).
+
+    Raises
+    ------
+    UsageError
+        If both ``--camera`` and ``--K`` are given, ``--camera-name`` without ``--camera``,
+        or no camera at all.
+    InputError
+        If the ``--camera`` file cannot be read (:func:`graphpose.io.calibration.read_camera`),
+        or holds no camera of the ``--camera-name`` (the message names those it holds).
+    """
+    from ..io.calibration import read_camera
+    from . import UsageError
+
+    check_camera_options(args)
     if args.camera is not None:
         try:
-            camera = read_camera(args.camera, name=name)
+            camera = read_camera(args.camera, name=getattr(args, "camera_name", None))
         except InputError as exc:
             raise InputError(f"--camera: {exc}") from None
     elif args.K is not None:
         camera = PinholeCamera(args.K)
     elif camera is None:
-        camera = PinholeCamera(K_from_params(*DEFAULT_K))
+        raise UsageError(f"{source}: {NO_CAMERA}" if source else NO_CAMERA)
     board = args.board if args.board is not None else (board if board is not None else Board())
     return camera, board
 
 
+def camera_file(args, source=None):
+    """``(file, name)`` the camera came from, for records: ``--camera FILE`` as typed and
+    ``--camera-name``; ``(None, None)`` for ``--K``; else ``(source, None)`` (a case file's)."""
+    if args.camera is not None:
+        return str(args.camera), getattr(args, "camera_name", None)
+    if args.K is not None:
+        return None, None
+    return (None if source is None else str(source)), None
+
+
+def board_hint(message: str) -> str:
+    """``message`` with how to give the board when it says the board found is not the spec's
+    (the detector's ``found a 9 x 6 board ...; the board spec says 8 x 6``)."""
+    if "board spec" not in message:
+        return message
+    d = Board()
+    return (f"{message} (the default board is {d.cols}x{d.rows}x{d.square_m}; give yours with --board "
+            f"COLSxROWSxSQUARE_M: inner junctions along a row and down a column, and the square's side in metres)")
 
 
 def parse_bounds(text: str) -> np.ndarray:

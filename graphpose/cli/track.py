@@ -28,11 +28,13 @@ from .options import (
     Progress,
     add_camera_option,
     add_target_options,
+    camera_file,
     camera_from_args,
+    check_camera_options,
     parse_bounds,
     parse_positive,
 )
-from .records import frame_record
+from ..io.records import frame_record, target_keys, target_words
 
 #: ``--lag``'s default: :func:`graphpose.track.config.default_lag_s` of the frames' timestamps.
 AUTO_LAG = "auto"
@@ -48,7 +50,8 @@ examples:
   evo_ape tum seq/truth.tum est.tum          # absolute trajectory error (no alignment needed)
 
 FRAMES is one folder (its image files in name order; other files are ignored) or image files
-in the order given. --bounds (optional) is the board's polygon in the FIRST frame, (u, v)
+in the order given. Frames need their camera: --camera FILE or --K (no calibration yet:
+'graphpose calibrate'); a folder written by 'graphpose render-sequence' brings its own. --bounds (optional) is the board's polygon in the FIRST frame, (u, v)
 pixels, clockwise from the corner nearest junction 0; without it the first frame is searched
 whole, and a board unchanged by a half turn is labelled from the image's upper left, then
 kept continuous from frame to frame. --camera reads a calibration with the lens model (the
@@ -103,7 +106,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="OUT.json", help="write per-frame results as JSON ('-': stdout, no summary)")
     p.add_argument("--plot", metavar="OUT.png",
                    help="draw the trajectory, with the truth where known, and the per-frame reprojection "
-                   "RMS (needs the plot extra: pip install -e \".[plot]\")")
+                   "RMS (needs the plot extra, matplotlib: checked before the tracking starts)")
     p.add_argument("--truth", type=Path, metavar="TRUTH.tum",
                    help="the true trajectory (TUM), drawn by --plot and measured against in the summary "
                    "(default: FRAMES/truth.tum of a folder written by graphpose render-sequence)")
@@ -113,14 +116,17 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     """Run ``graphpose track`` with parsed ``args``; returns the exit code."""
-    from ..io.calibration import camera_to_dict
     from ..io.files import dumps_json, write_json
     from ..io.tum import write_tum
     from ..track.config import MotionPrior, TrackerConfig, default_lag_s
     from ..track.frames import frame_timestamps, list_frames, read_timestamps
     from ..track.tracker import track_sequence
 
-    camera, board = camera_from_args(args)
+    if args.plot is not None:  # a missing extra is found now, not after the whole sequence
+        from .._extras import require
+
+        require("matplotlib", "plot", "graphpose track --plot")
+    check_camera_options(args)
     files = _frame_files(args.frames, list_frames)
     timestamps = None if args.timestamps is None else read_timestamps(args.timestamps, len(files))
     polygons = None if args.polygons is None else _read_polygons(args.polygons)
@@ -129,6 +135,7 @@ def run(args) -> int:
             raise InputError(f"{name}: folder {Path(path).resolve().parent} does not exist")
     seconds = frame_timestamps(timestamps, args.fps, len(files))
     truth, truth_note = _truth(args, len(files), seconds)
+    camera, board, source = _camera(args)  # after the other inputs: each says first what is wrong with it
     progress = Progress(len(files), sys.stderr)
     lag = default_lag_s(args.motion, seconds) if args.lag == AUTO_LAG else args.lag
     config = TrackerConfig(motion=MotionPrior(args.motion), target=args.target, robust=args.robust, lag_s=lag)
@@ -142,9 +149,10 @@ def run(args) -> int:
         write_tum(args.tum, [f.timestamp for f in found], [f.T_WC for f in found],
                   header=f"graphpose track: camera pose T_WC in the target frame; {len(frames) - len(found)} "
                   f"lost frames have no line")
+    target = target_keys(camera, board, *camera_file(args, source))
     records = {"frames": [frame_record(f, files[f.index]) for f in frames], "smoothed": bool(args.smooth),
-               "motion": args.motion, "target": args.target, "lag_s": config.lag_s, "K": camera.K, "camera": camera_to_dict(camera),
-               "board": f"{board.cols}x{board.rows}x{board.square_m}"}
+               "motion": args.motion, "target": args.target, "lag_s": config.lag_s, "K": camera.K,
+               "camera": target["camera"], "board": f"{board.cols}x{board.rows}x{board.square_m}"}
     if args.json == "-":
         sys.stdout.write(dumps_json(records))
     elif args.json is not None:
@@ -156,7 +164,29 @@ def run(args) -> int:
                    title=f"graphpose track: {len(frames)} frames" + (", truth in grey" if truth is not None else ""))
     if not args.quiet and args.json != "-":
         print(_summary(track, frames, truth, truth_note))
+        print("camera: {}; board: {}".format(*target_words(target)))
     return EXIT_OK if found else EXIT_FAILED
+
+
+def _camera(args):
+    """``(Camera, Board, source)``: as :func:`graphpose.cli.options.camera_from_args`; a folder
+    written by ``graphpose render-sequence`` brings its own K and board (its ``bounds.json``,
+    then the ``source``), as the bundled example's case file does; None otherwise."""
+    check_camera_options(args)
+    folder = args.frames[0] if len(args.frames) == 1 and args.frames[0].is_dir() else None
+    meta = folder / "bounds.json" if folder is not None else None
+    if args.camera is not None or args.K is not None or meta is None or not meta.is_file():
+        return (*camera_from_args(args), None)
+    from ..board import Board
+    from ..camera_models import PinholeCamera
+
+    doc = read_json(meta, "the rendered sequence's bounds.json")
+    try:
+        camera, board = PinholeCamera(np.asarray(doc["K"], dtype=float)), Board.parse(doc["board"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise InputError(f"{meta} (graphpose render-sequence's) holds no usable K and board ({exc}); "
+                         f"give --camera FILE or --K FX,FY,CX,CY") from None
+    return (*camera_from_args(args, camera, board), str(meta))
 
 
 def _parse_lag(text: str):

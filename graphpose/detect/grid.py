@@ -4,7 +4,7 @@ A homography fitted to a board's junctions is the exact grid-to-image map of a p
 camera: :mod:`graphpose.detect.junctions` uses it to size the refinement windows and to
 judge which refined junctions agree with a planar grid.
 
-Coordinates follow :mod:`graphpose.camera`.
+Coordinates follow :mod:`graphpose.geometry`.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import BoardNotFoundError, InputError
-from ..pose.homography import homography_dlt
+from ..geometry import apply_homography, homography_dlt
 
 
 def square_sides(H: np.ndarray, grid: np.ndarray) -> np.ndarray:
@@ -33,8 +33,3 @@ def fit_homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     except InputError as exc:
         raise BoardNotFoundError(f"the junctions found do not fix a homography: {exc}") from None
     return H / H[2, 2]
-
-
-def apply_homography(H: np.ndarray, P: np.ndarray) -> np.ndarray:
-    q = H[:, :2] @ P + H[:, 2:]
-    return q[:2] / q[2]

@@ -6,7 +6,7 @@ The board is found and labelled anywhere in the image, or inside optional bounds
 to trust and returns them as :class:`Junctions`. Junctions the image does not show (off
 the image, covered) are NaN and untrusted: never guessed.
 
-Coordinates follow :mod:`graphpose.camera`: ``(u, v)`` pixels, 0-based, 2 x N arrays.
+Coordinates follow :mod:`graphpose.geometry`: ``(u, v)`` pixels, 0-based, 2 x N arrays.
 """
 
 from __future__ import annotations
@@ -145,7 +145,7 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
     board : Board
         The board spec: ``cols x rows`` inner junctions.
     camera : Camera or (3, 3) array_like, optional
-        The camera (:mod:`graphpose.cameras`) when the image is raw, with lens distortion.
+        The camera (:mod:`graphpose.camera_models`) when the image is raw, with lens distortion.
         Junctions are found and refined on the raw image as it is (both steps are local);
         only the check that they lie on a planar grid is made on undistorted positions,
         and :attr:`Junctions.homography` then maps the grid to undistorted pixels.
@@ -186,7 +186,7 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
     smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
     lens = None
     if camera is not None:
-        from ..cameras import as_camera, check_image_size
+        from ..camera_models import as_camera, check_image_size
 
         lens = as_camera(camera)
         check_image_size(lens, image.shape)

@@ -10,7 +10,7 @@ the two edges (where the position information is) and brings its noise within a 
 ~1.7 of the Cramer-Rao bound; the settings come from measurements on the real and
 synthetic images (see the README section on cross-junctions).
 
-Coordinates follow :mod:`graphpose.camera`.
+Coordinates follow :mod:`graphpose.geometry`.
 """
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
     smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
     lens = None
     if camera is not None:
-        from ..cameras import as_camera
+        from ..camera_models import as_camera
 
         lens = as_camera(camera)
         lens = lens if np.any(lens.distortion) else None
@@ -110,7 +110,7 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
 
     Each round refits only the junctions still moving; a junction that drifts off its
     patch's centre gets a new patch. With a distorting ``lens`` (a camera of
-    :mod:`graphpose.cameras`) the fit places each raw pixel where the lens undistorts it
+    :mod:`graphpose.camera_models`) the fit places each raw pixel where the lens undistorts it
     (:func:`graphpose.detect.saddle.fit_quadrics_at`): the board's edges, curved in the raw
     image, are straight there, as the saddle model assumes, and no pixel is resampled.
     """

@@ -12,7 +12,7 @@ by linear least squares and solving for the point where its gradient vanishes,
 gives the junction to a fraction of a pixel. The quadric is a saddle only when
 ``4 alpha gamma - beta^2 < 0``.
 
-Coordinates are those of :mod:`graphpose.camera`: ``x = u`` is the column and ``y = v`` the
+Coordinates are those of :mod:`graphpose.geometry`: ``x = u`` is the column and ``y = v`` the
 row of the patch, 0-based, pixel centres at integers.
 
 References

@@ -20,7 +20,7 @@ step along a grid line swaps bright and dark, so neighbours along a line have ``
 90 degrees apart and diagonal neighbours the same ``theta``: the parity that
 :mod:`graphpose.detect.lattice` checks.
 
-Coordinates follow :mod:`graphpose.camera`: full-image pixels ``(u, v)``, 2 x N arrays.
+Coordinates follow :mod:`graphpose.geometry`: full-image pixels ``(u, v)``, 2 x N arrays.
 """
 
 from __future__ import annotations

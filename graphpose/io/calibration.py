@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..cameras import Camera, FisheyeCamera, PinholeCamera, RadTanCamera
+from ..camera_models import Camera, FisheyeCamera, PinholeCamera, RadTanCamera
 from ..errors import InputError
 from .camera_files import FORMATS, camera_to_dict, write_camera  # noqa: F401  (the writers)
 
@@ -107,8 +107,8 @@ def read_camera(path, name: str | None = None) -> Camera:
     Returns
     -------
     camera : Camera
-        :class:`~graphpose.cameras.PinholeCamera`, :class:`~graphpose.cameras.RadTanCamera`
-        or :class:`~graphpose.cameras.FisheyeCamera`, with the file's image size if it
+        :class:`~graphpose.camera_models.PinholeCamera`, :class:`~graphpose.camera_models.RadTanCamera`
+        or :class:`~graphpose.camera_models.FisheyeCamera`, with the file's image size if it
         gives one.
 
     Raises

@@ -31,7 +31,7 @@ import json
 import numpy as np
 import yaml
 
-from ..cameras import as_camera
+from ..camera_models import as_camera
 from ..errors import InputError
 from .files import atomic_write
 

@@ -5,10 +5,11 @@ A case file is the JSON format of ``../shared/data/rob501/cases.json``:
 ``K``
     3 x 3 intrinsics, pixels, of a camera without lens distortion; or
 ``camera``
-    the camera with its lens model (:mod:`graphpose.cameras`): a calibration file's path,
+    the camera with its lens model (:mod:`graphpose.camera_models`): a calibration file's path,
     relative to the case file (any format :func:`graphpose.io.calibration.read_camera`
     reads), or an inline object ``{"model", "K", "distortion", "size"}`` as graphpose's JSON
-    camera file holds. A case file gives ``K`` or ``camera``, not both.
+    camera file holds. A case file gives ``K`` or ``camera``, not both; or neither, when the
+    camera comes from elsewhere (``graphpose estimate --cases FILE --camera ...``).
 ``square_m``
     Side of a square, metres (optional, 0.0635).
 ``grid``
@@ -28,6 +29,7 @@ Every error names the file and the field.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -44,7 +46,7 @@ from .._checks import (
     check_transform,
 )
 from ..board import Board
-from ..cameras import Camera, PinholeCamera
+from ..camera_models import Camera, PinholeCamera
 from ..errors import InputError
 from .calibration import camera_from_dict, read_camera
 from .files import read_json
@@ -67,29 +69,42 @@ class Case:
 class CaseFile:
     """A parsed case file: intrinsics K (3, 3), the board, its cases, and the camera.
 
-    ``camera`` is the file's camera (:mod:`graphpose.cameras`), a
-    :class:`~graphpose.cameras.PinholeCamera` of ``K`` when the file gives ``K``; ``K`` is
-    the camera's intrinsics either way.
+    ``camera`` is the file's camera (:mod:`graphpose.camera_models`), a
+    :class:`~graphpose.camera_models.PinholeCamera` of ``K`` when the file gives ``K``; ``K`` is
+    the camera's intrinsics either way. Both are None for a file that names no camera, read
+    with ``load_cases(path, require_camera=False)``: the camera then comes from elsewhere
+    (``--camera`` or ``--K``).
     """
 
-    K: np.ndarray
+    K: np.ndarray | None
     board: Board
     cases: list
     camera: Camera | None = None
 
     def __post_init__(self):
-        if self.camera is None:
+        if self.camera is None and self.K is not None:
             object.__setattr__(self, "camera", PinholeCamera(self.K))
 
 
-def load_cases(path) -> CaseFile:
+def load_cases(path, *, require_camera: bool = True) -> CaseFile:
     """Read a case file (format in the module docstring); image paths become absolute.
+
+    Image and camera paths are made absolute as named (``os.path.abspath``): symbolic links
+    are kept, so a path is printed as the user wrote it, not as the link resolves.
+
+    Parameters
+    ----------
+    path : str or Path
+        The case file.
+    require_camera : bool
+        True (default): the file must give ``K`` or ``camera``. False: it may give neither,
+        and the result's ``K`` and ``camera`` are then None.
 
     Raises
     ------
     InputError
-        If the file is missing, not JSON, not an object, gives neither or both of ``K`` and
-        ``camera``, its camera file cannot be read, it lacks ``cases`` or a case's
+        If the file is missing, not JSON, not an object, gives both of ``K`` and ``camera``
+        (or neither, with ``require_camera``), its camera file cannot be read, it lacks ``cases`` or a case's
         ``image``, or a field has the wrong type or shape.
     """
     path = Path(path)
@@ -97,7 +112,7 @@ def load_cases(path) -> CaseFile:
     if not isinstance(doc, dict):
         raise InputError(f"case file {path} must hold a JSON object, got {type(doc).__name__}")
     try:
-        camera = _camera(doc, path)
+        camera = _camera(doc, path) if require_camera or "K" in doc or "camera" in doc else None
         board = _board(doc, path)
         if not isinstance(doc["cases"], list) or not all(isinstance(c, dict) for c in doc["cases"]):
             raise InputError(f"case file {path}: cases must be a list of objects")
@@ -107,7 +122,7 @@ def load_cases(path) -> CaseFile:
     except InputError as exc:
         text = str(exc)
         raise InputError(text if text.startswith(f"case file {path}") else f"case file {path}: {text}") from None
-    return CaseFile(camera.K, board, cases, camera)
+    return CaseFile(None if camera is None else camera.K, board, cases, camera)
 
 
 def _camera(doc: dict, path: Path) -> Camera:
@@ -120,7 +135,7 @@ def _camera(doc: dict, path: Path) -> Camera:
         return PinholeCamera(check_K(doc["K"]))
     entry = doc["camera"]
     if isinstance(entry, str):
-        return read_camera((path.parent / entry).resolve())
+        return read_camera(_absolute(path.parent / entry))
     if isinstance(entry, dict):
         return camera_from_dict(entry, f"case file {path}: camera")
     raise InputError(f"case file {path}: camera must be a calibration file's path (relative to the case "
@@ -152,7 +167,7 @@ def _case(entry: dict, folder: Path) -> Case:
         return None if entry.get(key) is None else check(f"{key} of {image}", entry[key])
 
     return Case(
-        image=(folder / image).resolve(),
+        image=_absolute(folder / image),
         bounds=bounds,
         guess_T_WC=optional("guess_T_WC", lambda name, T: check_transform(T, name)),
         ref_junctions=optional("ref_junctions", lambda name, P: as_points(P, 2, name)),
@@ -161,6 +176,11 @@ def _case(entry: dict, folder: Path) -> Case:
         true_T_WC=optional("true_T_WC", lambda name, T: check_transform(T, name)),
         true_junctions=optional("true_junctions", lambda name, P: as_points(P, 2, name)),
     )
+
+
+def _absolute(path: Path) -> Path:
+    """``path`` absolute and normalised, symbolic links kept as named."""
+    return Path(os.path.abspath(path))
 
 
 # --- Writing results: whole files or nothing -------------------------------------------

@@ -8,7 +8,7 @@ One pose per line, seven numbers after the timestamp, separated by spaces::
 
 ``timestamp`` in seconds; ``(tx, ty, tz)`` the camera's position in the target frame, metres;
 ``(qx, qy, qz, qw)`` the unit quaternion of the camera's orientation in the target frame
-(scalar LAST). Together they are ``T_WC`` of :mod:`graphpose.camera`: the camera pose in the
+(scalar LAST). Together they are ``T_WC`` of :mod:`graphpose.geometry`: the camera pose in the
 target frame. Lines that are empty or start with ``#`` are comments. A frame whose pose is
 unknown (lost) simply has no line.
 

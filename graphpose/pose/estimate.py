@@ -1,6 +1,7 @@
-"""From an image (or from correspondences) to a cross-checked camera pose with uncertainty.
+"""From correspondences to a cross-checked camera pose with uncertainty.
 
-:func:`estimate_pose` runs the whole chain: cross-junctions (:mod:`graphpose.detect.junctions`), a
+:func:`estimate_pose_from_points` runs the chain from 2-D/3-D correspondences (the image's
+cross-junctions, for :func:`graphpose.pipeline.estimate_pose`): a
 start (the caller's guess, or the homography initialiser of :mod:`graphpose.pose.homography`),
 Gauss-Newton (:mod:`graphpose.pose.gauss_newton`) and then the GTSAM factor graph
 (:mod:`graphpose.pose.graph`), started from Gauss-Newton's answer. The two solvers minimise the
@@ -8,7 +9,7 @@ same cost, so GTSAM must stay at that answer: their poses must agree to
 :data:`AGREE_TRANSLATION_M` and :data:`AGREE_ROTATION_DEG`; the difference is always reported
 in :class:`CrossCheck`, and a larger one makes ``agree`` False.
 
-The camera is a :mod:`graphpose.cameras` object (or a pinhole ``K``): with lens distortion the
+The camera is a :mod:`graphpose.camera_models` object (or a pinhole ``K``): with lens distortion the
 junctions are found on the raw image and both solvers fit the raw pixels through the lens
 model; the homography start works on the undistorted junctions. A partial board (junctions
 hidden or off the image are NaN) gives its pose from the trusted junctions alone, at least
@@ -26,16 +27,14 @@ A camera that carries the covariance of its intrinsics (a calibration file writt
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
-from .._checks import check_board, check_observations, check_transform
-from ..board import Board
-from ..camera import to_camera
-from ..cameras import as_camera
-from ..errors import BoardNotFoundError, InputError
+from .._checks import check_transform
+from ..errors import InputError
+from ..geometry import to_camera
+from ..observations import check_observations
 from .gauss_newton import GNResult, gauss_newton, huber_weights, reprojection_cost
 from .graph import HUBER_K, GraphResult, graph_pose
 from .homography import on_target_plane, pose_from_homography
@@ -46,8 +45,6 @@ AGREE_TRANSLATION_M = 1e-6
 AGREE_ROTATION_DEG = 1e-5
 #: A minimum counts as clearly worse when its cost exceeds the other's by this fraction.
 _COST_MARGIN = 1e-6
-#: Fewest trusted junctions :func:`estimate_pose` rests a pose on (not all on one line).
-MIN_JUNCTIONS = 6
 
 
 @dataclass(frozen=True)
@@ -163,81 +160,13 @@ class PoseEstimate:
         return self.converged and self.cross_check.agree
 
 
-def estimate_pose(image, bounds, camera, board: Board = Board(), guess=None, *,
-                  robust: bool = False) -> PoseEstimate:
-    """Camera pose from an image of the checkerboard.
-
-    Parameters
-    ----------
-    image : (H, W) or (H, W, 3|4) array_like
-        The image as the camera took it (see :func:`graphpose.image.as_grey`): raw, with the
-        lens distortion ``camera`` describes.
-    bounds : (2, 4) array_like or None
-        Bounding polygon of the board, pixels, clockwise from the corner nearest junction 0
-        (see :func:`graphpose.detect.junctions.extract_junctions`): it only narrows the
-        search and names junction 0's corner. None searches the whole image.
-    camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`, e.g. from
-        :func:`graphpose.io.calibration.read_camera`), or pinhole intrinsics ``K``, pixels,
-        for an image without distortion.
-    board : Board
-        The target.
-    guess : (4, 4) array_like, optional
-        Starting pose T_WC; the homography initialiser when None.
-    robust : bool
-        Use a Huber kernel (threshold 1.345 robust sigmas) in both solvers.
-
-    Returns
-    -------
-    PoseEstimate
-        Check ``ok`` (or ``converged`` and ``cross_check.agree``) before using the pose, and
-        ``orientation_ambiguous`` for a symmetric board found without bounds.
-
-    Raises
-    ------
-    InputError
-        On a malformed image, polygon, camera or guess, an image of another size than the
-        camera's calibration (:func:`graphpose.cameras.check_image_size`), or a guess with
-        junctions behind the camera.
-    BoardNotFoundError
-        If the junction grid is not found, or fewer than six junctions not all on one line
-        are trusted.
-    """
-    from ..detect.junctions import extract_junctions
-
-    # The camera and the guess are checked before the extraction, so bad ones fail before
-    # the slow step.
-    camera = as_camera(camera)
-    board = check_board(board)
-    guess = None if guess is None else check_transform(guess, "guess")
-    junctions = extract_junctions(image, bounds, board, camera=camera)
-    _check_geometry(junctions.trusted, board)
-    # Unseen junctions are NaN and untrusted: the solvers use the trusted ones only.
-    estimate = _estimate(camera, junctions.points, board.world_points(), guess, junctions.trusted, robust)
-    return dataclasses.replace(estimate, junctions=junctions,
-                               orientation_ambiguous=bool(junctions.orientation_ambiguous))
-
-
-def _check_geometry(trusted, board) -> None:
-    """Refuse fewer than :data:`MIN_JUNCTIONS` trusted junctions, or ones all on one line."""
-    m = int(np.count_nonzero(trusted))
-    if m < MIN_JUNCTIONS:
-        raise BoardNotFoundError(f"only {m} junctions are trusted; a pose needs {MIN_JUNCTIONS}, not all on one line")
-    grid = board.grid_indices()[:, trusted].astype(float)
-    grid -= grid.mean(axis=1, keepdims=True)
-    if np.linalg.matrix_rank(grid) < 2:
-        raise BoardNotFoundError(
-            f"the {m} trusted junctions all lie on one line of the board; a pose needs junctions "
-            "off that line (more of the board in view)")
-
-
 def estimate_pose_from_points(camera, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False) -> PoseEstimate:
     """Cross-checked camera pose from 2-D/3-D correspondences (no extraction).
 
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`; raw, distorted pixels), or pinhole
+        The camera model (:mod:`graphpose.camera_models`; raw, distorted pixels), or pinhole
         intrinsics ``K``, pixels.
     Ipts : (2, n) array_like
         Image points (u, v), pixels; NaN allowed where ``mask`` is False.
@@ -263,7 +192,7 @@ def estimate_pose_from_points(camera, Ipts, Wpts, guess=None, mask=None, *, robu
     """
     camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
     guess = None if guess is None else check_transform(guess, "guess")
-    return _estimate(camera, Ipts, Wpts, guess, mask, robust)
+    return estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust)
 
 
 def fit_pose(camera, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False):
@@ -279,7 +208,7 @@ def fit_pose(camera, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False)
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`), or pinhole intrinsics ``K``, pixels.
+        The camera model (:mod:`graphpose.camera_models`), or pinhole intrinsics ``K``, pixels.
     Ipts : (2, n) array_like
         Image points (u, v), pixels; NaN allowed where ``mask`` is False.
     Wpts : (3, n) array_like
@@ -320,8 +249,10 @@ def _fit(camera, Ipts, Wpts, guess, mask, robust):
     return gn, start
 
 
-def _estimate(camera, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
-    """:func:`estimate_pose_from_points` on a validated camera, points, guess and mask."""
+def estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
+    """The core of :func:`estimate_pose_from_points`, on inputs already checked at a public edge
+    (a camera object, float arrays of the right shapes, a boolean mask, a checked guess or None):
+    the pipeline calls it after its own checks, so nothing is checked twice."""
     gn, start = _fit(camera, Ipts, Wpts, guess, mask, robust)
     pixel_sigma = gn.sigma_px if robust else None  # the robust fit's own sigma (fit_pose)
     huber_px = None if pixel_sigma is None else HUBER_K * pixel_sigma
@@ -337,11 +268,13 @@ def _estimate(camera, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
         converged, message = _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn)
     check = cross_check(gn, graph)
     cov, kind = graph.cov, SIGMA_PIXEL
-    if getattr(camera, "covariance", None) is not None and np.all(np.isfinite(graph.cov)):
-        r = gn.residuals[:, mask]
-        weights = None if huber_px is None else huber_weights(r, huber_px)
-        cov = pose_cov_with_intrinsics(camera, gn.T_WC, Wpts[:, mask], graph.cov, weights)
+    if getattr(camera, "covariance", None) is not None:
         kind = SIGMA_CALIBRATION
+        weights = None if huber_px is None else huber_weights(gn.residuals[:, mask], huber_px)
+        try:
+            cov = pose_cov_with_intrinsics(camera, gn.T_WC, Wpts[:, mask], graph.cov, weights)
+        except (np.linalg.LinAlgError, InputError):  # singular normal equations; a point behind
+            cov = np.full((6, 6), np.nan)
     if not check.agree:
         message = ("" if message == "ok" else message + "; ") + (
             f"Gauss-Newton and GTSAM disagree by {check.translation_m:.3g} m and "

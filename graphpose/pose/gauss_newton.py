@@ -4,12 +4,12 @@ The cost is the sum of squared reprojection errors (pixels) over the trusted jun
 
     E(theta) = 1/2 sum_j || u_j - pi(T_WC(theta), p_j) ||^2,
 
-with ``theta = (x, y, z, roll, pitch, yaw)`` as in :mod:`graphpose.camera` and ``pi`` the
-camera's projection (:mod:`graphpose.cameras`: a pinhole ``K``, or a model with lens
+with ``theta = (x, y, z, roll, pitch, yaw)`` as in :mod:`graphpose.geometry` and ``pi`` the
+camera's projection (:mod:`graphpose.camera_models`: a pinhole ``K``, or a model with lens
 distortion, so that raw image points are fitted as they are). Each step solves the 6 x 6
 normal equations with the exact analytic Jacobian (:func:`find_jacobian`,
 :func:`projection_jacobians`): the pose's derivative of the camera-frame point, chained
-with the camera's ``d uv / d p_C`` (:meth:`graphpose.cameras.Camera.project_jacobian`). Step control is Levenberg-Marquardt damping: the plain
+with the camera's ``d uv / d p_C`` (:meth:`graphpose.camera_models.Camera.project_jacobian`). Step control is Levenberg-Marquardt damping: the plain
 Gauss-Newton step is tried first and, when it raises the cost or puts a point behind the
 camera, it is damped (``(J^T J + lambda diag(J^T J)) delta = J^T r`` with ``r`` measured
 minus predicted) until the cost falls, so a poor start cannot make it diverge.
@@ -34,11 +34,11 @@ from .._checks import (
     as_points,
     check_in_front,
     check_number,
-    check_observations,
     check_transform,
 )
-from ..camera import T_from_params, params_from_T
-from ..cameras import PinholeCamera, as_camera
+from ..observations import check_observations
+from ..geometry import T_from_params, params_from_T
+from ..camera_models import PinholeCamera, as_camera
 from ..errors import ConvergenceError, InputError
 
 #: Default iteration cap (damped and undamped steps both count).
@@ -105,7 +105,7 @@ def find_jacobian(K, Twc, Wpt) -> np.ndarray:
     Parameters
     ----------
     K : (3, 3) array_like or Camera
-        Intrinsics, pixels (or a camera model, :mod:`graphpose.cameras`).
+        Intrinsics, pixels (or a camera model, :mod:`graphpose.camera_models`).
     Twc : (4, 4) array_like
         Camera pose in the target frame.
     Wpt : (3, 1) or (3,) array_like
@@ -136,7 +136,7 @@ def projection_jacobians(camera, T_WC, Wpts) -> np.ndarray:
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`), or pinhole intrinsics, pixels.
+        The camera model (:mod:`graphpose.camera_models`), or pinhole intrinsics, pixels.
     T_WC : (4, 4) array_like
         Camera pose in the target frame.
     Wpts : (3, n) array_like
@@ -195,7 +195,7 @@ def _project(camera, p, W, jacobian):
     ``dp_C/d(angle) = (dC/d(angle))^T (p_W - t)``; then ``d uv / d p_C``: for the pinhole
     ``u = (K p_C)_0 / z_C`` gives ``du/dp_C = (fx, s, cx - u) / z_C`` and
     ``dv/dp_C = (0, fy, cy - v) / z_C`` (written out here); for a distorting camera it is
-    :meth:`graphpose.cameras.Camera.project_jacobian` (the perspective division, the lens
+    :meth:`graphpose.camera_models.Camera.project_jacobian` (the perspective division, the lens
     model and ``K`` chained). Points at or behind ``z = 0`` give NaN or meaningless pixels:
     callers check the depths.
     """
@@ -240,7 +240,7 @@ def gauss_newton(camera, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`; the points are then raw, distorted
+        The camera model (:mod:`graphpose.camera_models`; the points are then raw, distorted
         pixels), or pinhole intrinsics ``K``, pixels.
     T_guess : (4, 4) array_like
         Starting pose T_WC.
@@ -269,7 +269,7 @@ def gauss_newton(camera, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel
     Raises
     ------
     InputError
-        On malformed input (see :func:`graphpose._checks.check_observations`), a malformed guess, a
+        On malformed input (see :func:`graphpose.observations.check_observations`), a malformed guess, a
         non-positive ``huber_px`` or ``pixel_sigma``, or a used point behind the camera at
         the guess.
     """
@@ -448,7 +448,7 @@ def pose_estimate_nls(K, Twcg, Ipts, Wpts) -> np.ndarray:
     Parameters
     ----------
     K : (3, 3) array_like or Camera
-        Intrinsics, pixels (or a camera model, :mod:`graphpose.cameras`).
+        Intrinsics, pixels (or a camera model, :mod:`graphpose.camera_models`).
     Twcg : (4, 4) array_like
         Initial guess of T_WC.
     Ipts : (2, n) array_like

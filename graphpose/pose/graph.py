@@ -1,19 +1,19 @@
 """Camera pose and its covariance from a GTSAM factor graph: the independent second solver.
 
 The graph has one ``Pose3`` variable ``X(0)`` (the camera pose T_WC, GTSAM's own convention:
-the camera looks along its +z with x right and y down, as in :mod:`graphpose.camera`), one
+the camera looks along its +z with x right and y down, as in :mod:`graphpose.geometry`), one
 ``Point3`` variable ``L(j)`` per junction, one projection factor per trusted junction
 (:func:`projection_factor`) and one very tight ``PriorFactorPoint3`` per landmark that pins it
 to its target position. A tight prior rather than ``NonlinearEquality`` keeps the linearised system
 non-singular, so ``Marginals`` works. Levenberg-Marquardt minimises the same reprojection
 cost as :mod:`graphpose.pose.gauss_newton`; the pipeline holds the two against each other.
 
-The projection factor follows the camera (:mod:`graphpose.cameras`): GTSAM's own
+The projection factor follows the camera (:mod:`graphpose.camera_models`): GTSAM's own
 ``GenericProjectionFactorCal3_S2``, ``...Cal3DS2`` or ``...Cal3Fisheye`` with the
-calibration of :meth:`graphpose.cameras.Camera.gtsam_calibration`, and, for a camera GTSAM
+calibration of :meth:`graphpose.camera_models.Camera.gtsam_calibration`, and, for a camera GTSAM
 has no calibration for (the rational radial-tangential model), a ``CustomFactor`` around
 graphpose's own projection and its analytic Jacobian. GTSAM's calibrations were checked
-against graphpose's projection (``tests/test_cameras.py``), so the second solver keeps its
+against graphpose's projection (``tests/test_camera_models.py``), so the second solver keeps its
 independent projection code wherever GTSAM has one.
 
 Covariance conventions
@@ -39,8 +39,9 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import L, X
 
-from .._checks import check_in_front, check_number, check_observations, check_transform
-from ..camera import params_from_T, to_camera
+from .._checks import check_in_front, check_number, check_transform
+from ..observations import check_observations
+from ..geometry import params_from_T, to_camera
 from .gauss_newton import reprojection_rms
 
 #: Standard deviation (metres) of the prior that pins each target point: far below anything
@@ -139,7 +140,7 @@ def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robu
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`; raw, distorted pixels), or pinhole
+        The camera model (:mod:`graphpose.camera_models`; raw, distorted pixels), or pinhole
         intrinsics ``K``, pixels (fx, fy, skew, cx, cy go into ``Cal3_S2``).
     T_guess : (4, 4) array_like
         Starting pose T_WC.
@@ -166,7 +167,7 @@ def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robu
     Raises
     ------
     InputError
-        On malformed input (see :func:`graphpose._checks.check_observations`), a
+        On malformed input (see :func:`graphpose.observations.check_observations`), a
         non-positive ``pixel_sigma`` or ``huber_k``, or a used point behind the camera at the
         guess.
     """
@@ -246,7 +247,7 @@ def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k):
             lines[0] if lines else type(exc).__name__)
 
 
-#: GTSAM's projection factor for each calibration :meth:`graphpose.cameras.Camera.gtsam_calibration` gives.
+#: GTSAM's projection factor for each calibration :meth:`graphpose.camera_models.Camera.gtsam_calibration` gives.
 PROJECTION_FACTORS = {
     "Cal3_S2": gtsam.GenericProjectionFactorCal3_S2,
     "Cal3DS2": gtsam.GenericProjectionFactorCal3DS2,
@@ -260,7 +261,7 @@ def projection_factor(camera, uv, noise, pose_key, point_key, calibration=None):
     Parameters
     ----------
     camera : Camera
-        The camera model (trusted: a :mod:`graphpose.cameras` object).
+        The camera model (trusted: a :mod:`graphpose.camera_models` object).
     uv : (2,) ndarray
         The measured pixel.
     noise : gtsam.noiseModel.Base

@@ -5,14 +5,14 @@ The target is the plane z = 0, so a target point ``(x, y, 0)`` images as
     [u, v, 1]^T ~ K [r1 r2 t_CW] [x, y, 1]^T,
 
 with ``C^T = [r1 r2 r3]`` the rotation from target to camera and ``t_CW = -C^T t`` (see
-:mod:`graphpose.camera`). The homography ``H ~ K [r1 r2 t_CW]`` is found by the normalised
-direct linear transform (Hartley & Zisserman, Multiple View Geometry, 2nd ed., alg. 4.2) and
+:mod:`graphpose.geometry`). The homography ``H ~ K [r1 r2 t_CW]`` is found by the normalised
+direct linear transform (:func:`graphpose.geometry.homography_dlt`, Hartley & Zisserman, Multiple View Geometry, 2nd ed., alg. 4.2) and
 split with K into a rotation (made orthonormal by SVD) and a translation whose sign puts the
 board in front of the camera. The result minimises an algebraic error, not the reprojection
 error: it is a starting point for :func:`graphpose.pose.gauss_newton.gauss_newton`.
 
-A camera with lens distortion (:mod:`graphpose.cameras`) is handled by undistorting the image
-points first (:meth:`graphpose.cameras.Camera.undistort_pixels`, to the pixels of the
+A camera with lens distortion (:mod:`graphpose.camera_models`) is handled by undistorting the image
+points first (:meth:`graphpose.camera_models.Camera.undistort_pixels`, to the pixels of the
 distortion-free camera with the same ``K``): the homography holds for those.
 """
 
@@ -20,16 +20,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._checks import check_observations
+from ..observations import check_observations
 from ..errors import InputError
+from ..geometry import homography_dlt
 
 #: Target points farther than this (metres, relative to the board's extent) from z = 0 are refused.
 _PLANE_TOL = 1e-6
-#: Relative size of the DLT's second-smallest singular value below which the points are
-#: degenerate. The singular values come squared from the normal matrix, whose eigenvalues are
-#: resolved to about 1e-16 of the largest: a ratio of 1e-6 (1e-12 squared) stays clear of that.
-_RANK_TOL = 1e-6
-
 
 def pose_from_homography(camera, Ipts, Wpts) -> np.ndarray:
     """Camera pose from the homography between the target plane and the image.
@@ -37,7 +33,7 @@ def pose_from_homography(camera, Ipts, Wpts) -> np.ndarray:
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`; the points are then raw pixels,
+        The camera model (:mod:`graphpose.camera_models`; the points are then raw pixels,
         undistorted here), or pinhole intrinsics ``K``, pixels.
     Ipts : (2, n) array_like
         Image points (u, v), pixels; n >= 4.
@@ -100,55 +96,6 @@ def on_target_plane(Wpts) -> bool:
     """
     extent = max(1.0, float(np.max(np.abs(Wpts[:2]))))
     return bool(np.max(np.abs(Wpts[2])) <= _PLANE_TOL * extent)
-
-
-def homography_dlt(src, dst) -> np.ndarray:
-    """Homography mapping ``src`` to ``dst`` by the normalised DLT.
-
-    Parameters
-    ----------
-    src, dst : (2, n) ndarray
-        Matching points, n >= 4 (inputs are trusted: validate before calling).
-
-    Returns
-    -------
-    H : (3, 3) ndarray
-        ``[dst, 1] ~ H [src, 1]``, scaled so ``||H||_F = 1``.
-
-    Raises
-    ------
-    InputError
-        If the points do not fix a homography (collinear or repeated).
-    """
-    Ts, a = _normaliser(src)
-    Td, b = _normaliser(dst)
-    n = a.shape[1]
-    A = np.zeros((2 * n, 9))
-    ah = np.vstack([a, np.ones(n)]).T
-    A[0::2, 0:3] = ah
-    A[0::2, 6:9] = -b[0, :, None] * ah
-    A[1::2, 3:6] = ah
-    A[1::2, 6:9] = -b[1, :, None] * ah
-    # The null vector of A from the 9 x 9 normal matrix: about half the time of A's SVD, and
-    # with normalised points (A's condition number ~10 apart from the null direction) squaring
-    # the condition costs no accuracy that matters.
-    w, V = np.linalg.eigh(A.T @ A)
-    if n < 4 or w[1] < _RANK_TOL**2 * w[-1]:
-        raise InputError("the points do not determine a homography (collinear or repeated points)")
-    Hn = V[:, 0].reshape(3, 3)
-    H = np.linalg.solve(Td, Hn @ Ts)
-    return H / np.linalg.norm(H)
-
-
-def _normaliser(P):
-    """Similarity moving the centroid to 0 and the mean distance to sqrt(2); and the moved points."""
-    c = P.mean(axis=1, keepdims=True)
-    spread = np.mean(np.linalg.norm(P - c, axis=0))
-    if not spread > 0:
-        raise InputError("the points do not determine a homography (all points coincide)")
-    k = np.sqrt(2.0) / spread
-    T = np.array([[k, 0.0, -k * c[0, 0]], [0.0, k, -k * c[1, 0]], [0.0, 0.0, 1.0]])
-    return T, k * (P - c)
 
 
 def _nearest_rotation(M):

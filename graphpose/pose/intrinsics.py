@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import to_camera
+from ..geometry import to_camera
 from .gauss_newton import projection_jacobians
 
 #: ``PoseEstimate.sigma_kind``: what the reported covariance describes.

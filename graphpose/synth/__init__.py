@@ -1,2 +1,3 @@
-"""Synthetic images with exact truth: single renders (:mod:`.render`) and hand-held
-sequences (:mod:`.sequence`)."""
+"""Synthetic images with exact truth: single renders (:mod:`.render`, on the exact areas of
+:mod:`.raster`), random poses and polygons (:mod:`.poses`), the junctions' Cramer-Rao bound
+(:mod:`.information`) and hand-held sequences (:mod:`.sequence`)."""

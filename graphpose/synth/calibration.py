@@ -12,7 +12,7 @@ fisheye the first ``centre_views`` near the image's centre instead), at a distan
 drawn from ``distance``, tilted by ``min_tilt_deg``-``max_tilt_deg`` about a random in-plane
 axis (a calibration needs the board seen at different angles: parallel views leave the
 focal length and the distance indistinguishable), and the whole sheet is in the image
-(:func:`graphpose.synth.render.random_pose`). For the fisheye every junction stays within
+(:func:`graphpose.synth.poses.random_pose`). For the fisheye every junction stays within
 ``max_angle_deg`` of the optical axis (88 degrees by default: in front of the camera, where
 GTSAM's ``Cal3Fisheye`` projects).
 """
@@ -23,12 +23,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._checks import check_board, check_count, check_number
+from .._checks import check_count, check_number
+from ..board import check_board
 from ..board import Board
-from ..camera import to_camera
-from ..cameras import FisheyeCamera, RadTanCamera, as_camera
+from ..geometry import to_camera
+from ..camera_models import FisheyeCamera, RadTanCamera, as_camera
 from ..errors import InputError
-from .render import Rendering, random_pose, render
+from .poses import random_pose
+from .render import Rendering, render
 
 
 def radtan_camera() -> RadTanCamera:

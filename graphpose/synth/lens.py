@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.polynomial import Polynomial
 
-from ..camera import to_camera
+from ..geometry import to_camera
 
 #: Chords longer than this (pixels) near the image are split whatever their sagitta, so that
 #: the midpoint test is never trusted over a long stretch (it cannot see an inflection).
@@ -54,7 +54,7 @@ def view_limit(camera, size) -> float:
     Parameters
     ----------
     camera : Camera
-        A :mod:`graphpose.cameras` camera.
+        A :mod:`graphpose.camera_models` camera.
     size : (int, int)
         Image ``(width, height)``, pixels (it sets how far out a model that never folds is
         followed).
@@ -127,7 +127,7 @@ def region_edges(camera, T_WC, polygons, gains, window, tol_px: float, limit: fl
     Parameters
     ----------
     camera : Camera
-        A :mod:`graphpose.cameras` camera.
+        A :mod:`graphpose.camera_models` camera.
     T_WC : (4, 4) ndarray
         Camera pose in the target frame.
     polygons : sequence of (3, m) ndarray
@@ -148,7 +148,7 @@ def region_edges(camera, T_WC, polygons, gains, window, tol_px: float, limit: fl
     segments : (4, n) ndarray
         ``(u0, v0, u1, v1)`` of every segment; together the closed outlines of each
         polygon's image clipped to the cone, each with its region on the positive side
-        (the orientation of :func:`graphpose.synth.render.polygon_coverage`'s polygons after
+        (the orientation of :func:`graphpose.synth.raster.polygon_coverage`'s polygons after
         their shoelace test: ``u0 v1 - u1 v0`` sums to twice the area).
     weights : (n,) ndarray
         The gain of each segment's polygon.

@@ -18,11 +18,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._checks import check_board, check_K, check_number, check_size
+from .._checks import check_K, check_number, check_size
+from ..board import check_board
 from ..board import Board
-from ..camera import project
+from ..geometry import project
 from ..errors import InputError
-from .render import Rendering, random_pose, render
+from .poses import random_pose
+from .render import Rendering, render
 
 #: Occluder kinds :func:`random_scene` draws from.
 OCCLUDERS = ("bar", "blob", "reflection", "edge")

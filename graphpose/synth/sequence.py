@@ -36,20 +36,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .._checks import (
-    check_board,
-    check_count,
-    check_K,
-    check_number,
-    check_range,
-    check_size,
-)
+from .._checks import check_count, check_K, check_number, check_range, check_size
+from ..board import check_board
 from ..board import Board
-from ..camera import project, rot_x, rot_y, rot_z, to_camera
+from ..geometry import project, rot_x, rot_y, rot_z, to_camera
 from ..errors import InputError
 from ..io.files import write_json, write_png
 from ..io.tum import write_tum
-from .render import loose_polygon, render, render_ideal
+from .poses import loose_polygon
+from .render import render, render_ideal
 
 #: Border, pixels, inside which a junction counts as visible.
 VISIBLE_BORDER_PX = 8.0
@@ -74,7 +69,7 @@ class Sequence:
         Ideal renders averaged for the frame (1: no motion blur).
     bounds : (2, 4) ndarray
         A loose bounding polygon of the first frame's board (see
-        :func:`graphpose.synth.render.loose_polygon`).
+        :func:`graphpose.synth.poses.loose_polygon`).
     K : (3, 3) ndarray
         Intrinsics.
     board : Board

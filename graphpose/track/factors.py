@@ -1,7 +1,7 @@
 """The back end's own GTSAM factors, written in Python (``gtsam.CustomFactor``).
 
 - :func:`resection_factor`: one factor holding all the junctions of a frame, the camera's
-  projection (:mod:`graphpose.cameras`, lens distortion included) of the FIXED target
+  projection (:mod:`graphpose.camera_models`, lens distortion included) of the FIXED target
   points, with its analytic Jacobian. It is the limit of the
   landmark forms of :mod:`graphpose.track.backend` as their prior sigma goes to 0.
 - :func:`constant_velocity_factor`: a three-pose factor saying the body-frame twist stays
@@ -17,7 +17,7 @@ import gtsam
 import numpy as np
 
 from .._checks import as_points, check_number
-from ..cameras import as_camera
+from ..camera_models import as_camera
 from ..errors import InputError
 
 
@@ -33,7 +33,7 @@ def resection_factor(key, points, Wpts, camera, pixel_sigma: float) -> gtsam.Cus
     Wpts : (3, m) ndarray
         The matching target points, metres; fixed.
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`), or pinhole intrinsics ``K``, pixels.
+        The camera model (:mod:`graphpose.camera_models`), or pinhole intrinsics ``K``, pixels.
     pixel_sigma : float
         Isotropic standard deviation of a measured pixel coordinate.
 
@@ -43,7 +43,7 @@ def resection_factor(key, points, Wpts, camera, pixel_sigma: float) -> gtsam.Cus
         Error ``(u_1 - u'_1, v_1 - v'_1, ...)`` of length 2m (predicted minus measured),
         with its analytic Jacobian for the right perturbation ``T Exp(omega, v)``:
         ``dp_C = [p_C]_x omega - v``, chained with the camera's ``d uv / d p_C``
-        (:meth:`graphpose.cameras.Camera.project_jacobian`). A point at or behind the
+        (:meth:`graphpose.camera_models.Camera.project_jacobian`). A point at or behind the
         camera gives GTSAM's constant ``2 fx`` error with a zero Jacobian, as GTSAM's own
         projection factors do.
 

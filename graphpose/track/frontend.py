@@ -1,7 +1,7 @@
 """The tracker's front end: one frame's junctions and its own pose, before the back end.
 
 Per frame (:class:`FrontEnd`; thresholds in :class:`graphpose.track.config.TrackerConfig`; every
-projection through the sequence's camera, :mod:`graphpose.cameras`, on the raw frames):
+projection through the sequence's camera, :mod:`graphpose.camera_models`, on the raw frames):
 
 1. **Predict** the pose from the last two frames with a constant body-frame twist
    (:func:`constant_velocity_prediction`), and every junction's pixel position from it.
@@ -11,7 +11,7 @@ projection through the sequence's camera, :mod:`graphpose.cameras`, on the raw f
 3. **Fit** the frame's own pose with the single-image pipeline's fit,
    :func:`graphpose.pose.estimate.fit_pose`: from the prediction, Gauss-Newton and, with
    ``robust``, its Huber gate on outlying junctions; the same input checks as
-   :func:`graphpose.pose.estimate.estimate_pose`.
+   :func:`graphpose.pipeline.estimate_pose`.
 4. **Fall back** to full extraction (:func:`graphpose.detect.junctions.extract_junctions`, then
    ``fit_pose`` from the homography) when too few junctions survive, when the motion is too
    fast to predict, or after a loss. Polygons are tried in turn: the caller's polygon for the
@@ -41,8 +41,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..board import Board
-from ..camera import to_camera
-from ..cameras import as_camera
+from ..geometry import to_camera
+from ..camera_models import as_camera
 from ..detect.junctions import extract_junctions
 from ..detect.refine import refine_junctions
 from ..errors import BoardNotFoundError, InputError
@@ -82,7 +82,7 @@ class FrontEnd:
     Parameters
     ----------
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`; the frames are raw), or pinhole
+        The camera model (:mod:`graphpose.camera_models`; the frames are raw), or pinhole
         intrinsics ``K``, pixels.
     board : Board
         The target.
@@ -133,12 +133,14 @@ class FrontEnd:
             found, message = _attempt(self._track, image, prediction)
             status = TRACKED if found is not None else LOST
         if found is None:
+            whys = []
             for poly in self._detection_polygons(polygon, prediction, image.shape[:2]):
                 found, why = _attempt(self._detect, image, poly)
                 if found is not None:
                     status = DETECTED
                     break
-                message = f"{message}; {why}" if message else why
+                whys.append(why)
+            message = "; ".join(m for m in (message, _detection_message(whys)) if m)
         if found is None:
             return Measurement(LOST, message=message or "no polygon to search")
         points, ids, fit = found
@@ -342,6 +344,24 @@ def _se3_exp(xi):
     T[:3, :3] = np.eye(3) + a * W + b * W2
     T[:3, 3] = (np.eye(3) + b * W + c * W2) @ v
     return T
+
+
+def _detection_message(whys) -> str:
+    """One message for the failed detection attempts of a frame: each distinct reason once,
+    with how many search areas gave it, under one ``extraction failed`` (not the same words
+    once per area)."""
+    prefix = "extraction failed: "
+    counts = {}
+    for why in whys:
+        counts[why] = counts.get(why, 0) + 1
+    if not counts:
+        return ""
+    parts = [(w[len(prefix):] if w.startswith(prefix) else w) + (f" ({n} search areas)" if n > 1 else "")
+             for w, n in counts.items()]
+    head = "extraction failed: " if all(w.startswith(prefix) for w in counts) else ""
+    if len(whys) > 1:
+        head = f"extraction failed in {len(whys)} search areas: " if head else ""
+    return head + "; ".join(parts)
 
 
 def _attempt(method, *args):

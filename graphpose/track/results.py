@@ -2,7 +2,7 @@
 and the back end's :class:`BackendResult` for one frame.
 
 Poses are ``T_WC`` (camera in the target frame) and covariances are those of the pose
-parameters ``(x, y, z, roll, pitch, yaw)`` of :mod:`graphpose.camera` (metres, radians), like
+parameters ``(x, y, z, roll, pitch, yaw)`` of :mod:`graphpose.geometry` (metres, radians), like
 :class:`graphpose.pose.estimate.PoseEstimate`. A lost frame carries no pose.
 """
 

@@ -3,17 +3,18 @@
 Ties the pieces together, one frame at a time: the frame is read
 (:class:`graphpose.track.frames.FrameSource`), the front end finds its junctions and its own
 pose (:class:`graphpose.track.frontend.FrontEnd`), the back end adds them to its factor graph
-and updates it (:class:`graphpose.track.backend.FixedLagGraph`, a fixed-lag smoother over the
-last ``config.lag_s`` seconds, by default; :class:`graphpose.track.backend.SequenceGraph`,
+and updates it (a :class:`graphpose.track.backend.Backend`:
+:class:`graphpose.track.fixed_lag.FixedLagGraph`, a fixed-lag smoother over the last
+``config.lag_s`` seconds, by default; :class:`graphpose.track.sequence_graph.SequenceGraph`,
 iSAM2 over the whole sequence, with ``lag_s=None``), and the back end's pose goes back to the
 front end to predict the next frame. A frame without a usable board, or a frame file that
 cannot be read, is lost: it gets no pose, and no motion factor spans it. At the end the whole
 sequence can be smoothed in batch.
 
-Inputs are checked once, here, as :func:`graphpose.pose.estimate.estimate_pose` checks them
+Inputs are checked once, here, as :func:`graphpose.pipeline.estimate_pose` checks them
 (:func:`graphpose._checks.check_bounds` for the bounds and every per-frame polygon, and
-:func:`graphpose.cameras.check_image_size` for every frame against the camera's calibration).
-One camera (:mod:`graphpose.cameras`) serves the whole chain: the front end's predictions,
+:func:`graphpose.camera_models.check_image_size` for every frame against the camera's calibration).
+One camera (:mod:`graphpose.camera_models`) serves the whole chain: the front end's predictions,
 refinement and detection work on the raw frames through it, and the back end's factors
 project through the same model.
 """
@@ -24,9 +25,10 @@ import time
 
 import numpy as np
 
-from .._checks import check_board, check_bounds
+from .._checks import check_bounds
+from ..board import check_board
 from ..board import Board
-from ..cameras import as_camera, check_image_size
+from ..camera_models import as_camera, check_image_size
 from ..errors import InputError
 from .backend import make_backend
 from .config import MOTION_SPAN_FRAMES, TrackerConfig, default_lag_s, shortest_lag_s
@@ -47,7 +49,7 @@ def track_sequence(frames, camera, bounds=None, *, board: Board = Board(), times
         :func:`graphpose.track.frames.list_frames`), a list of image files, or images
         (H, W) / (H, W, 3|4) arrays, or an (N, H, W) array. Files are read one at a time.
     camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.cameras`; the frames are raw, with its lens
+        The camera model (:mod:`graphpose.camera_models`; the frames are raw, with its lens
         distortion), or pinhole intrinsics ``K``, pixels, for frames without distortion.
     bounds : (2, 4) array_like, optional
         Bounding polygon of the board in the first frame (clockwise from the corner nearest

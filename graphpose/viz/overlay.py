@@ -18,8 +18,8 @@ from skimage.measure import points_in_poly
 
 from .._checks import as_polygon
 from ..board import Board
-from ..camera import to_camera
-from ..cameras import as_camera, check_image_size
+from ..geometry import to_camera
+from ..camera_models import as_camera, check_image_size
 from ..image import as_grey
 
 #: Samples per square along the drawn grid lines (enough for a smooth curve under distortion).
@@ -49,13 +49,13 @@ def draw_overlay(image, estimate, camera, board: Board = Board(), *, bounds=None
         The image the estimate came from (any dtype :func:`graphpose.image.as_grey` takes),
         raw as the camera took it.
     estimate : PoseEstimate
-        Result of :func:`graphpose.pose.estimate.estimate_pose`; uses ``T_WC``, ``params``,
+        Result of :func:`graphpose.pipeline.estimate_pose`; uses ``T_WC``, ``params``,
         ``mask`` (the trusted junctions), ``junctions.points`` (none are marked when
         ``junctions`` is None, as from :func:`~graphpose.pose.estimate.estimate_pose_from_points`),
         ``reprojection_rms_px``, ``converged``, ``cross_check.agree`` and, when present,
         ``orientation_ambiguous``.
     camera : Camera or (3, 3) array_like
-        The camera the estimate used (:mod:`graphpose.cameras`), or pinhole intrinsics
+        The camera the estimate used (:mod:`graphpose.camera_models`), or pinhole intrinsics
         ``K``, pixels: the reprojection, the grid and the axes are drawn through it.
     board : Board
         The target; its junctions are reprojected and its square sets the axes' length

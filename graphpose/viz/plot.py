@@ -1,4 +1,4 @@
-"""A picture of a tracked trajectory: the ``plot`` extra (``pip install -e ".[plot]"``).
+"""A picture of a tracked trajectory: the ``plot`` extra (matplotlib; :mod:`graphpose._extras`).
 
 Only :func:`plot_track` imports matplotlib, and only its object API (no pyplot, so no global
 figure state), so the rest of graphpose never needs it.
@@ -43,11 +43,10 @@ def plot_track(track, path, *, board: Board = Board(), truth=None, title: str = 
         If matplotlib is not installed, ``truth`` is not an array of numbers with one pose per
         frame, or the file cannot be written.
     """
-    try:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise InputError("the trajectory picture needs matplotlib: pip install -e \".[plot]\"") from None
+    from .._extras import require
+
+    FigureCanvasAgg = require("matplotlib.backends.backend_agg", "plot", "the trajectory picture").FigureCanvasAgg
+    from matplotlib.figure import Figure
     frames = track.best_frames()
     poses = track.poses("best")
     if truth is not None:

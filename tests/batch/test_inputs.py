@@ -67,13 +67,18 @@ def test_bounds_file_as_a_mapping_or_a_case_file(tmp_path):
                                                      "cases": [{"image": "sub/x.png", "bounds": poly}]}))
     got = read_bounds_file(tmp_path / "cases.json")
     assert list(got) == [str(tmp_path / "sub/x.png")]
+    # A case file's case without bounds is searched whole, as 'graphpose estimate --cases' does.
+    (tmp_path / "cases.json").write_text(json.dumps({"cases": [{"image": "sub/x.png"}, {"image": "z.png",
+                                                                                      "bounds": poly}]}))
+    got = read_bounds_file(tmp_path / "cases.json")
+    assert got[str(tmp_path / "sub/x.png")] is None and np.array_equal(got[str(tmp_path / "z.png")], poly)
 
 
 @pytest.mark.parametrize("doc, fragment", [
     ([1, 2], "JSON object"),
     ({"x.png": [[1, 2, 3], [4, 5, 6]]}, r"bounds of x.png .* shape \(2, 4\)"),
     ({"x.png": [["a"] * 4, ["b"] * 4]}, "real numbers"),
-    ({"cases": [{"image": "x.png"}]}, r"cases\[0\]"),
+    ({"cases": [{"bounds": None}]}, r"cases\[0\] must be an object with 'image'"),
 ])
 def test_bad_bounds_files(tmp_path, doc, fragment):
     (tmp_path / "b.json").write_text(json.dumps(doc))

@@ -2,6 +2,7 @@
 one writer at a time."""
 
 import json
+import os
 import time
 
 import pytest
@@ -13,6 +14,7 @@ from graphpose.batch.results import (
     flat_row,
     nested_record,
     open_results,
+    parameters,
     read_results,
     results_format,
 )
@@ -151,3 +153,40 @@ def test_parquet_rows_reach_the_disk_while_results_arrive(records, tmp_path):
         time.sleep(0.06)
         results.write(records[1])  # older than flush_seconds now: both written
         assert read_results(out) == records[:2]
+
+
+def test_reopening_knows_what_each_row_was_made_with(records, tmp_path):
+    # The resume key: the camera's model and values (not its file), the board, the polygon, robust.
+    out = tmp_path / "r.parquet"
+    with open_results(out) as results:
+        for r in records:
+            results.write(r)
+    with open_results(out) as results:
+        assert results.made == {r["image"]: (parameters(r), r["status"]) for r in records}
+    first = records[0]
+    renamed = {**first, "camera": {**first["camera"], "file": "elsewhere/cam.yml", "name": "cam0"}}
+    assert parameters(renamed) == parameters(first)
+    for key, value in (("board", {"cols": 9, "rows": 6, "square_m": 0.03}), ("robust", True), ("bounds", None)):
+        assert parameters({**first, key: value}) != parameters(first), key
+    assert parameters({k: v for k, v in first.items() if k != "camera"}) is None
+
+
+def test_an_interrupt_just_after_a_part_is_renamed_does_not_write_its_rows_twice(records, tmp_path, monkeypatch):
+    import graphpose.batch.results as module
+
+    out = tmp_path / "r.parquet"
+    results = open_results(out)
+    replace = os.replace
+
+    def replace_then_interrupt(src, dst):
+        replace(src, dst)
+        raise KeyboardInterrupt  # Ctrl-C or SIGTERM between the rename and the next line
+
+    for r in records[:2]:
+        results.write(r)
+    monkeypatch.setattr(module.os, "replace", replace_then_interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        results.flush()
+    monkeypatch.undo()
+    results.close()  # what graphpose batch does on the way out
+    assert sorted(r["image"] for r in read_results(out)) == sorted(r["image"] for r in records[:2])

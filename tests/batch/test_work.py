@@ -4,7 +4,7 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-import graphpose.pose.estimate
+import graphpose.pipeline
 from graphpose.batch.work import (
     BOARD_NOT_FOUND,
     CRASHED,
@@ -18,9 +18,9 @@ from graphpose.batch.work import (
     failed_record,
     warm_up,
 )
-from graphpose.cli.records import result_record
+from graphpose.io.records import result_record
 from graphpose.image import read_image
-from graphpose.pose.estimate import estimate_pose
+from graphpose.pipeline import estimate_pose
 from tests.batch.helpers import make_image_set
 
 
@@ -34,8 +34,11 @@ def test_a_good_image_gives_the_estimate_json_record_of_estimate_pose(images):
     [row] = estimate_images([(path, images.bounds[path])], images.K, images.board)
     expected = result_record(path, images.expected[path], None)
     assert row["status"] == OK and row["time_s"] > 0 and row["worker"] is None
-    assert list(row) == [*expected, *EXTRA_KEYS]
+    assert list(row) == [*expected, "camera", "board", *EXTRA_KEYS]
     assert {k: row[k] for k in expected} == expected
+    assert row["camera"]["model"] == "pinhole" and row["camera"]["K"] == images.K.tolist()
+    assert row["board"] == {"cols": 8, "rows": 6, "square_m": 0.0635}
+    assert row["bounds"] == images.bounds[path].tolist() and row["robust"] is False
 
 
 def test_each_failure_is_its_own_row_and_the_rest_go_on(images, tmp_path):
@@ -59,7 +62,7 @@ def test_an_unexpected_exception_is_an_error_row_with_its_type(images, monkeypat
     def broken(*args, **kwargs):
         raise ZeroDivisionError("a bug\nover two lines")
 
-    monkeypatch.setattr(graphpose.pose.estimate, "estimate_pose", broken)
+    monkeypatch.setattr(graphpose.pipeline, "estimate_pose", broken)
     [row] = estimate_images([(images.paths[0], images.bounds[images.paths[0]])], images.K, images.board)
     assert row["status"] == ERROR and row["message"] == "ZeroDivisionError: a bug over two lines"
 

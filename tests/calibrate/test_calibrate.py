@@ -136,7 +136,7 @@ def test_calibration_set_truth_and_coverage():
     views = calibration_set(camera, 6, rng=11)
     assert len(views.images) == 6 and views.images[0].shape == (480, 640)
     W = Board().world_points()
-    from graphpose.camera import to_camera
+    from graphpose.geometry import to_camera
 
     for rendering in views.renderings:
         np.testing.assert_allclose(rendering.junctions, camera.project(to_camera(rendering.T_WC, W)), atol=1e-9)

@@ -7,6 +7,7 @@ each checks several things.
 import argparse
 import io
 import json
+import os
 import re
 import struct
 import subprocess
@@ -20,13 +21,15 @@ import pytest
 from graphpose import Board, estimate_pose, load_cases, read_camera, read_image
 from graphpose.cli import main
 from graphpose.cli.options import Progress, parse_bounds, parse_K, parse_positive
-from graphpose.cli.records import POSE_KEYS
+from graphpose.io.records import POSE_KEYS
 from graphpose.io.calibration import write_camera
 from graphpose.io.files import encode_png
 from graphpose.pose.estimate import pose_difference
 from tests.conftest import REPO, opencv_file, real_file
 
 BUNDLED = REPO / "graphpose" / "data" / "cases.json"
+#: The bundled example's camera as --K (its case file's K): a user's image needs one.
+K_BUNDLED = "564.9,564.3,337.3,226.5"
 KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check", "orientation_ambiguous"}
 
 
@@ -163,7 +166,7 @@ def test_one_image_with_options_guess_overlay_and_json(bundled, tmp_path):
 def test_json_to_stdout(bundled):
     case = bundled.cases[1]
     bounds = ",".join(f"{u:g},{v:g}" for u, v in case.bounds.T)
-    result = graphpose("estimate", case.image, "--bounds", bounds, "--json", "-")
+    result = graphpose("estimate", case.image, "--bounds", bounds, "--K", K_BUNDLED, "--json", "-")
     assert result.returncode == 0, result.stderr
     (record,) = json.loads(result.stdout)
     assert KEYS <= set(record) and record["converged"]
@@ -186,6 +189,8 @@ BOUNDS = "100,100,540,100,540,380,100,380"
     (["estimate", "img.png", "--camera", "no/such/left.yml"], ["--camera: calibration file not found"]),
     (["estimate", "img.png", "--camera-name", "cam1"], ["--camera-name cam1", "no --camera"]),
     (["estimate", "--cases", "c.json", "--bounds", BOUNDS], ["--bounds goes with IMAGE"]),
+    (["estimate", "img.png", "--bounds", BOUNDS], ["no camera", "--camera FILE", "--K FX,FY,CX,CY",
+                                                   "graphpose calibrate"]),
     (["estimate", "--frobnicate"], ["unrecognized arguments: --frobnicate"]),
     (["estimate", "img.png", "--bounds", BOUNDS, "--overlay", "out.jpg"], ["--overlay", ".png"]),
     (["nonsense"], ["invalid choice"]),
@@ -215,26 +220,28 @@ def test_malformed_values_as_a_user_sees_them():
 
 
 def test_missing_and_unreadable_image_and_guess(tmp_path):
-    one_error_line(graphpose("estimate", tmp_path / "nope.png", "--bounds", BOUNDS),
+    one_error_line(graphpose("estimate", tmp_path / "nope.png", "--bounds", BOUNDS, "--K", K_BUNDLED),
                    2, "not found", "nope.png")
     junk = tmp_path / "junk.png"
     junk.write_bytes(b"this is not a png")
-    one_error_line(graphpose("estimate", junk, "--bounds", BOUNDS), 2, "cannot read", "junk.png")
+    one_error_line(graphpose("estimate", junk, "--bounds", BOUNDS, "--K", K_BUNDLED), 2, "cannot read", "junk.png")
     bad_guess = tmp_path / "guess.json"
     bad_guess.write_text("[[1, 0], [0, 1]]")
-    one_error_line(graphpose("estimate", junk, "--bounds", BOUNDS, "--guess", bad_guess),
+    one_error_line(graphpose("estimate", junk, "--bounds", BOUNDS, "--K", K_BUNDLED, "--guess", bad_guess),
                    2, "guess.json", "(4, 4)")
 
 
-def test_a_folder_given_as_image_is_called_a_folder(tmp_path, capsys):
-    assert main(["estimate", str(tmp_path), "--bounds", BOUNDS]) == 2
-    assert capsys.readouterr().err.strip() == f"graphpose: error: {tmp_path} is a folder, not an image file"
+def test_a_folder_without_images_says_so(tmp_path, capsys):
+    (tmp_path / "notes.txt").write_text("no image here")
+    assert main(["estimate", str(tmp_path), "--bounds", BOUNDS, "--K", K_BUNDLED]) == 2
+    line = capsys.readouterr().err.strip()
+    assert line.startswith("graphpose: error: no image files (.png") and str(tmp_path) in line, line
 
 
 def test_readme_polygon_over_a_corner_of_the_board(capsys):
     # The README's example of a polygon that does not hold the board, as the user sees it.
     image = BUNDLED.parent / "synthetic_03.png"
-    assert main(["estimate", str(image), "--bounds", "300,300,400,300,400,400,300,400"]) == 1
+    assert main(["estimate", str(image), "--bounds", "300,300,400,300,400,400,300,400", "--K", K_BUNDLED]) == 1
     line = capsys.readouterr().err.strip()
     assert re.fullmatch(rf"graphpose: error: {re.escape(str(image))}: no checkerboard inside the bounds: \d+ "
                         r"junction-like points but no grid of cross-junctions among them", line), line
@@ -242,12 +249,14 @@ def test_readme_polygon_over_a_corner_of_the_board(capsys):
 
 def test_no_board_found_exits_1(blank_png, tmp_path):
     out_json = tmp_path / "out.json"
-    line = one_error_line(graphpose("estimate", blank_png, "--bounds", BOUNDS, "--json", out_json,
+    line = one_error_line(graphpose("estimate", blank_png, "--bounds", BOUNDS, "--K", K_BUNDLED, "--json", out_json,
                                     "--overlay", tmp_path / "o.png"), 1)
     assert "blank.png" in line
     (record,) = json.loads(out_json.read_text())
     assert record["message"] and not record["converged"] and record["T_WC"] is None
-    assert not (tmp_path / "o.png").exists()  # no picture of a pose that does not exist
+    # No pose, but a picture of what the search saw, and the error line says where it is.
+    assert png_size(tmp_path / "o.png") == (640, 480) and f"its picture, with what was found: {tmp_path / 'o.png'}" in line
+    assert record["message"] in line
 
 
 def test_no_convergence_exits_1(bundled, tmp_path, monkeypatch, capsys):
@@ -261,7 +270,7 @@ def test_no_convergence_exits_1(bundled, tmp_path, monkeypatch, capsys):
     case = bundled.cases[0]
     bounds = ",".join(f"{u:g},{v:g}" for u, v in case.bounds.T)
     out_json = tmp_path / "out.json"
-    code = main(["estimate", str(case.image), "--bounds", bounds, "--json", str(out_json),
+    code = main(["estimate", str(case.image), "--bounds", bounds, "--K", K_BUNDLED, "--json", str(out_json),
                  "--overlay", str(tmp_path / "o.png")])
     captured = capsys.readouterr()
     assert code == 1
@@ -297,7 +306,7 @@ def test_an_overlay_folder_that_cannot_be_made_is_an_input_error(bundled, tmp_pa
     bounds = ",".join(f"{u:g},{v:g}" for u, v in case.bounds.T)
     (tmp_path / "taken").write_text("a file where the folder should go")
     out_json = tmp_path / "out.json"
-    code = main(["estimate", str(case.image), "--bounds", bounds, "--json", str(out_json),
+    code = main(["estimate", str(case.image), "--bounds", bounds, "--K", K_BUNDLED, "--json", str(out_json),
                  "--overlay", f"{tmp_path / 'taken'}/", "-q"])
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and "--overlay: cannot create folder" in line and "taken" in line
@@ -323,7 +332,9 @@ def test_batch_goes_on_past_a_bad_image(bundled, blank_png, tmp_path):
     records = json.loads((tmp_path / "out.json").read_text())
     assert [r["message"] is None for r in records] == [True, False, False]
     assert records[0]["converged"] and "not found" in records[1]["message"]
-    assert [p.name for p in (tmp_path / "pictures").iterdir()] == [f"{good.image.stem}.overlay.png"]
+    # The blank image has no pose but its picture (what the search saw); the missing one none.
+    assert sorted(p.name for p in (tmp_path / "pictures").iterdir()) == ["blank.overlay.png",
+                                                                        f"{good.image.stem}.overlay.png"]
 
 
 # --- pieces, in process ----------------------------------------------------------------------
@@ -336,7 +347,7 @@ def test_no_arguments_means_estimate_on_the_bundled_example(monkeypatch):
     monkeypatch.setattr(estimate, "run", lambda args: seen.append(args) or 0)
     assert main([]) == 0
     (args,) = seen
-    assert args.command == "estimate" and args.image is None and args.cases is None
+    assert args.command == "estimate" and args.images == [] and args.cases is None
     assert estimate.DEFAULT_CASES == BUNDLED
 
 
@@ -471,7 +482,8 @@ def test_a_raw_image_with_its_calibration_file(tmp_path):
 
 def test_an_image_without_bounds_is_searched_whole_and_flagged_when_symmetric(tmp_path):
     real_file("target_01.png")
-    result = graphpose("estimate", "../shared/data/rob501/target_01.png", "--json", tmp_path / "out.json", cwd=REPO)
+    result = graphpose("estimate", "../shared/data/rob501/target_01.png", "--K", K_BUNDLED, "--json",
+                       tmp_path / "out.json", cwd=REPO)
     assert result.returncode == 0, result.stderr
     assert "(converged," in result.stdout and "over 48 junctions, 48 trusted" in result.stdout
     assert ("orientation     orientation ambiguous (half-turn symmetric board, no bounds): junction 0 is the "
@@ -563,3 +575,49 @@ def test_bad_camera_files_are_one_clear_error(tmp_path, capsys, name, text, frag
     assert "\n" not in line and line.startswith("graphpose: error: ")
     for fragment in fragments:
         assert fragment in line, line
+
+
+# --- several images and folders --------------------------------------------------------------
+
+
+def test_folders_and_images_in_name_order_into_one_json_list(bundled, tmp_path, capsys):
+    folder = tmp_path / "shots"
+    folder.mkdir()
+    for name, case in zip(("c.png", "a.png", "b.png"), bundled.cases):
+        os.symlink(case.image, folder / name)
+    (folder / "notes.txt").write_text("not an image")
+    single = tmp_path / "single.png"
+    os.symlink(bundled.cases[3].image, single)
+    out = tmp_path / "out.json"
+    assert main(["estimate", str(folder), str(single), "--K", K_BUNDLED, "--json", str(out)]) == 0
+    report = capsys.readouterr().out
+    records = json.loads(out.read_text())
+    assert [r["image"] for r in records] == [str(folder / n) for n in ("a.png", "b.png", "c.png")] + [str(single)]
+    assert {r["status"] for r in records} == {"ok"} and "4 images: 4 estimated, 0 failed" in report
+    # Paths as given: the symbolic links are not resolved, in the report either.
+    assert f"{folder / 'a.png'}  (converged" in report
+    truth = {str(folder / n): c.true_T_WC for n, c in zip(("c.png", "a.png", "b.png"), bundled.cases)}
+    for r in records[:3]:
+        assert pose_difference(np.array(r["T_WC"]), truth[r["image"]])[0] < 2e-3
+    # Images given one by one keep the order given.
+    assert main(["estimate", str(folder / "c.png"), str(folder / "a.png"), "--K", K_BUNDLED, "--json", "-"]) == 0
+    assert [r["image"] for r in json.loads(capsys.readouterr().out)] == [str(folder / "c.png"), str(folder / "a.png")]
+
+
+def test_opencv_samples_a_folder_of_left_images_and_right_images_as_paths(tmp_path, capsys):
+    # The check on OpenCV's raw samples, two of each side (all 13 + 13 in the report).
+    left = tmp_path / "left"
+    left.mkdir()
+    for name in ("left02.jpg", "left01.jpg"):
+        os.symlink(opencv_file(name), left / name)
+    assert main(["estimate", str(left), "--camera", str(opencv_file("left.opencv.yml")), "--board", "9x6x0.03",
+                 "--json", "-"]) == 0
+    records = json.loads(capsys.readouterr().out)
+    assert [Path(r["image"]).name for r in records] == ["left01.jpg", "left02.jpg"]
+    assert all(r["status"] == "ok" and r["junctions_used"] == 54 for r in records)
+    assert records[0]["camera"]["file"] == str(opencv_file("left.opencv.yml"))
+    assert records[0]["board"] == {"cols": 9, "rows": 6, "square_m": 0.03}
+    right = [str(opencv_file(n)) for n in ("right01.jpg", "right02.jpg")]
+    assert main(["estimate", *right, "--camera", str(opencv_file("right.opencv.xml")), "--board", "9x6x0.03",
+                 "--json", "-"]) == 0
+    assert [r["status"] for r in json.loads(capsys.readouterr().out)] == ["ok", "ok"]

@@ -24,6 +24,11 @@ def rendered(tmp_path_factory):
     return folder, ",".join(f"{u},{v}" for u, v in zip(*meta["bounds"]))
 
 
+#: The rendered frames' camera (render-sequence's, the project's) as --K: frames copied out of
+#: their folder no longer bring it.
+K_OPTION = "564.9,564.3,337.3,226.5"
+
+
 def _copy_frames(folder, to):
     """The frames of ``folder`` alone (no truth.tum, no bounds.json) in a new folder ``to``."""
     to.mkdir()
@@ -53,10 +58,11 @@ def test_an_unreadable_frame_is_lost_and_the_rest_written(rendered, tmp_path, ca
     # One corrupt frame used to end the run with exit 2 and nothing written.
     frames = _copy_frames(rendered[0], tmp_path / "frames")
     tum, out = tmp_path / "est.tum", tmp_path / "est.json"
-    assert main(["track", str(frames), "--bounds", rendered[1], "--json", str(out), "-q"]) == 0
+    assert main(["track", str(frames), "--bounds", rendered[1], "--K", K_OPTION, "--json", str(out), "-q"]) == 0
     intact = [r["status"] for r in json.loads(out.read_text())["frames"]]
     (frames / "frame_00004.png").write_bytes(b"\x89PNG\r\n\x1a\n cut short")
-    assert main(["track", str(frames), "--bounds", rendered[1], "--tum", str(tum), "--json", str(out)]) == 0
+    assert main(["track", str(frames), "--bounds", rendered[1], "--K", K_OPTION, "--tum", str(tum),
+                 "--json", str(out)]) == 0
     summary = capsys.readouterr().out
     assert "lost frames: 4" in summary and "unreadable frame files (lost): 4" in summary
     records = json.loads(out.read_text())["frames"]
@@ -67,7 +73,7 @@ def test_an_unreadable_frame_is_lost_and_the_rest_written(rendered, tmp_path, ca
     # Nothing readable at all: every frame lost, exit 1, the files still written.
     for path in frames.glob("*.png"):
         path.write_bytes(b"garbage")
-    assert main(["track", str(frames), "--tum", str(tum), "-q"]) == 1
+    assert main(["track", str(frames), "--K", K_OPTION, "--tum", str(tum), "-q"]) == 1
     assert len(read_tum(tum)) == 0
 
 
@@ -76,11 +82,12 @@ def test_counter_clockwise_bounds_are_the_same_input_error_in_estimate_and_track
     values = bounds.split(",")
     reverse = ",".join(",".join(values[2 * i:2 * i + 2]) for i in (3, 2, 1, 0))
     first = folder / "frame_00000.png"
-    assert main(["estimate", str(first), "--bounds", reverse]) == 2
+    assert main(["estimate", str(first), "--bounds", reverse, "--K", K_OPTION]) == 2
     estimate_error = capsys.readouterr().err.strip().splitlines()[-1]
     assert main(["track", str(folder), "--bounds", reverse]) == 2
     track_error = capsys.readouterr().err.strip().splitlines()[-1]
-    assert "bounds must run clockwise (in the image, v down) from the upper-left vertex" in track_error
+    assert ("bounds must run clockwise (in the image, v down), starting at the corner nearest junction 0; "
+            "these corners run counter-clockwise") in track_error
     assert estimate_error.endswith(track_error.split("error: ", 1)[1])
 
 
@@ -98,13 +105,13 @@ def test_plot_draws_the_truth_where_it_is_known(rendered, tmp_path, capsys, monk
     assert "truth" in drawn[-1][1]["title"]
     # The same frames without the folder's truth: nothing to draw, nothing said.
     frames = _copy_frames(folder, tmp_path / "frames")
-    assert main(["track", str(frames), "--bounds", bounds, "--plot", str(tmp_path / "bare.png")]) == 0
+    assert main(["track", str(frames), "--bounds", bounds, "--K", K_OPTION, "--plot", str(tmp_path / "bare.png")]) == 0
     assert drawn[-1][1]["truth"] is None and "truth:" not in capsys.readouterr().out
     # The truth given by hand, shuffled and with a line of no frame: matched by timestamp.
     order = np.r_[8, np.arange(8)[::-1]]
     write_tum(tmp_path / "truth.tum", np.r_[truth.timestamps, 99.0][order],
               np.concatenate([truth.poses, truth.poses[:1]])[order])
-    assert main(["track", str(frames), "--bounds", bounds, "--plot", str(tmp_path / "given.png"), "--truth",
+    assert main(["track", str(frames), "--bounds", bounds, "--K", K_OPTION, "--plot", str(tmp_path / "given.png"), "--truth",
                  str(tmp_path / "truth.tum")]) == 0
     np.testing.assert_allclose(drawn[-1][1]["truth"], truth.poses, atol=1e-8)
     assert "(8 of 8 frames matched by timestamp)" in capsys.readouterr().out
@@ -150,7 +157,7 @@ def blank_frames(tmp_path):
 
 def test_exits_1_when_every_frame_is_lost(blank_frames, tmp_path, capsys):
     tum = tmp_path / "est.tum"
-    assert main(["track", str(blank_frames), "--tum", str(tum)]) == 1
+    assert main(["track", str(blank_frames), "--K", K_OPTION, "--tum", str(tum)]) == 1
     assert "2 frames: tracked 0, detected 0, lost 2" in capsys.readouterr().out
     assert len(read_tum(tum)) == 0
 
@@ -168,7 +175,7 @@ def test_rejects_bad_polygons_files(blank_frames, tmp_path, capsys, document, me
     path = tmp_path / "polygons.json"
     if document is not None:
         path.write_text(document)
-    assert main(["track", str(blank_frames), "--polygons", str(path)]) == 2
+    assert main(["track", str(blank_frames), "--polygons", str(path), "--K", K_OPTION]) == 2
     assert message in capsys.readouterr().err
 
 

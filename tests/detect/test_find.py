@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from graphpose import Board, BoardNotFoundError, InputError, K_from_params
-from graphpose.camera import T_from_params
+from graphpose.geometry import T_from_params
 from graphpose.detect import find as find_module
 from graphpose.detect.find import find_board
 from graphpose.detect.lattice import grow_lattices, peel, predict, step_lengths

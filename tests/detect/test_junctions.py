@@ -12,9 +12,10 @@ from graphpose import (
     extract_junctions,
     refine_junctions,
 )
-from graphpose.camera import project
+from graphpose.geometry import project
 from graphpose.pose.gauss_newton import pose_estimate_nls
-from graphpose.synth.render import loose_polygon, random_pose, render
+from graphpose.synth.poses import loose_polygon, random_pose
+from graphpose.synth.render import render
 from tests.conftest import PROJECT_K as K
 
 #: OpenCV findChessboardCornersSB (CALIB_CB_ACCURACY) reprojection RMS on targets 01-06, px.
@@ -357,8 +358,8 @@ def test_junctions_through_a_strong_lens_are_fitted_where_the_lens_straightens_t
     # 190 degrees); fitted on the raw pixel grid, the curved edges biased it to 0.0071 and
     # 0.021 px, the same way at neighbouring junctions, and so the pose's NEES to 35-134.
     from graphpose import K_from_params
-    from graphpose.cameras import FisheyeCamera, RadTanCamera
-    from graphpose.synth.render import random_pose
+    from graphpose.camera_models import FisheyeCamera, RadTanCamera
+    from graphpose.synth.poses import random_pose
 
     if kind == "radtan":
         camera = RadTanCamera(K_from_params(400.0, 400.0, 322.5, 238.3), [-0.3, 0.1, 0.001, -0.0005, 0.0],
@@ -384,8 +385,8 @@ def test_refine_junctions_takes_the_camera_as_extract_junctions_does():
     # The tracker refines predicted positions with refine_junctions: through a fisheye its
     # camera makes the fit as exact as extract_junctions' (noise-free render).
     from graphpose import K_from_params
-    from graphpose.cameras import FisheyeCamera
-    from graphpose.synth.render import random_pose
+    from graphpose.camera_models import FisheyeCamera
+    from graphpose.synth.poses import random_pose
 
     camera = FisheyeCamera(K_from_params(203.0, 203.0, 321.0, 241.0), [-0.013, -0.004, 0.0035, -0.001],
                            size=(640, 480))

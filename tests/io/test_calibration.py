@@ -7,7 +7,7 @@ import pytest
 import yaml
 
 from graphpose import InputError
-from graphpose.cameras import (
+from graphpose.camera_models import (
     FisheyeCamera,
     PinholeCamera,
     RadTanCamera,

@@ -7,7 +7,7 @@ import pytest
 import yaml
 
 from graphpose import InputError
-from graphpose.cameras import FisheyeCamera, PinholeCamera, RadTanCamera
+from graphpose.camera_models import FisheyeCamera, PinholeCamera, RadTanCamera
 from graphpose.io.calibration import read_camera, write_camera
 from graphpose.io.camera_files import FORMATS, covariance_note
 

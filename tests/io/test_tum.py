@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from graphpose import InputError, T_from_params
-from graphpose.camera import rot_z
+from graphpose.geometry import rot_z
 from graphpose.io.tum import read_tum, write_tum
 
 

@@ -12,14 +12,14 @@ from graphpose import (
     read_camera,
     read_image,
 )
-from graphpose.camera import T_from_params, params_from_T, project, to_camera
+from graphpose.geometry import T_from_params, params_from_T, project, to_camera
+from graphpose.pipeline import estimate_pose
 from graphpose.pose.estimate import (
     AGREE_ROTATION_DEG,
     AGREE_TRANSLATION_M,
     CrossCheck,
     PoseEstimate,
     cross_check,
-    estimate_pose,
     estimate_pose_from_points,
     pose_difference,
 )
@@ -88,13 +88,13 @@ def test_target_01_is_near_the_course_reference(real_cases, real_images):
 
 
 def test_synthetic_images_give_accurate_poses_and_honest_uncertainty():
-    from graphpose.synth import render
+    from graphpose.synth import poses, render
     rng = np.random.default_rng(2024)
     errors_t, errors_r, nees = [], [], []
     for _ in range(40):
-        T = render.random_pose(rng, K)
+        T = poses.random_pose(rng, K)
         image = render.render(K, T, noise_sigma=2.0, blur_sigma=1.0, rng=rng)
-        est = estimate_pose(image.image, render.loose_polygon(image, rng), K)
+        est = estimate_pose(image.image, poses.loose_polygon(image, rng), K)
         assert_good(est)
         dt, dr = pose_difference(est.T_WC, T)
         errors_t.append(dt)
@@ -392,7 +392,9 @@ def test_without_bounds_a_symmetric_board_is_orientation_ambiguous(real_cases, r
 
 
 def _fake_extraction(monkeypatch, points, trusted, ambiguous=False):
-    """extract_junctions replaced by one returning these junctions (seen where finite)."""
+    """extract_junctions replaced, where the pipeline calls it, by one returning these junctions
+    (seen where finite)."""
+    from graphpose import pipeline
     from graphpose.detect import junctions as module
 
     seen = np.all(np.isfinite(points), axis=0)
@@ -404,7 +406,7 @@ def _fake_extraction(monkeypatch, points, trusted, ambiguous=False):
         calls.append((bounds, camera))
         return J
 
-    monkeypatch.setattr(module, "extract_junctions", fake)
+    monkeypatch.setattr(pipeline, "extract_junctions", fake)
     return calls
 
 

@@ -8,7 +8,7 @@ from graphpose import (
     ConvergenceError,
     InputError,
 )
-from graphpose.camera import (
+from graphpose.geometry import (
     C_from_rpy,
     T_from_params,
     params_from_T,
@@ -24,7 +24,7 @@ from graphpose.pose.gauss_newton import (
     reprojection_cost,
 )
 from graphpose.pose.homography import pose_from_homography
-from graphpose.synth.render import perturb_pose
+from graphpose.synth.poses import perturb_pose
 from tests.conftest import BOARD_WPTS as WPTS
 from tests.conftest import LENS_CAMERAS, real_file
 from tests.conftest import PROJECT_K as K

@@ -4,7 +4,7 @@ import pytest
 from gtsam.symbol_shorthand import L, X
 
 from graphpose import InputError
-from graphpose.camera import T_from_params, params_from_T, project, to_camera
+from graphpose.geometry import T_from_params, params_from_T, project, to_camera
 from graphpose.io.cases import bundled_cases
 from graphpose.pose.estimate import (
     AGREE_ROTATION_DEG,
@@ -20,7 +20,7 @@ from graphpose.pose.graph import (
     params_from_tangent_jacobian,
     projection_factor,
 )
-from graphpose.synth.render import perturb_pose
+from graphpose.synth.poses import perturb_pose
 from tests.conftest import BOARD_WPTS as WPTS
 from tests.conftest import LENS_CAMERAS
 from tests.conftest import PROJECT_K as K

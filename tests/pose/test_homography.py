@@ -2,13 +2,10 @@ import numpy as np
 import pytest
 
 from graphpose import InputError
-from graphpose.camera import T_from_params, project, to_camera
+from graphpose.geometry import T_from_params, project, to_camera
 from graphpose.pose.gauss_newton import gauss_newton
-from graphpose.pose.homography import (
-    homography_dlt,
-    on_target_plane,
-    pose_from_homography,
-)
+from graphpose.geometry import homography_dlt
+from graphpose.pose.homography import on_target_plane, pose_from_homography
 from tests.conftest import BOARD_WPTS as WPTS
 from tests.conftest import PROJECT_K as K
 

@@ -5,8 +5,8 @@ import pytest
 
 from graphpose import Board, estimate_pose, estimate_pose_from_points
 from graphpose.calibrate.params import camera_parameters, camera_with_parameters
-from graphpose.camera import params_from_T, to_camera
-from graphpose.pose.estimate import _estimate
+from graphpose.geometry import params_from_T, to_camera
+from graphpose.pose.estimate import estimate_pose_unchecked
 from graphpose.pose.gauss_newton import gauss_newton
 from graphpose.pose.intrinsics import (
     SIGMA_CALIBRATION,
@@ -14,7 +14,7 @@ from graphpose.pose.intrinsics import (
     pose_cov_with_intrinsics,
     pose_intrinsics_jacobian,
 )
-from graphpose.synth import render
+from graphpose.synth import poses, render
 from tests.conftest import LENS_CAMERAS
 
 BOARD = Board()
@@ -36,7 +36,7 @@ def calibrated(camera, cov=COV_K):
 
 
 def pose(rng, camera):
-    return render.random_pose(rng, camera, BOARD, (640, 480))
+    return poses.random_pose(rng, camera, BOARD, (640, 480))
 
 
 @pytest.mark.parametrize("name", ["pinhole", "radtan", "fisheye"])
@@ -137,7 +137,7 @@ def test_robust_fit_propagates_with_its_weights():
     uv = camera.project(to_camera(T, W)) + rng.normal(0.0, 0.1, (2, W.shape[1]))
     uv[:, 7] += 3.0  # an outlier the Huber kernel down-weights
     mask = np.ones(W.shape[1], bool)
-    est = _estimate(camera, uv, W, None, mask, True)
+    est = estimate_pose_unchecked(camera, uv, W, None, mask, True)
     from graphpose.pose.gauss_newton import huber_weights
 
     weights = huber_weights(est.gn.residuals, 1.345 * est.gn.sigma_px)
@@ -146,3 +146,20 @@ def test_robust_fit_propagates_with_its_weights():
     np.testing.assert_allclose(est.cov, expected, rtol=1e-12)
     unweighted = pose_cov_with_intrinsics(camera, est.T_WC, W, est.cov_pixel)
     assert not np.allclose(est.cov, unweighted, rtol=1e-6)
+
+
+def test_a_propagation_that_cannot_be_solved_is_nan_not_a_crash(monkeypatch):
+    import graphpose.pose.estimate as estimate_module
+
+    camera = calibrated(LENS_CAMERAS["radtan"])
+    rng = np.random.default_rng(6)
+    T = pose(rng, camera)
+    uv = camera.project(to_camera(T, W)) + rng.normal(0.0, 0.1, (2, W.shape[1]))
+
+    def singular(*args, **kwargs):
+        raise np.linalg.LinAlgError("Singular matrix")
+
+    monkeypatch.setattr(estimate_module, "pose_cov_with_intrinsics", singular)
+    est = estimate_pose_from_points(camera, uv, W)
+    assert est.sigma_kind == SIGMA_CALIBRATION and np.all(np.isnan(est.cov))
+    assert np.all(np.isfinite(est.cov_pixel))  # the pixel noise's share is still known

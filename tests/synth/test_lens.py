@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from graphpose import Board, FisheyeCamera, RadTanCamera
-from graphpose.camera import T_from_params, to_camera
+from graphpose.geometry import T_from_params, to_camera
 from graphpose.synth.lens import FAR_DIAGONALS, in_view, region_edges, view_limit
-from graphpose.synth.render import random_pose
+from graphpose.synth.poses import random_pose
 
 SIZE = (640, 480)
 WIDE = RadTanCamera([[400.0, 0.0, 322.5], [0.0, 400.0, 238.3], [0.0, 0.0, 1.0]],

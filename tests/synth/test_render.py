@@ -10,28 +10,16 @@ from skimage.io import imread
 from skimage.measure import points_in_poly
 
 from graphpose.board import Board
-from graphpose.camera import K_from_params, T_from_params, project, to_camera
-from graphpose.cameras import FisheyeCamera, PinholeCamera, RadTanCamera
+from graphpose.geometry import K_from_params, T_from_params, project, to_camera
+from graphpose.camera_models import FisheyeCamera, PinholeCamera, RadTanCamera
 from graphpose.detect.saddle import saddle_point
 from graphpose.errors import InputError
 from graphpose.pose.estimate import pose_difference
+from graphpose.synth.information import image_gradients, junction_information
 from graphpose.synth.lens import in_view, view_limit
-from graphpose.synth.render import (
-    Rendering,
-    _black_squares_world,
-    _coverage,
-    _kernel,
-    _Light,
-    image_gradients,
-    image_points,
-    junction_information,
-    loose_polygon,
-    perturb_pose,
-    polygon_coverage,
-    random_pose,
-    render,
-    render_ideal,
-)
+from graphpose.synth.poses import loose_polygon, perturb_pose, random_pose
+from graphpose.synth.raster import coverage, pixel_kernel, polygon_coverage
+from graphpose.synth.render import Rendering, _black_squares_world, _Light, image_points, render, render_ideal
 from tests.conftest import PROJECT_K as K_REAL
 from tests.conftest import REPO
 
@@ -110,7 +98,7 @@ def test_blur_free_fronto_parallel_edge_values():
 def _blur_integrate(fine, sigma, S, reach):
     """Blur a dense fine image (h*S, w*S) and integrate it over pixels, giving (h, w): the
     dense twin of the renderer's sparse path."""
-    k = _kernel(sigma, S, reach)
+    k = pixel_kernel(sigma, S, reach)
     rows = sum(correlate1d(fine[:, b::S], k[:, b], axis=1, mode="constant") for b in range(S))
     return sum(correlate1d(rows[b::S, :], k[:, b], axis=0, mode="constant") for b in range(S))
 
@@ -132,7 +120,7 @@ def test_sparse_blur_equals_dense_fine_grid_reference():
     h, w = (size[1] + 2 * reach) * S, (size[0] + 2 * reach) * S
     u = (np.arange(w) + 0.5) / S - reach - 0.5
     v = (np.arange(h) + 0.5) / S - reach - 0.5
-    fine = _coverage(polys, h, w, gains) * light(u[None, :], v[:, None])
+    fine = coverage(polys, h, w, gains) * light(u[None, :], v[:, None])
     blurred = _blur_integrate(fine, sigma, S, reach)[reach:-reach, reach:-reach]
     U, V = np.meshgrid(np.arange(size[0]), np.arange(size[1]))
     expected = 50.0 * light(U, V) + blurred

@@ -6,10 +6,10 @@ import pytest
 from gtsam.symbol_shorthand import X
 
 from graphpose import FisheyeCamera, InputError, RadTanCamera, T_from_params, project
-from graphpose.camera import to_camera
-from graphpose.track.backend import motion_noise
+from graphpose.geometry import to_camera
 from graphpose.track.config import MotionPrior
 from graphpose.track.factors import constant_velocity_factor, resection_factor
+from graphpose.track.model import motion_noise
 from tests.conftest import BOARD_WPTS as W
 from tests.conftest import PROJECT_K as K
 

@@ -13,7 +13,7 @@ from graphpose import (
     params_from_T,
     project,
 )
-from graphpose.camera import to_camera
+from graphpose.geometry import to_camera
 from graphpose.viz.overlay import COLOURS, draw_overlay, glyph
 
 K = np.array([[500.0, 0.0, 320.0], [0.0, 500.0, 240.0], [0.0, 0.0, 1.0]])

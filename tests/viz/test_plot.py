@@ -8,7 +8,7 @@ import pytest
 from skimage.io import imread
 
 from graphpose import InputError
-from graphpose.camera import T_from_params
+from graphpose.geometry import T_from_params
 from graphpose.track.config import TrackerConfig
 from graphpose.track.results import FrameResult, Track
 from graphpose.viz.plot import plot_track

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from graphpose._checks import check_K
-from graphpose.camera import (
+from graphpose.geometry import (
     C_from_rpy,
     T_from_params,
     params_from_T,

@@ -1,4 +1,4 @@
-"""The command line's JSON records (graphpose.cli.records): keys, units, and what a failure writes."""
+"""The command line's JSON records (graphpose.io.records): keys, units, and what a failure writes."""
 
 import json
 from types import SimpleNamespace
@@ -6,7 +6,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from graphpose import T_from_params, project
-from graphpose.cli.records import POSE_KEYS, result_record
+from graphpose.io.records import POSE_KEYS, result_record
 from tests.conftest import BOARD_WPTS, PROJECT_K
 
 KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check", "orientation_ambiguous"}

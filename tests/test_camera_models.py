@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from graphpose import InputError
-from graphpose.camera import T_from_params, to_camera
-from graphpose.camera import project as pinhole_project
-from graphpose.cameras import (
+from graphpose.geometry import T_from_params, to_camera
+from graphpose.geometry import project as pinhole_project
+from graphpose.camera_models import (
     UNPROJECT_TOL,
     FisheyeCamera,
     PinholeCamera,

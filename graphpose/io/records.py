@@ -1,4 +1,4 @@
-"""The command line's JSON records: one format, one set of units, for every subcommand.
+"""JSON records of results: one format, one set of units, for every subcommand and the batch.
 
 Every record, whether one image of ``graphpose estimate`` or one frame of ``graphpose
 track``, carries the same pose block:
@@ -17,6 +17,12 @@ track``, carries the same pose block:
 ``junctions_used``          how many junctions the pose rests on
 ==========================  =================================================================
 
+Every record of ``estimate`` and ``batch`` then names what the pose was estimated with
+(:func:`target_keys`): ``camera`` (``model``, ``K``, ``distortion``, ``size`` as graphpose's
+JSON camera file holds them, then ``file``: the ``--camera`` file as typed or the case file
+that gave the camera, null for ``--K``, and ``name``: the ``--camera-name``) and ``board``
+(``cols``, ``rows``, ``square_m``).
+
 Units are in the key's name: lengths in metres, angles in degrees, image positions in
 pixels. Without a pose every value of the block but ``status`` and ``message`` is ``null``;
 non-finite numbers are written as ``null`` (JSON has no NaN).
@@ -26,8 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import params_from_T
-from ..io.files import to_jsonable
+from ..geometry import params_from_T
+from .files import to_jsonable
 from ..pose.intrinsics import SIGMA_PIXEL
 
 #: The keys every record has, in order.
@@ -79,7 +85,7 @@ def result_record(image, estimate=None, error=None) -> dict:
     image : str or Path
         The image, as the user named it.
     estimate : PoseEstimate or None
-        The pose (see :func:`graphpose.pose.estimate.estimate_pose`); None when the image failed.
+        The pose (see :func:`graphpose.pipeline.estimate_pose`); None when the image failed.
     error : str or None
         Why the image failed, or None.
 
@@ -148,3 +154,36 @@ def frame_record(frame, path) -> dict:
     record.update(pose_block(frame.status, frame.message, frame.T_WC if has else None, frame.cov,
                              frame.reprojection_rms_px if has else None, frame.junctions if has else None))
     return to_jsonable(record)
+
+
+def target_keys(camera, board, file=None, name=None) -> dict:
+    """The ``camera`` and ``board`` keys of a record: what its pose was estimated with.
+
+    Parameters
+    ----------
+    camera : Camera or (3, 3) array_like
+        The camera model (a ``K`` is a pinhole camera).
+    board : Board
+        The target.
+    file : str or None
+        Where the camera came from: the calibration file as the user named it, or the case
+        file that gave it; None for ``--K``.
+    name : str or None
+        The camera's name within its file (``--camera-name``).
+    """
+    from ..io.calibration import camera_to_dict
+
+    return to_jsonable({"camera": {**camera_to_dict(camera), "file": file, "name": name},
+                        "board": {"cols": int(board.cols), "rows": int(board.rows), "square_m": float(board.square_m)}})
+
+
+def target_words(keys: dict) -> tuple:
+    """``(camera, board)`` of :func:`target_keys`' ``keys`` in words, for the reports."""
+    cam, board = keys["camera"], keys["board"]
+    K = cam["K"]
+    where = cam["file"] if cam["file"] is not None else "--K"
+    if cam["name"] is not None:
+        where += f" ({cam['name']})"
+    lens = cam["model"] + ("" if cam["model"] == "pinhole" else " lens")
+    camera = f"{where}: {lens}, fx {K[0][0]:.1f}, fy {K[1][1]:.1f}, cx {K[0][2]:.1f}, cy {K[1][2]:.1f} px"
+    return camera, f"{board['cols']} x {board['rows']} junctions, {1000 * board['square_m']:g} mm squares"

@@ -2,7 +2,7 @@
 
 Three models share one interface (:class:`Camera`):
 
-- :class:`PinholeCamera`: ``[u, v, 1]^T ~ K p_C``, the model of :mod:`graphpose.camera`
+- :class:`PinholeCamera`: ``[u, v, 1]^T ~ K p_C``, the model of :mod:`graphpose.geometry`
   (skew allowed), and the default: :func:`as_camera` turns a 3 x 3 ``K`` into one;
 - :class:`RadTanCamera`: OpenCV's radial-tangential (Brown-Conrady) model, coefficients in
   OpenCV's order ``(k1, k2, p1, p2[, k3[, k4, k5, k6]])`` (4, 5 or 8 of them; 8 is OpenCV's
@@ -11,7 +11,7 @@ Three models share one interface (:class:`Camera`):
   k3, k4)``, skew allowed (OpenCV's ``alpha = K[0, 1] / fx``), defined beyond 90 degrees
   off the axis.
 
-Conventions are those of :mod:`graphpose.camera`: pixels ``(u, v)`` with the centre of the
+Conventions are those of :mod:`graphpose.geometry`: pixels ``(u, v)`` with the centre of the
 upper-left pixel at (0, 0) (as OpenCV), 2 x N and 3 x N point arrays, camera frame x right,
 y down, z forward. The equations are in ``docs/cameras.md``.
 
