@@ -12,10 +12,10 @@ The steps (``docs/calibration.md``):
    planarity check away from the centre, and found no more boards.)
 2. **Start.** :func:`.zhang.start`: Zhang's closed form (the fisheye: the equidistant model's
    own), poses from the homographies.
-3. **Solve.** A plain least-squares solve (:func:`.lm.solve_lm`) from the start; the pixel
-   noise ``sigma`` from its residuals (1.4826 x their median absolute value); images whose
-   RMS exceeds :data:`REJECT_RATIO` times the median image's are rejected and the rest solved
-   again. Then the robust solve twice, from the plain solution: GTSAM's graph
+3. **Solve.** A plain least-squares solve (:func:`.lm.solve_lm`) from the start, then two
+   Huber solves, each with the pixel noise ``sigma`` from the last one's residuals (1.4826 x
+   their median absolute value): the majority's fit. An image whose RMS against it exceeds
+   :data:`REJECT_RATIO` times the median image's is rejected and the rest solved again. Then the robust solve twice, from the plain solution: GTSAM's graph
    (:func:`.graph.solve_graph`, Huber at ``huber_k`` sigmas) and the hand-written
    Levenberg-Marquardt over the same cost (:func:`.lm.solve_lm`). They must agree on every
    parameter to :data:`CROSS_CHECK_TOL` of ``max(|p|, sigma_p)`` or the calibration is not ok.
@@ -60,7 +60,7 @@ MIN_JUNCTIONS = 8
 #: Passes with the camera after the first: they stop when one finds no new board.
 MAX_CAMERA_PASSES = 3
 #: Largest relative 1-sigma of fx or fy a calibration may have.
-MAX_FOCAL_SIGMA = 0.02
+MAX_FOCAL_SIGMA = 0.05
 
 
 def _load(images, names):
@@ -115,17 +115,32 @@ def _rms(r):
     return float(np.sqrt(np.mean(np.sum(r * r, axis=0)))) if r.size else float("nan")
 
 
-def _solve(camera, poses, obs, huber_k):
+def _mad_sigma(residuals):
+    """The pixel noise from residuals [(2, m)]: 1.4826 x the median absolute coordinate."""
+    return max(1.4826 * float(np.median(np.abs(np.hstack(residuals)))), 1e-6)
+
+
+def _solve(camera, poses, obs, huber_k, final=True, plain=True):
     """Step 3 on the images ``obs`` (a dict image -> observation): the plain solve, the
-    rejections, the robust solve twice. Returns what the result needs."""
+    robust screening and the rejections, the robust solve twice (``final``; else only the
+    screening's fit, which a pass before the last needs for its camera). Returns what the
+    result needs (``graph`` None when not ``final``)."""
     from .graph import solve_graph
     from .lm import solve_lm
 
     keys = list(obs)
     rejected = {}
     while True:
-        plain = solve_lm(camera, [poses[k] for k in keys], [obs[k] for k in keys])
-        rms = np.array([_rms(r) for r in plain.residuals])
+        view = [obs[k] for k in keys]
+        # From Zhang's start a plain fit first; from an earlier pass's camera the residuals
+        # at the start (no iterations) set the first Huber threshold.
+        fit = solve_lm(camera, [poses[k] for k in keys], view, max_iterations=100 if plain else 0)
+        # Robust screening: two Huber solves (the noise from the residuals' median each time)
+        # give the majority's fit, against which an image that does not fit stands out (a
+        # plain fit spreads one bad image's misfit over all of them).
+        for _ in range(2):
+            fit = solve_lm(fit.camera, fit.poses, view, huber_k * _mad_sigma(fit.residuals))
+        rms = np.array([_rms(r) for r in fit.residuals])
         limit = max(REJECT_RATIO * float(np.median(rms)), REJECT_FLOOR_PX)
         worst = int(np.argmax(rms))
         if rms[worst] <= limit or len(keys) <= MIN_IMAGES:
@@ -133,13 +148,13 @@ def _solve(camera, poses, obs, huber_k):
         rejected[keys[worst]] = (f"rejected: RMS {rms[worst]:.3f} px, more than {REJECT_RATIO:g} times the "
                                  f"median image's {np.median(rms):.3f} px (a moved board, a wrong label, "
                                  "a blurred image?)")
-        camera, poses = plain.camera, dict(zip(keys, plain.poses))
+        camera, poses = fit.camera, dict(zip(keys, fit.poses))
         keys.pop(worst)
-    r_all = np.hstack(plain.residuals)
-    sigma0 = max(1.4826 * float(np.median(np.abs(r_all))), 1e-6)
-    starts = dict(zip(keys, plain.poses))
-    view = [obs[k] for k in keys]
-    start_poses = [starts[k] for k in keys]
+    sigma0 = _mad_sigma(fit.residuals)
+    plain = fit
+    start_poses = fit.poses
+    if not final:
+        return keys, rejected, None, fit, sigma0
     graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k)
     lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0)
     return keys, rejected, graph, lm, sigma0
@@ -223,7 +238,7 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
 
     keys = sorted(obs)
     camera0, poses0 = start(cls.model, size, [obs[k][:2] for k in keys])
-    keys, rejected, graph, lm, sigma0 = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k)
+    keys, rejected, graph, lm, sigma0 = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k, final=False)
     report("solve", 1, 2)
 
     # 4. Passes with the camera: every image again, until no new board is found.
@@ -251,9 +266,11 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
             report(f"pass {pass_number}", i + 1, n)
         grew = len(obs2) > len(obs)
         obs = obs2
-        keys, rejected, graph, lm, sigma0 = _solve(camera1, poses1, obs, huber_k)
+        last = not grew or pass_number == 1 + MAX_CAMERA_PASSES
+        # Only the last pass's solve is the calibration: GTSAM and the cross-check run there.
+        keys, rejected, graph, lm, sigma0 = _solve(camera1, poses1, obs, huber_k, final=last, plain=False)
         report("solve", pass_number, pass_number)
-        if not grew:
+        if last:
             break
     return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
                    "no camera" if camera is None else "with the given camera")
@@ -277,7 +294,7 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
     converged = bool(graph.converged and lm.converged)
     ok = converged and difference <= CROSS_CHECK_TOL and np.all(np.isfinite(cov))
     focal = sd[:2] / p_lm[:2]
-    if np.any(focal > MAX_FOCAL_SIGMA) or not np.all(np.isfinite(focal)):
+    if converged and (np.any(focal > MAX_FOCAL_SIGMA) or not np.all(np.isfinite(focal))):
         raise InputError(
             f"the views do not constrain the focal length (relative 1-sigma of fx, fy "
             f"{focal[0]:.2g}, {focal[1]:.2g}): the board must be seen at different tilts (boards "

@@ -7,8 +7,8 @@ come ready (:func:`radtan_camera`, :func:`fisheye_camera`): a radial-tangential 
 ``k1 = -0.3`` at 640 x 480, and a fisheye of about 185 degrees across 1280 x 960.
 
 Poses: the board's centre lies near the ray of a pixel drawn on a grid of cells over the image
-(one cell per view, visited in a shuffled order, so the views cover the image; the first
-``centre_views`` near the image's centre instead), at a distance
+(one cell per view, visited in a shuffled order, so the views cover the image; for a
+fisheye the first ``centre_views`` near the image's centre instead), at a distance
 drawn from ``distance``, tilted by ``min_tilt_deg``-``max_tilt_deg`` about a random in-plane
 axis (a calibration needs the board seen at different angles: parallel views leave the
 focal length and the distance indistinguishable), and the whole sheet is in the image
@@ -76,7 +76,7 @@ class CalibrationSet:
 
 def calibration_set(camera, n_views: int = 30, *, rng=None, board: Board = Board(), distance=None,
                     min_tilt_deg: float = 15.0, max_tilt_deg: float = 50.0, max_roll_deg: float = 30.0,
-                    max_angle_deg: float = 88.0, centre_views: int = 3, noise_sigma: float = 2.0,
+                    max_angle_deg: float = 88.0, centre_views=None, noise_sigma: float = 2.0,
                     blur_sigma: float = 1.0) -> CalibrationSet:
     """Render a calibration set: ``n_views`` raw images of the board through ``camera``.
 
@@ -99,8 +99,9 @@ def calibration_set(camera, n_views: int = 30, *, rng=None, board: Board = Board
         Largest in-plane rotation, degrees (below 45: junction 0 stays unambiguous).
     max_angle_deg : float
         Largest angle of a junction off the optical axis, degrees.
-    centre_views : int
-        How many of the views (the first ones) have the board near the image's centre, at
+    centre_views : int, optional
+        How many of the views (the first ones) have the board near the image's centre
+        (default: 3 for a fisheye, 0 for the other models), at
         the far end of ``distance`` and beyond (to 1.5 times it) and tilted by at most 30
         degrees, as a user is told to take them: a fisheye's raw boards are found without a
         camera only where they are little distorted (:func:`graphpose.calibrate`'s first
@@ -137,6 +138,8 @@ def calibration_set(camera, n_views: int = 30, *, rng=None, board: Board = Board
     cols = int(np.ceil(np.sqrt(n_views * width / height)))
     rows = int(np.ceil(n_views / cols))
     cells = rng.permutation(cols * rows)[:n_views]
+    if centre_views is None:
+        centre_views = 3 if camera.model == "fisheye" else 0
     centre_views = check_count("centre_views", centre_views, 0)
     renderings = []
     for k, cell in enumerate(cells):
