@@ -1,8 +1,8 @@
 """Camera calibration from images of the board: intrinsics, lens and their covariance.
 
-One module per idea: :mod:`.params` (the parameter vectors and the projection's derivative in
-them, the interface the camera files and the pose covariance share), :mod:`.zhang` (the
-closed-form start), :mod:`.graph` (the GTSAM graph), :mod:`.lm` (the hand-written
+One module per idea, beside :mod:`graphpose.camera_params` (the parameter vectors and the
+projection's derivative in them, which the camera files and the pose covariance share too):
+:mod:`.zhang` (the closed-form start), :mod:`.graph` (the GTSAM graph), :mod:`.lm` (the hand-written
 Levenberg-Marquardt that cross-checks it), :mod:`.result` (:class:`Calibration` and the
 uncertainty map) and :mod:`.run` (:func:`calibrate`, the steps from images to the result).
 
@@ -18,7 +18,7 @@ import importlib
 import sys
 import types
 
-from .params import (  # noqa: F401  (re-exported: listed in __all__)
+from ..camera_params import (  # noqa: F401  (re-exported: listed in __all__)
     camera_parameters,
     camera_with_parameters,
     parameter_names,

@@ -39,7 +39,7 @@ from gtsam.symbol_shorthand import L, X
 
 from ..camera_models import FisheyeCamera, PinholeCamera
 from ..errors import InputError
-from .params import camera_parameters, camera_with_parameters
+from ..camera_params import camera_parameters, camera_with_parameters
 
 #: Standard deviation (metres) of the priors that pin the target points. Tighter than the
 #: pose graph's 1e-8 m: the points are shared by every view, and at 1e-8 m their slack moved

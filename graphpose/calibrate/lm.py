@@ -5,7 +5,7 @@ each view's pose as ``(x, y, z, roll, pitch, yaw)`` (:mod:`graphpose.geometry`).
 the one of :mod:`.graph`: ``sum_j rho(||r_j||)`` over the junctions, ``r_j`` the raw pixel
 residual, ``rho`` the Huber function of threshold ``huber_px`` (``e^2 / 2`` without one).
 Each step solves the dense normal equations with the exact analytic Jacobian: in ``p`` from
-:func:`graphpose.calibrate.params.projection_jacobian_intrinsics`, in the pose from
+:func:`graphpose.camera_params.projection_jacobian_intrinsics`, in the pose from
 :mod:`graphpose.pose.gauss_newton` (the chain of the Euler angles' partials with the camera's
 ``d uv / d p_C``). Huber weights are reweighted at every step (iteratively reweighted least
 squares, which lowers the Huber cost at each accepted step). The plain Gauss-Newton step is
@@ -26,7 +26,7 @@ import numpy as np
 from ..geometry import T_from_params, params_from_T, to_camera
 from ..errors import InputError
 from ..pose.gauss_newton import _project, _weights, reprojection_cost
-from .params import camera_parameters, camera_with_parameters, projection_jacobian_intrinsics
+from ..camera_params import camera_parameters, camera_with_parameters, projection_jacobian_intrinsics
 
 MAX_ITERATIONS = 200
 #: Convergence: the step below this many of each parameter's standard deviations.

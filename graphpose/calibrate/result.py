@@ -5,7 +5,7 @@ The projection uncertainty map (:meth:`Calibration.uncertainty_map`) follows mrc
 form, from the intrinsics' covariance alone: for the ray ``q`` that the calibrated camera
 sees at pixel ``(u, v)``, the pixel covariance of projecting ``q`` under the intrinsics'
 uncertainty is ``Sigma_uv = J cov J^T`` with ``J = d uv / d p`` at ``q``
-(:func:`graphpose.calibrate.params.projection_jacobian_intrinsics`), and the map is the
+(:func:`graphpose.camera_params.projection_jacobian_intrinsics`), and the map is the
 1-sigma along the worst direction, ``sqrt(largest eigenvalue of Sigma_uv)``, pixels. In the
 camera's own frame a ray projects to the same pixel at every distance, so this plain form
 does not depend on the distance; mrcal's full form also carries the uncertainty of the camera
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import check_number
-from .params import projection_jacobian_intrinsics
+from ..camera_params import projection_jacobian_intrinsics
 
 #: Per-image statuses.
 STATUSES = ("used", "rejected", "no board")
@@ -93,7 +93,7 @@ class Calibration:
     @property
     def parameters(self) -> np.ndarray:
         """The intrinsic parameters, (P,), in ``parameter_names`` order."""
-        from .params import camera_parameters
+        from ..camera_params import camera_parameters
 
         return camera_parameters(self.camera)
 

@@ -43,7 +43,7 @@ from .._checks import check_number
 from ..board import check_board
 from ..board import Board
 from ..errors import BoardNotFoundError, InputError
-from .params import camera_parameters, camera_with_parameters, model_class, parameter_names
+from ..camera_params import camera_parameters, camera_with_parameters, model_class, parameter_names
 from .result import Calibration
 
 #: An image whose RMS exceeds this many times the median image's is rejected.

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from .._extras import require
-from ..calibrate.params import MODELS as CALIBRATION_MODELS
+from ..camera_params import MODELS as CALIBRATION_MODELS
 from ..errors import GraphposeError, InputError
 from ..io.camera_files import FORMATS
 from . import EXIT_OK, UsageError

@@ -23,7 +23,7 @@
 
   with ``model`` one of ``pinhole`` (``distortion`` ``[]`` or absent), ``radtan``,
   ``fisheye``, and ``size`` optional; a calibration's file adds ``"parameters"`` (``{name:
-  value}``, :func:`graphpose.calibrate.params.parameter_names`' order) and ``"covariance"``
+  value}``, :func:`graphpose.camera_params.parameter_names`' order) and ``"covariance"``
   (P x P, that order), which the camera then carries.
 
 Every problem is an :class:`~graphpose.errors.InputError` naming the file and what is wrong:
@@ -396,7 +396,7 @@ def _with_covariance(camera: Camera, doc: dict, what: str) -> Camera:
     parameters, cov = doc.get("parameters"), doc.get("covariance")
     if parameters is None and cov is None:
         return camera
-    from ..calibrate.params import camera_parameters, parameter_names
+    from ..camera_params import camera_parameters, parameter_names
 
     names = list(parameter_names(camera))
     if not isinstance(parameters, dict):

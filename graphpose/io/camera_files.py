@@ -58,7 +58,7 @@ def camera_to_dict(camera) -> dict:
     }
     cov = getattr(camera, "covariance", None)
     if cov is not None:
-        from ..calibrate.params import camera_parameters, parameter_names
+        from ..camera_params import camera_parameters, parameter_names
 
         doc["parameters"] = dict(zip(parameter_names(camera),
                                      np.asarray(camera_parameters(camera), float).tolist()))

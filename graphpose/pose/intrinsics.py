@@ -10,7 +10,7 @@ them) gives
 
 with ``J_p = d pi / d theta`` (:func:`graphpose.pose.gauss_newton.projection_jacobians`, the
 pose parameters ``(x, y, z, roll, pitch, yaw)``) and ``J_k = d pi / d k``
-(:func:`graphpose.calibrate.params.projection_jacobian_intrinsics` at the pose's camera-frame
+(:func:`graphpose.camera_params.projection_jacobian_intrinsics` at the pose's camera-frame
 points). The pixel noise and the calibration's error are independent (the calibration was
 made from other images), so
 
@@ -55,9 +55,9 @@ def pose_intrinsics_jacobian(camera, T_WC, Wpts, weights=None) -> np.ndarray:
     -------
     D : (6, P) ndarray
         ``d(x, y, z, roll, pitch, yaw) / d k``, metres and radians per unit of each
-        parameter of :func:`graphpose.calibrate.params.parameter_names`.
+        parameter of :func:`graphpose.camera_params.parameter_names`.
     """
-    from ..calibrate.params import projection_jacobian_intrinsics
+    from ..camera_params import projection_jacobian_intrinsics
 
     Jp = projection_jacobians(camera, T_WC, Wpts)  # (2m, 6)
     Jk = projection_jacobian_intrinsics(camera, to_camera(T_WC, Wpts))  # (m, 2, P)

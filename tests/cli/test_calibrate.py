@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from graphpose import Board, estimate_pose, read_camera, read_image
-from graphpose.calibrate.params import camera_parameters, camera_with_parameters
+from graphpose.camera_params import camera_parameters, camera_with_parameters
 from graphpose.cli import main
 from graphpose.io.calibration import write_camera
 from graphpose.synth import poses, render
@@ -104,7 +104,7 @@ def calibrated_run(views, tmp_path_factory):
 
 
 def test_calibrate_writes_the_camera_the_report_and_the_picture(views, calibrated_run):
-    from graphpose.calibrate.params import parameter_names
+    from graphpose.camera_params import parameter_names
 
     folder, truth_set = views
     code, stdout, stderr, out = calibrated_run

@@ -147,7 +147,7 @@ def test_covariance_note_only_where_it_is_lost():
 
 # ---- the covariance: kept by the JSON file -----------------------------------------------
 def _with_covariance(camera, rng):
-    from graphpose.calibrate.params import camera_parameters, camera_with_parameters, parameter_names
+    from graphpose.camera_params import camera_parameters, camera_with_parameters, parameter_names
 
     A = rng.normal(size=(len(parameter_names(camera)),) * 2) * 1e-3
     return camera_with_parameters(camera, camera_parameters(camera), A @ A.T)
@@ -155,7 +155,7 @@ def _with_covariance(camera, rng):
 
 @pytest.mark.parametrize("which", ["pinhole", "radtan4", "radtan5", "rational", "fisheye"])
 def test_json_keeps_parameters_and_covariance(tmp_path, which):
-    from graphpose.calibrate.params import camera_parameters, parameter_names
+    from graphpose.camera_params import camera_parameters, parameter_names
 
     camera = _with_covariance(CAMERAS[which], np.random.default_rng(3))
     path = tmp_path / "camera.json"

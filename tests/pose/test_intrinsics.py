@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from graphpose import Board, estimate_pose, estimate_pose_from_points
-from graphpose.calibrate.params import camera_parameters, camera_with_parameters
+from graphpose.camera_params import camera_parameters, camera_with_parameters
 from graphpose.geometry import params_from_T, to_camera
 from graphpose.pose.estimate import estimate_pose_unchecked
 from graphpose.pose.gauss_newton import gauss_newton

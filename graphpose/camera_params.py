@@ -1,8 +1,9 @@
 """The intrinsic parameters a calibration estimates, and the projection's derivative in them.
 
-The shared interface between the calibration and everything that uses its uncertainty (the
-camera files' ``parameters`` and ``covariance``, the pose covariance that includes the
-calibration's). Parameter vectors are in OpenCV's order, pixels and unitless:
+It sits beside the camera models (:mod:`graphpose.camera_models`), below everything that uses a
+calibration's uncertainty: the calibration (:mod:`graphpose.calibrate`, which re-exports these
+functions), the camera files' ``parameters`` and ``covariance`` (:mod:`graphpose.io`), and the
+pose covariance that includes the calibration's (:mod:`graphpose.pose.intrinsics`). Parameter vectors are in OpenCV's order, pixels and unitless:
 
 =========  ==================================================
 model      parameters
@@ -31,9 +32,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._checks import as_float_array, as_points
-from ..camera_models import Camera, FisheyeCamera, PinholeCamera, RadTanCamera, as_camera
-from ..errors import InputError
+from ._checks import as_float_array, as_points
+from .camera_models import Camera, FisheyeCamera, PinholeCamera, RadTanCamera, as_camera
+from .errors import InputError
 
 #: The camera class of each model name.
 MODELS = {"pinhole": PinholeCamera, "radtan": RadTanCamera, "fisheye": FisheyeCamera}
