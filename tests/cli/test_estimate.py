@@ -464,9 +464,9 @@ def test_parse_positive_accepts():
 
 def test_a_raw_image_with_its_calibration_file(tmp_path):
     # As docs/cli.md writes it, from the repository's root.
-    opencv_file("left01.jpg")
-    result = graphpose("estimate", "../shared/data/opencv_samples/left01.jpg",
-                       "--camera", "../shared/data/opencv_samples/left.opencv.yml", "--board", "9x6x0.03",
+    image = os.path.relpath(opencv_file("left01.jpg"), REPO)  # ../shared/data/opencv_samples/left01.jpg
+    camera = os.path.relpath(opencv_file("left.opencv.yml"), REPO)
+    result = graphpose("estimate", image, "--camera", camera, "--board", "9x6x0.03",
                        "--json", tmp_path / "out.json", "--overlay", tmp_path / "left01.png", cwd=REPO)
     assert result.returncode == 0, result.stderr
     assert "(converged," in result.stdout and "over 54 junctions, 54 trusted" in result.stdout

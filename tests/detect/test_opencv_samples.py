@@ -14,9 +14,8 @@ import pytest
 from graphpose import Board, estimate_pose, extract_junctions, read_image
 from graphpose.io.calibration import read_camera
 from graphpose.pose.estimate import pose_difference
-from tests.conftest import REPO
+from tests.conftest import OPENCV_DIR as FOLDER
 
-FOLDER = REPO.parent / "shared" / "data" / "opencv_samples"
 BOARD = Board(9, 6, 0.03)
 PAIRS = [1, 2, 3, 4, 5, 6, 7, 8, 9, 11, 12, 13, 14]
 

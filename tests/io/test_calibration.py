@@ -19,9 +19,8 @@ from graphpose.io.calibration import (
     read_camera,
     write_camera,
 )
-from tests.conftest import REPO
+from tests.conftest import OPENCV_DIR as SAMPLES
 
-SAMPLES = REPO.parent / "shared" / "data" / "opencv_samples"
 
 K_FISHEYE = [[300.0, 0.9, 640.0], [0.0, 310.0, 512.0], [0.0, 0.0, 1.0]]
 FISHEYE = [-0.013, -0.004, 0.0035, -0.001]
