@@ -268,7 +268,9 @@ def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None) -> Ju
             agree = ok & (off < limit)
         if agree.sum() < need:
             hint = "" if lens is not None else (
-                "; a raw image through a lens with distortion does not: give the camera's calibration")
+                "; a raw image through a lens with distortion does not: give the camera's calibration "
+                "(a camera model, e.g. read_camera(FILE); on the command line --camera FILE; to make "
+                "one, graphpose calibrate)")
             raise BoardNotFoundError(
                 f"only {int(agree.sum())} of the {n_seen} junctions seen agree with a planar grid "
                 f"(need {need}){hint}")
