@@ -250,17 +250,21 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         obs2 = {}
         for i, image in enumerate(images):
             o, reason = _detect(image, board, camera1)
+            found = o is not None
+            if not found and i in obs:
+                o = obs[i]  # the earlier pass's junctions stand
             if o is not None and i not in poses1:
+                # Found for the first time, or rejected by the last solve (which kept no pose
+                # for it): a start from its own homography through the camera so far.
                 try:
                     poses1[i] = pose_from_homography(camera1, o[0], o[1])
                 except InputError as exc:
                     o, reason = None, f"no pose from its junctions: {exc}"
             if o is not None:
                 obs2[i] = o
-                found_in.setdefault(i, pass_number)
-                why.pop(i, None)
-            elif i in obs:
-                obs2[i] = obs[i]  # the earlier pass's junctions stand
+                if found:
+                    found_in.setdefault(i, pass_number)
+                    why.pop(i, None)
             else:
                 why[i] = reason
             report(f"pass {pass_number}", i + 1, n)

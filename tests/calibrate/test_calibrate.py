@@ -99,6 +99,25 @@ def test_an_image_that_does_not_fit_is_rejected(radtan_set):
     assert c.ok
 
 
+def test_an_image_rejected_and_not_found_again_stays_rejected(radtan_set, monkeypatch):
+    """A view the first solve rejects, which the pass with the camera then does not find: its
+    first junctions stand, from a start of its own (the solve kept no pose for it)."""
+    other = radtan_set.camera
+    stranger = type(other)(other.K * np.diag([1.05, 1.05, 1.0]), other.distortion, other.size)
+    odd = render(stranger, radtan_set.renderings[7].T_WC, Board(), rng=1).image
+    detect = calibrate_run._detect
+
+    def hidden_with_a_camera(image, board, camera):
+        if camera is not None and image is odd:
+            return None, "not found"
+        return detect(image, board, camera)
+
+    monkeypatch.setattr(calibrate_run, "_detect", hidden_with_a_camera)
+    c = graphpose.calibrate(radtan_set.images[:6] + [odd], model="radtan")
+    assert c.status == ("used",) * 6 + ("rejected",)
+    assert c.ok
+
+
 def test_the_cross_check_failing_is_reported(radtan_set, monkeypatch):
     monkeypatch.setattr(calibrate_run, "CROSS_CHECK_TOL", 0.0)
     c = graphpose.calibrate(radtan_set.images[:5])
