@@ -315,7 +315,7 @@ def synthetic(quick):
          "text": "The whole pipeline, image to pose, against the exact pose. Both methods run on every image; "
                  "each on all the images it solved. Failures: graphpose only {f_ours}, OpenCV only {f_cv}, both "
                  "{f_both}.{reasons} The Cramer-Rao bound is the square root of the mean trace of the pose "
-                 "covariance bound from the junctions' Fisher information (graphpose.synth.render."
+                 "covariance bound from the junctions' Fisher information (graphpose.synth.information."
                  "junction_information).",
          "values": {"f_ours": failed["graphpose only"], "f_cv": failed["OpenCV only"], "f_both": failed["both"],
                     "reasons": f" graphpose's: {'; '.join(sorted(set(reasons)))}." if reasons else ""},

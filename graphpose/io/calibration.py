@@ -42,6 +42,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from ..camera_params import camera_parameters, parameter_names
 from ..camera_models import Camera, FisheyeCamera, PinholeCamera, RadTanCamera
 from ..errors import InputError
 from .camera_files import FORMATS, camera_to_dict, write_camera  # noqa: F401  (the writers)
@@ -396,7 +397,6 @@ def _with_covariance(camera: Camera, doc: dict, what: str) -> Camera:
     parameters, cov = doc.get("parameters"), doc.get("covariance")
     if parameters is None and cov is None:
         return camera
-    from ..camera_params import camera_parameters, parameter_names
 
     names = list(parameter_names(camera))
     if not isinstance(parameters, dict):

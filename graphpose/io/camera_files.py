@@ -31,6 +31,7 @@ import json
 import numpy as np
 import yaml
 
+from ..camera_params import camera_parameters, parameter_names
 from ..camera_models import as_camera
 from ..errors import InputError
 from .files import atomic_write
@@ -58,7 +59,6 @@ def camera_to_dict(camera) -> dict:
     }
     cov = getattr(camera, "covariance", None)
     if cov is not None:
-        from ..camera_params import camera_parameters, parameter_names
 
         doc["parameters"] = dict(zip(parameter_names(camera),
                                      np.asarray(camera_parameters(camera), float).tolist()))

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..camera_params import projection_jacobian_intrinsics
 from ..geometry import to_camera
 from .gauss_newton import projection_jacobians
 
@@ -57,7 +58,6 @@ def pose_intrinsics_jacobian(camera, T_WC, Wpts, weights=None) -> np.ndarray:
         ``d(x, y, z, roll, pitch, yaw) / d k``, metres and radians per unit of each
         parameter of :func:`graphpose.camera_params.parameter_names`.
     """
-    from ..camera_params import projection_jacobian_intrinsics
 
     Jp = projection_jacobians(camera, T_WC, Wpts)  # (2m, 6)
     Jk = projection_jacobian_intrinsics(camera, to_camera(T_WC, Wpts))  # (m, 2, P)

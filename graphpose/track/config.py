@@ -166,9 +166,9 @@ class TrackerConfig:
     lag_s : float or None
         The online back end keeps the frames of the last ``lag_s`` seconds in a fixed-lag
         smoother and marginalises older ones, so that a frame's cost and memory stay flat
-        however long the sequence (:class:`graphpose.track.backend.FixedLagGraph`; default
+        however long the sequence (:class:`graphpose.track.fixed_lag.FixedLagGraph`; default
         :data:`DEFAULT_LAG_S`). None: one iSAM2 over the whole sequence
-        (:class:`graphpose.track.backend.SequenceGraph`), whose cost grows with it. Either
+        (:class:`graphpose.track.sequence_graph.SequenceGraph`), whose cost grows with it. Either
         way ``smooth=True`` smooths the whole sequence in batch at the end.
 
     Raises
