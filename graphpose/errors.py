@@ -19,7 +19,22 @@ class SaddleError(GraphposeError, ValueError):
 
 
 class BoardNotFoundError(GraphposeError):
-    """The checkerboard's junction grid could not be found inside the bounding polygon."""
+    """The checkerboard's junction grid could not be found inside the bounding polygon.
+
+    Attributes
+    ----------
+    junctions_seen : int
+        Junctions on the largest lattice the refusal is about (0: none formed); of several
+        refusals, the one about the largest lattice tells the most.
+    two_boards : bool
+        Two boards were seen and no bounds said which one is meant: final, whatever else a
+        search might find.
+    """
+
+    def __init__(self, message: str = "", *, junctions_seen: int = 0, two_boards: bool = False):
+        super().__init__(message)
+        self.junctions_seen = int(junctions_seen)
+        self.two_boards = bool(two_boards)
 
 
 class ConvergenceError(GraphposeError):

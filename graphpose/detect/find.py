@@ -133,7 +133,7 @@ def find_board(image: np.ndarray, board: Board, bounds=None, *, noise: float | N
                 break
     if best is not None:
         return best
-    raise max(refusals, key=lambda e: getattr(e, "junctions_seen", 0)) from None
+    raise max(refusals, key=lambda e: e.junctions_seen) from None
 
 
 def noise_levels(shape, *, side: int = MIN_LEVEL_SIDE) -> range:
@@ -154,7 +154,7 @@ def _keep(best, refusals, image, board, bounds, region, level, noise, again=Fals
     try:
         found = _search(image, board, bounds, region, level, noise, again)
     except BoardNotFoundError as exc:
-        if getattr(exc, "two_boards", False):
+        if exc.two_boards:
             raise  # two boards seen at any level: only bounds can say which is meant
         refusals.append(exc)
         return best
@@ -171,7 +171,7 @@ def _search(image, board, bounds, region, level, noise=None, again=False) -> Fou
         return None
     where = "inside the bounds" if bounds is not None else "in the image"
     if cands.seed.sum() < 1 or cands.points.shape[1] < 4:
-        raise _refusal(f"no checkerboard {where}: {int(cands.seed.sum())} junction-like points", 0)
+        raise BoardNotFoundError(f"no checkerboard {where}: {int(cands.seed.sum())} junction-like points")
     labelled, refused, floor = [], [], 0.0
     for strength, lattice in grow_lattices(cands, max_nodes=8 * board.n):
         if strength < floor:
@@ -181,7 +181,7 @@ def _search(image, board, bounds, region, level, noise=None, again=False) -> Fou
         try:
             identity = identify(lattice, cands, board, bounds)
         except BoardNotFoundError as exc:
-            refused.append(_refusal(str(exc), len(lattice.keys)))
+            refused.append(BoardNotFoundError(str(exc), junctions_seen=len(lattice.keys)))
             continue
         labelled.append((lattice, identity))
         if bounds is not None and len(lattice.keys) == board.n:
@@ -190,27 +190,20 @@ def _search(image, board, bounds, region, level, noise=None, again=False) -> Fou
     if not labelled:
         if refused:
             raise max(refused, key=lambda e: e.junctions_seen)
-        raise _refusal(f"no checkerboard {where}: {int(cands.seed.sum())} junction-like points but no "
-                       "grid of cross-junctions among them", 0)
+        raise BoardNotFoundError(f"no checkerboard {where}: {int(cands.seed.sum())} junction-like points but "
+                                 "no grid of cross-junctions among them")
     labelled.sort(key=lambda li: -len(li[0].keys))
     # Bounds say which board is meant (the largest labelled inside them); without, a second
     # board of half the spec's junctions or more makes the image ambiguous.
     if bounds is None and len(labelled) > 1 and len(labelled[1][0].keys) >= board.n // 2:
         a, b = (li[0].points.mean(axis=1) for li in labelled[:2])
-        exc = _refusal(f"two checkerboards in the image, around ({a[0]:.0f}, {a[1]:.0f}) and "
-                       f"({b[0]:.0f}, {b[1]:.0f}) px; give bounds to say which one", board.n)
-        exc.two_boards = True
-        raise exc
+        raise BoardNotFoundError(f"two checkerboards in the image, around ({a[0]:.0f}, {a[1]:.0f}) and "
+                                 f"({b[0]:.0f}, {b[1]:.0f}) px; give bounds to say which one",
+                                 junctions_seen=board.n, two_boards=True)
     lattice, identity = labelled[0]
     return _found(lattice, identity, board)
 
 
-def _refusal(message: str, seen: int) -> BoardNotFoundError:
-    """A BoardNotFoundError that remembers how many junctions its lattice held (the most
-    telling refusal is the one about the largest lattice)."""
-    exc = BoardNotFoundError(message)
-    exc.junctions_seen = seen
-    return exc
 
 
 def _found(lattice, identity, board) -> FoundBoard:
