@@ -57,6 +57,23 @@ def test_noise_estimate_ignores_smooth_shading_and_reads_quantisation():
     assert grey_range(noisy) == pytest.approx(np.percentile(noisy[::3, ::3], 99) - np.percentile(noisy[::3, ::3], 1), rel=0.01)
 
 
+def test_a_large_image_is_read_sparser_with_the_same_estimate(monkeypatch):
+    """At 12 MP the estimate reads at most MAX_SAMPLES positions, and reads the same noise as
+    every position would."""
+    from graphpose.detect import noise as module
+
+    rng = np.random.default_rng(5)
+    big = np.clip(128 + rng.normal(0.0, 7.0, (3024, 4032)), 0, 255).astype(np.uint8)
+    stride = module._stride((3022, 4030), 4)
+    assert stride > 4 and -(-3022 // stride) * -(-4030 // stride) <= module.MAX_SAMPLES
+    assert module._stride((478, 638), 4) == 4  # a VGA image is read as before
+    sparse_noise, sparse_range = estimate_noise(big), grey_range(big)
+    monkeypatch.setattr(module, "MAX_SAMPLES", big.size)  # no cap: every position asked for
+    assert sparse_noise == pytest.approx(estimate_noise(big, stride=1), rel=0.02)
+    assert sparse_noise == pytest.approx(np.sqrt(7.0**2 + 1 / 12), rel=0.03)
+    assert sparse_range == pytest.approx(grey_range(big, stride=1), abs=1.0)
+
+
 def test_noise_estimate_checks_its_input():
     with pytest.raises(InputError, match="grey"):
         estimate_noise(np.zeros((4, 4, 3)))
