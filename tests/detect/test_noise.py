@@ -125,6 +125,24 @@ def test_a_noisy_board_inside_loose_bounds_is_found():
     assert not J.orientation_ambiguous
 
 
+def test_a_faint_board_in_a_bright_scene_is_judged_by_its_own_contrast():
+    """A board of 30 grey levels at noise 3, with black and white objects elsewhere in the
+    scene: against the whole image's range the noise looks small and the noise-aware search
+    never ran (refused on this seed); inside the bounds it is the board's range that counts."""
+    K = K_from_params(564.9, 564.3, 337.3, 226.5)
+    board = Board()
+    rng = np.random.default_rng(0)
+    T = random_pose(rng, K, board, (640, 480))
+    r = render(K, T, board, (640, 480), noise_sigma=3.0, rng=rng, black=110.0, white=140.0, background=125.0,
+               blur_sigma=1.5)
+    image = r.image.copy()
+    image[:40, :80] = 0
+    image[-40:, -80:] = 255
+    J = extract_junctions(image, loose_polygon(r, rng), board)
+    assert J.trusted.sum() == board.n
+    assert np.max(np.hypot(*(J.points - r.junctions))) < 0.5
+
+
 def test_noisy_images_are_never_mislabelled():
     # Boards of every symmetry, some partly off the image: found right or refused.
     boards = [Board(), Board(7, 5, 0.04), Board(6, 6, 0.04), Board(9, 6, 0.03)]
