@@ -26,7 +26,7 @@ from ..board import Board
 from ..errors import BoardNotFoundError, InputError
 from .identify import identify
 from .lattice import grow_lattices, step_lengths
-from .noise import estimate_noise, grey_range
+from .noise import bounding_window, estimate_noise, grey_range
 from .search import find_candidates, search_levels
 
 #: Bounds are grown by this fraction of their size (and 4 px) before they select seeds.
@@ -119,14 +119,14 @@ def find_board(image: np.ndarray, board: Board, bounds=None, *, noise: float | N
         return best
     # The noise-aware search, where the fast path found no board or part of one in an
     # image whose noise is at least NOISY of the grey range where the board is searched for
-    # (inside the bounds when given, :func:`_window`): every level from the coarsest
+    # (inside the bounds when given): every level from the coarsest
     # a board fits (where a large square's junction is judged at the scale of its square,
     # and block means average the noise away) to half resolution, its candidates above the
     # response's noise floor (search.noise_floor) rather than only above a fraction of the
     # strongest peaks, which noise on the board's edges raises. On cleaner images the fast
     # path has seen all there is.
     sigma = estimate_noise(image) if noise is None else float(noise)
-    if sigma >= NOISY * grey_range(_window(image, region)):
+    if sigma >= NOISY * grey_range(image if region is None else bounding_window(image, region)):
         searched = set(searched)
         for level in noise_levels(image.shape):
             best = _keep(best, refusals, image, board, bounds, region, level, sigma, level in searched)
@@ -216,18 +216,6 @@ def _found(lattice, identity, board) -> FoundBoard:
     seen = np.zeros(board.n, dtype=bool)
     seen[identity.index] = True
     return FoundBoard(points, seen, step, identity.orientation_ambiguous, identity.junction0_square)
-
-
-def _window(image, region):
-    """The part of ``image`` the search is about: the bounding box of ``region`` (the grown
-    bounds, clipped to the image), or the whole image without bounds. Its grey range is what
-    the noise is judged against: a faint board's own, not that of a bright scene around it."""
-    if region is None:
-        return image
-    h, w = image.shape
-    lo = np.clip(np.floor(region.min(axis=1)).astype(int), 0, [w - 1, h - 1])
-    hi = np.clip(np.ceil(region.max(axis=1)).astype(int) + 1, lo + 1, [w, h])
-    return image[lo[1]:hi[1], lo[0]:hi[0]]
 
 
 def _grow(bounds) -> np.ndarray:

@@ -21,7 +21,7 @@ from ..errors import BoardNotFoundError
 from ..geometry import apply_homography
 from ..observations import MIN_JUNCTIONS
 from .find import find_board
-from .noise import estimate_noise, grey_range
+from .noise import bounding_window, estimate_noise, grey_range
 from .grid import fit_homography, square_sides
 from .refine import (
     MAX_RADIUS,
@@ -225,9 +225,7 @@ def board_smoothing(image: np.ndarray, points: np.ndarray, square: np.ndarray, n
     px: :func:`graphpose.detect.refine.noise_smoothing` of the image's ``noise`` (measured
     when None) over the grey range of the board's bounding box (5th to 95th percentile: its
     black and white squares)."""
-    lo = np.maximum(np.floor(np.nanmin(points, axis=1)).astype(int), 0)
-    hi = np.ceil(np.nanmax(points, axis=1)).astype(int) + 1
-    crop = image[lo[1]:hi[1], lo[0]:hi[0]]
+    crop = bounding_window(image, points)
     if min(crop.shape) < 3:
         return SMOOTH_SIGMA
     contrast = grey_range(crop, stride=2, tail=5.0)

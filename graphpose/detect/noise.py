@@ -110,3 +110,14 @@ def grey_range(image: np.ndarray, *, stride: int = 3, tail: float = 1.0) -> floa
     k = np.rint(np.array([tail, 100.0 - tail]) / 100.0 * (values.size - 1)).astype(int)
     lo, hi = np.partition(values, k)[k]
     return float(hi) - float(lo)
+
+
+def bounding_window(image: np.ndarray, points) -> np.ndarray:
+    """The part of ``image`` inside the bounding box of ``points`` (2, m) pixels (u, v),
+    clipped to the image and at least one pixel: where a board's (or its bounds') grey range
+    is read."""
+    P = np.asarray(points, dtype=float)
+    h, w = image.shape
+    lo = np.clip(np.floor(np.nanmin(P, axis=1)).astype(int), 0, [w - 1, h - 1])
+    hi = np.clip(np.ceil(np.nanmax(P, axis=1)).astype(int) + 1, lo + 1, [w, h])
+    return image[lo[1]:hi[1], lo[0]:hi[0]]
