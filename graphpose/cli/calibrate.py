@@ -28,7 +28,7 @@ from ..errors import GraphposeError, InputError
 from ..io.camera_files import FORMATS
 from . import EXIT_OK, UsageError
 from .estimate import image_paths
-from .options import Progress, parse_board
+from .options import Progress, check_output_folder, parse_board
 
 #: The models ``--model`` takes, and the formats of ``--format``.
 MODELS = tuple(CALIBRATION_MODELS)
@@ -130,12 +130,8 @@ class CalibrationFailed(GraphposeError):
 
 def _check_outputs(args) -> None:
     """Every output can be written and every option fits, before the work starts."""
-    outputs = [(args.out, "--out"), (args.plot, "--plot")]
-    if args.json not in (None, "-"):
-        outputs.append((Path(args.json), "--json"))
-    for path, name in outputs:
-        if path is not None and not path.resolve().parent.is_dir():
-            raise InputError(f"{name}: folder {path.resolve().parent} does not exist")
+    for path, name in ((args.out, "--out"), (args.plot, "--plot"), (args.json, "--json")):
+        check_output_folder(path, name)
     if args.format == "kalibr" and args.model == "radtan":
         raise UsageError("--format kalibr cannot hold --model radtan: Kalibr's radtan keeps four coefficients "
                          "(k1, k2, p1, p2) and graphpose's radtan calibrates k3 as well (OpenCV's five), which is "

@@ -36,6 +36,7 @@ from .options import (
     camera_file,
     camera_from_args,
     check_camera_options,
+    check_output_folder,
     parse_bounds,
 )
 from ..io.records import result_record, target_keys, target_words
@@ -122,8 +123,7 @@ def run(args) -> int:
     """Run ``graphpose estimate`` with parsed ``args``; returns the exit code."""
     jobs, cases, source = _jobs(args)
     overlays = _overlay_paths(args.overlay, jobs) or [None] * len(jobs)
-    if args.json not in (None, "-"):
-        _check_folder(Path(args.json), "--json")
+    check_output_folder(args.json, "--json")
     camera, board, target = _target(args, cases, source)
     report = not (args.quiet or args.json == "-")
     progress = Progress(len(jobs), sys.stderr)
@@ -272,12 +272,6 @@ def _display(path: Path) -> str:
         return str(path)
 
 
-def _check_folder(path: Path, option: str) -> None:
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise InputError(f"{option}: folder {folder} does not exist")
-
-
 def _overlay_paths(overlay, jobs) -> list | None:
     """Where each job's overlay goes: OUT.png for one image, FOLDER/NAME.overlay.png for many."""
     if overlay is None:
@@ -289,9 +283,9 @@ def _overlay_paths(overlay, jobs) -> list | None:
             raise UsageError(f"--overlay: {len(jobs)} images need a folder, got the file name {overlay}")
         if path.suffix.lower() != ".png":
             raise UsageError(f"--overlay: the picture is PNG, so the name must end in .png, got {overlay}")
-        _check_folder(path, "--overlay")
+        check_output_folder(path, "--overlay")
         return [path]
-    _check_folder(path.resolve(), "--overlay")
+    check_output_folder(path.resolve(), "--overlay")
     names, seen = [], {}
     for job in jobs:
         stem = Path(job.path).stem

@@ -128,6 +128,16 @@ def camera_file(args, source=None):
     return (None if source is None else str(source)), None
 
 
+def check_output_folder(path, option: str) -> None:
+    """The folder an output goes to exists, before the work starts; ``path`` None or ``"-"``
+    (stdout) writes no file. The message names the folder as the user typed it."""
+    if path is None or str(path) == "-":
+        return
+    folder = Path(path).parent if str(Path(path).parent) else Path(".")
+    if not folder.is_dir():
+        raise InputError(f"{option}: folder {folder} does not exist")
+
+
 def parse_bounds(text: str) -> np.ndarray:
     """``"u1,v1,...,u4,v4"`` -> (2, 4) polygon in pixels (row 0 = u); ArgumentTypeError if malformed."""
     values = _numbers(text, (8,), "bounds", "U1,V1,U2,V2,U3,V3,U4,V4")

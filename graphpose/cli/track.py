@@ -31,6 +31,7 @@ from .options import (
     camera_file,
     camera_from_args,
     check_camera_options,
+    check_output_folder,
     parse_bounds,
     parse_positive,
 )
@@ -131,8 +132,7 @@ def run(args) -> int:
     timestamps = None if args.timestamps is None else read_timestamps(args.timestamps, len(files))
     polygons = None if args.polygons is None else _read_polygons(args.polygons)
     for path, name in ((args.tum, "--tum"), (args.json, "--json"), (args.plot, "--plot")):
-        if path not in (None, "-") and not Path(path).resolve().parent.is_dir():
-            raise InputError(f"{name}: folder {Path(path).resolve().parent} does not exist")
+        check_output_folder(path, name)
     seconds = frame_timestamps(timestamps, args.fps, len(files))
     truth, truth_note = _truth(args, len(files), seconds)
     camera, board, source = _camera(args)  # after the other inputs: each says first what is wrong with it
