@@ -285,7 +285,7 @@ def _summary(track, frames, truth=None, truth_note="") -> str:
 
 def _truth_error(frames, truth) -> str:
     """RMS position and rotation error of the frames with a pose and a true pose."""
-    from ..pose.estimate import pose_difference
+    from ..geometry import pose_difference
 
     errors = [pose_difference(f.T_WC, truth[f.index]) for f in frames
               if f.T_WC is not None and np.all(np.isfinite(truth[f.index]))]
