@@ -15,7 +15,7 @@ from graphpose.cli.track_output import JsonStream, TrackSummary, TumStream
 from graphpose.errors import InputError
 from graphpose.geometry import T_from_params
 from graphpose.io.camera_files import write_camera
-from graphpose.io.files import write_json
+from graphpose.io.files import write_json, write_png
 from graphpose.io.tum import write_tum
 from graphpose.track.results import FrameResult
 
@@ -102,3 +102,20 @@ def test_records_say_the_kind_of_sigma(tmp_path, capsys):
         np.testing.assert_allclose(c["sigma_pixel_xyz_m"], p["sigma_xyz_m"], rtol=1e-6)
         assert np.all(np.array(c["sigma_xyz_m"]) > np.array(c["sigma_pixel_xyz_m"]))
         assert np.all(np.array(c["sigma_rpy_deg"]) > np.array(c["sigma_pixel_rpy_deg"]))
+
+
+def test_a_run_stopped_by_an_error_leaves_no_file(tmp_path, capsys):
+    # Frame 2 of another size stops the run when it is reached, after two frames were written
+    # to the temporary files: exit 2, and neither file nor temporary is left.
+    folder = tmp_path / "seq"
+    assert main(["render-sequence", str(folder), "--frames", "4", "--excursions", "0", "--seed", "2", "-q"]) == 0
+    K = np.array(json.loads((folder / "bounds.json").read_text())["K"])
+    write_camera(tmp_path / "camera.json", PinholeCamera(K, size=(640, 480)))
+    write_png(folder / "frame_00002.png", np.zeros((240, 320), dtype=np.uint8))
+    out = tmp_path / "out"
+    out.mkdir()
+    code = main(["track", str(folder), "--camera", str(tmp_path / "camera.json"), "--tum", str(out / "t.tum"),
+                 "--json", str(out / "t.json")])
+    assert code == 2
+    assert "frame 2" in capsys.readouterr().err
+    assert list(out.iterdir()) == []
