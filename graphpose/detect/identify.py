@@ -51,7 +51,7 @@ from ..board import Board
 from ..errors import BoardNotFoundError
 from .grid import fit_homography
 from .lattice import Lattice, step_lengths
-from .search import Candidates, sample, sample_fine
+from .search import SearchImage
 
 #: Proper rotations M of lattice keys to board (c, r) = M (i, j) + t.
 ROTATIONS = (np.array([[1, 0], [0, 1]]), np.array([[0, -1], [1, 0]]),
@@ -107,15 +107,16 @@ class Identity:
     junction0_square: str
 
 
-def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> Identity:
+def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> Identity:
     """Label a lattice with board junction indices, or refuse.
 
     Parameters
     ----------
     lattice : Lattice
         Grown by :func:`graphpose.detect.lattice.grow_lattices`.
-    cands : Candidates
-        The search the lattice grew from (its smoothed image is sampled).
+    view : SearchImage
+        The images the lattice's candidates were found in (:attr:`Candidates.view
+        <graphpose.detect.search.Candidates>`): the evidence is sampled there.
     board : Board
         The spec: ``cols x rows`` inner junctions.
     bounds : (2, 4) ndarray, optional
@@ -142,8 +143,8 @@ def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> 
         raise BoardNotFoundError(
             f"only part of the board is seen ({len(lattice.keys)} of {board.n} junctions) and its squares "
             f"({step:.0f} px) are too small to tell its edges from something lying across it")
-    dark_parity, mid, contrast = _square_colours(cands, nodes)
-    sides = {side: _side(cands, nodes, side, dark_parity, mid, contrast) for side in SIDES}
+    dark_parity, mid, contrast = _square_colours(view, nodes)
+    sides = {side: _side(view, nodes, side, dark_parity, mid, contrast) for side in SIDES}
     keys = lattice.keys
     lo, hi = keys.min(axis=0), keys.max(axis=0)
     extent = hi - lo + 1
@@ -191,7 +192,7 @@ def board_to_lattice(identity: Identity, board: Board) -> np.ndarray:
 # ------------------------------------------------------------------------------ evidence
 
 
-def _square_colours(cands, nodes):
+def _square_colours(view, nodes):
     """(dark parity of ``i + j`` of a square's upper-left key, mid grey, dark-light contrast)."""
     keys = [(i, j) for (i, j) in nodes if (i + 1, j) in nodes and (i, j + 1) in nodes and (i + 1, j + 1) in nodes]
     if not keys:
@@ -199,7 +200,7 @@ def _square_colours(cands, nodes):
     centres = np.array([nodes[(i, j)] + nodes[(i + 1, j)] + nodes[(i, j + 1)] + nodes[(i + 1, j + 1)]
                         for i, j in keys]).T / 4
     step = np.median([np.hypot(*(nodes[(i + 1, j)] - nodes[(i, j)])) for i, j in keys])
-    value = _grey(cands, centres, step)
+    value = _grey(view, centres, step)
     parity = np.array([(i + j) % 2 for i, j in keys])
     even = np.median(value[parity == 0]) if np.any(parity == 0) else np.nan
     odd = np.median(value[parity == 1]) if np.any(parity == 1) else np.nan
@@ -210,7 +211,7 @@ def _square_colours(cands, nodes):
     return (0 if even < odd else 1), 0.5 * (even + odd), max(abs(odd - even), 1e-12)
 
 
-def _side(cands, nodes, side, dark_parity, mid, contrast) -> str:
+def _side(view, nodes, side, dark_parity, mid, contrast) -> str:
     """Evidence on one lattice side (see the module docstring).
 
     Along the side, every outer square is sampled once (it must have the colour the
@@ -252,9 +253,9 @@ def _side(cands, nodes, side, dark_parity, mid, contrast) -> str:
     if len(rows) < 2:
         return "unknown"
     P = np.array(points)  # (m, 2, depths)
-    height, width = cands.shape
+    height, width = view.shape
     inside = (P[:, 0] >= 0) & (P[:, 1] >= 0) & (P[:, 0] <= width - 1) & (P[:, 1] <= height - 1)
-    value = _grey(cands, P.transpose(1, 0, 2).reshape(2, -1), np.median(steps))
+    value = _grey(view, P.transpose(1, 0, 2).reshape(2, -1), np.median(steps))
     value = value.reshape(inside.shape)
     # +1 for the dark squares' grey, -1 for the light ones'; outside the image, NaN.
     dark = np.where(inside, np.clip((mid - value) / (0.5 * contrast), -1.0, 1.0), np.nan)
@@ -293,13 +294,13 @@ def _side(cands, nodes, side, dark_parity, mid, contrast) -> str:
     return "edge"
 
 
-def _grey(cands, points, step) -> np.ndarray:
+def _grey(view, points, step) -> np.ndarray:
     """Grey levels at full-image points: from the search's smoothed image where squares are
     large (its smoothing is then a small part of a square), else from the full image over a
     few pixels (its smoothing would blur a small square into its neighbours)."""
-    if step >= 24 * 2 ** (cands.level - 1):
-        return sample(cands, points)
-    return sample_fine(cands, points, reach=max(0.5, 0.08 * step))
+    if step >= 24 * 2 ** (view.level - 1):
+        return view.sample(points)
+    return view.sample_fine(points, reach=max(0.5, 0.08 * step))
 
 
 # ----------------------------------------------------------------------------- labelling

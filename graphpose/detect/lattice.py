@@ -26,7 +26,7 @@ from skimage.measure import points_in_poly
 
 from ..errors import BoardNotFoundError
 from .grid import fit_homography
-from .search import Candidates, ring_test
+from .search import Candidates
 
 _STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
 #: Ring-test radius as a fraction of the local lattice step.
@@ -261,7 +261,7 @@ def _seed_cross(cands: Candidates, tree: cKDTree, k: int):
     keys = list(best)
     P = np.array(list(best.values())).T
     step = np.median([np.hypot(*(p - centre)) for key, p in best.items() if key != (0, 0)])
-    score, theta, _ = ring_test(cands, P, RING_FRACTION * step)
+    score, theta, _ = cands.view.ring_test(P, RING_FRACTION * step)
     theta0 = theta[keys.index((0, 0))]
     parity = np.array([(i + j) % 2 for i, j in keys])
     if np.any(score < MIN_SCORE) or not np.all(_parity_ok(theta, theta0, parity)):
@@ -296,7 +296,7 @@ def _grow(cands: Candidates, tree: cKDTree, nodes: dict, theta0: float, max_node
     now rest on more of the lattice.
     """
     nodes = {key: (float(p[0]), float(p[1])) for key, p in nodes.items()}
-    height, width = cands.shape
+    height, width = cands.view.shape
     fresh, full = list(nodes), False
     while len(nodes) < max_nodes:
         if not fresh:
@@ -328,7 +328,7 @@ def _grow(cands: Candidates, tree: cKDTree, nodes: dict, theta0: float, max_node
         dist, idx = tree.query(P.T)
         snap = dist < SNAP_FRACTION * step
         Q = np.where(snap, cands.points[:, np.minimum(idx, cands.points.shape[1] - 1)], P)
-        score, theta, _ = ring_test(cands, Q, RING_FRACTION * step)
+        score, theta, _ = cands.view.ring_test(Q, RING_FRACTION * step)
         parity = np.array([(i + j) % 2 for i, j in keys])
         good = np.flatnonzero(inside & (score > MIN_SCORE) & _parity_ok(theta, theta0, parity))
         fresh = [keys[n] for n in good]
