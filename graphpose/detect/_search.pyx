@@ -1,5 +1,5 @@
 """Compiled loops of the board search (:mod:`graphpose.detect.search`): bilinear samples, the
-ring test and the response's local maxima, each a whole loop per call.
+ring test, and the saddle response with its local maxima, each a whole loop per call.
 
 Bilinear sampling follows ``scipy.ndimage.map_coordinates(order=1, mode="nearest")``: the
 coordinate is clamped to the image, the four neighbours' grey levels are weighted in double
@@ -131,21 +131,31 @@ def ring_patches(const float[:, :, :] patches, const double[::1] x, const double
             _ring_score(ring, &score[k], &theta[k], &contrast[k])
 
 
-def local_maxima(const float[:, ::1] r, float floor_value, long[::1] rows, long[::1] cols):
-    """Pixels of ``r`` that are at least their 3 x 3 neighbourhood's maximum (edges repeated)
-    and above ``floor_value``, row-major into ``rows``/``cols`` (each as long as ``r``'s
-    pixels at most); returns their count."""
-    cdef Py_ssize_t h = r.shape[0], w = r.shape[1], i, j, a, b, n = 0
-    cdef Py_ssize_t i0, i1, j0, j1
-    cdef float c
+def saddle_peaks(const float[:, ::1] S, float[:, ::1] r, long[::1] rows, long[::1] cols):
+    """The saddle response of :func:`graphpose.detect.search.find_candidates` and its peaks.
+
+    ``r`` (h - 2, w - 2) gets ``Ixy^2 - Ixx Iyy`` of the smoothed image ``S`` (h, w) at its
+    interior pixels, in float32 with NumPy's order of operations (``Ixx = (S[x+1] - 2 S) +
+    S[x-1]``, ``Ixy = 0.25 (((S[+,+] - S[+,-]) - S[-,+]) + S[-,-])``); ``rows``/``cols``
+    (each at least r's pixel count long) get the pixels of ``r`` above 0 that no pixel of
+    their 3 x 3 neighbourhood (edges repeated) exceeds, row-major. Returns their count.
+    """
+    cdef Py_ssize_t h = r.shape[0], w = r.shape[1], i, j, a, b, n = 0, i0, i1, j0, j1
+    cdef float ixx, iyy, ixy, c, two = 2.0, quarter = 0.25
     cdef bint peak
     with nogil:
+        for i in range(h):
+            for j in range(w):
+                ixx = (S[i + 1, j + 2] - two * S[i + 1, j + 1]) + S[i + 1, j]
+                iyy = (S[i + 2, j + 1] - two * S[i + 1, j + 1]) + S[i, j + 1]
+                ixy = quarter * (((S[i + 2, j + 2] - S[i + 2, j]) - S[i, j + 2]) + S[i, j])
+                r[i, j] = ixy * ixy - ixx * iyy
         for i in range(h):
             i0 = i - 1 if i > 0 else 0
             i1 = i + 1 if i + 1 < h else h - 1
             for j in range(w):
                 c = r[i, j]
-                if not c > floor_value:
+                if not c > 0:
                     continue
                 j0 = j - 1 if j > 0 else 0
                 j1 = j + 1 if j + 1 < w else w - 1

@@ -17,7 +17,6 @@ right-handed in the image (``i`` to ``j`` turns clockwise on the screen, as ``u`
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +25,7 @@ from skimage.measure import points_in_poly
 
 from ..errors import BoardNotFoundError
 from .grid import fit_homography
+from . import _lattice
 from .search import Candidates
 
 _STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
@@ -164,10 +164,29 @@ class KeyGrid:
 
     def __init__(self, nodes: dict, reach: int = 4):
         K = np.array(list(nodes), dtype=int).reshape(-1, 2)
+        self.reach = reach
         self.origin = K.min(axis=0) - reach
         shape = K.max(axis=0) - self.origin + reach + 1
         self.array = np.full((shape[0], shape[1], 2), np.nan)
         self.array[K[:, 0] - self.origin[0], K[:, 1] - self.origin[1]] = np.array(list(nodes.values()), dtype=float)
+
+    def put(self, keys: np.ndarray, points: np.ndarray) -> None:
+        """Set nodes at keys (n, 2) to positions (2, n), the array grown (by ``2 reach``) where
+        a key would come within one key of its edge, so that every free neighbour of a node
+        lies on it (as :func:`_grow`'s compiled predictions need)."""
+        if not len(keys):
+            return
+        idx = keys - self.origin
+        shape = np.array(self.array.shape[:2])
+        if np.any(idx.min(axis=0) < 1) or np.any(idx.max(axis=0) > shape - 2):
+            lo = np.minimum(self.origin, keys.min(axis=0) - 2 * self.reach)
+            hi = np.maximum(self.origin + shape - 1, keys.max(axis=0) + 2 * self.reach)
+            array = np.full((hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, 2), np.nan)
+            start = self.origin - lo
+            array[start[0]:start[0] + shape[0], start[1]:start[1] + shape[1]] = self.array
+            self.array, self.origin = array, lo
+            idx = keys - self.origin
+        self.array[idx[:, 0], idx[:, 1]] = np.asarray(points, dtype=float).T
 
     def at(self, keys: np.ndarray) -> np.ndarray:
         """Positions (2, n) of keys (n, 2); NaN where there is no node."""
@@ -185,44 +204,13 @@ def predict(nodes: dict, key) -> tuple | None:
     """Predicted position ``(u, v)`` of a free key from the lattice lines through it, and the
     local step length (pixels); None when no line or parallelogram reaches it.
 
-    ``nodes`` maps keys to ``(u, v)`` tuples of floats (plain floats: this runs per key).
+    Along each lattice line through the key whose two nearer nodes are known, the line is
+    extrapolated (quadratically where a third node is known, else linearly); where no line
+    reaches it, parallelograms over a neighbour complete it. The prediction is the mean of
+    these, the step the median of their step lengths. ``nodes`` maps keys to ``(u, v)``.
     """
-    i, j = key
-    su = sv = 0.0
-    steps = []
-    for di, dj in _STEPS:
-        a = nodes.get((i - di, j - dj))
-        b = nodes.get((i - 2 * di, j - 2 * dj))
-        if a is None or b is None:
-            continue
-        c = nodes.get((i - 3 * di, j - 3 * dj))
-        if c is None:
-            su += 2 * a[0] - b[0]
-            sv += 2 * a[1] - b[1]
-        else:
-            su += 3 * a[0] - 3 * b[0] + c[0]
-            sv += 3 * a[1] - 3 * b[1] + c[1]
-        steps.append(math.hypot(a[0] - b[0], a[1] - b[1]))
-    if not steps:
-        for di, dj in _STEPS:
-            a = nodes.get((i - di, j - dj))
-            if a is None:
-                continue
-            for ei, ej in _STEPS:
-                if ei * di + ej * dj:
-                    continue
-                b1 = nodes.get((i - di + ei, j - dj + ej))
-                b2 = nodes.get((i + ei, j + ej))
-                if b1 is not None and b2 is not None:
-                    su += a[0] + b2[0] - b1[0]
-                    sv += a[1] + b2[1] - b1[1]
-                    steps.append(math.hypot(b2[0] - b1[0], b2[1] - b1[1]))
-    if not steps:
-        return None
-    n = len(steps)
-    steps.sort()
-    step = steps[n // 2] if n % 2 else 0.5 * (steps[n // 2 - 1] + steps[n // 2])
-    return (su / n, sv / n), step
+    grid = KeyGrid(nodes)
+    return _lattice.predict_one(grid.array, int(grid.origin[0]), int(grid.origin[1]), int(key[0]), int(key[1]))
 
 
 def _seed_cross(cands: Candidates, tree: cKDTree, k: int):
@@ -236,25 +224,15 @@ def _seed_cross(cands: Candidates, tree: cKDTree, k: int):
     opposite = np.flatnonzero(np.cos(2 * (cands.theta[nb] - cands.theta[k])) < -PARITY_COS)
     if opposite.size < 3:
         return None
-    best = None
-    for a in opposite[:3]:
-        v1 = vec[:, a]
-        b = _along(vec, length, opposite, -v1)
-        sideways = [n for n in opposite if n not in (a, b)
-                    and abs(v1[0] * vec[1, n] - v1[1] * vec[0, n]) > 0.5 * length[a] * length[n]]
-        if not sideways:
-            continue
-        c = sideways[0]
-        d = _along(vec, length, opposite, -vec[:, c])
-        nodes = {(0, 0): centre, (1, 0): cands.points[:, nb[a]], (0, 1): cands.points[:, nb[c]]}
-        if b is not None:
-            nodes[(-1, 0)] = cands.points[:, nb[b]]
-        if d is not None:
-            nodes[(0, -1)] = cands.points[:, nb[d]]
-        if len(nodes) >= 4 and (best is None or len(nodes) > len(best)):
-            best = nodes
-    if best is None:
+    arms = np.empty(4, dtype=np.int64)
+    if not _lattice.pick_cross(np.ascontiguousarray(vec), length, opposite.astype(np.int64), arms):
         return None
+    a, b, c, d = (int(n) for n in arms)
+    best = {(0, 0): centre, (1, 0): cands.points[:, nb[a]], (0, 1): cands.points[:, nb[c]]}
+    if b >= 0:
+        best[(-1, 0)] = cands.points[:, nb[b]]
+    if d >= 0:
+        best[(0, -1)] = cands.points[:, nb[d]]
     v1, v2 = best[(1, 0)] - centre, best[(0, 1)] - centre
     if v1[0] * v2[1] - v1[1] * v2[0] < 0:  # make (i, j) turn like (u, v)
         best = {(j, i): p for (i, j), p in best.items()}
@@ -269,19 +247,6 @@ def _seed_cross(cands: Candidates, tree: cKDTree, k: int):
     return best, theta0
 
 
-def _along(vec, length, pool, direction):
-    """Index in ``pool`` of the neighbour closest to ``direction`` (within 15 degrees and
-    0.7-1.4 of its length), or None."""
-    size = np.hypot(*direction)
-    cos = (direction @ vec[:, pool]) / (size * np.maximum(length[pool], 1e-12))
-    ratio = length[pool] / size
-    ok = (cos > np.cos(np.radians(15))) & (ratio > 0.7) & (ratio < 1.4)
-    if not ok.any():
-        return None
-    err = np.hypot(*(vec[:, pool[ok]] - direction[:, None]))
-    return pool[ok][np.argmin(err)]
-
-
 def _parity_ok(theta, theta0, parity):
     c = np.cos(2 * (theta - theta0))
     return np.where(parity == 0, c > PARITY_COS, c < -PARITY_COS)
@@ -293,46 +258,42 @@ def _grow(cands: Candidates, tree: cKDTree, nodes: dict, theta0: float, max_node
     Each round looks only at the free neighbours of the nodes added in the round before
     (a key refused once is looked at again when a new neighbour can predict it better);
     when that adds nothing, one round looks at every free neighbour, whose predictions
-    now rest on more of the lattice.
+    now rest on more of the lattice. A round's predictions are one compiled call
+    (:func:`predict` for each of those keys, in order).
     """
-    nodes = {key: (float(p[0]), float(p[1])) for key, p in nodes.items()}
+    grid = KeyGrid(nodes)
+    order = list(nodes)
     height, width = cands.view.shape
-    fresh, full = list(nodes), False
-    while len(nodes) < max_nodes:
-        if not fresh:
+    fresh, full = np.array(order, dtype=np.int64), False
+    stamp, mark = None, 0
+    while len(order) < max_nodes:
+        if not len(fresh):
             if full:
                 break
-            fresh, full = list(nodes), True
-        keys, guesses, steps = [], [], []
-        seen = set()
-        for i, j in fresh:
-            for di, dj in _STEPS:
-                key = (i + di, j + dj)
-                if key in nodes or key in seen:
-                    continue
-                seen.add(key)
-                guess = predict(nodes, key)
-                if guess is not None:
-                    keys.append(key)
-                    guesses.append(guess[0])
-                    steps.append(guess[1])
-        if not keys:
+            fresh, full = np.array(order, dtype=np.int64), True
+        if stamp is None or stamp.shape != grid.array.shape[:2]:
+            stamp = np.zeros(grid.array.shape[:2], dtype=np.int32)
+        mark += 1
+        keys, guess, step = np.empty((4 * len(fresh), 2), dtype=np.int64), np.empty((4 * len(fresh), 2)), np.empty(4 * len(fresh))
+        count = _lattice.predict_round(grid.array, int(grid.origin[0]), int(grid.origin[1]), fresh, stamp, mark,
+                                       keys, guess, step)
+        if not count:
             if full:
                 break
-            fresh = []
+            fresh = fresh[:0]
             continue
-        P = np.array(guesses).T
-        step = np.array(steps)
+        keys, P, step = keys[:count], guess[:count].T, step[:count]
         margin = RING_FRACTION * step + 1.0
         inside = (P[0] > margin) & (P[1] > margin) & (P[0] < width - 1 - margin) & (P[1] < height - 1 - margin)
         dist, idx = tree.query(P.T)
         snap = dist < SNAP_FRACTION * step
         Q = np.where(snap, cands.points[:, np.minimum(idx, cands.points.shape[1] - 1)], P)
         score, theta, _ = cands.view.ring_test(Q, RING_FRACTION * step)
-        parity = np.array([(i + j) % 2 for i, j in keys])
+        parity = keys.sum(axis=1) % 2
         good = np.flatnonzero(inside & (score > MIN_SCORE) & _parity_ok(theta, theta0, parity))
-        fresh = [keys[n] for n in good]
-        full = full and not fresh
-        for n in good:
-            nodes[keys[n]] = (float(Q[0, n]), float(Q[1, n]))
-    return {key: np.array(p) for key, p in nodes.items()}
+        fresh = keys[good]
+        full = full and not len(fresh)
+        grid.put(fresh, Q[:, good])
+        order.extend(map(tuple, fresh.tolist()))
+    rows = grid.at(np.array(order, dtype=np.int64)).T.copy()
+    return {key: rows[k] for k, key in enumerate(order)}

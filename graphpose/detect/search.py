@@ -166,13 +166,15 @@ def find_candidates(image: np.ndarray, region=None, *, level: int = 1, noise: fl
         raise InputError(f"level must be a whole number >= 0, got {level!r}")
     a = downsample(image, int(level))
     S = ndimage.gaussian_filter(a, RESPONSE_SIGMA, truncate=3.0)
-    Ixx = S[1:-1, 2:] - 2 * S[1:-1, 1:-1] + S[1:-1, :-2]
-    Iyy = S[2:, 1:-1] - 2 * S[1:-1, 1:-1] + S[:-2, 1:-1]
-    Ixy = 0.25 * (S[2:, 2:] - S[2:, :-2] - S[:-2, 2:] + S[:-2, :-2])
-    r = Ixy * Ixy - Ixx * Iyy
-    ys, xs, value, limited = _peaks(r, 0.0 if noise is None else noise_floor(noise, level))
-    # The bright bisector is the principal direction of positive curvature.
-    theta = 0.5 * np.arctan2(2 * Ixy[ys, xs], Ixx[ys, xs] - Iyy[ys, xs])
+    r, ys, xs = _response_peaks(S)
+    ys, xs, value, limited = _threshold(r, ys, xs, 0.0 if noise is None else noise_floor(noise, level))
+    # The bright bisector is the principal direction of positive curvature (the curvatures
+    # at the peaks, as the response's kernel computes them).
+    y, x = ys + 1, xs + 1
+    Ixx = S[y, x + 1] - 2 * S[y, x] + S[y, x - 1]
+    Iyy = S[y + 1, x] - 2 * S[y, x] + S[y - 1, x]
+    Ixy = 0.25 * (S[y + 1, x + 1] - S[y + 1, x - 1] - S[y - 1, x + 1] + S[y - 1, x - 1])
+    theta = 0.5 * np.arctan2(2 * Ixy, Ixx - Iyy)
     dx, dy = _subpixel(r, ys, xs)
     # Interior pixel (y, x) of r is pixel (y + 1, x + 1) of the level, whose centre is
     # full-image s (x + 1) + (s - 1) / 2 for the level's scale s.
@@ -309,15 +311,23 @@ def _ixy_gain() -> float:
     return float(np.sum(np.convolve(g, [0.5, 0.0, -0.5]) ** 2))
 
 
-def _peaks(r: np.ndarray, floor: float = 0.0):
-    """Rows, columns and values of the 3 x 3 local maxima of ``r`` above the threshold
-    and above ``floor``, and whether the floor removed any that the threshold kept."""
-    # The 3 x 3 maximum (edge pixels repeated, as ndimage.maximum_filter's "reflect"), by
-    # rows then columns: the same values, several times faster than maximum_filter here.
-    p = np.pad(r, 1, mode="edge")
-    rows = np.maximum(np.maximum(p[:, :-2], p[:, 1:-1]), p[:, 2:])
-    local = np.maximum(np.maximum(rows[:-2], rows[1:-1]), rows[2:])
-    ys, xs = np.nonzero((r >= local) & (r > 0))
+def _response_peaks(S: np.ndarray):
+    """The saddle response ``Ixy^2 - Ixx Iyy`` (float32) of the smoothed image ``S`` at its
+    interior pixels, and the rows and columns of its 3 x 3 local maxima (edge pixels
+    repeated) above 0, row-major: one compiled pass (``_search.saddle_peaks``)."""
+    h, w = S.shape[0] - 2, S.shape[1] - 2
+    if h < 1 or w < 1:
+        return np.zeros((max(h, 0), max(w, 0)), np.float32), np.zeros(0, np.int64), np.zeros(0, np.int64)
+    r = np.empty((h, w), np.float32)
+    rows, cols = np.empty(h * w, np.int64), np.empty(h * w, np.int64)
+    n = _search.saddle_peaks(np.ascontiguousarray(S, dtype=np.float32), r, rows, cols)
+    return r, rows[:n], cols[:n]
+
+
+def _threshold(r: np.ndarray, ys: np.ndarray, xs: np.ndarray, floor: float = 0.0):
+    """Of the peaks (ys, xs) of ``r``, those above the relative threshold and above
+    ``floor``: rows, columns, values, and whether the floor removed any that the threshold
+    kept."""
     value = r[ys, xs]
     if value.size == 0:
         return ys, xs, value, False
