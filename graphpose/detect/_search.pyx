@@ -131,18 +131,18 @@ def ring_patches(const float[:, :, :] patches, const double[::1] x, const double
             _ring_score(ring, &score[k], &theta[k], &contrast[k])
 
 
-def saddle_peaks(const float[:, ::1] S, float[:, ::1] r, long[::1] rows, long[::1] cols):
+def saddle_peaks(const float[:, ::1] S, float[:, ::1] r, float[:, ::1] rowmax, long[::1] rows, long[::1] cols):
     """The saddle response of :func:`graphpose.detect.search.find_candidates` and its peaks.
 
     ``r`` (h - 2, w - 2) gets ``Ixy^2 - Ixx Iyy`` of the smoothed image ``S`` (h, w) at its
     interior pixels, in float32 with NumPy's order of operations (``Ixx = (S[x+1] - 2 S) +
-    S[x-1]``, ``Ixy = 0.25 (((S[+,+] - S[+,-]) - S[-,+]) + S[-,-])``); ``rows``/``cols``
-    (each at least r's pixel count long) get the pixels of ``r`` above 0 that no pixel of
-    their 3 x 3 neighbourhood (edges repeated) exceeds, row-major. Returns their count.
+    S[x-1]``, ``Ixy = 0.25 (((S[+,+] - S[+,-]) - S[-,+]) + S[-,-])``); ``rowmax`` (as ``r``)
+    is scratch for its 1 x 3 maxima; ``rows``/``cols`` (each at least r's pixel count long)
+    get the pixels of ``r`` above 0 that no pixel of their 3 x 3 neighbourhood (edges
+    repeated) exceeds, row-major. Returns their count.
     """
-    cdef Py_ssize_t h = r.shape[0], w = r.shape[1], i, j, a, b, n = 0, i0, i1, j0, j1
-    cdef float ixx, iyy, ixy, c, two = 2.0, quarter = 0.25
-    cdef bint peak
+    cdef Py_ssize_t h = r.shape[0], w = r.shape[1], i, j, n = 0, i0, i1
+    cdef float ixx, iyy, ixy, c, m, two = 2.0, quarter = 0.25
     with nogil:
         for i in range(h):
             for j in range(w):
@@ -150,21 +150,19 @@ def saddle_peaks(const float[:, ::1] S, float[:, ::1] r, long[::1] rows, long[::
                 iyy = (S[i + 2, j + 1] - two * S[i + 1, j + 1]) + S[i, j + 1]
                 ixy = quarter * (((S[i + 2, j + 2] - S[i + 2, j]) - S[i, j + 2]) + S[i, j])
                 r[i, j] = ixy * ixy - ixx * iyy
+            for j in range(w):
+                m = r[i, j]
+                if j > 0 and r[i, j - 1] > m:
+                    m = r[i, j - 1]
+                if j + 1 < w and r[i, j + 1] > m:
+                    m = r[i, j + 1]
+                rowmax[i, j] = m
         for i in range(h):
             i0 = i - 1 if i > 0 else 0
             i1 = i + 1 if i + 1 < h else h - 1
             for j in range(w):
                 c = r[i, j]
-                if not c > 0:
-                    continue
-                j0 = j - 1 if j > 0 else 0
-                j1 = j + 1 if j + 1 < w else w - 1
-                peak = True
-                for a in range(i0, i1 + 1):
-                    for b in range(j0, j1 + 1):
-                        if r[a, b] > c:
-                            peak = False
-                if peak:
+                if c > 0 and rowmax[i, j] <= c and rowmax[i0, j] <= c and rowmax[i1, j] <= c:
                     rows[n] = i
                     cols[n] = j
                     n += 1

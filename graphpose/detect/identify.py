@@ -230,7 +230,7 @@ def _side(view, nodes, side, dark_parity, mid, contrast) -> str:
     def key(a, b):
         return (a, b) if axis == 0 else (b, a)
 
-    rows, points, expect, steps = [], [], [], []
+    rows, corners, expect = [], [], []
     depths = np.array((OUTER_DEPTH,) + BEYOND_DEPTHS + RESUME_DEPTHS)
     # An edge is a straight line of junctions: most lattice lines must reach it (a row that
     # stops short has its end hidden, and the side beyond says nothing of the board's edge).
@@ -240,19 +240,20 @@ def _side(view, nodes, side, dark_parity, mid, contrast) -> str:
     if np.mean([end == extreme for end in lines.values()]) < FLAT_SIDE:
         return "unknown"
     for b in sorted(k[other] for k in nodes if k[axis] == extreme):
-        corners = [key(extreme, b), key(extreme, b + 1), key(extreme + inward, b), key(extreme + inward, b + 1)]
-        if not all(c in nodes for c in corners):
+        four = [key(extreme, b), key(extreme, b + 1), key(extreme + inward, b), key(extreme + inward, b + 1)]
+        if not all(c in nodes for c in four):
             continue
-        edge = 0.5 * (nodes[corners[0]] + nodes[corners[1]])
-        step = edge - 0.5 * (nodes[corners[2]] + nodes[corners[3]])  # one square outwards
         rows.append(b)
-        steps.append(np.hypot(*step))
-        points.append(edge[:, None] + step[:, None] * depths)
-        square = np.array(key(extreme + (direction - 1) // 2, b))  # upper-left key of the outer square
-        expect.append(1.0 if (square.sum() % 2) == dark_parity else -1.0)
+        corners.append([nodes[c] for c in four])
+        square = key(extreme + (direction - 1) // 2, b)  # upper-left key of the outer square
+        expect.append(1.0 if (square[0] + square[1]) % 2 == dark_parity else -1.0)
     if len(rows) < 2:
         return "unknown"
-    P = np.array(points)  # (m, 2, depths)
+    C = np.array(corners)  # (m, 4, 2): the two nodes on the side, then the two inwards
+    edge = 0.5 * (C[:, 0] + C[:, 1])
+    step = edge - 0.5 * (C[:, 2] + C[:, 3])  # one square outwards
+    steps = np.hypot(step[:, 0], step[:, 1])
+    P = edge[:, :, None] + step[:, :, None] * depths  # (m, 2, depths)
     height, width = view.shape
     inside = (P[:, 0] >= 0) & (P[:, 1] >= 0) & (P[:, 0] <= width - 1) & (P[:, 1] <= height - 1)
     value = _grey(view, P.transpose(1, 0, 2).reshape(2, -1), np.median(steps))
