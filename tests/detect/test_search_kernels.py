@@ -194,3 +194,54 @@ def test_growth_keeps_the_grid_growing_past_its_first_box():
     truth = np.array([[20.5 + 22 * c, 30.5 + 22 * r] for c in range(1, 30) for r in range(1, 5)]).T
     d = np.hypot(*(lattice.points[:, :, None] - truth[:, None, :])).min(axis=1)
     assert d.max() < 0.75
+
+
+def along_reference(vec, length, pool, direction):
+    """The entry of ``pool`` nearest ``direction`` within 15 degrees and 0.7-1.4 of its length."""
+    size = np.hypot(*direction)
+    best, best_err = None, None
+    for n in pool:
+        cos = (direction[0] * vec[0, n] + direction[1] * vec[1, n]) / (size * max(length[n], 1e-12))
+        ratio = length[n] / size
+        if cos > np.cos(np.radians(15)) and 0.7 < ratio < 1.4:
+            err = np.hypot(*(vec[:, n] - direction))
+            if best is None or err < best_err:
+                best, best_err = n, err
+    return best
+
+
+def cross_reference(vec, length, opposite):
+    """Arms (a, b, c, d) and node count of a seed's cross, as lattice._seed_cross chooses them."""
+    best, arms = 0, None
+    for a in opposite[:3]:
+        b = along_reference(vec, length, opposite, -vec[:, a])
+        sideways = [n for n in opposite if n not in (a, b)
+                    and abs(vec[0, a] * vec[1, n] - vec[1, a] * vec[0, n]) > 0.5 * length[a] * length[n]]
+        if not sideways:
+            continue
+        c = sideways[0]
+        d = along_reference(vec, length, opposite, -vec[:, c])
+        count = 3 + (b is not None) + (d is not None)
+        if count >= 4 and count > best:
+            best, arms = count, (a, -1 if b is None else b, c, -1 if d is None else d)
+    return best, arms
+
+
+def test_the_seed_cross_picks_the_arms_the_plain_loop_picks():
+    rng = np.random.default_rng(5)
+    grid = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1) if (i, j) != (0, 0)] + [(2, 0), (0, 2), (2, 1)], float)
+    found = 0
+    for trial in range(200):
+        angle = rng.uniform(0, np.pi)
+        R = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+        vec = np.ascontiguousarray(R @ (25.0 * grid.T) + rng.normal(0, rng.choice([0.5, 4.0]), (2, grid.shape[0])))
+        length = np.hypot(*vec)
+        opposite = np.flatnonzero(rng.random(grid.shape[0]) < 0.7).astype(np.int64)
+        arms = np.full(4, -7, dtype=np.int64)
+        count = _lattice.pick_cross(vec, length, opposite, arms)
+        want, want_arms = cross_reference(vec, length, opposite)
+        assert count == want
+        if want:
+            assert tuple(arms) == want_arms
+            found += 1
+    assert 20 < found < 200  # crosses found and refused, both
