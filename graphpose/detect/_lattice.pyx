@@ -7,7 +7,9 @@ NaN where there is no node; keys off the grid have none. The arithmetic is that 
 it replaces, in the same order, so the positions are the same to the last bit.
 """
 
-from libc.math cimport hypot, cos, M_PI
+from libc.math cimport hypot, cos, fabs, M_PI
+
+from graphpose.detect._sampling cimport _COS, _SIN, _bilinear, _ring_score
 
 cdef int _DI[4]
 cdef int _DJ[4]
@@ -109,51 +111,145 @@ def predict_one(const double[:, :, ::1] grid, long oi, long oj, long i, long j):
     return (u, v), step
 
 
-cdef inline long _along(const double[:, ::1] vec, const double[::1] length, const long[::1] pool,
+cdef inline long _along(const double *vx, const double *vy, const double *length, const long *pool, Py_ssize_t m,
                         double dx, double dy, double cos_limit) noexcept nogil:
-    """:func:`graphpose.detect.lattice._along`: the entry of ``pool`` nearest the direction
-    (dx, dy) within 15 degrees and 0.7-1.4 of its length, or -1."""
+    """The entry of ``pool`` (m of them) nearest the direction (dx, dy) within 15 degrees and
+    0.7-1.4 of its length, or -1."""
     cdef double size = hypot(dx, dy), c, ratio, err, best_err = 0.0
     cdef long n, best = -1
     cdef Py_ssize_t k
-    for k in range(pool.shape[0]):
+    for k in range(m):
         n = pool[k]
-        c = (dx * vec[0, n] + dy * vec[1, n]) / (size * (length[n] if length[n] > 1e-12 else 1e-12))
+        c = (dx * vx[n] + dy * vy[n]) / (size * (length[n] if length[n] > 1e-12 else 1e-12))
         ratio = length[n] / size
         if not (c > cos_limit and ratio > 0.7 and ratio < 1.4):
             continue
-        err = hypot(vec[0, n] - dx, vec[1, n] - dy)
+        err = hypot(vx[n] - dx, vy[n] - dy)
         if best < 0 or err < best_err:
             best, best_err = n, err
     return best
 
 
-def pick_cross(const double[:, ::1] vec, const double[::1] length, const long[::1] opposite, long[::1] out):
-    """The arms of a seed's cross (see :func:`graphpose.detect.lattice._seed_cross`) among its
-    neighbours at ``vec`` (2, m) from it, ``length`` (m,) away, those of opposite parity
-    ``opposite``: neighbour indices ``(a, b, c, d)`` for keys (1, 0), (-1, 0), (0, 1),
-    (0, -1) into ``out`` (-1 where absent). Returns the cross's node count (0: none)."""
+cdef int _pick(const double *vx, const double *vy, const double *length, const long *opposite, Py_ssize_t m,
+               long *out) noexcept nogil:
+    """:func:`pick_cross` on C arrays."""
     cdef double cos_limit = cos(15.0 * (M_PI / 180.0))
     cdef Py_ssize_t p, k
     cdef long a, b, c, d, n
     cdef int count, best = 0
-    with nogil:
-        for p in range(opposite.shape[0] if opposite.shape[0] < 3 else 3):
-            a = opposite[p]
-            b = _along(vec, length, opposite, -vec[0, a], -vec[1, a], cos_limit)
-            c = -1
-            for k in range(opposite.shape[0]):
-                n = opposite[k]
-                if n == a or n == b:
-                    continue
-                if abs(vec[0, a] * vec[1, n] - vec[1, a] * vec[0, n]) > 0.5 * length[a] * length[n]:
-                    c = n
-                    break
-            if c < 0:
+    for p in range(m if m < 3 else 3):
+        a = opposite[p]
+        b = _along(vx, vy, length, opposite, m, -vx[a], -vy[a], cos_limit)
+        c = -1
+        for k in range(m):
+            n = opposite[k]
+            if n == a or n == b:
                 continue
-            d = _along(vec, length, opposite, -vec[0, c], -vec[1, c], cos_limit)
-            count = 3 + (b >= 0) + (d >= 0)
-            if count >= 4 and count > best:
-                best = count
-                out[0], out[1], out[2], out[3] = a, b, c, d
+            if fabs(vx[a] * vy[n] - vy[a] * vx[n]) > 0.5 * length[a] * length[n]:
+                c = n
+                break
+        if c < 0:
+            continue
+        d = _along(vx, vy, length, opposite, m, -vx[c], -vy[c], cos_limit)
+        count = 3 + (b >= 0) + (d >= 0)
+        if count >= 4 and count > best:
+            best = count
+            out[0], out[1], out[2], out[3] = a, b, c, d
     return best
+
+
+def pick_cross(const double[:, ::1] vec, const double[::1] length, const long[::1] opposite, long[::1] out):
+    """The arms of a seed's cross among its neighbours at ``vec`` (2, m) from it, ``length``
+    (m,) away, those of opposite parity ``opposite``: neighbour indices ``(a, b, c, d)`` for
+    keys (1, 0), (-1, 0), (0, 1), (0, -1) into ``out`` (-1 where absent). Each of the first
+    three opposite neighbours is tried as arm (1, 0): its opposite arm is the neighbour
+    nearest the reverse direction (:func:`_along`), arm (0, 1) the first opposite neighbour
+    well off its line, and (0, -1) the one opposite that; the cross with most nodes (at least
+    four, the first of equals) wins. Returns its node count (0: none)."""
+    cdef long arms[4]
+    cdef int count = _pick(&vec[0, 0], &vec[1, 0], &length[0], &opposite[0], opposite.shape[0], arms)
+    if count:
+        for k in range(4):
+            out[k] = arms[k]
+    return count
+
+
+def seed_cross(const double[:, ::1] points, const double[::1] theta, const long[::1] nb, long k,
+               const float[:, :] smooth, int level, double parity_cos, double ring_fraction, double min_score,
+               long[::1] arms, double[::1] theta0):
+    """The cross of five (or four) nodes around candidate ``k`` (see
+    :func:`graphpose.detect.lattice._seed_cross`), in one call.
+
+    ``points`` (2, N) and ``theta`` (N,) are the candidates', ``nb`` (m <= 12,) its nearest
+    neighbours (itself excluded), nearest first; ``smooth`` the search image at ``level``
+    that the ring test reads. On success ``arms`` gets the candidate indices of keys
+    (1, 0), (-1, 0), (0, 1), (0, -1) (-1 where absent), ``arms[4]`` 1 where the keys must
+    swap ``(i, j) -> (j, i)`` to turn like ``(u, v)``, and ``theta0[0]`` the seed's
+    bright-bisector direction. Returns the node count, 0 where there is no cross.
+    """
+    cdef double vx[12]
+    cdef double vy[12]
+    cdef double length[12]
+    cdef long opposite[12]
+    cdef long pick[4]
+    cdef long node[5]
+    cdef double d[4]
+    cdef double ring[16]
+    cdef double score, th, contrast, t0, step, t, x, y, rad, s = 1 << level, c
+    cdef Py_ssize_t m = nb.shape[0], n, q, p, r, count = 0, nodes
+    cdef double cu = points[0, k], cv = points[1, k]
+    if m > 12:
+        m = 12
+    for n in range(m):
+        vx[n] = points[0, nb[n]] - cu
+        vy[n] = points[1, nb[n]] - cv
+        length[n] = hypot(vx[n], vy[n])
+        if cos(2 * (theta[nb[n]] - theta[k])) < -parity_cos:
+            opposite[count] = n
+            count += 1
+    if count < 3:
+        return 0
+    nodes = _pick(vx, vy, length, opposite, count, pick)
+    if not nodes:
+        return 0
+    for q in range(4):
+        arms[q] = nb[pick[q]] if pick[q] >= 0 else -1
+    arms[4] = 1 if vx[pick[0]] * vy[pick[2]] - vy[pick[0]] * vx[pick[2]] < 0 else 0
+    # The median distance of the arms from the seed, in key order (it does not matter for a median).
+    p = 0
+    for q in range(4):
+        if pick[q] >= 0:
+            d[p] = length[pick[q]]
+            p += 1
+    for q in range(1, p):
+        t = d[q]
+        r = q - 1
+        while r >= 0 and d[r] > t:
+            d[r + 1] = d[r]
+            r -= 1
+        d[r + 1] = t
+    step = d[p // 2] if p % 2 else (d[p // 2 - 1] + d[p // 2]) / 2
+    # The ring test at the seed and its arms: every one a cross-junction, of the parity its key demands.
+    node[0] = k
+    p = 1
+    for q in range(4):
+        if arms[q] >= 0:
+            node[p] = arms[q]
+            p += 1
+    rad = ring_fraction * step / s
+    for q in range(p):
+        x = (points[0, node[q]] - 0.5 * (s - 1)) / s
+        y = (points[1, node[q]] - 0.5 * (s - 1)) / s
+        for r in range(16):
+            ring[r] = <float>_bilinear(smooth, x + rad * _COS[r], y + rad * _SIN[r])
+        _ring_score(ring, &score, &th, &contrast)
+        if score < min_score:
+            return 0
+        if q == 0:
+            t0 = th
+        else:
+            c = cos(2 * (th - t0))
+            if not c < -parity_cos:
+                return 0
+    theta0[0] = t0
+    return nodes

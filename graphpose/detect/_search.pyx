@@ -1,54 +1,11 @@
 """Compiled loops of the board search (:mod:`graphpose.detect.search`): bilinear samples, the
 ring test, and the saddle response with its local maxima, each a whole loop per call.
 
-Bilinear sampling follows ``scipy.ndimage.map_coordinates(order=1, mode="nearest")``: the
-coordinate is clamped to the image, the four neighbours' grey levels are weighted in double
-precision in the order (row, column) ``(0, 0), (0, 1), (1, 0), (1, 1)``, and a neighbour past
-the last row or column repeats it. The callers have checked shapes and lengths.
+Bilinear sampling and the ring test's arithmetic are ``_sampling.pxd``'s (shared with
+``_lattice.pyx``). The callers have checked shapes and lengths.
 """
 
-from libc.math cimport atan2, cos, floor, sin, fabs, M_PI
-
-ctypedef fused grey_t:
-    unsigned char
-    unsigned short
-    float
-    double
-
-
-cdef double _COS[16]
-cdef double _SIN[16]
-cdef double _COS2[16]
-cdef double _SIN2[16]
-cdef int _q
-for _q in range(16):
-    _COS[_q] = cos(_q * (M_PI / 8))
-    _SIN[_q] = sin(_q * (M_PI / 8))
-    _COS2[_q] = cos(2 * _q * (M_PI / 8))
-    _SIN2[_q] = sin(2 * _q * (M_PI / 8))
-
-
-cdef inline double _bilinear(const grey_t[:, :] a, double x, double y) noexcept nogil:
-    """One sample of ``a`` at column ``x``, row ``y`` (see the module docstring)."""
-    cdef Py_ssize_t h = a.shape[0], w = a.shape[1]
-    cdef Py_ssize_t i0, j0, i1, j1
-    cdef double fx, fy
-    if x < 0:
-        x = 0
-    elif x > w - 1:
-        x = w - 1
-    if y < 0:
-        y = 0
-    elif y > h - 1:
-        y = h - 1
-    j0 = <Py_ssize_t>floor(x)
-    i0 = <Py_ssize_t>floor(y)
-    fx = x - j0
-    fy = y - i0
-    j1 = j0 + 1 if j0 + 1 < w else w - 1
-    i1 = i0 + 1 if i0 + 1 < h else h - 1
-    return (a[i0, j0] * (1.0 - fy) * (1.0 - fx) + a[i0, j1] * (1.0 - fy) * fx
-            + a[i1, j0] * fy * (1.0 - fx) + a[i1, j1] * fy * fx)
+from graphpose.detect._sampling cimport grey_t, _COS, _SIN, _bilinear, _ring_score
 
 
 def bilinear(const grey_t[:, :] a, const double[::1] x, const double[::1] y, double[::1] out):
@@ -73,34 +30,6 @@ def bilinear_mean3x3(const grey_t[:, :] a, const double[::1] x, const double[::1
                     total += _bilinear(a, x[k] + q * reach, y[k] + p * reach)
             out[k] = total / 9.0
     return None
-
-
-cdef inline void _ring_score(double *ring, double *score, double *theta, double *contrast) noexcept nogil:
-    """The ring test on 16 samples (see :func:`graphpose.detect.search.ring_test`)."""
-    cdef double mean = 0.0, total = 0.0, diff = 0.0, s2 = 0.0, c2 = 0.0, lo, hi, d
-    cdef int q
-    for q in range(16):
-        mean += ring[q]
-    mean /= 16.0
-    lo = hi = ring[0] - mean
-    for q in range(16):
-        ring[q] -= mean
-        if ring[q] < lo:
-            lo = ring[q]
-        if ring[q] > hi:
-            hi = ring[q]
-        s2 += ring[q] * _SIN2[q]
-        c2 += ring[q] * _COS2[q]
-    for q in range(4):
-        total += fabs(ring[q] + ring[q + 8] - ring[q + 4] - ring[q + 12])
-    for q in range(8):
-        diff += fabs(ring[q] - ring[q + 8])
-    d = total + diff
-    if d < 1e-12:
-        d = 1e-12
-    score[0] = (total - 2 * diff) / d
-    theta[0] = 0.5 * atan2(s2, c2)
-    contrast[0] = hi - lo
 
 
 def ring_image(const float[:, :] a, const double[::1] x, const double[::1] y, const double[::1] radius,

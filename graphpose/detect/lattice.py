@@ -37,6 +37,8 @@ MIN_SCORE = 0.1
 PARITY_COS = 0.5
 #: A prediction is snapped to a candidate within this fraction of the local step.
 SNAP_FRACTION = 0.25
+#: Seeds whose neighbours are looked up together (the next ones not yet on a lattice).
+_QUERY_AHEAD = 16
 
 
 @dataclass(frozen=True)
@@ -89,14 +91,21 @@ def grow_lattices(cands: Candidates, *, max_seeds: int = 60, max_nodes: int = 20
     tree = cKDTree(cands.points.T)
     taken = ~cands.seed
     tried = 0
-    for k in np.argsort(cands.strength)[::-1]:
+    order = np.argsort(cands.strength)[::-1]
+    count = min(13, cands.points.shape[1])
+    neighbours = {}  # candidate -> its nearest neighbours, queried for several seeds at once
+    for rank, k in enumerate(order):
         if tried >= max_seeds:
             return
         if taken[k]:
             continue
         tried += 1
         strength = float(cands.strength[k])
-        cross = _seed_cross(cands, tree, k)
+        if k not in neighbours:
+            ahead = [n for n in order[rank:rank + 4 * _QUERY_AHEAD] if not taken[n]][:_QUERY_AHEAD]
+            _, nb = tree.query(cands.points[:, ahead].T, k=count)
+            neighbours.update(zip(ahead, nb[:, 1:]))
+        cross = _seed_cross(cands, neighbours[k], k)
         if cross is None:
             yield strength, None
             continue
@@ -213,38 +222,29 @@ def predict(nodes: dict, key) -> tuple | None:
     return _lattice.predict_one(grid.array, int(grid.origin[0]), int(grid.origin[1]), int(key[0]), int(key[1]))
 
 
-def _seed_cross(cands: Candidates, tree: cKDTree, k: int):
-    """A cross of five (or four) nodes around candidate ``k``, and theta0; None if none."""
-    centre = cands.points[:, k]
-    count = min(13, cands.points.shape[1])
-    _, nb = tree.query(centre, k=count)
-    nb = nb[1:]
-    vec = cands.points[:, nb] - centre[:, None]
-    length = np.hypot(*vec)
-    opposite = np.flatnonzero(np.cos(2 * (cands.theta[nb] - cands.theta[k])) < -PARITY_COS)
-    if opposite.size < 3:
+def _seed_cross(cands: Candidates, nb: np.ndarray, k: int):
+    """A cross of five (or four) nodes around candidate ``k``, and theta0; None if none.
+
+    ``nb`` are its nearest neighbours, itself excluded. Those of the opposite parity make
+    the arms (:func:`graphpose.detect._lattice.pick_cross`), turned so that ``(i, j)`` turns
+    like ``(u, v)``; the seed and every arm must pass the ring test at
+    :data:`RING_FRACTION` of the arms' median length, with the parity its key demands. One
+    compiled call (``_lattice.seed_cross``).
+    """
+    arms, theta0 = np.empty(5, dtype=np.int64), np.empty(1)
+    if not _lattice.seed_cross(cands.points, cands.theta, np.ascontiguousarray(nb, dtype=np.int64), int(k),
+                               cands.view.smooth, cands.view.level, PARITY_COS, RING_FRACTION, MIN_SCORE,
+                               arms, theta0):
         return None
-    arms = np.empty(4, dtype=np.int64)
-    if not _lattice.pick_cross(np.ascontiguousarray(vec), length, opposite.astype(np.int64), arms):
-        return None
-    a, b, c, d = (int(n) for n in arms)
-    best = {(0, 0): centre, (1, 0): cands.points[:, nb[a]], (0, 1): cands.points[:, nb[c]]}
+    a, b, c, d, swap = (int(n) for n in arms)
+    best = {(0, 0): cands.points[:, k], (1, 0): cands.points[:, a], (0, 1): cands.points[:, c]}
     if b >= 0:
-        best[(-1, 0)] = cands.points[:, nb[b]]
+        best[(-1, 0)] = cands.points[:, b]
     if d >= 0:
-        best[(0, -1)] = cands.points[:, nb[d]]
-    v1, v2 = best[(1, 0)] - centre, best[(0, 1)] - centre
-    if v1[0] * v2[1] - v1[1] * v2[0] < 0:  # make (i, j) turn like (u, v)
+        best[(0, -1)] = cands.points[:, d]
+    if swap:  # make (i, j) turn like (u, v)
         best = {(j, i): p for (i, j), p in best.items()}
-    keys = list(best)
-    P = np.array(list(best.values())).T
-    step = np.median([np.hypot(*(p - centre)) for key, p in best.items() if key != (0, 0)])
-    score, theta, _ = cands.view.ring_test(P, RING_FRACTION * step)
-    theta0 = theta[keys.index((0, 0))]
-    parity = np.array([(i + j) % 2 for i, j in keys])
-    if np.any(score < MIN_SCORE) or not np.all(_parity_ok(theta, theta0, parity)):
-        return None
-    return best, theta0
+    return best, float(theta0[0])
 
 
 def _parity_ok(theta, theta0, parity):
