@@ -7,7 +7,7 @@ NaN where there is no node; keys off the grid have none. The arithmetic is that 
 it replaces, in the same order, so the positions are the same to the last bit.
 """
 
-from libc.math cimport hypot, cos, fabs, M_PI
+from libc.math cimport hypot, cos, fabs, floor, sqrt, M_PI
 
 from graphpose.detect._sampling cimport _COS, _SIN, _bilinear, _ring_score
 
@@ -76,8 +76,9 @@ cdef inline bint _predict(const double[:, :, ::1] grid, long oi, long oj, long i
     return True
 
 
-def predict_round(const double[:, :, ::1] grid, long oi, long oj, const long[:, ::1] fresh, int[:, ::1] stamp,
-                  int mark, long[:, ::1] keys, double[:, ::1] guess, double[::1] step):
+cpdef Py_ssize_t predict_round(const double[:, :, ::1] grid, long oi, long oj, const long[:, ::1] fresh,
+                               int[:, ::1] stamp, int mark, long[:, ::1] keys, double[:, ::1] guess,
+                               double[::1] step) noexcept nogil:
     """The predictions of one growth round: for each key of ``fresh`` (m, 2) in order, its
     four neighbours (the lattice's step order) that hold no node and were not looked at
     this round (``stamp`` (ni, nj) != ``mark``; set to it here) and that a prediction
@@ -86,20 +87,18 @@ def predict_round(const double[:, :, ::1] grid, long oi, long oj, const long[:, 
     cdef Py_ssize_t k, n = 0
     cdef int s
     cdef long i, j, a, b
-    cdef double u, v
-    with nogil:
-        for k in range(fresh.shape[0]):
-            for s in range(4):
-                i = fresh[k, 0] + _DI[s]
-                j = fresh[k, 1] + _DJ[s]
-                a, b = i - oi, j - oj
-                if grid[a, b, 0] == grid[a, b, 0] or stamp[a, b] == mark:
-                    continue
-                stamp[a, b] = mark
-                if _predict(grid, oi, oj, i, j, &guess[n, 0], &guess[n, 1], &step[n]):
-                    keys[n, 0] = i
-                    keys[n, 1] = j
-                    n += 1
+    for k in range(fresh.shape[0]):
+        for s in range(4):
+            i = fresh[k, 0] + _DI[s]
+            j = fresh[k, 1] + _DJ[s]
+            a, b = i - oi, j - oj
+            if grid[a, b, 0] == grid[a, b, 0] or stamp[a, b] == mark:
+                continue
+            stamp[a, b] = mark
+            if _predict(grid, oi, oj, i, j, &guess[n, 0], &guess[n, 1], &step[n]):
+                keys[n, 0] = i
+                keys[n, 1] = j
+                n += 1
     return n
 
 
@@ -253,3 +252,113 @@ def seed_cross(const double[:, ::1] points, const double[::1] theta, const long[
                 return 0
     theta0[0] = t0
     return nodes
+
+
+cdef inline long _nearest(const double[:, ::1] points, const long[::1] start, const long[::1] items, long nx, long ny,
+                          double cell, double x, double y, double reach) noexcept nogil:
+    """The candidate nearest (x, y) if it lies within ``reach`` (Euclidean, as a k-d tree
+    measures it), else -1; candidates are bucketed in square cells of side ``cell``
+    (``items[start[c]:start[c + 1]]`` in cell ``c = cy nx + cx``)."""
+    cdef long cx0 = <long>floor((x - reach) / cell), cx1 = <long>floor((x + reach) / cell)
+    cdef long cy0 = <long>floor((y - reach) / cell), cy1 = <long>floor((y + reach) / cell)
+    cdef long cx, cy, c, best = -1, n
+    cdef Py_ssize_t q
+    cdef double dx, dy, d, best_d = 0.0
+    if cx0 < 0:
+        cx0 = 0
+    if cy0 < 0:
+        cy0 = 0
+    if cx1 > nx - 1:
+        cx1 = nx - 1
+    if cy1 > ny - 1:
+        cy1 = ny - 1
+    for cy in range(cy0, cy1 + 1):
+        for cx in range(cx0, cx1 + 1):
+            c = cy * nx + cx
+            for q in range(start[c], start[c + 1]):
+                n = items[q]
+                dx = points[0, n] - x
+                dy = points[1, n] - y
+                d = sqrt(dx * dx + dy * dy)
+                if d < reach and (best < 0 or d < best_d or (d == best_d and n < best)):
+                    best, best_d = n, d
+    return best
+
+
+def grow(double[:, :, ::1] grid, long oi, long oj, int[:, ::1] stamp, long[:, ::1] order, long[:, ::1] fresh,
+         long[::1] state, long max_nodes, const double[:, ::1] points, const long[::1] start, const long[::1] items,
+         long nx, long ny, double cell, const float[:, :] smooth, int level, double width, double height,
+         double theta0, double ring_fraction, double snap_fraction, double min_score, double parity_cos,
+         long[:, ::1] keys, double[:, ::1] guess, double[::1] step):
+    """The growth rounds of :func:`graphpose.detect.lattice._grow`, compiled.
+
+    ``order`` holds the nodes' keys in the order they joined, ``fresh`` those the next round
+    starts from; ``state`` is ``(len(order), len(fresh), full, mark)``, updated here. Each
+    round predicts the free neighbours (:func:`predict_round`, into the scratch ``keys``,
+    ``guess``, ``step``), keeps those whose prediction lies inside the image by the ring's
+    margin and whose point (the nearest candidate within ``snap_fraction`` of the step,
+    else the prediction) passes the ring test with its key's parity, and adds them to
+    ``grid`` and ``order``. Returns 0 when growth has ended, 1 when a new node lies within
+    one key of the grid's edge (grow the grid, then call again).
+    """
+    cdef long n_order = state[0], n_fresh = state[1], full = state[2]
+    cdef int mark = <int>state[3]
+    cdef Py_ssize_t n, q, r, good
+    cdef long a, b, cand, ni = grid.shape[0], nj = grid.shape[1]
+    cdef double s = 1 << level, margin, qx, qy, x, y, rad, score, th, contrast, c
+    cdef double ring[16]
+    cdef bint edge = False
+    with nogil:
+        while n_order < max_nodes:
+            if n_fresh == 0:
+                if full:
+                    break
+                for q in range(n_order):
+                    fresh[q, 0], fresh[q, 1] = order[q, 0], order[q, 1]
+                n_fresh, full = n_order, 1
+            mark += 1
+            n = predict_round(grid, oi, oj, fresh[:n_fresh], stamp, mark, keys, guess, step)
+            if n == 0:
+                if full:
+                    break
+                n_fresh = 0
+                continue
+            good = 0
+            for q in range(n):
+                margin = ring_fraction * step[q] + 1.0
+                if not (guess[q, 0] > margin and guess[q, 1] > margin and guess[q, 0] < width - 1 - margin
+                        and guess[q, 1] < height - 1 - margin):
+                    continue
+                cand = _nearest(points, start, items, nx, ny, cell, guess[q, 0], guess[q, 1], snap_fraction * step[q])
+                if cand >= 0:
+                    qx, qy = points[0, cand], points[1, cand]
+                else:
+                    qx, qy = guess[q, 0], guess[q, 1]
+                x = (qx - 0.5 * (s - 1)) / s
+                y = (qy - 0.5 * (s - 1)) / s
+                rad = ring_fraction * step[q] / s
+                for r in range(16):
+                    ring[r] = <float>_bilinear(smooth, x + rad * _COS[r], y + rad * _SIN[r])
+                _ring_score(ring, &score, &th, &contrast)
+                if not score > min_score:
+                    continue
+                c = cos(2 * (th - theta0))
+                if (keys[q, 0] + keys[q, 1]) % 2 == 0:
+                    if not c > parity_cos:
+                        continue
+                elif not c < -parity_cos:
+                    continue
+                a, b = keys[q, 0] - oi, keys[q, 1] - oj
+                grid[a, b, 0], grid[a, b, 1] = qx, qy
+                if a < 1 or b < 1 or a > ni - 2 or b > nj - 2:
+                    edge = True
+                order[n_order, 0], order[n_order, 1] = keys[q, 0], keys[q, 1]
+                fresh[good, 0], fresh[good, 1] = keys[q, 0], keys[q, 1]
+                n_order += 1
+                good += 1
+            n_fresh = good
+            full = full and good == 0
+            if edge:
+                break
+    state[0], state[1], state[2], state[3] = n_order, n_fresh, full, mark
+    return 1 if edge else 0

@@ -89,6 +89,7 @@ def grow_lattices(cands: Candidates, *, max_seeds: int = 60, max_nodes: int = 20
     if cands.points.shape[1] < 3:
         return
     tree = cKDTree(cands.points.T)
+    buckets = _buckets(cands.points)
     taken = ~cands.seed
     tried = 0
     order = np.argsort(cands.strength)[::-1]
@@ -110,7 +111,7 @@ def grow_lattices(cands: Candidates, *, max_seeds: int = 60, max_nodes: int = 20
             yield strength, None
             continue
         nodes, theta0 = cross
-        nodes = peel(_grow(cands, tree, nodes, theta0, max_nodes))
+        nodes = peel(_grow(cands, buckets, nodes, theta0, max_nodes))
         if len(nodes) < min_nodes:
             yield strength, None
             continue
@@ -179,10 +180,10 @@ class KeyGrid:
         self.array = np.full((shape[0], shape[1], 2), np.nan)
         self.array[K[:, 0] - self.origin[0], K[:, 1] - self.origin[1]] = np.array(list(nodes.values()), dtype=float)
 
-    def put(self, keys: np.ndarray, points: np.ndarray) -> None:
-        """Set nodes at keys (n, 2) to positions (2, n), the array grown (by ``2 reach``) where
-        a key would come within one key of its edge, so that every free neighbour of a node
-        lies on it (as :func:`_grow`'s compiled predictions need)."""
+    def cover(self, keys: np.ndarray) -> None:
+        """Grow the array (by ``2 reach`` keys) where any of ``keys`` (n, 2) would lie within
+        one key of its edge, so that every free neighbour of a node lies on it (as the
+        compiled growth needs)."""
         if not len(keys):
             return
         idx = keys - self.origin
@@ -194,8 +195,6 @@ class KeyGrid:
             start = self.origin - lo
             array[start[0]:start[0] + shape[0], start[1]:start[1] + shape[1]] = self.array
             self.array, self.origin = array, lo
-            idx = keys - self.origin
-        self.array[idx[:, 0], idx[:, 1]] = np.asarray(points, dtype=float).T
 
     def at(self, keys: np.ndarray) -> np.ndarray:
         """Positions (2, n) of keys (n, 2); NaN where there is no node."""
@@ -252,48 +251,46 @@ def _parity_ok(theta, theta0, parity):
     return np.where(parity == 0, c > PARITY_COS, c < -PARITY_COS)
 
 
-def _grow(cands: Candidates, tree: cKDTree, nodes: dict, theta0: float, max_nodes: int) -> dict:
+def _grow(cands: Candidates, buckets: tuple, nodes: dict, theta0: float, max_nodes: int) -> dict:
     """Grow ``nodes`` ring by ring until no free neighbouring key passes (see the module).
 
     Each round looks only at the free neighbours of the nodes added in the round before
     (a key refused once is looked at again when a new neighbour can predict it better);
     when that adds nothing, one round looks at every free neighbour, whose predictions
-    now rest on more of the lattice. A round's predictions are one compiled call
-    (:func:`predict` for each of those keys, in order).
+    now rest on more of the lattice. A prediction snaps to the nearest candidate within
+    :data:`SNAP_FRACTION` of the local step (``buckets``: :func:`_buckets`). The rounds are
+    one compiled call (``_lattice.grow``), again only when the lattice outgrows its grid.
     """
-    grid = KeyGrid(nodes)
-    order = list(nodes)
+    grid = KeyGrid(nodes, reach=8)
+    start_keys = np.array(list(nodes), dtype=np.int64)
+    capacity = 5 * max(max_nodes, len(nodes)) + 8
+    order, fresh = np.zeros((capacity, 2), dtype=np.int64), np.zeros((capacity, 2), dtype=np.int64)
+    order[:len(start_keys)] = fresh[:len(start_keys)] = start_keys
+    keys, guess, step = np.empty((4 * capacity, 2), dtype=np.int64), np.empty((4 * capacity, 2)), np.empty(4 * capacity)
+    state = np.array([len(start_keys), len(start_keys), 0, 0], dtype=np.int64)
     height, width = cands.view.shape
-    fresh, full = np.array(order, dtype=np.int64), False
-    stamp, mark = None, 0
-    while len(order) < max_nodes:
-        if not len(fresh):
-            if full:
-                break
-            fresh, full = np.array(order, dtype=np.int64), True
-        if stamp is None or stamp.shape != grid.array.shape[:2]:
-            stamp = np.zeros(grid.array.shape[:2], dtype=np.int32)
-        mark += 1
-        keys, guess, step = np.empty((4 * len(fresh), 2), dtype=np.int64), np.empty((4 * len(fresh), 2)), np.empty(4 * len(fresh))
-        count = _lattice.predict_round(grid.array, int(grid.origin[0]), int(grid.origin[1]), fresh, stamp, mark,
-                                       keys, guess, step)
-        if not count:
-            if full:
-                break
-            fresh = fresh[:0]
-            continue
-        keys, P, step = keys[:count], guess[:count].T, step[:count]
-        margin = RING_FRACTION * step + 1.0
-        inside = (P[0] > margin) & (P[1] > margin) & (P[0] < width - 1 - margin) & (P[1] < height - 1 - margin)
-        dist, idx = tree.query(P.T)
-        snap = dist < SNAP_FRACTION * step
-        Q = np.where(snap, cands.points[:, np.minimum(idx, cands.points.shape[1] - 1)], P)
-        score, theta, _ = cands.view.ring_test(Q, RING_FRACTION * step)
-        parity = keys.sum(axis=1) % 2
-        good = np.flatnonzero(inside & (score > MIN_SCORE) & _parity_ok(theta, theta0, parity))
-        fresh = keys[good]
-        full = full and not len(fresh)
-        grid.put(fresh, Q[:, good])
-        order.extend(map(tuple, fresh.tolist()))
-    rows = grid.at(np.array(order, dtype=np.int64)).T.copy()
-    return {key: rows[k] for k, key in enumerate(order)}
+    start, items, nx, ny, cell = buckets
+    while True:
+        stamp = np.zeros(grid.array.shape[:2], dtype=np.int32)
+        if not _lattice.grow(grid.array, int(grid.origin[0]), int(grid.origin[1]), stamp, order, fresh, state,
+                             max_nodes, cands.points, start, items, nx, ny, cell, cands.view.smooth, cands.view.level,
+                             float(width), float(height), float(theta0), RING_FRACTION, SNAP_FRACTION, MIN_SCORE,
+                             PARITY_COS, keys, guess, step):
+            break
+        grid.cover(order[:state[0]])
+    order = order[:state[0]]
+    rows = grid.at(order).T.copy()
+    return {key: rows[k] for k, key in enumerate(map(tuple, order.tolist()))}
+
+
+def _buckets(points: np.ndarray, cell: float = 16.0) -> tuple:
+    """Candidates (2, N) sorted into square cells of ``cell`` pixels, for the growth's
+    nearest-candidate look-ups: ``(start, items, nx, ny, cell)``, the candidates of cell
+    ``cy nx + cx`` being ``items[start[c]:start[c + 1]]``."""
+    cx = np.floor(np.maximum(points[0], 0.0) / cell).astype(np.int64)
+    cy = np.floor(np.maximum(points[1], 0.0) / cell).astype(np.int64)
+    nx, ny = int(cx.max()) + 1, int(cy.max()) + 1
+    c = cy * nx + cx
+    items = np.argsort(c, kind="stable").astype(np.int64)
+    start = np.searchsorted(c[items], np.arange(nx * ny + 1)).astype(np.int64)
+    return start, items, nx, ny, float(cell)

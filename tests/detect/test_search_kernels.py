@@ -182,7 +182,7 @@ def test_a_growth_round_predicts_each_free_neighbour_once_in_order():
 
 def test_growth_keeps_the_grid_growing_past_its_first_box():
     # A board of 30 x 5 squares: its lattice (29 x 4 junctions) grows far beyond the seed's
-    # key box (KeyGrid.put regrows it), and every junction is found once, where it is.
+    # key box (KeyGrid.cover regrows it between compiled calls), and every junction is found once, where it is.
     u, v = np.meshgrid(np.arange(720.0), np.arange(170.0))
     image = np.where((np.floor((u - 20.3) / 22) + np.floor((v - 30.6) / 22)) % 2 == 0, 200, 40).astype(np.uint8)
     image[:, :20] = image[:, 20 + 660:] = image[:30] = image[30 + 110:] = 120
