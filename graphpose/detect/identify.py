@@ -49,6 +49,7 @@ import numpy as np
 
 from ..board import Board
 from ..errors import BoardNotFoundError
+from . import _identify
 from .grid import fit_homography
 from .lattice import Lattice, step_lengths
 from .search import SearchImage
@@ -73,6 +74,8 @@ MIN_PARTIAL_STEP_PX = 12.0
 FLAT_SIDE = 0.75
 #: Sides, as (lattice axis, direction).
 SIDES = ((0, -1), (0, 1), (1, -1), (1, 1))
+#: The compiled verdicts' names.
+_VERDICTS = {_identify.UNKNOWN: "unknown", _identify.CONTINUES: "continues", _identify.EDGE: "edge"}
 
 
 @dataclass(frozen=True)
@@ -255,44 +258,19 @@ def _side(view, nodes, side, dark_parity, mid, contrast) -> str:
     steps = np.hypot(step[:, 0], step[:, 1])
     P = edge[:, :, None] + step[:, :, None] * depths  # (m, 2, depths)
     height, width = view.shape
-    inside = (P[:, 0] >= 0) & (P[:, 1] >= 0) & (P[:, 0] <= width - 1) & (P[:, 1] <= height - 1)
-    value = _grey(view, P.transpose(1, 0, 2).reshape(2, -1), np.median(steps))
-    value = value.reshape(inside.shape)
-    # +1 for the dark squares' grey, -1 for the light ones'; outside the image, NaN.
-    dark = np.where(inside, np.clip((mid - value) / (0.5 * contrast), -1.0, 1.0), np.nan)
-    expect = np.array(expect)
-    outer = dark[:, 0] * expect
-    square = np.floor(depths).astype(int)
-    if np.sum(np.isfinite(outer)) < 2 or np.nanmean(outer > ALTERNATES) < 0.75:
-        return "unknown"
-    # Square k beyond the outer one has the outer square's colour times (-1)^k; pairs of
-    # neighbouring rows on the side differ in darkness by the pattern where it goes on.
-    rows = np.array(rows)
-    pairs = np.flatnonzero(np.diff(rows) == 1)
-    sign = np.where(square % 2 == 1, -1.0, 1.0)
-    pair = 0.5 * (dark[pairs] - dark[pairs + 1]) * expect[pairs, None] * sign
-    # A pair speaks of square k where two of its depths there lie in the image.
-    per_square = {}
-    for k in (1, 2, 3):
-        seen = np.isfinite(pair[:, square == k])
-        total = np.where(seen, pair[:, square == k], 0.0).sum(axis=1)
-        per_square[k] = np.where(seen.sum(axis=1) >= 2, total / np.maximum(seen.sum(axis=1), 1), np.nan)
-    first = per_square[1]
-    if not np.any(np.isfinite(first)):
-        return "unknown"
-    if np.nanmean(first) > ALTERNATES:
-        return "continues"
-    # An edge is plain across the square beyond it (one pair in four may catch clutter),
-    # and the squares do not come back farther out (a bar or a fold lying across the
-    # board would show them again, along much of the side).
-    valid = np.isfinite(first)
-    if not (np.nanmean(first) < PLAIN and np.sum(first[valid] > ALTERNATES) <= valid.sum() // 4):
-        return "unknown"
-    for k in (2, 3):
-        later = per_square[k][np.isfinite(per_square[k])]
-        if later.size and (later.mean() > PLAIN or np.sum(later > ALTERNATES) > max(1, later.size // 3)):
-            return "unknown"
-    return "edge"
+    value = _grey(view, P.transpose(1, 0, 2).reshape(2, -1), np.median(steps)).reshape(len(rows), depths.size)
+    # Each sample as +1 for the dark squares' grey, -1 for the light ones' (NaN outside the
+    # image); the outer band must alternate with the lattice's colours. Square k beyond the
+    # outer one has the outer square's colour times (-1)^k: pairs of neighbouring rows on
+    # the side differ in darkness by the pattern where the board goes on, and a pair speaks
+    # of square k where two of its depths there lie in the image. An edge is plain across
+    # the square beyond it (one pair in four may catch clutter), and the squares do not come
+    # back farther out (a bar or a fold lying across the board would show them again, along
+    # much of the side). One compiled call (``_identify.side_verdict``).
+    verdict = _identify.side_verdict(np.ascontiguousarray(P), value, np.array(expect), np.array(rows, dtype=np.int64),
+                                     np.floor(depths).astype(np.int64), float(width), float(height), float(mid),
+                                     float(contrast), ALTERNATES, PLAIN)
+    return _VERDICTS[verdict]
 
 
 def _grey(view, points, step) -> np.ndarray:

@@ -245,3 +245,58 @@ def test_the_seed_cross_picks_the_arms_the_plain_loop_picks():
             assert tuple(arms) == want_arms
             found += 1
     assert 20 < found < 200  # crosses found and refused, both
+
+
+def side_reference(P, value, expect, rows, depths, width, height, mid, contrast, alternates=0.5, plain=0.35):
+    """identify's verdict on one side from its samples, in NumPy."""
+    inside = (P[:, 0] >= 0) & (P[:, 1] >= 0) & (P[:, 0] <= width - 1) & (P[:, 1] <= height - 1)
+    dark = np.where(inside, np.clip((mid - value) / (0.5 * contrast), -1.0, 1.0), np.nan)
+    outer = dark[:, 0] * expect
+    square = np.floor(depths).astype(int)
+    if np.sum(np.isfinite(outer)) < 2 or np.mean(outer > alternates) < 0.75:
+        return 0
+    pairs = np.flatnonzero(np.diff(rows) == 1)
+    pair = 0.5 * (dark[pairs] - dark[pairs + 1]) * expect[pairs, None] * np.where(square % 2 == 1, -1.0, 1.0)
+    per = {}
+    for k in (1, 2, 3):
+        seen = np.isfinite(pair[:, square == k])
+        total = np.where(seen, pair[:, square == k], 0.0).sum(axis=1)
+        per[k] = np.where(seen.sum(axis=1) >= 2, total / np.maximum(seen.sum(axis=1), 1), np.nan)
+    first = per[1][np.isfinite(per[1])]
+    if not first.size:
+        return 0
+    if first.mean() > alternates:
+        return 1
+    if not (first.mean() < plain and np.sum(first > alternates) <= first.size // 4):
+        return 0
+    for k in (2, 3):
+        later = per[k][np.isfinite(per[k])]
+        if later.size and (later.mean() > plain or np.sum(later > alternates) > max(1, later.size // 3)):
+            return 0
+    return 2
+
+
+def test_the_side_verdict_is_the_plain_one_on_random_sides():
+    from graphpose.detect import _identify
+    from graphpose.detect.identify import BEYOND_DEPTHS, OUTER_DEPTH, RESUME_DEPTHS
+
+    rng = np.random.default_rng(6)
+    depths = np.array((OUTER_DEPTH,) + BEYOND_DEPTHS + RESUME_DEPTHS)
+    verdicts = []
+    for trial in range(400):
+        m = int(rng.integers(2, 10))
+        rows = np.sort(rng.choice(12, m, replace=False)).astype(np.int64) if rng.random() < 0.3 else np.arange(m)
+        expect = np.where(np.arange(m) % 2 == 0, 1.0, -1.0)
+        # Dark where the pattern says, to a degree: a board going on, an edge, or clutter.
+        colour = expect[:, None] * np.where(np.floor(depths) % 2 == 1, -1.0, 1.0)
+        kind = rng.integers(3)
+        pattern = np.where(np.floor(depths) == 0, 1.0, [1.0, 0.0, rng.uniform(-1, 1)][kind])
+        value = 120.0 - 80.0 * colour * pattern + rng.normal(0, rng.choice([5.0, 40.0]), (m, depths.size))
+        edge = rng.uniform(-40, 140, (m, 2))
+        step = rng.uniform(10, 40, (m, 2)) * rng.choice([-1, 1], 2)
+        P = np.ascontiguousarray(edge[:, :, None] + step[:, :, None] * depths)
+        got = _identify.side_verdict(P, value, expect, rows, np.floor(depths).astype(np.int64), 160.0, 120.0, 120.0,
+                                     160.0, 0.5, 0.35)
+        assert got == side_reference(P, value, expect, rows, depths, 160.0, 120.0, 120.0, 160.0), trial
+        verdicts.append(got)
+    assert set(verdicts) == {0, 1, 2}
