@@ -60,39 +60,47 @@ def ring_patches(const float[:, :, :] patches, const double[::1] x, const double
             _ring_score(ring, &score[k], &theta[k], &contrast[k])
 
 
-def saddle_peaks(const float[:, ::1] S, float[:, ::1] r, float[:, ::1] rowmax, long[::1] rows, long[::1] cols):
+def saddle_peaks(const float[:, ::1] S, float[:, ::1] r, float[:, ::1] rowmax, unsigned char[:, ::1] peak):
     """The saddle response of :func:`graphpose.detect.search.find_candidates` and its peaks.
 
     ``r`` (h - 2, w - 2) gets ``Ixy^2 - Ixx Iyy`` of the smoothed image ``S`` (h, w) at its
     interior pixels, in float32 with NumPy's order of operations (``Ixx = (S[x+1] - 2 S) +
     S[x-1]``, ``Ixy = 0.25 (((S[+,+] - S[+,-]) - S[-,+]) + S[-,-])``); ``rowmax`` (as ``r``)
-    is scratch for its 1 x 3 maxima; ``rows``/``cols`` (each at least r's pixel count long)
-    get the pixels of ``r`` above 0 that no pixel of their 3 x 3 neighbourhood (edges
-    repeated) exceeds, row-major. Returns their count.
+    is scratch for its 1 x 3 maxima; ``peak`` (as ``r``) gets 1 at the pixels of ``r`` above
+    0 that no pixel of their 3 x 3 neighbourhood (edges repeated) exceeds, else 0. Each row
+    is a plain loop over contiguous floats, which the compiler vectorises.
     """
-    cdef Py_ssize_t h = r.shape[0], w = r.shape[1], i, j, n = 0, i0, i1
+    cdef Py_ssize_t h = r.shape[0], w = r.shape[1], i, j
+    cdef const float *s0
+    cdef const float *s1
+    cdef const float *s2
+    cdef float *ri
+    cdef float *mi
+    cdef const float *m0
+    cdef const float *m2
+    cdef unsigned char *pi
     cdef float ixx, iyy, ixy, c, m, two = 2.0, quarter = 0.25
+    if h < 1 or w < 1:
+        return
     with nogil:
         for i in range(h):
+            s0, s1, s2, ri, mi = &S[i, 0], &S[i + 1, 0], &S[i + 2, 0], &r[i, 0], &rowmax[i, 0]
             for j in range(w):
-                ixx = (S[i + 1, j + 2] - two * S[i + 1, j + 1]) + S[i + 1, j]
-                iyy = (S[i + 2, j + 1] - two * S[i + 1, j + 1]) + S[i, j + 1]
-                ixy = quarter * (((S[i + 2, j + 2] - S[i + 2, j]) - S[i, j + 2]) + S[i, j])
-                r[i, j] = ixy * ixy - ixx * iyy
-            for j in range(w):
-                m = r[i, j]
-                if j > 0 and r[i, j - 1] > m:
-                    m = r[i, j - 1]
-                if j + 1 < w and r[i, j + 1] > m:
-                    m = r[i, j + 1]
-                rowmax[i, j] = m
+                ixx = (s1[j + 2] - two * s1[j + 1]) + s1[j]
+                iyy = (s2[j + 1] - two * s1[j + 1]) + s0[j + 1]
+                ixy = quarter * (((s2[j + 2] - s2[j]) - s0[j + 2]) + s0[j])
+                ri[j] = ixy * ixy - ixx * iyy
+            mi[0] = ri[0] if w == 1 or ri[0] >= ri[1] else ri[1]
+            for j in range(1, w - 1):
+                m = ri[j - 1] if ri[j - 1] > ri[j] else ri[j]
+                mi[j] = m if m >= ri[j + 1] else ri[j + 1]
+            if w > 1:
+                mi[w - 1] = ri[w - 1] if ri[w - 1] >= ri[w - 2] else ri[w - 2]
         for i in range(h):
-            i0 = i - 1 if i > 0 else 0
-            i1 = i + 1 if i + 1 < h else h - 1
+            ri, pi = &r[i, 0], &peak[i, 0]
+            m0 = &rowmax[i - 1 if i > 0 else 0, 0]
+            mi = &rowmax[i, 0]
+            m2 = &rowmax[i + 1 if i + 1 < h else h - 1, 0]
             for j in range(w):
-                c = r[i, j]
-                if c > 0 and rowmax[i, j] <= c and rowmax[i0, j] <= c and rowmax[i1, j] <= c:
-                    rows[n] = i
-                    cols[n] = j
-                    n += 1
-    return n
+                c = ri[j]
+                pi[j] = (c > 0) & (mi[j] <= c) & (m0[j] <= c) & (m2[j] <= c)

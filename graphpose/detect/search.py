@@ -318,10 +318,10 @@ def _response_peaks(S: np.ndarray):
     h, w = S.shape[0] - 2, S.shape[1] - 2
     if h < 1 or w < 1:
         return np.zeros((max(h, 0), max(w, 0)), np.float32), np.zeros(0, np.int64), np.zeros(0, np.int64)
-    r, scratch = np.empty((h, w), np.float32), np.empty((h, w), np.float32)
-    rows, cols = np.empty(h * w, np.int64), np.empty(h * w, np.int64)
-    n = _search.saddle_peaks(np.ascontiguousarray(S, dtype=np.float32), r, scratch, rows, cols)
-    return r, rows[:n], cols[:n]
+    r, scratch, peak = np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w), np.uint8)
+    _search.saddle_peaks(np.ascontiguousarray(S, dtype=np.float32), r, scratch, peak)
+    rows, cols = np.nonzero(peak)
+    return r, rows, cols
 
 
 def _threshold(r: np.ndarray, ys: np.ndarray, xs: np.ndarray, floor: float = 0.0):
