@@ -9,7 +9,7 @@ it replaces, in the same order, so the positions are the same to the last bit.
 
 from libc.math cimport hypot, cos, fabs, floor, sqrt, M_PI
 
-from graphpose.detect._sampling cimport _COS, _SIN, _bilinear, _ring_score
+from graphpose.detect._sampling cimport _median, _ring_at
 
 cdef int _DI[4]
 cdef int _DJ[4]
@@ -63,14 +63,7 @@ cdef inline bint _predict(const double[:, :, ::1] grid, long oi, long oj, long i
                     n += 1
     if n == 0:
         return False
-    for p in range(1, n):  # insertion sort of at most 8 steps
-        t = steps[p]
-        q = p - 1
-        while q >= 0 and steps[q] > t:
-            steps[q + 1] = steps[q]
-            q -= 1
-        steps[q + 1] = t
-    step[0] = steps[n // 2] if n % 2 else 0.5 * (steps[n // 2 - 1] + steps[n // 2])
+    step[0] = _median(steps, n)
     pu[0] = su / n
     pv[0] = sv / n
     return True
@@ -193,7 +186,6 @@ def seed_cross(const double[:, ::1] points, const double[::1] theta, const long[
     cdef long pick[4]
     cdef long node[5]
     cdef double d[4]
-    cdef double ring[16]
     cdef double score, th, contrast, t0, step, t, x, y, rad, s = 1 << level, c
     cdef Py_ssize_t m = nb.shape[0], n, q, p, r, count = 0, nodes
     cdef double cu = points[0, k], cv = points[1, k]
@@ -220,14 +212,7 @@ def seed_cross(const double[:, ::1] points, const double[::1] theta, const long[
         if pick[q] >= 0:
             d[p] = length[pick[q]]
             p += 1
-    for q in range(1, p):
-        t = d[q]
-        r = q - 1
-        while r >= 0 and d[r] > t:
-            d[r + 1] = d[r]
-            r -= 1
-        d[r + 1] = t
-    step = d[p // 2] if p % 2 else (d[p // 2 - 1] + d[p // 2]) / 2
+    step = _median(d, <int>p)
     # The ring test at the seed and its arms: every one a cross-junction, of the parity its key demands.
     node[0] = k
     p = 1
@@ -239,9 +224,7 @@ def seed_cross(const double[:, ::1] points, const double[::1] theta, const long[
     for q in range(p):
         x = (points[0, node[q]] - 0.5 * (s - 1)) / s
         y = (points[1, node[q]] - 0.5 * (s - 1)) / s
-        for r in range(16):
-            ring[r] = <float>_bilinear(smooth, x + rad * _COS[r], y + rad * _SIN[r])
-        _ring_score(ring, &score, &th, &contrast)
+        _ring_at(smooth, x, y, rad, &score, &th, &contrast)
         if score < min_score:
             return 0
         if q == 0:
@@ -306,7 +289,6 @@ def grow(double[:, :, ::1] grid, long oi, long oj, int[:, ::1] stamp, long[:, ::
     cdef Py_ssize_t n, q, r, good
     cdef long a, b, cand, ni = grid.shape[0], nj = grid.shape[1]
     cdef double s = 1 << level, margin, qx, qy, x, y, rad, score, th, contrast, c
-    cdef double ring[16]
     cdef bint edge = False
     with nogil:
         while n_order < max_nodes:
@@ -337,9 +319,7 @@ def grow(double[:, :, ::1] grid, long oi, long oj, int[:, ::1] stamp, long[:, ::
                 x = (qx - 0.5 * (s - 1)) / s
                 y = (qy - 0.5 * (s - 1)) / s
                 rad = ring_fraction * step[q] / s
-                for r in range(16):
-                    ring[r] = <float>_bilinear(smooth, x + rad * _COS[r], y + rad * _SIN[r])
-                _ring_score(ring, &score, &th, &contrast)
+                _ring_at(smooth, x, y, rad, &score, &th, &contrast)
                 if not score > min_score:
                     continue
                 c = cos(2 * (th - theta0))

@@ -79,3 +79,29 @@ cdef inline void _ring_score(double *ring, double *score, double *theta, double 
     contrast[0] = hi - lo
 
 
+
+
+cdef inline void _ring_at(const float[:, :] a, double x, double y, double radius, double *score, double *theta,
+                          double *contrast) noexcept nogil:
+    """The ring test on ``a`` around column ``x``, row ``y`` at ``radius`` (pixels of ``a``):
+    16 bilinear samples, each rounded to float32 (as ``map_coordinates`` on a float32 image
+    gives them), then :func:`_ring_score`."""
+    cdef double ring[16]
+    cdef int q
+    for q in range(16):
+        ring[q] = <float>_bilinear(a, x + radius * _COS[q], y + radius * _SIN[q])
+    _ring_score(ring, score, theta, contrast)
+
+
+cdef inline double _median(double *v, int n) noexcept nogil:
+    """Median of ``v[:n]`` (n >= 1; mean of the middle two for even n), sorting ``v`` in place."""
+    cdef int p, q
+    cdef double t
+    for p in range(1, n):  # insertion sort: n is a handful
+        t = v[p]
+        q = p - 1
+        while q >= 0 and v[q] > t:
+            v[q + 1] = v[q]
+            q -= 1
+        v[q + 1] = t
+    return v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2])

@@ -5,7 +5,7 @@ Bilinear sampling and the ring test's arithmetic are ``_sampling.pxd``'s (shared
 ``_lattice.pyx``). The callers have checked shapes and lengths.
 """
 
-from graphpose.detect._sampling cimport grey_t, _COS, _SIN, _bilinear, _ring_score
+from graphpose.detect._sampling cimport grey_t, _bilinear, _ring_at
 
 
 def bilinear(const grey_t[:, :] a, const double[::1] x, const double[::1] y, double[::1] out):
@@ -36,28 +36,20 @@ def ring_image(const float[:, :] a, const double[::1] x, const double[::1] y, co
                double[::1] score, double[::1] theta, double[::1] contrast):
     """The ring test at centres (``x[k]``, ``y[k]``) of ``a``, radius ``radius[k]``, all in
     ``a``'s pixels."""
-    cdef double ring[16]
     cdef Py_ssize_t k
-    cdef int q
     with nogil:
         for k in range(x.shape[0]):
-            for q in range(16):
-                ring[q] = <float>_bilinear(a, x[k] + radius[k] * _COS[q], y[k] + radius[k] * _SIN[q])
-            _ring_score(ring, &score[k], &theta[k], &contrast[k])
+            _ring_at(a, x[k], y[k], radius[k], &score[k], &theta[k], &contrast[k])
 
 
 def ring_patches(const float[:, :, :] patches, const double[::1] x, const double[::1] y, const double[::1] radius,
                  double[::1] score, double[::1] theta, double[::1] contrast):
     """The ring test of patch ``k`` of a stack (m, h, w) at its own column ``x[k]``, row
     ``y[k]``, radius ``radius[k]``, in patch pixels."""
-    cdef double ring[16]
     cdef Py_ssize_t k
-    cdef int q
     with nogil:
         for k in range(x.shape[0]):
-            for q in range(16):
-                ring[q] = <float>_bilinear(patches[k], x[k] + radius[k] * _COS[q], y[k] + radius[k] * _SIN[q])
-            _ring_score(ring, &score[k], &theta[k], &contrast[k])
+            _ring_at(patches[k], x[k], y[k], radius[k], &score[k], &theta[k], &contrast[k])
 
 
 def saddle_peaks(const float[:, ::1] S, float[:, ::1] r, float[:, ::1] rowmax, unsigned char[:, ::1] peak):
