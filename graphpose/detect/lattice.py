@@ -24,8 +24,8 @@ from scipy.spatial import cKDTree
 from skimage.measure import points_in_poly
 
 from ..errors import BoardNotFoundError
-from .grid import fit_homography
 from . import _lattice
+from .grid import fit_homography
 from .search import Candidates
 
 _STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))

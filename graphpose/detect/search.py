@@ -20,6 +20,12 @@ step along a grid line swaps bright and dark, so neighbours along a line have ``
 90 degrees apart and diagonal neighbours the same ``theta``: the parity that
 :mod:`graphpose.detect.lattice` checks.
 
+The lattice and the identification read the image through one sampling context,
+:class:`SearchImage` (the smoothed search level and the full image, with their bilinear
+samples and the ring test), which :class:`Candidates` carries as ``view``; the same ring
+test on a stack of patches (the refinement's) is :func:`ring_test_patches`. The loops are compiled
+(``_search.pyx``, with ``_sampling.pxd``): one call per batch of points.
+
 Coordinates follow :mod:`graphpose.geometry`: full-image pixels ``(u, v)``, 2 x N arrays.
 """
 
