@@ -180,7 +180,7 @@ def _search(image, board, bounds, region, level, noise=None, again=False) -> Fou
         if lattice is None or any(_overlaps(lattice, other) for other, _ in labelled):
             continue
         try:
-            identity = identify(lattice, cands, board, bounds)
+            identity = identify(lattice, cands.view, board, bounds)
         except BoardNotFoundError as exc:
             refused.append(BoardNotFoundError(str(exc), junctions_seen=len(lattice.keys)))
             continue

@@ -49,9 +49,10 @@ import numpy as np
 
 from ..board import Board
 from ..errors import BoardNotFoundError
+from . import _identify
 from .grid import fit_homography
 from .lattice import Lattice, step_lengths
-from .search import Candidates, sample, sample_fine
+from .search import SearchImage
 
 #: Proper rotations M of lattice keys to board (c, r) = M (i, j) + t.
 ROTATIONS = (np.array([[1, 0], [0, 1]]), np.array([[0, -1], [1, 0]]),
@@ -73,6 +74,8 @@ MIN_PARTIAL_STEP_PX = 12.0
 FLAT_SIDE = 0.75
 #: Sides, as (lattice axis, direction).
 SIDES = ((0, -1), (0, 1), (1, -1), (1, 1))
+#: The compiled verdicts' names.
+_VERDICTS = {_identify.UNKNOWN: "unknown", _identify.CONTINUES: "continues", _identify.EDGE: "edge"}
 
 
 @dataclass(frozen=True)
@@ -107,15 +110,16 @@ class Identity:
     junction0_square: str
 
 
-def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> Identity:
+def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> Identity:
     """Label a lattice with board junction indices, or refuse.
 
     Parameters
     ----------
     lattice : Lattice
         Grown by :func:`graphpose.detect.lattice.grow_lattices`.
-    cands : Candidates
-        The search the lattice grew from (its smoothed image is sampled).
+    view : SearchImage
+        The images the lattice's candidates were found in (:attr:`Candidates.view
+        <graphpose.detect.search.Candidates>`): the evidence is sampled there.
     board : Board
         The spec: ``cols x rows`` inner junctions.
     bounds : (2, 4) ndarray, optional
@@ -142,8 +146,8 @@ def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> 
         raise BoardNotFoundError(
             f"only part of the board is seen ({len(lattice.keys)} of {board.n} junctions) and its squares "
             f"({step:.0f} px) are too small to tell its edges from something lying across it")
-    dark_parity, mid, contrast = _square_colours(cands, nodes)
-    sides = {side: _side(cands, nodes, side, dark_parity, mid, contrast) for side in SIDES}
+    dark_parity, mid, contrast = _square_colours(view, nodes)
+    sides = {side: _side(view, nodes, side, dark_parity, mid, contrast) for side in SIDES}
     keys = lattice.keys
     lo, hi = keys.min(axis=0), keys.max(axis=0)
     extent = hi - lo + 1
@@ -191,7 +195,7 @@ def board_to_lattice(identity: Identity, board: Board) -> np.ndarray:
 # ------------------------------------------------------------------------------ evidence
 
 
-def _square_colours(cands, nodes):
+def _square_colours(view, nodes):
     """(dark parity of ``i + j`` of a square's upper-left key, mid grey, dark-light contrast)."""
     keys = [(i, j) for (i, j) in nodes if (i + 1, j) in nodes and (i, j + 1) in nodes and (i + 1, j + 1) in nodes]
     if not keys:
@@ -199,7 +203,7 @@ def _square_colours(cands, nodes):
     centres = np.array([nodes[(i, j)] + nodes[(i + 1, j)] + nodes[(i, j + 1)] + nodes[(i + 1, j + 1)]
                         for i, j in keys]).T / 4
     step = np.median([np.hypot(*(nodes[(i + 1, j)] - nodes[(i, j)])) for i, j in keys])
-    value = _grey(cands, centres, step)
+    value = _grey(view, centres, step)
     parity = np.array([(i + j) % 2 for i, j in keys])
     even = np.median(value[parity == 0]) if np.any(parity == 0) else np.nan
     odd = np.median(value[parity == 1]) if np.any(parity == 1) else np.nan
@@ -210,7 +214,7 @@ def _square_colours(cands, nodes):
     return (0 if even < odd else 1), 0.5 * (even + odd), max(abs(odd - even), 1e-12)
 
 
-def _side(cands, nodes, side, dark_parity, mid, contrast) -> str:
+def _side(view, nodes, side, dark_parity, mid, contrast) -> str:
     """Evidence on one lattice side (see the module docstring).
 
     Along the side, every outer square is sampled once (it must have the colour the
@@ -229,7 +233,7 @@ def _side(cands, nodes, side, dark_parity, mid, contrast) -> str:
     def key(a, b):
         return (a, b) if axis == 0 else (b, a)
 
-    rows, points, expect, steps = [], [], [], []
+    rows, corners, expect = [], [], []
     depths = np.array((OUTER_DEPTH,) + BEYOND_DEPTHS + RESUME_DEPTHS)
     # An edge is a straight line of junctions: most lattice lines must reach it (a row that
     # stops short has its end hidden, and the side beyond says nothing of the board's edge).
@@ -239,67 +243,43 @@ def _side(cands, nodes, side, dark_parity, mid, contrast) -> str:
     if np.mean([end == extreme for end in lines.values()]) < FLAT_SIDE:
         return "unknown"
     for b in sorted(k[other] for k in nodes if k[axis] == extreme):
-        corners = [key(extreme, b), key(extreme, b + 1), key(extreme + inward, b), key(extreme + inward, b + 1)]
-        if not all(c in nodes for c in corners):
+        four = [key(extreme, b), key(extreme, b + 1), key(extreme + inward, b), key(extreme + inward, b + 1)]
+        if not all(c in nodes for c in four):
             continue
-        edge = 0.5 * (nodes[corners[0]] + nodes[corners[1]])
-        step = edge - 0.5 * (nodes[corners[2]] + nodes[corners[3]])  # one square outwards
         rows.append(b)
-        steps.append(np.hypot(*step))
-        points.append(edge[:, None] + step[:, None] * depths)
-        square = np.array(key(extreme + (direction - 1) // 2, b))  # upper-left key of the outer square
-        expect.append(1.0 if (square.sum() % 2) == dark_parity else -1.0)
+        corners.append([nodes[c] for c in four])
+        square = key(extreme + (direction - 1) // 2, b)  # upper-left key of the outer square
+        expect.append(1.0 if (square[0] + square[1]) % 2 == dark_parity else -1.0)
     if len(rows) < 2:
         return "unknown"
-    P = np.array(points)  # (m, 2, depths)
-    height, width = cands.shape
-    inside = (P[:, 0] >= 0) & (P[:, 1] >= 0) & (P[:, 0] <= width - 1) & (P[:, 1] <= height - 1)
-    value = _grey(cands, P.transpose(1, 0, 2).reshape(2, -1), np.median(steps))
-    value = value.reshape(inside.shape)
-    # +1 for the dark squares' grey, -1 for the light ones'; outside the image, NaN.
-    dark = np.where(inside, np.clip((mid - value) / (0.5 * contrast), -1.0, 1.0), np.nan)
-    expect = np.array(expect)
-    outer = dark[:, 0] * expect
-    square = np.floor(depths).astype(int)
-    if np.sum(np.isfinite(outer)) < 2 or np.nanmean(outer > ALTERNATES) < 0.75:
-        return "unknown"
-    # Square k beyond the outer one has the outer square's colour times (-1)^k; pairs of
-    # neighbouring rows on the side differ in darkness by the pattern where it goes on.
-    rows = np.array(rows)
-    pairs = np.flatnonzero(np.diff(rows) == 1)
-    sign = np.where(square % 2 == 1, -1.0, 1.0)
-    pair = 0.5 * (dark[pairs] - dark[pairs + 1]) * expect[pairs, None] * sign
-    # A pair speaks of square k where two of its depths there lie in the image.
-    per_square = {}
-    for k in (1, 2, 3):
-        seen = np.isfinite(pair[:, square == k])
-        total = np.where(seen, pair[:, square == k], 0.0).sum(axis=1)
-        per_square[k] = np.where(seen.sum(axis=1) >= 2, total / np.maximum(seen.sum(axis=1), 1), np.nan)
-    first = per_square[1]
-    if not np.any(np.isfinite(first)):
-        return "unknown"
-    if np.nanmean(first) > ALTERNATES:
-        return "continues"
-    # An edge is plain across the square beyond it (one pair in four may catch clutter),
-    # and the squares do not come back farther out (a bar or a fold lying across the
-    # board would show them again, along much of the side).
-    valid = np.isfinite(first)
-    if not (np.nanmean(first) < PLAIN and np.sum(first[valid] > ALTERNATES) <= valid.sum() // 4):
-        return "unknown"
-    for k in (2, 3):
-        later = per_square[k][np.isfinite(per_square[k])]
-        if later.size and (later.mean() > PLAIN or np.sum(later > ALTERNATES) > max(1, later.size // 3)):
-            return "unknown"
-    return "edge"
+    C = np.array(corners)  # (m, 4, 2): the two nodes on the side, then the two inwards
+    edge = 0.5 * (C[:, 0] + C[:, 1])
+    step = edge - 0.5 * (C[:, 2] + C[:, 3])  # one square outwards
+    steps = np.hypot(step[:, 0], step[:, 1])
+    P = edge[:, :, None] + step[:, :, None] * depths  # (m, 2, depths)
+    height, width = view.shape
+    value = _grey(view, P.transpose(1, 0, 2).reshape(2, -1), np.median(steps)).reshape(len(rows), depths.size)
+    # Each sample as +1 for the dark squares' grey, -1 for the light ones' (NaN outside the
+    # image); the outer band must alternate with the lattice's colours. Square k beyond the
+    # outer one has the outer square's colour times (-1)^k: pairs of neighbouring rows on
+    # the side differ in darkness by the pattern where the board goes on, and a pair speaks
+    # of square k where two of its depths there lie in the image. An edge is plain across
+    # the square beyond it (one pair in four may catch clutter), and the squares do not come
+    # back farther out (a bar or a fold lying across the board would show them again, along
+    # much of the side). One compiled call (``_identify.side_verdict``).
+    verdict = _identify.side_verdict(np.ascontiguousarray(P), value, np.array(expect), np.array(rows, dtype=np.int64),
+                                     np.floor(depths).astype(np.int64), float(width), float(height), float(mid),
+                                     float(contrast), ALTERNATES, PLAIN)
+    return _VERDICTS[verdict]
 
 
-def _grey(cands, points, step) -> np.ndarray:
+def _grey(view, points, step) -> np.ndarray:
     """Grey levels at full-image points: from the search's smoothed image where squares are
     large (its smoothing is then a small part of a square), else from the full image over a
     few pixels (its smoothing would blur a small square into its neighbours)."""
-    if step >= 24 * 2 ** (cands.level - 1):
-        return sample(cands, points)
-    return sample_fine(cands, points, reach=max(0.5, 0.08 * step))
+    if step >= 24 * 2 ** (view.level - 1):
+        return view.sample(points)
+    return view.sample_fine(points, reach=max(0.5, 0.08 * step))
 
 
 # ----------------------------------------------------------------------------- labelling

@@ -17,7 +17,6 @@ right-handed in the image (``i`` to ``j`` turns clockwise on the screen, as ``u`
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,8 +24,9 @@ from scipy.spatial import cKDTree
 from skimage.measure import points_in_poly
 
 from ..errors import BoardNotFoundError
+from . import _lattice
 from .grid import fit_homography
-from .search import Candidates, ring_test
+from .search import Candidates
 
 _STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
 #: Ring-test radius as a fraction of the local lattice step.
@@ -37,6 +37,8 @@ MIN_SCORE = 0.1
 PARITY_COS = 0.5
 #: A prediction is snapped to a candidate within this fraction of the local step.
 SNAP_FRACTION = 0.25
+#: Seeds whose neighbours are looked up together (the next ones not yet on a lattice).
+_QUERY_AHEAD = 16
 
 
 @dataclass(frozen=True)
@@ -87,21 +89,29 @@ def grow_lattices(cands: Candidates, *, max_seeds: int = 60, max_nodes: int = 20
     if cands.points.shape[1] < 3:
         return
     tree = cKDTree(cands.points.T)
+    buckets = _buckets(cands.points)
     taken = ~cands.seed
     tried = 0
-    for k in np.argsort(cands.strength)[::-1]:
+    order = np.argsort(cands.strength)[::-1]
+    count = min(13, cands.points.shape[1])
+    neighbours = {}  # candidate -> its nearest neighbours, queried for several seeds at once
+    for rank, k in enumerate(order):
         if tried >= max_seeds:
             return
         if taken[k]:
             continue
         tried += 1
         strength = float(cands.strength[k])
-        cross = _seed_cross(cands, tree, k)
+        if k not in neighbours:
+            ahead = [n for n in order[rank:rank + 4 * _QUERY_AHEAD] if not taken[n]][:_QUERY_AHEAD]
+            _, nb = tree.query(cands.points[:, ahead].T, k=count)
+            neighbours.update(zip(ahead, nb[:, 1:]))
+        cross = _seed_cross(cands, neighbours[k], k)
         if cross is None:
             yield strength, None
             continue
         nodes, theta0 = cross
-        nodes = peel(_grow(cands, tree, nodes, theta0, max_nodes))
+        nodes = peel(_grow(cands, buckets, nodes, theta0, max_nodes))
         if len(nodes) < min_nodes:
             yield strength, None
             continue
@@ -164,10 +174,27 @@ class KeyGrid:
 
     def __init__(self, nodes: dict, reach: int = 4):
         K = np.array(list(nodes), dtype=int).reshape(-1, 2)
+        self.reach = reach
         self.origin = K.min(axis=0) - reach
         shape = K.max(axis=0) - self.origin + reach + 1
         self.array = np.full((shape[0], shape[1], 2), np.nan)
         self.array[K[:, 0] - self.origin[0], K[:, 1] - self.origin[1]] = np.array(list(nodes.values()), dtype=float)
+
+    def cover(self, keys: np.ndarray) -> None:
+        """Grow the array (by ``2 reach`` keys) where any of ``keys`` (n, 2) would lie within
+        one key of its edge, so that every free neighbour of a node lies on it (as the
+        compiled growth needs)."""
+        if not len(keys):
+            return
+        idx = keys - self.origin
+        shape = np.array(self.array.shape[:2])
+        if np.any(idx.min(axis=0) < 1) or np.any(idx.max(axis=0) > shape - 2):
+            lo = np.minimum(self.origin, keys.min(axis=0) - 2 * self.reach)
+            hi = np.maximum(self.origin + shape - 1, keys.max(axis=0) + 2 * self.reach)
+            array = np.full((hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, 2), np.nan)
+            start = self.origin - lo
+            array[start[0]:start[0] + shape[0], start[1]:start[1] + shape[1]] = self.array
+            self.array, self.origin = array, lo
 
     def at(self, keys: np.ndarray) -> np.ndarray:
         """Positions (2, n) of keys (n, 2); NaN where there is no node."""
@@ -185,101 +212,38 @@ def predict(nodes: dict, key) -> tuple | None:
     """Predicted position ``(u, v)`` of a free key from the lattice lines through it, and the
     local step length (pixels); None when no line or parallelogram reaches it.
 
-    ``nodes`` maps keys to ``(u, v)`` tuples of floats (plain floats: this runs per key).
+    Along each lattice line through the key whose two nearer nodes are known, the line is
+    extrapolated (quadratically where a third node is known, else linearly); where no line
+    reaches it, parallelograms over a neighbour complete it. The prediction is the mean of
+    these, the step the median of their step lengths. ``nodes`` maps keys to ``(u, v)``.
     """
-    i, j = key
-    su = sv = 0.0
-    steps = []
-    for di, dj in _STEPS:
-        a = nodes.get((i - di, j - dj))
-        b = nodes.get((i - 2 * di, j - 2 * dj))
-        if a is None or b is None:
-            continue
-        c = nodes.get((i - 3 * di, j - 3 * dj))
-        if c is None:
-            su += 2 * a[0] - b[0]
-            sv += 2 * a[1] - b[1]
-        else:
-            su += 3 * a[0] - 3 * b[0] + c[0]
-            sv += 3 * a[1] - 3 * b[1] + c[1]
-        steps.append(math.hypot(a[0] - b[0], a[1] - b[1]))
-    if not steps:
-        for di, dj in _STEPS:
-            a = nodes.get((i - di, j - dj))
-            if a is None:
-                continue
-            for ei, ej in _STEPS:
-                if ei * di + ej * dj:
-                    continue
-                b1 = nodes.get((i - di + ei, j - dj + ej))
-                b2 = nodes.get((i + ei, j + ej))
-                if b1 is not None and b2 is not None:
-                    su += a[0] + b2[0] - b1[0]
-                    sv += a[1] + b2[1] - b1[1]
-                    steps.append(math.hypot(b2[0] - b1[0], b2[1] - b1[1]))
-    if not steps:
-        return None
-    n = len(steps)
-    steps.sort()
-    step = steps[n // 2] if n % 2 else 0.5 * (steps[n // 2 - 1] + steps[n // 2])
-    return (su / n, sv / n), step
+    grid = KeyGrid(nodes)
+    return _lattice.predict_one(grid.array, int(grid.origin[0]), int(grid.origin[1]), int(key[0]), int(key[1]))
 
 
-def _seed_cross(cands: Candidates, tree: cKDTree, k: int):
-    """A cross of five (or four) nodes around candidate ``k``, and theta0; None if none."""
-    centre = cands.points[:, k]
-    count = min(13, cands.points.shape[1])
-    _, nb = tree.query(centre, k=count)
-    nb = nb[1:]
-    vec = cands.points[:, nb] - centre[:, None]
-    length = np.hypot(*vec)
-    opposite = np.flatnonzero(np.cos(2 * (cands.theta[nb] - cands.theta[k])) < -PARITY_COS)
-    if opposite.size < 3:
+def _seed_cross(cands: Candidates, nb: np.ndarray, k: int):
+    """A cross of five (or four) nodes around candidate ``k``, and theta0; None if none.
+
+    ``nb`` are its nearest neighbours, itself excluded. Those of the opposite parity make
+    the arms (:func:`graphpose.detect._lattice.pick_cross`), turned so that ``(i, j)`` turns
+    like ``(u, v)``; the seed and every arm must pass the ring test at
+    :data:`RING_FRACTION` of the arms' median length, with the parity its key demands. One
+    compiled call (``_lattice.seed_cross``).
+    """
+    arms, theta0 = np.empty(5, dtype=np.int64), np.empty(1)
+    if not _lattice.seed_cross(cands.points, cands.theta, np.ascontiguousarray(nb, dtype=np.int64), int(k),
+                               cands.view.smooth, cands.view.level, PARITY_COS, RING_FRACTION, MIN_SCORE,
+                               arms, theta0):
         return None
-    best = None
-    for a in opposite[:3]:
-        v1 = vec[:, a]
-        b = _along(vec, length, opposite, -v1)
-        sideways = [n for n in opposite if n not in (a, b)
-                    and abs(v1[0] * vec[1, n] - v1[1] * vec[0, n]) > 0.5 * length[a] * length[n]]
-        if not sideways:
-            continue
-        c = sideways[0]
-        d = _along(vec, length, opposite, -vec[:, c])
-        nodes = {(0, 0): centre, (1, 0): cands.points[:, nb[a]], (0, 1): cands.points[:, nb[c]]}
-        if b is not None:
-            nodes[(-1, 0)] = cands.points[:, nb[b]]
-        if d is not None:
-            nodes[(0, -1)] = cands.points[:, nb[d]]
-        if len(nodes) >= 4 and (best is None or len(nodes) > len(best)):
-            best = nodes
-    if best is None:
-        return None
-    v1, v2 = best[(1, 0)] - centre, best[(0, 1)] - centre
-    if v1[0] * v2[1] - v1[1] * v2[0] < 0:  # make (i, j) turn like (u, v)
+    a, b, c, d, swap = (int(n) for n in arms)
+    best = {(0, 0): cands.points[:, k], (1, 0): cands.points[:, a], (0, 1): cands.points[:, c]}
+    if b >= 0:
+        best[(-1, 0)] = cands.points[:, b]
+    if d >= 0:
+        best[(0, -1)] = cands.points[:, d]
+    if swap:  # make (i, j) turn like (u, v)
         best = {(j, i): p for (i, j), p in best.items()}
-    keys = list(best)
-    P = np.array(list(best.values())).T
-    step = np.median([np.hypot(*(p - centre)) for key, p in best.items() if key != (0, 0)])
-    score, theta, _ = ring_test(cands, P, RING_FRACTION * step)
-    theta0 = theta[keys.index((0, 0))]
-    parity = np.array([(i + j) % 2 for i, j in keys])
-    if np.any(score < MIN_SCORE) or not np.all(_parity_ok(theta, theta0, parity)):
-        return None
-    return best, theta0
-
-
-def _along(vec, length, pool, direction):
-    """Index in ``pool`` of the neighbour closest to ``direction`` (within 15 degrees and
-    0.7-1.4 of its length), or None."""
-    size = np.hypot(*direction)
-    cos = (direction @ vec[:, pool]) / (size * np.maximum(length[pool], 1e-12))
-    ratio = length[pool] / size
-    ok = (cos > np.cos(np.radians(15))) & (ratio > 0.7) & (ratio < 1.4)
-    if not ok.any():
-        return None
-    err = np.hypot(*(vec[:, pool[ok]] - direction[:, None]))
-    return pool[ok][np.argmin(err)]
+    return best, float(theta0[0])
 
 
 def _parity_ok(theta, theta0, parity):
@@ -287,52 +251,46 @@ def _parity_ok(theta, theta0, parity):
     return np.where(parity == 0, c > PARITY_COS, c < -PARITY_COS)
 
 
-def _grow(cands: Candidates, tree: cKDTree, nodes: dict, theta0: float, max_nodes: int) -> dict:
+def _grow(cands: Candidates, buckets: tuple, nodes: dict, theta0: float, max_nodes: int) -> dict:
     """Grow ``nodes`` ring by ring until no free neighbouring key passes (see the module).
 
     Each round looks only at the free neighbours of the nodes added in the round before
     (a key refused once is looked at again when a new neighbour can predict it better);
     when that adds nothing, one round looks at every free neighbour, whose predictions
-    now rest on more of the lattice.
+    now rest on more of the lattice. A prediction snaps to the nearest candidate within
+    :data:`SNAP_FRACTION` of the local step (``buckets``: :func:`_buckets`). The rounds are
+    one compiled call (``_lattice.grow``), again only when the lattice outgrows its grid.
     """
-    nodes = {key: (float(p[0]), float(p[1])) for key, p in nodes.items()}
-    height, width = cands.shape
-    fresh, full = list(nodes), False
-    while len(nodes) < max_nodes:
-        if not fresh:
-            if full:
-                break
-            fresh, full = list(nodes), True
-        keys, guesses, steps = [], [], []
-        seen = set()
-        for i, j in fresh:
-            for di, dj in _STEPS:
-                key = (i + di, j + dj)
-                if key in nodes or key in seen:
-                    continue
-                seen.add(key)
-                guess = predict(nodes, key)
-                if guess is not None:
-                    keys.append(key)
-                    guesses.append(guess[0])
-                    steps.append(guess[1])
-        if not keys:
-            if full:
-                break
-            fresh = []
-            continue
-        P = np.array(guesses).T
-        step = np.array(steps)
-        margin = RING_FRACTION * step + 1.0
-        inside = (P[0] > margin) & (P[1] > margin) & (P[0] < width - 1 - margin) & (P[1] < height - 1 - margin)
-        dist, idx = tree.query(P.T)
-        snap = dist < SNAP_FRACTION * step
-        Q = np.where(snap, cands.points[:, np.minimum(idx, cands.points.shape[1] - 1)], P)
-        score, theta, _ = ring_test(cands, Q, RING_FRACTION * step)
-        parity = np.array([(i + j) % 2 for i, j in keys])
-        good = np.flatnonzero(inside & (score > MIN_SCORE) & _parity_ok(theta, theta0, parity))
-        fresh = [keys[n] for n in good]
-        full = full and not fresh
-        for n in good:
-            nodes[keys[n]] = (float(Q[0, n]), float(Q[1, n]))
-    return {key: np.array(p) for key, p in nodes.items()}
+    grid = KeyGrid(nodes, reach=8)
+    start_keys = np.array(list(nodes), dtype=np.int64)
+    capacity = 5 * max(max_nodes, len(nodes)) + 8
+    order, fresh = np.zeros((capacity, 2), dtype=np.int64), np.zeros((capacity, 2), dtype=np.int64)
+    order[:len(start_keys)] = fresh[:len(start_keys)] = start_keys
+    keys, guess, step = np.empty((4 * capacity, 2), dtype=np.int64), np.empty((4 * capacity, 2)), np.empty(4 * capacity)
+    state = np.array([len(start_keys), len(start_keys), 0, 0], dtype=np.int64)
+    height, width = cands.view.shape
+    start, items, nx, ny, cell = buckets
+    while True:
+        stamp = np.zeros(grid.array.shape[:2], dtype=np.int32)
+        if not _lattice.grow(grid.array, int(grid.origin[0]), int(grid.origin[1]), stamp, order, fresh, state,
+                             max_nodes, cands.points, start, items, nx, ny, cell, cands.view.smooth, cands.view.level,
+                             float(width), float(height), float(theta0), RING_FRACTION, SNAP_FRACTION, MIN_SCORE,
+                             PARITY_COS, keys, guess, step):
+            break
+        grid.cover(order[:state[0]])
+    order = order[:state[0]]
+    rows = grid.at(order).T.copy()
+    return {key: rows[k] for k, key in enumerate(map(tuple, order.tolist()))}
+
+
+def _buckets(points: np.ndarray, cell: float = 16.0) -> tuple:
+    """Candidates (2, N) sorted into square cells of ``cell`` pixels, for the growth's
+    nearest-candidate look-ups: ``(start, items, nx, ny, cell)``, the candidates of cell
+    ``cy nx + cx`` being ``items[start[c]:start[c + 1]]``."""
+    cx = np.floor(np.maximum(points[0], 0.0) / cell).astype(np.int64)
+    cy = np.floor(np.maximum(points[1], 0.0) / cell).astype(np.int64)
+    nx, ny = int(cx.max()) + 1, int(cy.max()) + 1
+    c = cy * nx + cx
+    items = np.argsort(c, kind="stable").astype(np.int64)
+    start = np.searchsorted(c[items], np.arange(nx * ny + 1)).astype(np.int64)
+    return start, items, nx, ny, float(cell)

@@ -20,6 +20,12 @@ step along a grid line swaps bright and dark, so neighbours along a line have ``
 90 degrees apart and diagonal neighbours the same ``theta``: the parity that
 :mod:`graphpose.detect.lattice` checks.
 
+The lattice and the identification read the image through one sampling context,
+:class:`SearchImage` (the smoothed search level and the full image, with their bilinear
+samples and the ring test), which :class:`Candidates` carries as ``view``; the same ring
+test on a stack of patches (the refinement's) is :func:`ring_test_patches`. The loops are compiled
+(``_search.pyx``, with ``_sampling.pxd``): one call per batch of points.
+
 Coordinates follow :mod:`graphpose.geometry`: full-image pixels ``(u, v)``, 2 x N arrays.
 """
 
@@ -32,6 +38,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..errors import InputError
+from . import _search
 
 #: Gaussian scale of the saddle response at the search level, pixels of that level (2
 #: full-image pixels at half resolution).
@@ -44,8 +51,66 @@ NOISE_THRESHOLD = 6.0
 #: The first search level's image is at most this many pixels on its shorter side
 #: (:func:`search_levels`): 640 x 480 starts at half resolution, 12 MP at an eighth.
 SEARCH_SIDE = 400
-#: Ring samples of the ring test.
-_RING = np.arange(16) * (np.pi / 8)
+
+
+@dataclass(frozen=True)
+class SearchImage:
+    """What the search saw of one image, and the sampling the lattice, the identification
+    and the refinement read from it: the only context they share.
+
+    Attributes
+    ----------
+    smooth : (h, w) ndarray of float32
+        The image at the search's level, smoothed (:data:`RESPONSE_SIGMA`): block means of
+        2^level x 2^level pixels, C-contiguous.
+    level : int
+        The search level (0 the full image, 1 half resolution, ...; :func:`search_levels`).
+    image : (H, W) ndarray
+        The full-resolution grey image itself (not copied), any real dtype.
+
+    Every method takes full-image pixel coordinates ``(u, v)``, 2 x N, and returns float64.
+    """
+
+    smooth: np.ndarray
+    level: int
+    image: np.ndarray
+
+    @property
+    def shape(self) -> tuple:
+        """The full image's ``(height, width)``."""
+        return tuple(self.image.shape[:2])
+
+    def to_level(self, points) -> np.ndarray:
+        """Full-image pixel coordinates (2, N) as coordinates (x, y) of :attr:`smooth`."""
+        s = 2 ** self.level
+        return (np.asarray(points, dtype=float) - 0.5 * (s - 1)) / s
+
+    def sample(self, points) -> np.ndarray:
+        """Bilinear samples (N,) of :attr:`smooth` at full-image points (2, N), edges
+        repeated (as ``scipy.ndimage.map_coordinates(order=1, mode="nearest")``, rounded to
+        float32 as it gives them)."""
+        x, y = _xy(self.to_level(points))
+        out = np.empty(x.size)
+        _search.bilinear(self.smooth, x, y, out)
+        return out.astype(np.float32).astype(float)
+
+    def sample_fine(self, points, reach: float = 1.0) -> np.ndarray:
+        """Mean (N,) of the full-resolution image over a 3 x 3 grid of bilinear samples,
+        ``reach`` pixels apart, around each full-image point (2, N): grey levels at a scale of
+        a couple of pixels, for evidence on squares too small for :attr:`smooth`."""
+        x, y = _xy(points)
+        out = np.empty(x.size)
+        _search.bilinear_mean3x3(_kernel_grey(self.image), x, y, float(reach), out)
+        return out
+
+    def ring_test(self, points, radius) -> tuple:
+        """:func:`ring_test` on :attr:`smooth` at full-image points (2, m), ``radius``
+        full-image pixels (a float or (m,))."""
+        x, y = _xy(self.to_level(points))
+        rad = np.ascontiguousarray(np.broadcast_to(np.asarray(radius, dtype=float), x.shape)) / 2 ** self.level
+        score, theta, contrast = np.empty(x.size), np.empty(x.size), np.empty(x.size)
+        _search.ring_image(self.smooth, x, y, rad, score, theta, contrast)
+        return score, theta, contrast
 
 
 @dataclass(frozen=True)
@@ -62,16 +127,9 @@ class Candidates:
         Saddle response at the peak (arbitrary units), for ordering seeds.
     seed : (N,) ndarray of bool
         Candidates that may seed a lattice (those inside the search region).
-    smooth : ndarray of float32
-        The smoothed image at the search's level that the response came from;
-        :func:`sample` and :func:`ring_test` read it at full-image coordinates.
-    level : int
-        The search level: block means of 2^level x 2^level pixels (0 the full image, 1 half
-        resolution, 2 a quarter, ...; :func:`search_levels`).
-    shape : tuple of int
-        The full image's ``(height, width)``.
-    image : (H, W) ndarray
-        The full-resolution grey image itself (not copied), for :func:`sample_fine`.
+    view : SearchImage
+        The images the candidates were found in, for the lattice and the identification to
+        sample.
     noise_limited : bool
         The noise floor (:func:`noise_floor`), not the relative threshold, bounded the
         candidates: without it they would have been others.
@@ -81,16 +139,8 @@ class Candidates:
     theta: np.ndarray
     strength: np.ndarray
     seed: np.ndarray
-    smooth: np.ndarray
-    level: int
-    shape: tuple
-    image: np.ndarray
+    view: SearchImage
     noise_limited: bool = False
-
-    def to_level(self, points) -> np.ndarray:
-        """Full-image pixel coordinates (2, N) as coordinates (x, y) of :attr:`smooth`."""
-        s = 2 ** self.level
-        return (np.asarray(points, dtype=float) - 0.5 * (s - 1)) / s
 
 
 def find_candidates(image: np.ndarray, region=None, *, level: int = 1, noise: float | None = None) -> Candidates:
@@ -122,13 +172,15 @@ def find_candidates(image: np.ndarray, region=None, *, level: int = 1, noise: fl
         raise InputError(f"level must be a whole number >= 0, got {level!r}")
     a = downsample(image, int(level))
     S = ndimage.gaussian_filter(a, RESPONSE_SIGMA, truncate=3.0)
-    Ixx = S[1:-1, 2:] - 2 * S[1:-1, 1:-1] + S[1:-1, :-2]
-    Iyy = S[2:, 1:-1] - 2 * S[1:-1, 1:-1] + S[:-2, 1:-1]
-    Ixy = 0.25 * (S[2:, 2:] - S[2:, :-2] - S[:-2, 2:] + S[:-2, :-2])
-    r = Ixy * Ixy - Ixx * Iyy
-    ys, xs, value, limited = _peaks(r, 0.0 if noise is None else noise_floor(noise, level))
-    # The bright bisector is the principal direction of positive curvature.
-    theta = 0.5 * np.arctan2(2 * Ixy[ys, xs], Ixx[ys, xs] - Iyy[ys, xs])
+    r, ys, xs = _response_peaks(S)
+    ys, xs, value, limited = _threshold(r, ys, xs, 0.0 if noise is None else noise_floor(noise, level))
+    # The bright bisector is the principal direction of positive curvature (the curvatures
+    # at the peaks, as the response's kernel computes them).
+    y, x = ys + 1, xs + 1
+    Ixx = S[y, x + 1] - 2 * S[y, x] + S[y, x - 1]
+    Iyy = S[y + 1, x] - 2 * S[y, x] + S[y - 1, x]
+    Ixy = 0.25 * (S[y + 1, x + 1] - S[y + 1, x - 1] - S[y - 1, x + 1] + S[y - 1, x - 1])
+    theta = 0.5 * np.arctan2(2 * Ixy, Ixx - Iyy)
     dx, dy = _subpixel(r, ys, xs)
     # Interior pixel (y, x) of r is pixel (y + 1, x + 1) of the level, whose centre is
     # full-image s (x + 1) + (s - 1) / 2 for the level's scale s.
@@ -139,39 +191,20 @@ def find_candidates(image: np.ndarray, region=None, *, level: int = 1, noise: fl
         from skimage.measure import points_in_poly
 
         seed = points_in_poly(points.T, np.asarray(region, dtype=float).T)
-    return Candidates(points, theta.astype(float), value.astype(float), seed, S, level, tuple(image.shape[:2]), image,
-                      limited)
+    return Candidates(points, theta.astype(float), value.astype(float), seed, SearchImage(S, level, image), limited)
 
 
-def sample_fine(cands: Candidates, points: np.ndarray, reach: float = 1.0) -> np.ndarray:
-    """Mean of the full-resolution image over a 3 x 3 grid of bilinear samples, ``reach``
-    pixels apart, around each full-image point (2, N): grey levels at a scale of a couple
-    of pixels, for evidence on squares too small for the smoothed search image."""
-    P = np.asarray(points, dtype=float)
-    off = np.array([-reach, 0.0, reach])
-    grid = (P.shape[1], 3, 3)
-    u = np.broadcast_to(P[0][:, None, None] + off[None, None, :], grid).ravel()
-    v = np.broadcast_to(P[1][:, None, None] + off[None, :, None], grid).ravel()
-    values = ndimage.map_coordinates(cands.image, [v, u], order=1, mode="nearest", output=np.float64)
-    return values.reshape(P.shape[1], 9).mean(axis=1)
+def ring_test(view: SearchImage, points: np.ndarray, radius) -> tuple:
+    """Cross-junction ring test of the ChESS kind, on the search's smoothed image.
 
-
-def sample(cands: Candidates, points: np.ndarray) -> np.ndarray:
-    """Bilinear samples of the candidates' smoothed image at full-image points (2, N)."""
-    x, y = cands.to_level(points)
-    return ndimage.map_coordinates(cands.smooth, [y, x], order=1, mode="nearest")
-
-
-def ring_test(cands: Candidates, points: np.ndarray, radius) -> tuple:
-    """Cross-junction ring test of the ChESS kind, on the candidates' smoothed image.
-
-    Sixteen samples on a circle: at a cross-junction opposite samples agree (point
+    Sixteen bilinear samples on a circle: at a cross-junction opposite samples agree (point
     symmetry) and samples a quarter-turn apart disagree; an L-corner breaks the first, an
-    edge the second, flat ground both.
+    edge the second, flat ground both. :func:`ring_test_patches` is the same test on a
+    stack of patches (the refinement's).
 
     Parameters
     ----------
-    cands : Candidates
+    view : SearchImage
         Whose smoothed image is read.
     points : (2, m) ndarray
         Centres, full-image pixels.
@@ -185,22 +218,38 @@ def ring_test(cands: Candidates, points: np.ndarray, radius) -> tuple:
         ``(sum - 2 diff) / (sum + diff)`` of the ChESS sum and diff responses, in
         [-2, 1]; above 0 the ring looks like a cross-junction.
     theta : (m,) ndarray
-        Direction of the bright sectors' bisector, radians.
+        Direction of the bright sectors' bisector (the ring's second angular harmonic),
+        radians.
     contrast : (m,) ndarray
         Peak-to-peak grey range on the ring, in the image's grey units.
     """
-    X, Y = cands.to_level(points)
-    rad = np.broadcast_to(np.asarray(radius, dtype=float), X.shape)[:, None] / 2 ** cands.level
-    x = X[:, None] + rad * np.cos(_RING)
-    y = Y[:, None] + rad * np.sin(_RING)
-    ring = ndimage.map_coordinates(cands.smooth, [y.ravel(), x.ravel()], order=1, mode="nearest").reshape(x.shape)
-    ring = ring - ring.mean(axis=1, keepdims=True)
-    total = np.abs(ring[:, 0:4] + ring[:, 8:12] - ring[:, 4:8] - ring[:, 12:16]).sum(axis=1)
-    diff = np.abs(ring[:, 0:8] - ring[:, 8:16]).sum(axis=1)
-    # The second angular harmonic of the ring points along the bright bisector.
-    theta = 0.5 * np.arctan2(ring @ np.sin(2 * _RING), ring @ np.cos(2 * _RING))
-    score = (total - 2 * diff) / np.maximum(total + diff, 1e-12)
-    return score, theta, np.ptp(ring, axis=1)
+    return view.ring_test(points, radius)
+
+
+def ring_test_patches(patches: np.ndarray, centre: np.ndarray, radius) -> tuple:
+    """:func:`ring_test` on a stack of patches: patch ``k`` of ``patches`` (m, h, w) read
+    around its own ``centre[:, k]`` (x, y), patch pixels, at ``radius`` (float or (m,))
+    patch pixels. Returns the same ``(score, theta, contrast)``, each (m,)."""
+    P = np.ascontiguousarray(patches, dtype=np.float32)
+    x, y = _xy(centre)
+    rad = np.ascontiguousarray(np.broadcast_to(np.asarray(radius, dtype=float), x.shape))
+    score, theta, contrast = np.empty(x.size), np.empty(x.size), np.empty(x.size)
+    _search.ring_patches(P, x, y, rad, score, theta, contrast)
+    return score, theta, contrast
+
+
+def _xy(points):
+    """Contiguous float64 rows x, y of points (2, N)."""
+    P = np.asarray(points, dtype=float).reshape(2, -1)
+    return np.ascontiguousarray(P[0]), np.ascontiguousarray(P[1])
+
+
+def _kernel_grey(image: np.ndarray) -> np.ndarray:
+    """``image`` as a dtype the sampling kernels read (uint8, uint16, float32, float64): the
+    others (bool, ints) converted to float64."""
+    if image.dtype in (np.uint8, np.uint16, np.float32, np.float64):
+        return image
+    return image.astype(np.float64)
 
 
 def search_levels(shape, *, side: int = SEARCH_SIDE) -> range:
@@ -268,15 +317,23 @@ def _ixy_gain() -> float:
     return float(np.sum(np.convolve(g, [0.5, 0.0, -0.5]) ** 2))
 
 
-def _peaks(r: np.ndarray, floor: float = 0.0):
-    """Rows, columns and values of the 3 x 3 local maxima of ``r`` above the threshold
-    and above ``floor``, and whether the floor removed any that the threshold kept."""
-    # The 3 x 3 maximum (edge pixels repeated, as ndimage.maximum_filter's "reflect"), by
-    # rows then columns: the same values, several times faster than maximum_filter here.
-    p = np.pad(r, 1, mode="edge")
-    rows = np.maximum(np.maximum(p[:, :-2], p[:, 1:-1]), p[:, 2:])
-    local = np.maximum(np.maximum(rows[:-2], rows[1:-1]), rows[2:])
-    ys, xs = np.nonzero((r >= local) & (r > 0))
+def _response_peaks(S: np.ndarray):
+    """The saddle response ``Ixy^2 - Ixx Iyy`` (float32) of the smoothed image ``S`` at its
+    interior pixels, and the rows and columns of its 3 x 3 local maxima (edge pixels
+    repeated) above 0, row-major: one compiled pass (``_search.saddle_peaks``)."""
+    h, w = S.shape[0] - 2, S.shape[1] - 2
+    if h < 1 or w < 1:
+        return np.zeros((max(h, 0), max(w, 0)), np.float32), np.zeros(0, np.int64), np.zeros(0, np.int64)
+    r, scratch, peak = np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w), np.uint8)
+    _search.saddle_peaks(np.ascontiguousarray(S, dtype=np.float32), r, scratch, peak)
+    rows, cols = np.nonzero(peak)
+    return r, rows, cols
+
+
+def _threshold(r: np.ndarray, ys: np.ndarray, xs: np.ndarray, floor: float = 0.0):
+    """Of the peaks (ys, xs) of ``r``, those above the relative threshold and above
+    ``floor``: rows, columns, values, and whether the floor removed any that the threshold
+    kept."""
     value = r[ys, xs]
     if value.size == 0:
         return ys, xs, value, False

@@ -44,10 +44,10 @@ def test_ring_test_tells_junctions_from_corners_and_edges():
     R = render(K, T_from_params([0.22, 0.16, -1.0, 0.0, 0.0, 0.1]), Board(), rng=2, margin=1.0)
     cands = find_candidates(R.image)
     square = 0.0635 * 565 / 1.0
-    junction = ring_test(cands, R.junctions, 0.35 * square)[0]
-    corners = ring_test(cands, R.outline, 0.35 * square)[0]  # sheet corners: L-shaped
+    junction = ring_test(cands.view, R.junctions, 0.35 * square)[0]
+    corners = ring_test(cands.view, R.outline, 0.35 * square)[0]  # sheet corners: L-shaped
     mid_edge = 0.5 * (R.junctions[:, 0] + R.junctions[:, 1])  # on a square's edge
-    edge = ring_test(cands, mid_edge[:, None], 0.35 * square)[0]
+    edge = ring_test(cands.view, mid_edge[:, None], 0.35 * square)[0]
     assert junction.min() > 0.5 and corners.max() < 0 and edge.max() < 0
 
 
@@ -258,7 +258,7 @@ def test_a_large_image_is_searched_at_an_eighth_and_labelled_right():
     assert min(label_error(found, truth), label_error(found, truth, half_turn(board))) < 3.0
     # It came from the first, coarsest search: that search alone gives the same labels.
     assert list(search_levels(scene.image.shape))[0] == 3
-    assert find_candidates(scene.image, level=3).smooth.shape == (240, 320)
+    assert find_candidates(scene.image, level=3).view.smooth.shape == (240, 320)
     eighth = find_module._search(scene.image, board, None, None, level=3)
     assert eighth.seen.all() and np.array_equal(eighth.points, found.points)
 

@@ -1,0 +1,302 @@
+"""The board search's compiled kernels against plain NumPy written here, on small inputs.
+
+Each kernel (``graphpose/detect/_search.pyx``, ``_lattice.pyx``) replaces a NumPy or Python
+loop; the references below are those loops written out the plain way, so that a kernel
+that samples, orders or rounds differently fails here and not only, much later, as a
+junction that moved.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from graphpose.detect import _lattice
+from graphpose.detect.lattice import KeyGrid, grow_lattices, predict
+from graphpose.detect.search import SearchImage, _response_peaks, find_candidates, ring_test, ring_test_patches
+
+STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
+
+
+def bilinear_reference(a, x, y):
+    """Bilinear samples of ``a`` at columns ``x``, rows ``y``, coordinates clamped to the image."""
+    h, w = a.shape
+    x, y = np.clip(x, 0, w - 1), np.clip(y, 0, h - 1)
+    j0, i0 = np.floor(x).astype(int), np.floor(y).astype(int)
+    fx, fy = x - j0, y - i0
+    j1, i1 = np.minimum(j0 + 1, w - 1), np.minimum(i0 + 1, h - 1)
+    a = a.astype(float)
+    return (a[i0, j0] * (1 - fy) * (1 - fx) + a[i0, j1] * (1 - fy) * fx
+            + a[i1, j0] * fy * (1 - fx) + a[i1, j1] * fy * fx)
+
+
+def ring_reference(ring):
+    """The ChESS ring test on samples (m, 16): score, theta, contrast."""
+    ring = ring - ring.mean(axis=1, keepdims=True)
+    total = np.abs(ring[:, 0:4] + ring[:, 8:12] - ring[:, 4:8] - ring[:, 12:16]).sum(axis=1)
+    diff = np.abs(ring[:, 0:8] - ring[:, 8:16]).sum(axis=1)
+    angles = np.arange(16) * (np.pi / 8)
+    theta = 0.5 * np.arctan2(ring @ np.sin(2 * angles), ring @ np.cos(2 * angles))
+    return (total - 2 * diff) / np.maximum(total + diff, 1e-12), theta, np.ptp(ring, axis=1)
+
+
+def small_view(rng, level=1, dtype=np.uint8):
+    image = (rng.random((23, 31)) * 255).astype(dtype)
+    smooth = (rng.random((11, 15)) * 255).astype(np.float32)
+    return SearchImage(smooth, level, image)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32, np.float64, bool])
+def test_samples_are_bilinear_with_the_edges_repeated(dtype):
+    rng = np.random.default_rng(1)
+    view = small_view(rng, dtype=dtype)
+    P = np.vstack([rng.uniform(-4, 35, 300), rng.uniform(-4, 27, 300)])
+    P[:, :3] = [[0.0, 30.0, 29.0], [0.0, 22.0, 22.0]]  # corners and the last row, exactly
+    x, y = view.to_level(P)
+    expected = bilinear_reference(view.smooth, x, y).astype(np.float32)
+    np.testing.assert_array_equal(view.sample(P), expected)
+    reach = 0.7
+    fine = np.mean([bilinear_reference(view.image, P[0] + dx, P[1] + dy)
+                    for dy in (-reach, 0, reach) for dx in (-reach, 0, reach)], axis=0)
+    np.testing.assert_allclose(view.sample_fine(P, reach), fine, rtol=0, atol=1e-9)
+
+
+def test_ring_test_is_the_chess_test_on_sixteen_bilinear_samples():
+    rng = np.random.default_rng(2)
+    view = small_view(rng, level=1)
+    P = np.vstack([rng.uniform(2, 28, 50), rng.uniform(2, 20, 50)])
+    radius = rng.uniform(1.0, 6.0, 50)
+    angles = np.arange(16) * (np.pi / 8)
+    x, y = view.to_level(P)
+    rad = radius[:, None] / 2
+    ring = bilinear_reference(view.smooth, (x[:, None] + rad * np.cos(angles)).ravel(),
+                              (y[:, None] + rad * np.sin(angles)).ravel()).astype(np.float32).reshape(50, 16)
+    for got, want in zip(ring_test(view, P, radius), ring_reference(ring.astype(float))):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+    # A stack of patches is read patch by patch, each around its own centre.
+    patches = np.stack([view.smooth, view.smooth[::-1].copy()])
+    centre = np.array([[5.2, 7.1], [4.4, 3.3]])
+    for k in range(2):
+        one = SearchImage(patches[k], 0, patches[k])
+        got = [part[k] for part in ring_test_patches(patches, centre, [2.5, 3.0])]
+        np.testing.assert_allclose(got, [part[0] for part in ring_test(one, centre[:, k:k + 1], [2.5, 3.0][k])],
+                                   rtol=0, atol=0)
+
+
+def test_a_cross_junction_scores_above_zero_and_an_edge_below():
+    u, v = np.meshgrid(np.arange(21.0), np.arange(21.0))
+    cross = np.where((u - 10.3) * (v - 9.8) > 0, 200.0, 40.0).astype(np.float32)
+    edge = np.where(u > 10.3, 200.0, 40.0).astype(np.float32)
+    for image, sign in ((cross, 1), (edge, -1)):
+        score = ring_test(SearchImage(image, 0, image), np.array([[10.3], [9.8]]), 5.0)[0]
+        assert sign * score[0] > 0
+
+
+def response_reference(S):
+    """The saddle response and its 3 x 3 maxima above 0 (edges repeated), in NumPy."""
+    Ixx = S[1:-1, 2:] - 2 * S[1:-1, 1:-1] + S[1:-1, :-2]
+    Iyy = S[2:, 1:-1] - 2 * S[1:-1, 1:-1] + S[:-2, 1:-1]
+    Ixy = 0.25 * (S[2:, 2:] - S[2:, :-2] - S[:-2, 2:] + S[:-2, :-2])
+    r = Ixy * Ixy - Ixx * Iyy
+    p = np.pad(r, 1, mode="edge")
+    local = np.max([p[a:a + r.shape[0], b:b + r.shape[1]] for a in range(3) for b in range(3)], axis=0)
+    ys, xs = np.nonzero((r >= local) & (r > 0))
+    return r, ys, xs
+
+
+@pytest.mark.parametrize("shape", [(3, 3), (4, 9), (17, 12)])
+def test_the_saddle_response_and_its_peaks_are_numpys_to_the_bit(shape):
+    rng = np.random.default_rng(3)
+    S = (rng.random(shape) * 100).astype(np.float32)
+    S[1:3, 1:3] = S[1, 1]  # a plateau: equal neighbours are peaks together
+    r, ys, xs = _response_peaks(S)
+    R, YS, XS = response_reference(S)
+    np.testing.assert_array_equal(r, R)
+    np.testing.assert_array_equal(ys, YS)
+    np.testing.assert_array_equal(xs, XS)
+    assert _response_peaks(S[:2])[1].size == 0  # no interior pixel
+
+
+def predict_reference(nodes, key):
+    """:func:`predict` in plain Python."""
+    i, j = key
+    su = sv = 0.0
+    steps = []
+    for di, dj in STEPS:
+        a, b = nodes.get((i - di, j - dj)), nodes.get((i - 2 * di, j - 2 * dj))
+        if a is None or b is None:
+            continue
+        c = nodes.get((i - 3 * di, j - 3 * dj))
+        if c is None:
+            su, sv = su + (2 * a[0] - b[0]), sv + (2 * a[1] - b[1])
+        else:
+            su, sv = su + (3 * a[0] - 3 * b[0] + c[0]), sv + (3 * a[1] - 3 * b[1] + c[1])
+        steps.append(math.hypot(a[0] - b[0], a[1] - b[1]))
+    if not steps:
+        for di, dj in STEPS:
+            a = nodes.get((i - di, j - dj))
+            for ei, ej in STEPS:
+                if a is None or ei * di + ej * dj:
+                    continue
+                b1, b2 = nodes.get((i - di + ei, j - dj + ej)), nodes.get((i + ei, j + ej))
+                if b1 is not None and b2 is not None:
+                    su, sv = su + (a[0] + b2[0] - b1[0]), sv + (a[1] + b2[1] - b1[1])
+                    steps.append(math.hypot(b2[0] - b1[0], b2[1] - b1[1]))
+    if not steps:
+        return None
+    return (su / len(steps), sv / len(steps)), float(np.median(steps))
+
+
+def test_predictions_are_the_plain_extrapolations():
+    rng = np.random.default_rng(4)
+    for trial in range(20):
+        nodes = {(i, j): (30.0 * i + 4.0 * j + rng.normal(0, 0.5), 28.0 * j - 3.0 * i + rng.normal(0, 0.5))
+                 for i in range(-3, 4) for j in range(-3, 3) if rng.random() < 0.6}
+        if not nodes:
+            continue
+        for key in [(i, j) for i in range(-5, 6) for j in range(-5, 5) if (i, j) not in nodes]:
+            got, want = predict(nodes, key), predict_reference(nodes, key)
+            if want is None:
+                assert got is None
+            else:
+                assert got[0] == pytest.approx(want[0], abs=1e-9) and got[1] == pytest.approx(want[1], rel=1e-12)
+
+
+def test_a_growth_round_predicts_each_free_neighbour_once_in_order():
+    nodes = {(0, 0): (0.0, 0.0), (1, 0): (10.0, 0.0), (0, 1): (0.0, 10.0), (1, 1): (10.0, 10.0)}
+    grid = KeyGrid(nodes)
+    fresh = np.array(list(nodes), dtype=np.int64)
+    keys, guess, step = np.empty((16, 2), np.int64), np.empty((16, 2)), np.empty(16)
+    stamp = np.zeros(grid.array.shape[:2], np.int32)
+    n = _lattice.predict_round(grid.array, int(grid.origin[0]), int(grid.origin[1]), fresh, stamp, 1, keys, guess, step)
+    expected = []
+    for i, j in nodes:
+        for di, dj in STEPS:
+            key = (i + di, j + dj)
+            if key not in nodes and key not in [k for k, _ in expected] and predict_reference(nodes, key):
+                expected.append((key, predict_reference(nodes, key)))
+    assert [tuple(k) for k in keys[:n].tolist()] == [k for k, _ in expected]
+    np.testing.assert_allclose(guess[:n], [p for _, (p, _) in expected], atol=1e-12)
+    np.testing.assert_allclose(step[:n], [s for _, (_, s) in expected], atol=1e-12)
+
+
+def test_growth_keeps_the_grid_growing_past_its_first_box():
+    # A board of 30 x 5 squares: its lattice (29 x 4 junctions) grows far beyond the seed's
+    # key box (KeyGrid.cover regrows it between compiled calls), and every junction is found once, where it is.
+    u, v = np.meshgrid(np.arange(720.0), np.arange(170.0))
+    image = np.where((np.floor((u - 20.3) / 22) + np.floor((v - 30.6) / 22)) % 2 == 0, 200, 40).astype(np.uint8)
+    image[:, :20] = image[:, 20 + 660:] = image[:30] = image[30 + 110:] = 120
+    lattice = max((lat for _, lat in grow_lattices(find_candidates(image), max_nodes=1000) if lat is not None),
+                  key=lambda lat: len(lat.keys))
+    assert len(lattice.keys) == 29 * 4 and len({tuple(k) for k in lattice.keys.tolist()}) == 29 * 4
+    assert np.ptp(lattice.keys, axis=0).max() == 28
+    # The square edges fall between pixel centres: at 20.5 + 22 c, 30.5 + 22 r.
+    truth = np.array([[20.5 + 22 * c, 30.5 + 22 * r] for c in range(1, 30) for r in range(1, 5)]).T
+    d = np.hypot(*(lattice.points[:, :, None] - truth[:, None, :])).min(axis=1)
+    assert d.max() < 0.75
+
+
+def along_reference(vec, length, pool, direction):
+    """The entry of ``pool`` nearest ``direction`` within 15 degrees and 0.7-1.4 of its length."""
+    size = np.hypot(*direction)
+    best, best_err = None, None
+    for n in pool:
+        cos = (direction[0] * vec[0, n] + direction[1] * vec[1, n]) / (size * max(length[n], 1e-12))
+        ratio = length[n] / size
+        if cos > np.cos(np.radians(15)) and 0.7 < ratio < 1.4:
+            err = np.hypot(*(vec[:, n] - direction))
+            if best is None or err < best_err:
+                best, best_err = n, err
+    return best
+
+
+def cross_reference(vec, length, opposite):
+    """Arms (a, b, c, d) and node count of a seed's cross, as lattice._seed_cross chooses them."""
+    best, arms = 0, None
+    for a in opposite[:3]:
+        b = along_reference(vec, length, opposite, -vec[:, a])
+        sideways = [n for n in opposite if n not in (a, b)
+                    and abs(vec[0, a] * vec[1, n] - vec[1, a] * vec[0, n]) > 0.5 * length[a] * length[n]]
+        if not sideways:
+            continue
+        c = sideways[0]
+        d = along_reference(vec, length, opposite, -vec[:, c])
+        count = 3 + (b is not None) + (d is not None)
+        if count >= 4 and count > best:
+            best, arms = count, (a, -1 if b is None else b, c, -1 if d is None else d)
+    return best, arms
+
+
+def test_the_seed_cross_picks_the_arms_the_plain_loop_picks():
+    rng = np.random.default_rng(5)
+    grid = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1) if (i, j) != (0, 0)] + [(2, 0), (0, 2), (2, 1)], float)
+    found = 0
+    for trial in range(200):
+        angle = rng.uniform(0, np.pi)
+        R = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+        vec = np.ascontiguousarray(R @ (25.0 * grid.T) + rng.normal(0, rng.choice([0.5, 4.0]), (2, grid.shape[0])))
+        length = np.hypot(*vec)
+        opposite = np.flatnonzero(rng.random(grid.shape[0]) < 0.7).astype(np.int64)
+        arms = np.full(4, -7, dtype=np.int64)
+        count = _lattice.pick_cross(vec, length, opposite, arms)
+        want, want_arms = cross_reference(vec, length, opposite)
+        assert count == want
+        if want:
+            assert tuple(arms) == want_arms
+            found += 1
+    assert 20 < found < 200  # crosses found and refused, both
+
+
+def side_reference(P, value, expect, rows, depths, width, height, mid, contrast, alternates=0.5, plain=0.35):
+    """identify's verdict on one side from its samples, in NumPy."""
+    inside = (P[:, 0] >= 0) & (P[:, 1] >= 0) & (P[:, 0] <= width - 1) & (P[:, 1] <= height - 1)
+    dark = np.where(inside, np.clip((mid - value) / (0.5 * contrast), -1.0, 1.0), np.nan)
+    outer = dark[:, 0] * expect
+    square = np.floor(depths).astype(int)
+    if np.sum(np.isfinite(outer)) < 2 or np.mean(outer > alternates) < 0.75:
+        return 0
+    pairs = np.flatnonzero(np.diff(rows) == 1)
+    pair = 0.5 * (dark[pairs] - dark[pairs + 1]) * expect[pairs, None] * np.where(square % 2 == 1, -1.0, 1.0)
+    per = {}
+    for k in (1, 2, 3):
+        seen = np.isfinite(pair[:, square == k])
+        total = np.where(seen, pair[:, square == k], 0.0).sum(axis=1)
+        per[k] = np.where(seen.sum(axis=1) >= 2, total / np.maximum(seen.sum(axis=1), 1), np.nan)
+    first = per[1][np.isfinite(per[1])]
+    if not first.size:
+        return 0
+    if first.mean() > alternates:
+        return 1
+    if not (first.mean() < plain and np.sum(first > alternates) <= first.size // 4):
+        return 0
+    for k in (2, 3):
+        later = per[k][np.isfinite(per[k])]
+        if later.size and (later.mean() > plain or np.sum(later > alternates) > max(1, later.size // 3)):
+            return 0
+    return 2
+
+
+def test_the_side_verdict_is_the_plain_one_on_random_sides():
+    from graphpose.detect import _identify
+    from graphpose.detect.identify import BEYOND_DEPTHS, OUTER_DEPTH, RESUME_DEPTHS
+
+    rng = np.random.default_rng(6)
+    depths = np.array((OUTER_DEPTH,) + BEYOND_DEPTHS + RESUME_DEPTHS)
+    verdicts = []
+    for trial in range(400):
+        m = int(rng.integers(2, 10))
+        rows = np.sort(rng.choice(12, m, replace=False)).astype(np.int64) if rng.random() < 0.3 else np.arange(m)
+        expect = np.where(np.arange(m) % 2 == 0, 1.0, -1.0)
+        # Dark where the pattern says, to a degree: a board going on, an edge, or clutter.
+        colour = expect[:, None] * np.where(np.floor(depths) % 2 == 1, -1.0, 1.0)
+        kind = rng.integers(3)
+        pattern = np.where(np.floor(depths) == 0, 1.0, [1.0, 0.0, rng.uniform(-1, 1)][kind])
+        value = 120.0 - 80.0 * colour * pattern + rng.normal(0, rng.choice([5.0, 40.0]), (m, depths.size))
+        edge = rng.uniform(-40, 140, (m, 2))
+        step = rng.uniform(10, 40, (m, 2)) * rng.choice([-1, 1], 2)
+        P = np.ascontiguousarray(edge[:, :, None] + step[:, :, None] * depths)
+        got = _identify.side_verdict(P, value, expect, rows, np.floor(depths).astype(np.int64), 160.0, 120.0, 120.0,
+                                     160.0, 0.5, 0.35)
+        assert got == side_reference(P, value, expect, rows, depths, 160.0, 120.0, 120.0, 160.0), trial
+        verdicts.append(got)
+    assert set(verdicts) == {0, 1, 2}
