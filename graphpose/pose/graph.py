@@ -2,11 +2,15 @@
 
 The graph has one ``Pose3`` variable ``X(0)`` (the camera pose T_WC, GTSAM's own convention:
 the camera looks along its +z with x right and y down, as in :mod:`graphpose.geometry`), one
-``Point3`` variable ``L(j)`` per junction, one projection factor per trusted junction
-(:func:`projection_factor`) and one very tight ``PriorFactorPoint3`` per landmark that pins it
-to its target position. A tight prior rather than ``NonlinearEquality`` keeps the linearised system
-non-singular, so ``Marginals`` works. Levenberg-Marquardt minimises the same reprojection
-cost as :mod:`graphpose.pose.gauss_newton`; the pipeline holds the two against each other.
+``Point3`` variable per junction (key ``j + 1``, :func:`landmark_key`), one projection factor per
+trusted junction (:func:`projection_factor`; for a pinhole, GTSAM's own loop
+``utilities.insertProjectionFactors`` adds them in one call) and one very tight
+``PriorFactorPoint3`` per landmark that pins it to its target position. A tight prior rather
+than ``NonlinearEquality`` keeps the linearised system non-singular, so the marginals exist.
+Levenberg-Marquardt minimises the same reprojection cost as :mod:`graphpose.pose.gauss_newton`;
+the pipeline holds the two against each other. The marginal covariance comes from the
+elimination of the last polishing step (no second linearisation and elimination for
+``gtsam.Marginals``), and only where it is reported.
 
 The projection factor follows the camera (:mod:`graphpose.camera_models`): GTSAM's own
 ``GenericProjectionFactorCal3_S2``, ``...Cal3DS2`` or ``...Cal3Fisheye`` with the
@@ -37,7 +41,7 @@ from dataclasses import dataclass
 
 import gtsam
 import numpy as np
-from gtsam.symbol_shorthand import L, X
+from gtsam.symbol_shorthand import X
 
 from .._checks import check_in_front, check_number, check_transform
 from ..observations import check_observations
@@ -47,6 +51,8 @@ from .gauss_newton import reprojection_rms
 #: Standard deviation (metres) of the prior that pins each target point: far below anything
 #: the pixels can resolve (about 1e-6 px at 1 m), yet finite so the marginals exist.
 LANDMARK_SIGMA_M = 1e-8
+#: The camera pose's key in the graph; the target point of junction j is :func:`landmark_key`.
+POSE_KEY = X(0)
 #: Huber threshold in units of the pixel sigma (95 % efficiency under Gaussian noise).
 HUBER_K = 1.345
 #: Levenberg-Marquardt stopping tolerances on the cost change. LM brings the pose near the
@@ -177,7 +183,8 @@ def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robu
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
     check_in_front(to_camera(T_guess, Wpts[:, mask])[2], "the guess", np.flatnonzero(mask))
     if robust and pixel_sigma is None:
-        plain = _solve(camera, T_guess, Ipts, Wpts, mask, 1.0, None)
+        # Only its pose is used: no marginals.
+        plain = _solve(camera, T_guess, Ipts, Wpts, mask, 1.0, None, marginals=False)
         r = Ipts[:, mask] - camera.project(to_camera(plain[0], Wpts[:, mask]))
         pixel_sigma = max(1.4826 * float(np.median(np.abs(r))), 1e-12)
     sigma = 1.0 if pixel_sigma is None else float(pixel_sigma)
@@ -205,10 +212,11 @@ def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robu
     )
 
 
-def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k):
+def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True):
     """Build and optimise the graph.
 
-    Returns (T_WC, tangent covariance, converged, iterations, failure message or "").
+    Returns (T_WC, tangent covariance (NaN unless ``marginals``), converged, iterations,
+    failure message or "").
     """
     # 1. Create the factor graph and the camera calibration (pixels; None where GTSAM has
     #    no calibration for the model: then a custom factor on graphpose's projection).
@@ -222,14 +230,22 @@ def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k):
             gtsam.noiseModel.mEstimator.Huber.Create(huber_k), pixel_noise)
     #    Landmark pin: isotropic over the target point's (x, y, z), metres.
     landmark_noise = gtsam.noiseModel.Isotropic.Sigma(3, LANDMARK_SIGMA_M)
-    # 3. One projection factor per trusted junction, one tight prior per target point.
+    # 3. One projection factor per trusted junction, one tight prior per target point. A
+    #    pinhole's factors go in with one call of GTSAM's own loop (insertProjectionFactors),
+    #    which takes the landmark keys as floats: hence keys j + 1, exact in a float.
+    used = np.flatnonzero(mask)
     initial = gtsam.Values()
-    initial.insert(X(0), gtsam.Pose3(T_guess))
-    for j in np.flatnonzero(mask):
-        graph.add(projection_factor(camera, Ipts[:, j], pixel_noise, X(0), L(j), calibration))
-        graph.add(gtsam.PriorFactorPoint3(L(j), Wpts[:, j], landmark_noise))
+    initial.insert(POSE_KEY, gtsam.Pose3(T_guess))
+    if isinstance(calibration, gtsam.Cal3_S2):
+        gtsam.utilities.insertProjectionFactors(graph, POSE_KEY, landmark_key(used).astype(float),
+                                                np.ascontiguousarray(Ipts[:, used]), pixel_noise, calibration)
+    else:
+        for j in used:
+            graph.add(projection_factor(camera, Ipts[:, j], pixel_noise, POSE_KEY, landmark_key(j), calibration))
+    for j in used:
+        graph.add(gtsam.PriorFactorPoint3(landmark_key(j), Wpts[:, j], landmark_noise))
         # 4. Initial values: the guessed pose and the exact target points.
-        initial.insert(L(j), Wpts[:, j])
+        initial.insert(landmark_key(j), Wpts[:, j])
     # 5. Optimise with Levenberg-Marquardt from the guess.
     params = gtsam.LevenbergMarquardtParams()
     params.setRelativeErrorTol(_RELATIVE_TOL)
@@ -237,7 +253,7 @@ def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k):
     params.setMaxIterations(_MAX_ITERATIONS)
     optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
     try:
-        return _optimise(graph, optimizer, Wpts, mask)
+        return _optimise(graph, optimizer, Wpts, mask, marginals)
     except RuntimeError as exc:
         # From a far-off guess the linearised system can become indeterminate (GTSAM's
         # IndeterminateSystemException): that is a failed solve, reported, not a crash.
@@ -245,6 +261,11 @@ def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k):
         lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
         return np.asarray(T_guess, dtype=float), nan, False, int(optimizer.iterations()), (
             lines[0] if lines else type(exc).__name__)
+
+
+def landmark_key(j):
+    """The graph's key of junction ``j``'s target point (int, or an integer array): ``j + 1``."""
+    return j + 1
 
 
 #: GTSAM's projection factor for each calibration :meth:`graphpose.camera_models.Camera.gtsam_calibration` gives.
@@ -305,7 +326,7 @@ def projection_factor(camera, uv, noise, pose_key, point_key, calibration=None):
     return gtsam.CustomFactor(noise, [pose_key, point_key], error)
 
 
-def _optimise(graph, optimizer, Wpts, mask):
+def _optimise(graph, optimizer, Wpts, mask, marginals=True):
     """Steps 5-7 of :func:`_solve`; GTSAM may raise RuntimeError on an indeterminate system."""
     result = optimizer.optimize()
     # 6. Polish with undamped Gauss-Newton steps. Levenberg-Marquardt stops when the cost
@@ -317,14 +338,17 @@ def _optimise(graph, optimizer, Wpts, mask):
     #    _POLISH_ITERATIONS, the result is reported as not converged.
     polished = False
     for _ in range(_POLISH_ITERATIONS):
-        delta = graph.linearize(result).optimize()
+        tree = graph.linearize(result).eliminateMultifrontal()
+        delta = tree.optimize()
         result = result.retract(delta)
-        if np.max(np.abs(delta.at(X(0)))) < _POLISH_STEP:
+        if np.max(np.abs(delta.at(POSE_KEY))) < _POLISH_STEP:
             polished = True
             break
-    # 7. Marginal covariance of the pose: tangent order (rotation rad, translation m), body frame.
-    cov = gtsam.Marginals(graph, result).marginalCovariance(X(0))
-    T = result.atPose3(X(0)).matrix()
+    # 7. Marginal covariance of the pose: tangent order (rotation rad, translation m), body
+    #    frame. It is the last step's elimination's (what gtsam.Marginals would eliminate
+    #    again), linearised less than _POLISH_STEP from the result: the same to rounding.
+    cov = tree.marginalCovariance(POSE_KEY) if marginals else np.full((6, 6), np.nan)
+    T = result.atPose3(POSE_KEY).matrix()
     # The projection factors do not enforce cheirality: a solution with a point behind the
     # camera is a failure, not a pose.
     in_front = np.all(to_camera(T, Wpts[:, mask])[2] > 0)
