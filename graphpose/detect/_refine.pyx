@@ -208,26 +208,78 @@ cdef void _grid_moments(const double[:, ::1] patch, const double[:, ::1] weight,
     wvv[0] = u
 
 
-cdef void _window(const float[:, ::1] grad2, double lu, double lv, double radius,
-                  double[:, ::1] weight) noexcept nogil:
-    """The fit's weights about the estimate at (lu, lv) in patch pixels: the squared gradient
-    times a smooth taper of the window ``radius``, over the squared distance (at least 1), in
-    single precision as :func:`graphpose.detect.refine._weights` wrote it."""
-    cdef Py_ssize_t P = grad2.shape[0], r, c
+cdef void _window_moments(const double[:, ::1] patch, const float[:, ::1] grad2, double lu, double lv,
+                          double radius, double[:, ::1] mom, double[:, ::1] rhsm,
+                          double* wvv) noexcept nogil:
+    """The moments of the fit (as :func:`_grid_moments`, about the patch's centre) with the
+    window's weights about the estimate at (lu, lv), patch pixels: the squared gradient times
+    a smooth taper of the window ``radius``, over the squared distance (at least 1), in single
+    precision as :func:`graphpose.detect.refine._weights` wrote it. Rows and columns beyond the
+    radius (where the taper is zero) are skipped; a column margin of one pixel keeps the
+    single-precision test the judge of the edge.
+    """
+    cdef Py_ssize_t P = grad2.shape[0], half = P // 2, r, col, lo, hi
     cdef float inv_r2 = <float>(1.0 / (radius * radius)), one = 1.0, zero = 0.0
     cdef float dy2, r2, taper
-    cdef double t
+    cdef double t, s0, s1, s2, s3, s4, t0, t1, t2, u, x, x2, wt, wv, y, yq, v
+    cdef int p, q
+    for p in range(5):
+        for q in range(5):
+            mom[p, q] = 0.0
+    for p in range(3):
+        for q in range(3):
+            rhsm[p, q] = 0.0
+    u = 0.0
+    lo = <Py_ssize_t>floor(lu - radius) - 1
+    hi = <Py_ssize_t>floor(lu + radius) + 2
+    lo = 0 if lo < 0 else lo
+    hi = P if hi > P else hi
     for r in range(P):
         t = r - lv
         dy2 = <float>(t * t)
-        for c in range(P):
-            t = c - lu
+        if dy2 * inv_r2 >= one:
+            continue
+        s0 = s1 = s2 = s3 = s4 = t0 = t1 = t2 = 0.0
+        for col in range(lo, hi):
+            t = col - lu
             r2 = dy2 + <float>(t * t)
             taper = one - r2 * inv_r2
-            if taper < zero:
-                taper = zero
+            if taper <= zero:
+                continue
             taper = taper * taper
-            weight[r, c] = (taper * grad2[r, c]) / (r2 if r2 > one else one)
+            wt = (taper * grad2[r, col]) / (r2 if r2 > one else one)
+            if wt == 0.0:
+                continue
+            x = col - half
+            x2 = x * x
+            v = patch[r, col]
+            wv = wt * v
+            s0 += wt
+            s1 += wt * x
+            s2 += wt * x2
+            s3 += wt * x2 * x
+            s4 += wt * x2 * x2
+            t0 += wv
+            t1 += wv * x
+            t2 += wv * x2
+            u += wv * v
+        y = r - half
+        yq = 1.0
+        for q in range(5):
+            mom[0, q] += s0 * yq
+            if q <= 3:
+                mom[1, q] += s1 * yq
+            if q <= 2:
+                mom[2, q] += s2 * yq
+                rhsm[0, q] += t0 * yq
+            if q <= 1:
+                mom[3, q] += s3 * yq
+                rhsm[1, q] += t1 * yq
+            if q == 0:
+                mom[4, 0] += s4
+                rhsm[2, 0] += t2
+            yq *= y
+    wvv[0] = u
 
 
 cdef bint _crosses(const double[:, ::1] patch, double cu, double cv, double radius,
@@ -314,7 +366,7 @@ def refine_grid(const pixel[:, :] image, double[:, ::1] current, const double[::
     cdef Py_ssize_t m = current.shape[1], H = image.shape[0], W = image.shape[1], P = 2 * half + 1
     raw_, tmp_, smooth_ = _buffers(half, kernel.shape[0])
     cdef float[:, ::1] raw = raw_, tmp = tmp_, smooth = smooth_
-    cdef double[:, ::1] patch = np.empty((P, P)), weight = np.empty((P, P))
+    cdef double[:, ::1] patch = np.empty((P, P))
     cdef float[:, ::1] grad2 = np.empty((P, P), np.float32)
     cdef double[:, ::1] mom = np.empty((5, 5)), rhsm = np.empty((3, 3)), N = np.empty((6, 6))
     cdef double[::1] c = np.empty(6)
@@ -338,8 +390,7 @@ def refine_grid(const pixel[:, :] image, double[:, ::1] current, const double[::
                     _patch(image, <Py_ssize_t>bu, <Py_ssize_t>bv, half, kernel, raw, tmp, smooth, patch, grad2)
                     inside = _inside(bu, bv, radius[i], H, W)
                     span = _span(patch)
-                _window(grad2, u - bu + half, v - bv + half, radius[i], weight)
-                _grid_moments(patch, weight, half, half, mom, rhsm, &wvv)
+                _window_moments(patch, grad2, u - bu + half, v - bv + half, radius[i], mom, rhsm, &wvv)
                 _quadric(mom, rhsm, wvv, span, size, N, c, fit)
                 res = fit[3]
                 # The stationary point in patch pixels, then in the image's.
