@@ -468,7 +468,7 @@ def fit_through_lens(const double[:, ::1] x, const double[:, ::1] y, const doubl
     cdef double[:, ::1] mom = np.empty((5, 5)), rhsm = np.empty((3, 3)), N = np.empty((6, 6))
     cdef double[::1] c = np.empty(6)
     cdef double[4] fit
-    cdef double[5][5] mono
+    cdef double[21] acc
     cdef double x1, y1, x2, y2, xy, cu, cv, inv_r2, dx, dy, r2, wt, wv, v, wvv, lo, hi
     cdef bint known
     with nogil:
@@ -477,12 +477,8 @@ def fit_through_lens(const double[:, ::1] x, const double[:, ::1] y, const doubl
             cu, cv = centre[0, i], centre[1, i]
             known = isfinite(cu) and isfinite(cv)
             inv_r2 = 1.0 / (radius[i] * radius[i])
-            for p in range(5):
-                for q in range(5):
-                    mom[p, q] = 0.0
-            for p in range(3):
-                for q in range(3):
-                    rhsm[p, q] = 0.0
+            for p in range(21):
+                acc[p] = 0.0
             wvv = 0.0
             lo = hi = values[j, 0]
             for k in range(n):
@@ -502,22 +498,26 @@ def fit_through_lens(const double[:, ::1] x, const double[:, ::1] y, const doubl
                 wt = wt * wt * grad2[j, k] / (r2 if r2 > 1.0 else 1.0)
                 if wt == 0.0:
                     continue
-                # The monomials as products of the squares (as the NumPy fit formed them).
+                # The monomials as products of the squares (as the NumPy fit formed them),
+                # summed in locals: weight times x^p y^q (p + q <= 4), grey value times
+                # weight times x^p y^q (p + q <= 2).
                 x1, y1 = x[j, k], y[j, k]
                 x2, y2, xy = x1 * x1, y1 * y1, x1 * y1
-                mono[0][0], mono[1][0], mono[2][0], mono[3][0], mono[4][0] = 1.0, x1, x2, x2 * x1, x2 * x2
-                mono[0][1], mono[1][1], mono[2][1], mono[3][1] = y1, xy, x2 * y1, x2 * xy
-                mono[0][2], mono[1][2], mono[2][2] = y2, x1 * y2, x2 * y2
-                mono[0][3], mono[1][3] = y2 * y1, xy * y2
-                mono[0][4] = y2 * y2
-                for p in range(5):
-                    for q in range(5 - p):
-                        mom[p, q] += mono[p][q] * wt
                 wv = wt * v
-                for p in range(3):
-                    for q in range(3 - p):
-                        rhsm[p, q] += mono[p][q] * wv
+                acc[0] += wt; acc[1] += x1 * wt; acc[2] += x2 * wt; acc[3] += x2 * x1 * wt
+                acc[4] += x2 * x2 * wt; acc[5] += y1 * wt; acc[6] += xy * wt; acc[7] += x2 * y1 * wt
+                acc[8] += x2 * xy * wt; acc[9] += y2 * wt; acc[10] += x1 * y2 * wt
+                acc[11] += x2 * y2 * wt; acc[12] += y2 * y1 * wt; acc[13] += xy * y2 * wt
+                acc[14] += y2 * y2 * wt
+                acc[15] += wv; acc[16] += x1 * wv; acc[17] += x2 * wv; acc[18] += y1 * wv
+                acc[19] += xy * wv; acc[20] += y2 * wv
                 wvv += wv * v
+            mom[0, 0], mom[1, 0], mom[2, 0], mom[3, 0], mom[4, 0] = acc[0], acc[1], acc[2], acc[3], acc[4]
+            mom[0, 1], mom[1, 1], mom[2, 1], mom[3, 1] = acc[5], acc[6], acc[7], acc[8]
+            mom[0, 2], mom[1, 2], mom[2, 2] = acc[9], acc[10], acc[11]
+            mom[0, 3], mom[1, 3], mom[0, 4] = acc[12], acc[13], acc[14]
+            rhsm[0, 0], rhsm[1, 0], rhsm[2, 0] = acc[15], acc[16], acc[17]
+            rhsm[0, 1], rhsm[1, 1], rhsm[0, 2] = acc[18], acc[19], acc[20]
             _quadric(mom, rhsm, wvv, hi - lo, size if size > 1.0 else 1.0, N, c, fit)
             points[0, i], points[1, i] = fit[0], fit[1]
             saddle[i] = fit[2] != 0.0
