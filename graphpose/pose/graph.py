@@ -2,10 +2,8 @@
 
 The graph has one ``Pose3`` variable ``X(0)`` (the camera pose T_WC, GTSAM's own convention:
 the camera looks along its +z with x right and y down, as in :mod:`graphpose.geometry`), one
-``Point3`` variable per junction (key ``j + 1``, :func:`landmark_key`), one projection factor per
-trusted junction (:func:`projection_factor`; for a pinhole, GTSAM's own loop
-``utilities.insertProjectionFactors`` adds them in one call) and one very tight
-``PriorFactorPoint3`` per landmark that pins it to its target position. A tight prior rather
+``Point3`` variable ``L(j)`` per junction, one projection factor per trusted junction
+(:func:`projection_factor`) and one very tight ``PriorFactorPoint3`` per landmark that pins it to its target position. A tight prior rather
 than ``NonlinearEquality`` keeps the linearised system non-singular, so the marginals exist.
 Levenberg-Marquardt minimises the same reprojection cost as :mod:`graphpose.pose.gauss_newton`;
 the pipeline holds the two against each other. The marginal covariance comes from the
@@ -41,7 +39,7 @@ from dataclasses import dataclass
 
 import gtsam
 import numpy as np
-from gtsam.symbol_shorthand import X
+from gtsam.symbol_shorthand import L, X
 
 from .._checks import check_in_front, check_number, check_transform
 from ..observations import check_observations
@@ -51,8 +49,6 @@ from .gauss_newton import reprojection_rms
 #: Standard deviation (metres) of the prior that pins each target point: far below anything
 #: the pixels can resolve (about 1e-6 px at 1 m), yet finite so the marginals exist.
 LANDMARK_SIGMA_M = 1e-8
-#: The camera pose's key in the graph; the target point of junction j is :func:`landmark_key`.
-POSE_KEY = X(0)
 #: Huber threshold in units of the pixel sigma (95 % efficiency under Gaussian noise).
 HUBER_K = 1.345
 #: Levenberg-Marquardt stopping tolerances on the cost change. LM brings the pose near the
@@ -230,22 +226,18 @@ def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True):
             gtsam.noiseModel.mEstimator.Huber.Create(huber_k), pixel_noise)
     #    Landmark pin: isotropic over the target point's (x, y, z), metres.
     landmark_noise = gtsam.noiseModel.Isotropic.Sigma(3, LANDMARK_SIGMA_M)
-    # 3. One projection factor per trusted junction, one tight prior per target point. A
-    #    pinhole's factors go in with one call of GTSAM's own loop (insertProjectionFactors),
-    #    which takes the landmark keys as floats: hence keys j + 1, exact in a float.
-    used = np.flatnonzero(mask)
+    # 3. One projection factor per trusted junction, one tight prior per target point.
+    #    (GTSAM's vectorised utilities.insertProjectionFactors would add a pinhole's factors
+    #    in one call, but it takes the landmark keys as floats, which cannot hold L(j); with
+    #    small integer keys the elimination orders the variables worse, and the whole solve
+    #    took 1.5 times as long.)
     initial = gtsam.Values()
-    initial.insert(POSE_KEY, gtsam.Pose3(T_guess))
-    if isinstance(calibration, gtsam.Cal3_S2):
-        gtsam.utilities.insertProjectionFactors(graph, POSE_KEY, landmark_key(used).astype(float),
-                                                np.ascontiguousarray(Ipts[:, used]), pixel_noise, calibration)
-    else:
-        for j in used:
-            graph.add(projection_factor(camera, Ipts[:, j], pixel_noise, POSE_KEY, landmark_key(j), calibration))
-    for j in used:
-        graph.add(gtsam.PriorFactorPoint3(landmark_key(j), Wpts[:, j], landmark_noise))
+    initial.insert(X(0), gtsam.Pose3(T_guess))
+    for j in np.flatnonzero(mask):
+        graph.add(projection_factor(camera, Ipts[:, j], pixel_noise, X(0), L(j), calibration))
+        graph.add(gtsam.PriorFactorPoint3(L(j), Wpts[:, j], landmark_noise))
         # 4. Initial values: the guessed pose and the exact target points.
-        initial.insert(landmark_key(j), Wpts[:, j])
+        initial.insert(L(j), Wpts[:, j])
     # 5. Optimise with Levenberg-Marquardt from the guess.
     params = gtsam.LevenbergMarquardtParams()
     params.setRelativeErrorTol(_RELATIVE_TOL)
@@ -261,11 +253,6 @@ def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True):
         lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
         return np.asarray(T_guess, dtype=float), nan, False, int(optimizer.iterations()), (
             lines[0] if lines else type(exc).__name__)
-
-
-def landmark_key(j):
-    """The graph's key of junction ``j``'s target point (int, or an integer array): ``j + 1``."""
-    return j + 1
 
 
 #: GTSAM's projection factor for each calibration :meth:`graphpose.camera_models.Camera.gtsam_calibration` gives.
@@ -341,14 +328,14 @@ def _optimise(graph, optimizer, Wpts, mask, marginals=True):
         tree = graph.linearize(result).eliminateMultifrontal()
         delta = tree.optimize()
         result = result.retract(delta)
-        if np.max(np.abs(delta.at(POSE_KEY))) < _POLISH_STEP:
+        if np.max(np.abs(delta.at(X(0)))) < _POLISH_STEP:
             polished = True
             break
     # 7. Marginal covariance of the pose: tangent order (rotation rad, translation m), body
     #    frame. It is the last step's elimination's (what gtsam.Marginals would eliminate
     #    again), linearised less than _POLISH_STEP from the result: the same to rounding.
-    cov = tree.marginalCovariance(POSE_KEY) if marginals else np.full((6, 6), np.nan)
-    T = result.atPose3(POSE_KEY).matrix()
+    cov = tree.marginalCovariance(X(0)) if marginals else np.full((6, 6), np.nan)
+    T = result.atPose3(X(0)).matrix()
     # The projection factors do not enforce cheirality: a solution with a point behind the
     # camera is a failure, not a pose.
     in_front = np.all(to_camera(T, Wpts[:, mask])[2] > 0)
