@@ -157,12 +157,7 @@ cdef void _quadric(const double[:, ::1] mom, const double[:, ::1] rhsm, double w
     out[2] = 1.0 if -det > floor_ else 0.0
 
 
-cdef void _grid_moments(const double[:, ::1] patch, const double[:, ::1] weight, double cx, double cy,
-                        double[:, ::1] mom, double[:, ::1] rhsm, double* wvv) noexcept nogil:
-    """Moments of a weighted patch on its pixel grid, about (cx, cy): row by row, the sums
-    over the row's columns times the powers of its y (pixels of zero weight skipped)."""
-    cdef Py_ssize_t h = patch.shape[0], w = patch.shape[1], r, col
-    cdef double s0, s1, s2, s3, s4, t0, t1, t2, u, x, x2, wt, wv, y, yq
+cdef inline void _clear(double[:, ::1] mom, double[:, ::1] rhsm) noexcept nogil:
     cdef int p, q
     for p in range(5):
         for q in range(5):
@@ -170,41 +165,61 @@ cdef void _grid_moments(const double[:, ::1] patch, const double[:, ::1] weight,
     for p in range(3):
         for q in range(3):
             rhsm[p, q] = 0.0
-    u = 0.0
+
+
+cdef inline void _add_pixel(double* row, double wt, double x, double v) noexcept nogil:
+    """One pixel of weight ``wt`` at column offset ``x`` with grey value ``v`` into its row's
+    sums: ``w x^p`` (p <= 4), then ``w v x^p`` (p <= 2), then ``w v^2``."""
+    cdef double x2 = x * x, wv = wt * v
+    row[0] += wt
+    row[1] += wt * x
+    row[2] += wt * x2
+    row[3] += wt * x2 * x
+    row[4] += wt * x2 * x2
+    row[5] += wv
+    row[6] += wv * x
+    row[7] += wv * x2
+    row[8] += wv * v
+
+
+cdef inline void _add_row(double[:, ::1] mom, double[:, ::1] rhsm, const double* row, double y) noexcept nogil:
+    """A row's sums (:func:`_add_pixel`) times the powers of its ``y`` into the moments."""
+    cdef double yq = 1.0
+    cdef int q
+    for q in range(5):
+        mom[0, q] += row[0] * yq
+        if q <= 3:
+            mom[1, q] += row[1] * yq
+        if q <= 2:
+            mom[2, q] += row[2] * yq
+            rhsm[0, q] += row[5] * yq
+        if q <= 1:
+            mom[3, q] += row[3] * yq
+            rhsm[1, q] += row[6] * yq
+        if q == 0:
+            mom[4, 0] += row[4]
+            rhsm[2, 0] += row[7]
+        yq *= y
+
+
+cdef void _grid_moments(const double[:, ::1] patch, const double[:, ::1] weight, double cx, double cy,
+                        double[:, ::1] mom, double[:, ::1] rhsm, double* wvv) noexcept nogil:
+    """Moments of a weighted patch on its pixel grid, about (cx, cy): row by row, the sums
+    over the row's columns times the powers of its y (pixels of zero weight skipped)."""
+    cdef Py_ssize_t h = patch.shape[0], w = patch.shape[1], r, col
+    cdef double[9] row
+    cdef double u = 0.0, wt
+    cdef int k
+    _clear(mom, rhsm)
     for r in range(h):
-        s0 = s1 = s2 = s3 = s4 = t0 = t1 = t2 = 0.0
+        for k in range(9):
+            row[k] = 0.0
         for col in range(w):
             wt = weight[r, col]
-            if wt == 0.0:
-                continue
-            x = col - cx
-            x2 = x * x
-            wv = wt * patch[r, col]
-            s0 += wt
-            s1 += wt * x
-            s2 += wt * x2
-            s3 += wt * x2 * x
-            s4 += wt * x2 * x2
-            t0 += wv
-            t1 += wv * x
-            t2 += wv * x2
-            u += wv * patch[r, col]
-        y = r - cy
-        yq = 1.0
-        for q in range(5):
-            mom[0, q] += s0 * yq
-            if q <= 3:
-                mom[1, q] += s1 * yq
-            if q <= 2:
-                mom[2, q] += s2 * yq
-                rhsm[0, q] += t0 * yq
-            if q <= 1:
-                mom[3, q] += s3 * yq
-                rhsm[1, q] += t1 * yq
-            if q == 0:
-                mom[4, 0] += s4
-                rhsm[2, 0] += t2
-            yq *= y
+            if wt != 0.0:
+                _add_pixel(row, wt, col - cx, patch[r, col])
+        _add_row(mom, rhsm, row, r - cy)
+        u += row[8]
     wvv[0] = u
 
 
@@ -221,15 +236,10 @@ cdef void _window_moments(const double[:, ::1] patch, const float[:, ::1] grad2,
     cdef Py_ssize_t P = grad2.shape[0], half = P // 2, r, col, lo, hi
     cdef float inv_r2 = <float>(1.0 / (radius * radius)), one = 1.0, zero = 0.0
     cdef float dy2, r2, taper
-    cdef double t, s0, s1, s2, s3, s4, t0, t1, t2, u, x, x2, wt, wv, y, yq, v
-    cdef int p, q
-    for p in range(5):
-        for q in range(5):
-            mom[p, q] = 0.0
-    for p in range(3):
-        for q in range(3):
-            rhsm[p, q] = 0.0
-    u = 0.0
+    cdef double[9] row
+    cdef double t, wt, u = 0.0
+    cdef int k
+    _clear(mom, rhsm)
     lo = <Py_ssize_t>floor(lu - radius) - 1
     hi = <Py_ssize_t>floor(lu + radius) + 2
     lo = 0 if lo < 0 else lo
@@ -239,7 +249,8 @@ cdef void _window_moments(const double[:, ::1] patch, const float[:, ::1] grad2,
         dy2 = <float>(t * t)
         if dy2 * inv_r2 >= one:
             continue
-        s0 = s1 = s2 = s3 = s4 = t0 = t1 = t2 = 0.0
+        for k in range(9):
+            row[k] = 0.0
         for col in range(lo, hi):
             t = col - lu
             r2 = dy2 + <float>(t * t)
@@ -248,37 +259,10 @@ cdef void _window_moments(const double[:, ::1] patch, const float[:, ::1] grad2,
                 continue
             taper = taper * taper
             wt = (taper * grad2[r, col]) / (r2 if r2 > one else one)
-            if wt == 0.0:
-                continue
-            x = col - half
-            x2 = x * x
-            v = patch[r, col]
-            wv = wt * v
-            s0 += wt
-            s1 += wt * x
-            s2 += wt * x2
-            s3 += wt * x2 * x
-            s4 += wt * x2 * x2
-            t0 += wv
-            t1 += wv * x
-            t2 += wv * x2
-            u += wv * v
-        y = r - half
-        yq = 1.0
-        for q in range(5):
-            mom[0, q] += s0 * yq
-            if q <= 3:
-                mom[1, q] += s1 * yq
-            if q <= 2:
-                mom[2, q] += s2 * yq
-                rhsm[0, q] += t0 * yq
-            if q <= 1:
-                mom[3, q] += s3 * yq
-                rhsm[1, q] += t1 * yq
-            if q == 0:
-                mom[4, 0] += s4
-                rhsm[2, 0] += t2
-            yq *= y
+            if wt != 0.0:
+                _add_pixel(row, wt, col - half, patch[r, col])
+        _add_row(mom, rhsm, row, r - half)
+        u += row[8]
     wvv[0] = u
 
 
@@ -313,16 +297,15 @@ cdef inline bint _inside(double bu, double bv, double radius, Py_ssize_t H, Py_s
     return bu - radius >= 0 and bu + radius <= W - 1 and bv - radius >= 0 and bv + radius <= H - 1
 
 
-cdef double _span(const double[:, ::1] patch) noexcept nogil:
-    cdef Py_ssize_t P = patch.shape[0], r, c
-    cdef double lo = patch[0, 0], hi = patch[0, 0], v
-    for r in range(P):
-        for c in range(P):
-            v = patch[r, c]
-            if v < lo:
-                lo = v
-            if v > hi:
-                hi = v
+cdef double _range(const double* values, Py_ssize_t n) noexcept nogil:
+    """The grey range (max - min) of ``n`` contiguous values."""
+    cdef Py_ssize_t k
+    cdef double lo = values[0], hi = values[0]
+    for k in range(1, n):
+        if values[k] < lo:
+            lo = values[k]
+        if values[k] > hi:
+            hi = values[k]
     return hi - lo
 
 
@@ -381,7 +364,7 @@ def refine_grid(const pixel[:, :] image, double[:, ::1] current, const double[::
             bu, bv = rint(u), rint(v)
             _patch(image, <Py_ssize_t>bu, <Py_ssize_t>bv, half, kernel, raw, tmp, smooth, patch, grad2)
             inside = _inside(bu, bv, radius[i], H, W)
-            span = _span(patch)
+            span = _range(&patch[0, 0], P * P)
             state = 0  # moving; 1 converged, 2 failed
             res = NAN
             for it in range(max_iter):
@@ -389,7 +372,7 @@ def refine_grid(const pixel[:, :] image, double[:, ::1] current, const double[::
                     bu, bv = rint(u), rint(v)
                     _patch(image, <Py_ssize_t>bu, <Py_ssize_t>bv, half, kernel, raw, tmp, smooth, patch, grad2)
                     inside = _inside(bu, bv, radius[i], H, W)
-                    span = _span(patch)
+                    span = _range(&patch[0, 0], P * P)
                 _window_moments(patch, grad2, u - bu + half, v - bv + half, radius[i], mom, rhsm, &wvv)
                 _quadric(mom, rhsm, wvv, span, size, N, c, fit)
                 res = fit[3]
@@ -469,7 +452,7 @@ def fit_through_lens(const double[:, ::1] x, const double[:, ::1] y, const doubl
     cdef double[::1] c = np.empty(6)
     cdef double[4] fit
     cdef double[21] acc
-    cdef double x1, y1, x2, y2, xy, cu, cv, inv_r2, dx, dy, r2, wt, wv, v, wvv, lo, hi
+    cdef double x1, y1, x2, y2, xy, cu, cv, inv_r2, dx, dy, r2, wt, wv, v, wvv
     cdef bint known
     with nogil:
         for i in range(a):
@@ -480,15 +463,8 @@ def fit_through_lens(const double[:, ::1] x, const double[:, ::1] y, const doubl
             for p in range(21):
                 acc[p] = 0.0
             wvv = 0.0
-            lo = hi = values[j, 0]
-            for k in range(n):
+            for k in range(n if known else 0):
                 v = values[j, k]
-                if v < lo:
-                    lo = v
-                if v > hi:
-                    hi = v
-                if not known:
-                    continue
                 dx = x[j, k] - cu
                 dy = y[j, k] - cv
                 r2 = dx * dx + dy * dy
@@ -518,7 +494,7 @@ def fit_through_lens(const double[:, ::1] x, const double[:, ::1] y, const doubl
             mom[0, 3], mom[1, 3], mom[0, 4] = acc[12], acc[13], acc[14]
             rhsm[0, 0], rhsm[1, 0], rhsm[2, 0] = acc[15], acc[16], acc[17]
             rhsm[0, 1], rhsm[1, 1], rhsm[0, 2] = acc[18], acc[19], acc[20]
-            _quadric(mom, rhsm, wvv, hi - lo, size if size > 1.0 else 1.0, N, c, fit)
+            _quadric(mom, rhsm, wvv, _range(&values[j, 0], n), size if size > 1.0 else 1.0, N, c, fit)
             points[0, i], points[1, i] = fit[0], fit[1]
             saddle[i] = fit[2] != 0.0
             rms[i] = fit[3]
