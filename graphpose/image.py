@@ -55,8 +55,8 @@ def as_grey(image, *, min_side: int = 1) -> np.ndarray:
 _EIGHT_BIT_MODES = {"L", "P", "RGB", "RGBA", "LA", "CMYK", "YCbCr", "1"}
 
 
-def read_image(path, *, as_float: bool = True) -> np.ndarray:
-    """Read an image file as grey, shape (H, W).
+def read_image(path, *, as_float: bool = False) -> np.ndarray:
+    """Read an image file as grey, shape (H, W): what an 8-bit file holds, as uint8.
 
     The pixels are the sensor's: no EXIF rotation is applied (a calibration describes the
     sensor's own rows and columns; an image turned by its EXIF tag would not match it).
@@ -66,18 +66,18 @@ def read_image(path, *, as_float: bool = True) -> np.ndarray:
     path : str or path-like
         Any format scikit-image / imageio reads (PNG, JPEG, TIFF, BMP, ...).
     as_float : bool
-        True (default): float64 grey in [0, 1], as :func:`as_grey` makes it. False: an
-        8-bit file (grey, palette or colour) comes as uint8 grey, converted by the decoder
-        itself (ITU-R 601 luma in integers; a JPEG is decoded straight to its luma plane),
-        which the detector reads as it is: 1/8 of the memory of float64 and no conversion
-        pass over the image. Other files (16-bit grey, float) come as float64 as with True.
-        (Pillow reads 16-bit colour files as 8-bit colour, on both paths.) ``graphpose
-        estimate``, ``track`` and ``batch`` read this way.
+        False (default): an 8-bit file (grey, palette or colour) comes as uint8 grey,
+        converted by the decoder itself (ITU-R 601 luma in integers; a JPEG is decoded
+        straight to its luma plane), which every graphpose function reads as it is (the
+        detector without converting it: 1/8 of the memory of float64 and no conversion pass
+        over the image); other files (16-bit grey, float) come as float64 in [0, 1]. True:
+        float64 grey in [0, 1] whatever the file, as :func:`as_grey` makes it (for arithmetic
+        on the pixels). (Pillow reads 16-bit colour files as 8-bit colour, on both paths.)
 
     Returns
     -------
-    grey : (H, W) ndarray of float64, or of uint8 when ``as_float`` is False and the file
-        holds 8-bit pixels.
+    grey : (H, W) ndarray of uint8 for an 8-bit file, else of float64 in [0, 1] (always
+        float64 with ``as_float``).
 
     Raises
     ------

@@ -51,7 +51,7 @@ def real_images(real_cases):
     """List of (case, grey float image) for the six real images."""
     from graphpose.image import read_image
 
-    return [(case, read_image(case.image)) for case in real_cases.cases]
+    return [(case, read_image(case.image, as_float=True)) for case in real_cases.cases]
 
 
 # --- shared constants: the project's camera and target (appended; graphpose.geometry and

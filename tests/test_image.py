@@ -61,7 +61,7 @@ def test_as_grey_refuses_an_image_smaller_than_asked():
 def test_read_image_reads_grey_in_0_1(tmp_path):
     path = tmp_path / "a.png"
     path.write_bytes(encode_png(np.array([[0, 255], [51, 102]], np.uint8)))
-    np.testing.assert_allclose(read_image(path), [[0.0, 1.0], [0.2, 0.4]])
+    np.testing.assert_allclose(read_image(path, as_float=True), [[0.0, 1.0], [0.2, 0.4]])
 
 
 def test_read_image_of_a_folder_says_it_is_a_folder(tmp_path):
@@ -78,7 +78,9 @@ def test_read_image_as_uint8_keeps_8_bit_grey_exactly(tmp_path):
     grey = read_image(path, as_float=False)
     assert grey.dtype == np.uint8
     np.testing.assert_array_equal(grey, pixels)
-    np.testing.assert_allclose(read_image(path), pixels / 255.0)
+    np.testing.assert_allclose(read_image(path, as_float=True), pixels / 255.0)
+    # uint8 is the default.
+    assert read_image(path).dtype == np.uint8 and np.array_equal(read_image(path), pixels)
 
 
 @pytest.mark.parametrize("suffix, tolerance", [(".png", 1), (".jpg", 12)])
@@ -93,7 +95,7 @@ def test_read_image_as_uint8_converts_colour_to_luma(tmp_path, suffix, tolerance
     grey = read_image(path, as_float=False)
     assert grey.dtype == np.uint8 and grey.shape == (16, 16)
     # Integer luma in the decoder against the float path's (JPEG: its own luma plane).
-    assert np.abs(grey.astype(float) - 255 * read_image(path)).max() <= tolerance
+    assert np.abs(grey.astype(float) - 255 * read_image(path, as_float=True)).max() <= tolerance
 
 
 def test_read_image_as_uint8_reads_16_bit_files_as_float(tmp_path):

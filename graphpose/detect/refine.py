@@ -16,12 +16,11 @@ Coordinates follow :mod:`graphpose.geometry`.
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
 from .._checks import as_float_array, as_points, check_image, check_number
 from ..errors import InputError
 from ..image import as_grey
-from .saddle import fit_quadrics, fit_quadrics_moments, quadric_monomials
+from ._refine import fit_through_lens, refine_grid, ring_crosses, smoothed_patches
 
 #: Default refinement window radius, as a fraction of the local square side.
 WINDOW_FRACTION = 0.5
@@ -141,28 +140,40 @@ def grey_and_scale(I, min_side: int = 1):
     return as_grey(I, min_side=min_side), 1.0
 
 
+#: The ring test's 16 directions (:func:`graphpose.detect._refine.refine_grid`).
+_RING_ANGLES = np.arange(16) * (np.pi / 8)
+_RING_COS, _RING_SIN = np.cos(_RING_ANGLES), np.sin(_RING_ANGLES)
+
+
 def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: float,
             max_iter: int = 8, tol: float = 0.02, lens=None):
     """Re-centred, gradient-weighted saddle fits: (points (2, m), trusted (m,), residual (m,)).
 
-    Each round refits only the junctions still moving; a junction that drifts off its
-    patch's centre gets a new patch. With a distorting ``lens`` (a camera of
+    Each junction is refitted until it stops moving; one that drifts off its patch's centre
+    gets a new patch. Without a lens the whole refinement is one call of the compiled kernel
+    :func:`graphpose.detect._refine.refine_grid`. With a distorting ``lens`` (a camera of
     :mod:`graphpose.camera_models`) the fit places each raw pixel where the lens undistorts it
-    (:func:`graphpose.detect.saddle.fit_quadrics_at`): the board's edges, curved in the raw
+    (:func:`graphpose.detect._refine.fit_through_lens`): the board's edges, curved in the raw
     image, are straight there, as the saddle model assumes, and no pixel is resampled.
     """
     m = points.shape[1]
-    current = points.astype(float).copy()
+    current = np.array(points, dtype=float, order="C")
+    radius = np.ascontiguousarray(radius, dtype=float)
     slack = 2
     half = int(np.ceil(radius.max())) + slack
+    kernel = _gaussian_kernel(sigma).astype(np.float32)
+    if lens is None:
+        trusted, residual = np.zeros(m, dtype=np.uint8), np.empty(m)
+        refine_grid(image, current, radius, kernel, half, max_iter, tol, float(slack), _RING_COS, _RING_SIN,
+                    trusted, residual)
+        return current, trusted.view(bool), residual
     offs = np.arange(-half, half + 1, dtype=float)
-    base = np.rint(current).astype(int)
-    patches, grad2, inside = _patches(image, base, half, sigma, radius)
-    if lens is not None:
-        # The window (radius at most radius.max(), about an estimate within the slack of
-        # the patch's centre) stays inside this disc of the patch's pixels.
-        disc = (offs[:, None] ** 2 + offs[None, :] ** 2) <= (radius.max() + slack + 1.0) ** 2
-        through = _lens_patches(lens, base, offs, disc, patches, grad2)
+    base = np.rint(current).astype(np.intp)
+    patches, grad2, inside = _patches(image, base, half, kernel, radius)
+    # The window (radius at most radius.max(), about an estimate within the slack of
+    # the patch's centre) stays inside this disc of the patch's pixels.
+    disc = (offs[:, None] ** 2 + offs[None, :] ** 2) <= (radius.max() + slack + 1.0) ** 2
+    through = _lens_patches(lens, base, offs, disc, patches, grad2)
     residual = np.full(m, np.nan)
     state = np.zeros(m, dtype=int)  # 0 moving, 1 converged, 2 failed
     for _ in range(max_iter):
@@ -172,20 +183,14 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
         drift = act[np.any(np.abs(current[:, act] - base[:, act]) > slack - 0.5, axis=0)]
         if drift.size:
             base[:, drift] = np.rint(current[:, drift])
-            fresh = _patches(image, base[:, drift], half, sigma, radius[drift])
+            fresh = _patches(image, base[:, drift], half, kernel, radius[drift])
             patches[drift], grad2[drift], inside[drift] = fresh
-            if lens is not None:
-                fresh = _lens_patches(lens, base[:, drift], offs, disc, patches[drift], grad2[drift])
-                through[0][:, drift], through[1][:, drift] = fresh[0], fresh[1]
-                for held, part in zip(through[2:], fresh[2:]):
-                    held[drift] = part
-        if lens is None:
-            weights = _weights(offs, current[:, act] - base[:, act], radius[act], grad2[act])
-            pts, saddle, within, _, residual[act] = fit_quadrics(patches[act], weights)
-            new, fitted = base[:, act] + pts - half, saddle & within
-        else:
-            new, fitted, residual[act] = _fit_through(lens, through, act, half, current[:, act] - base[:, act],
-                                                      radius[act])
+            fresh = _lens_patches(lens, base[:, drift], offs, disc, patches[drift], grad2[drift])
+            through[0][:, drift], through[1][:, drift] = fresh[0], fresh[1]
+            for held, part in zip(through[2:], fresh[2:]):
+                held[drift] = part
+        new, fitted, residual[act] = _fit_through(lens, through, act, half, current[:, act] - base[:, act],
+                                                  radius[act])
         step = np.hypot(*(new - current[:, act]))
         ok = fitted & np.isfinite(step) & (step < radius[act])
         current[:, act[ok]] = new[:, ok]
@@ -193,17 +198,17 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
         state[act[ok & (step < tol)]] = 1
     fitted = state != 2
     residual[~fitted] = np.nan
-    crosses = _looks_like_cross(patches, current - base + half, 0.6 * radius)
-    return current, (state == 1) & inside & crosses, residual
+    crosses = np.zeros(m, dtype=np.uint8)
+    ring_crosses(patches, np.ascontiguousarray(current - base + half), 0.6 * radius, _RING_COS, _RING_SIN, crosses)
+    return current, (state == 1) & inside & crosses.view(bool), residual
 
 
 def _lens_patches(lens, base, offs, disc, patches, grad2):
     """What the fits through the lens reuse while a patch stays: per patch (m of them)
     the undistorted position of its base pixel (2, m), the lens's node values (2, m, 5, 5)
-    (:func:`_node_values`), and for the pixels of ``disc`` (n of them) their design
-    monomials (m, 15, n) about that origin (:func:`graphpose.detect.saddle.quadric_monomials`),
-    positions ``x, y`` (m, n), grey values (m, n) and squared gradients (m, n), zero where
-    the lens gives no position (then the pixel has no weight).
+    (:func:`_node_values`), and for the pixels of ``disc`` (n of them) their positions
+    ``x, y`` (m, n) about that origin, grey values (m, n) and squared gradients (m, n), zero
+    where the lens gives no position (then the pixel has no weight).
     """
     V = _node_values(lens, base, offs)
     origin = V[:, :, 2, 2]  # the middle node is the base pixel
@@ -212,9 +217,9 @@ def _lens_patches(lens, base, offs, disc, patches, grad2):
     rows, cols = np.nonzero(disc)
     flat = (L.T @ (V @ L))[:, :, rows, cols] - origin[:, :, None]
     valid = np.all(np.isfinite(flat), axis=0)
-    x, y = np.where(valid, flat[0], 0.0), np.where(valid, flat[1], 0.0)
-    g2 = np.where(valid, grad2[:, rows, cols], 0.0)
-    return [origin, V, quadric_monomials(x, y), x, y, patches[:, rows, cols], g2]
+    x, y = (np.ascontiguousarray(np.where(valid, f, 0.0)) for f in flat)
+    g2 = np.ascontiguousarray(np.where(valid, grad2[:, rows, cols], 0.0), dtype=float)
+    return [origin, V, x, y, np.ascontiguousarray(patches[:, rows, cols]), g2]
 
 
 def _fit_through(lens, through, act, half, offset, radius):
@@ -224,22 +229,17 @@ def _fit_through(lens, through, act, half, offset, radius):
     fit, ``offset`` (2, a) their current raw estimates less their bases. Returns the new raw
     estimates (2, a), whether each fit is a saddle within its patch, and the residuals.
     """
-    origin, V, A, x, y, values, g2 = through
+    origin, V, x, y, values, g2 = through
     origin = origin[:, act]
-    # The estimate's undistorted position, about the patch's origin.
+    # The estimate's undistorted position, about the patch's origin; the kernel weights the
+    # pixels by refine_points' window about it, in undistorted pixels (none where it has no
+    # undistorted position: a fisheye past 90 degrees).
     c = _undistort_in_patch(V[:, act], half, offset) - origin
-    dx = x[act] - c[0][:, None]
-    dy = y[act] - c[1][:, None]
-    # The window of refine_points, about the estimate, in undistorted pixels.
-    r2 = dx * dx + dy * dy
-    taper = np.maximum(1.0 - r2 * (1.0 / radius ** 2)[:, None], 0.0)
-    taper *= taper
-    taper *= g2[act]
-    weights = np.divide(taper, np.maximum(r2, 1.0, out=r2), out=taper)
-    known = np.all(np.isfinite(c), axis=0)  # False: no undistorted position (a fisheye past 90 degrees)
-    weights[~known] = 0.0
-    pts, saddle, residual = fit_quadrics_moments(A[act] if act.size < A.shape[0] else A,
-                                                 values[act], weights, half)
+    known = np.all(np.isfinite(c), axis=0)
+    pts, saddle, residual = np.empty((2, act.size)), np.zeros(act.size, dtype=np.uint8), np.empty(act.size)
+    fit_through_lens(x, y, values, g2, act.astype(np.intp), np.ascontiguousarray(c), radius, float(half), pts,
+                     saddle, residual)
+    saddle = saddle.view(bool)
     found = np.all(np.isfinite(pts), axis=0) & known
     within = found & (np.hypot(*np.where(found, pts - c, 0.0)) < half)
     new = np.full((2, act.size), np.nan)
@@ -289,23 +289,17 @@ def _undistort_in_patch(V, half, offset) -> np.ndarray:
     return np.einsum("cmab,am,bm->cm", V, L[:, 1], L[:, 0])
 
 
-def _patches(image, base, half, sigma, radius):
-    """Smoothed patches (m, 2h+1, 2h+1), squared gradients and an in-image mask (m,)."""
+def _patches(image, base, half, kernel, radius):
+    """Smoothed patches (m, 2h+1, 2h+1) about ``base`` (2, m) (by the compiled
+    :func:`graphpose.detect._refine.smoothed_patches`), squared gradients and an in-image
+    mask (m,)."""
     height, width = image.shape
-    kernel = _gaussian_kernel(sigma)
-    margin = len(kernel) // 2 + 1
-    offs = np.arange(-half - margin, half + margin + 1)
-    rows = np.clip(base[1][:, None] + offs, 0, height - 1)
-    cols = np.clip(base[0][:, None] + offs, 0, width - 1)
+    m, size = base.shape[1], 2 * half + 1
+    patches, grad2 = np.empty((m, size, size)), np.empty((m, size, size), dtype=np.float32)
+    smoothed_patches(image, np.ascontiguousarray(base, dtype=np.intp), half, kernel, patches, grad2)
     inside = (base[0] - radius >= 0) & (base[0] + radius <= width - 1) & \
         (base[1] - radius >= 0) & (base[1] + radius <= height - 1)
-    # Single precision for the pixel work (half the memory traffic); the fit itself, in
-    # saddle.fit_quadrics, accumulates in double.
-    raw = image.ravel()[(rows * width)[:, :, None] + cols[:, None, :]].astype(np.float32, copy=False)
-    smooth = _convolve(_convolve(raw, kernel.astype(np.float32), 1), kernel.astype(np.float32), 2)
-    gx = 0.5 * (smooth[:, 1:-1, 2:] - smooth[:, 1:-1, :-2])
-    gy = 0.5 * (smooth[:, 2:, 1:-1] - smooth[:, :-2, 1:-1])
-    return smooth[:, 1:-1, 1:-1].astype(float), gx * gx + gy * gy, inside
+    return patches, grad2, inside
 
 
 def _gaussian_kernel(sigma: float) -> np.ndarray:
@@ -315,51 +309,6 @@ def _gaussian_kernel(sigma: float) -> np.ndarray:
     t = int(np.ceil(4.0 * sigma))
     k = np.exp(-0.5 * (np.arange(-t, t + 1) / sigma) ** 2)
     return k / k.sum()
-
-
-def _convolve(a: np.ndarray, kernel: np.ndarray, axis: int) -> np.ndarray:
-    """'Valid' correlation with a short symmetric kernel along one axis (shrinks it)."""
-    n = a.shape[axis] - len(kernel) + 1
-    index = [slice(None)] * a.ndim
-    out = 0.0
-    for j, k in enumerate(kernel):
-        index[axis] = slice(j, j + n)
-        out = out + k * a[tuple(index)]
-    return out
-
-
-def _weights(offs, local, radius, grad2):
-    """Fit weights (m, h, w) centred on each sub-pixel estimate.
-
-    The squared gradient picks out the two edges, where the position information is; the
-    division by the squared distance from the centre favours the inner stretch of each edge,
-    which fits the real images better than the outer stretch (measurements in the README's
-    cross-junctions section); a smooth taper keeps the window point-symmetric about the
-    estimate on the pixel grid.
-    """
-    inv_r2 = (1.0 / (radius * radius)).astype(np.float32)
-    dx2 = ((offs[None, :] - local[0][:, None]) ** 2).astype(np.float32)
-    dy2 = ((offs[None, :] - local[1][:, None]) ** 2).astype(np.float32)
-    r2 = dy2[:, :, None] + dx2[:, None, :]
-    taper = np.maximum(1.0 - r2 * inv_r2[:, None, None], 0.0)
-    taper *= taper
-    return (taper * grad2 / np.maximum(r2, np.float32(1.0))).astype(float)
-
-
-def _looks_like_cross(patches, centre, radius):
-    """Ring test on the smoothed patches: point-symmetric, with four alternating sectors.
-
-    The ChESS "sum" response (opposite samples against the quarter-turned pair) must be
-    at least twice its "diff" response (opposite samples against each other), which noise,
-    edges and L-corners fail.
-    """
-    m = patches.shape[0]
-    angles = np.arange(16) * (np.pi / 8)
-    x = centre[0][:, None] + radius[:, None] * np.cos(angles)
-    y = centre[1][:, None] + radius[:, None] * np.sin(angles)
-    k = np.repeat(np.arange(m), 16)
-    ring = ndimage.map_coordinates(patches, [k, y.ravel(), x.ravel()], order=1, mode="nearest").reshape(m, 16)
-    return ring_sum(ring) > 2.0 * ring_diff(ring)
 
 
 def ring_sum(ring):

@@ -30,6 +30,7 @@ import numpy as np
 
 from .._checks import as_float_array, check_image
 from ..errors import InputError, SaddleError
+from ._refine import fit_weighted_grid
 
 
 @dataclass(frozen=True)
@@ -155,137 +156,18 @@ def fit_quadrics(P: np.ndarray, weights):
     return points, saddle, inside, _uncentre(coeffs, (w - 1) / 2.0, (h - 1) / 2.0), rms
 
 
-def fit_quadrics_at(P: np.ndarray, weights: np.ndarray, x: np.ndarray, y: np.ndarray):
-    """Weighted saddle fit with every pixel at its own position, for trusted callers.
-
-    :func:`fit_quadrics` places the pixels on their grid; here pixel ``k`` of patch ``i``
-    sits at ``(x[i, k], y[i, k])``, for instance where a lens model undistorts it, so that
-    the board's edges are straight lines and the hyperbolic paraboloid of Lucchese & Mitra
-    fits them. The grey values are the patch's own: nothing is resampled.
-
-    Parameters
-    ----------
-    P, weights : (m, h, w) ndarray
-        Patches and non-negative weights.
-    x, y : (m, h, w) ndarray
-        Each pixel's position, in coordinates centred near the junction (pixels).
-
-    Returns
-    -------
-    points : (2, m) ndarray
-        Stationary points in the same coordinates; NaN where there is none.
-    saddle : (m,) ndarray of bool
-        The quadric is a saddle (beyond rounding noise).
-    rms : (m,) ndarray
-        Weighted RMS residual.
-    """
-    m = P.shape[0]
-    X, Y = x.reshape(m, -1), y.reshape(m, -1)
-    size = max(float(np.nanmax(np.abs(X))), 1.0)
-    return fit_quadrics_moments(quadric_monomials(X, Y), P.reshape(m, -1), weights.reshape(m, -1), size)
-
-
-#: Exponents (a, b) of the monomials x^a y^b of degree up to four: the quadric's design columns
-#: x^2, x y, y^2, x, y, 1 first, then their products' other monomials.
-_POWERS = ((2, 0), (1, 1), (0, 2), (1, 0), (0, 1), (0, 0),
-           (4, 0), (3, 1), (2, 2), (1, 3), (0, 4), (3, 0), (2, 1), (1, 2), (0, 3))
-#: Which monomial each entry of the 6 x 6 normal matrix sums.
-_NORMAL = np.array([[_POWERS.index((a + c, b + d)) for (c, d) in _POWERS[:6]] for (a, b) in _POWERS[:6]])
-
-
-def quadric_monomials(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """The monomials (m, 15, n) of degree up to four at positions ``x, y`` (m, n), whose
-    weighted sums are the quadric fit's normal equations (:func:`fit_quadrics_moments`);
-    the first six are its design columns ``x^2, x y, y^2, x, y, 1``."""
-    # Filled monomial by monomial, each one contiguous block (then viewed as (m, 15, n)).
-    M = np.empty((15,) + x.shape)
-    x2, y2 = np.multiply(x, x, out=M[0]), np.multiply(y, y, out=M[2])
-    xy = np.multiply(x, y, out=M[1])
-    M[3], M[4], M[5] = x, y, 1.0
-    np.multiply(x2, x2, out=M[6])
-    np.multiply(x2, xy, out=M[7])
-    np.multiply(x2, y2, out=M[8])
-    np.multiply(xy, y2, out=M[9])
-    np.multiply(y2, y2, out=M[10])
-    np.multiply(x2, x, out=M[11])
-    np.multiply(x2, y, out=M[12])
-    np.multiply(x, y2, out=M[13])
-    np.multiply(y2, y, out=M[14])
-    return M.transpose(1, 0, 2)
-
-
-def fit_quadrics_moments(M: np.ndarray, v: np.ndarray, W: np.ndarray, size: float):
-    """Weighted saddle fits from the pixels' monomials, for trusted callers that reuse them.
-
-    The normal matrix of the fit sums 15 distinct monomials, and its right-hand side the
-    grey values against the first six, so one batched product with the weights gives both.
-
-    Parameters
-    ----------
-    M : (m, 15, n) ndarray
-        :func:`quadric_monomials` of each pixel's position (pixels, about the junction).
-    v, W : (m, n) ndarray
-        Grey values and non-negative weights.
-    size : float
-        The positions' extent, pixels (for the floor below which a curvature is rounding
-        noise, as :func:`fit_quadrics`).
-
-    Returns
-    -------
-    points, saddle, rms
-        As :func:`fit_quadrics_at`, in the monomials' coordinates.
-    """
-    Wv = W * v
-    moments = (M @ W[:, :, None])[:, :, 0]
-    rhs = (M[:, :6] @ Wv[:, :, None])[:, :, 0]
-    N = moments[:, _NORMAL]
-    N += np.eye(6) * (1e-12 * np.trace(N, axis1=1, axis2=2)[:, None, None] + 1e-300)
-    c = np.linalg.solve(N, rhs[:, :, None])[:, :, 0]
-    rss = np.maximum(np.sum(Wv * v, axis=1) - np.sum(c * rhs, axis=1), 0.0)
-    rms = np.sqrt(rss / np.maximum(moments[:, 5], 1e-300))
-    a, b, g, d, e = c[:, :5].T
-    det = 4.0 * a * g - b * b
-    with np.errstate(divide="ignore", invalid="ignore"):
-        px = (-2.0 * g * d + b * e) / det
-        py = (b * d - 2.0 * a * e) / det
-    span = np.ptp(v, axis=1)
-    size = max(float(size), 1.0)
-    floor = np.where(span > 1e-12, (1e-6 * span / size ** 2) ** 2, np.inf)
-    finite = np.isfinite(px) & np.isfinite(py) & (det != 0)
-    points = np.vstack([np.where(finite, px, np.nan), np.where(finite, py, np.nan)])
-    return points, finite & (-det > floor), rms
-
-
 def _weighted(h: int, w: int, W: np.ndarray, y: np.ndarray):
-    """Per-patch weighted least squares through batched 6 x 6 normal equations.
+    """Per-patch weighted least squares through the 6 x 6 normal equations, in the compiled
+    :func:`graphpose.detect._refine.fit_weighted_grid` (the refinement's own fit).
 
     Returns the coefficients (6, m), centred coordinates, and the weighted RMS residual
     (m,), from ``sum W r^2 = sum W y^2 - c . A^T W y`` at the solution.
     """
-    upper = W @ _outer(h, w)
-    N = np.empty((W.shape[0], 6, 6))
-    N[:, _UPPER[0], _UPPER[1]] = upper
-    N[:, _UPPER[1], _UPPER[0]] = upper
-    Wy = W * y
-    rhs = Wy @ _design(h, w)
-    # A tiny ridge keeps all-zero-weight patches solvable; they come out invalid anyway.
-    N += np.eye(6) * (1e-12 * np.trace(N, axis1=1, axis2=2)[:, None, None] + 1e-300)
-    coeffs = np.linalg.solve(N, rhs[:, :, None])[:, :, 0]
-    rss = np.maximum(np.sum(Wy * y, axis=1) - np.sum(coeffs * rhs, axis=1), 0.0)
-    return coeffs.T, np.sqrt(rss / np.maximum(W.sum(axis=1), 1e-300))
-
-
-#: Upper triangle of a 6 x 6 matrix: the normal matrix is symmetric, so 21 sums suffice.
-_UPPER = np.triu_indices(6)
-
-
-@lru_cache(maxsize=32)
-def _outer(h: int, w: int) -> np.ndarray:
-    """Row-wise products of design columns, upper triangle only, (h*w, 21)."""
-    A = _design(h, w)
-    O = np.ascontiguousarray(A[:, _UPPER[0]] * A[:, _UPPER[1]])
-    O.setflags(write=False)
-    return O
+    m = W.shape[0]
+    coeffs, rms = np.empty((6, m)), np.empty(m)
+    fit_weighted_grid(np.ascontiguousarray(y.reshape(m, h, w), dtype=float),
+                      np.ascontiguousarray(W.reshape(m, h, w), dtype=float), coeffs, rms)
+    return coeffs, rms
 
 
 def _curvature_floor(y: np.ndarray, h: int, w: int) -> np.ndarray:

@@ -23,7 +23,6 @@ variances blow up; exactly at it the solve stops and reports not converged.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,6 +39,7 @@ from ..observations import check_observations
 from ..geometry import T_from_params, params_from_T
 from ..camera_models import PinholeCamera, as_camera
 from ..errors import ConvergenceError, InputError
+from ._gauss_newton import camera_points, chain_jacobians, pinhole_residuals
 
 #: Default iteration cap (damped and undamped steps both count).
 MAX_ITERATIONS = 100
@@ -162,75 +162,46 @@ def projection_jacobians(camera, T_WC, Wpts) -> np.ndarray:
     return J
 
 
-def _rotation_and_partials(rpy):
-    """``C = Cz(yaw) Cy(pitch) Cx(roll)`` and its three partial derivatives, as (4, 3, 3).
-
-    Entry 0 is C; entries 1, 2, 3 are ``Cz Cy dCx``, ``Cz dCy Cx`` and ``dCz Cy Cx``
-    (d/droll, d/dpitch, d/dyaw), multiplied out so one call builds them all.
-    """
-    cr, sr = math.cos(rpy[0]), math.sin(rpy[0])
-    cp, sp = math.cos(rpy[1]), math.sin(rpy[1])
-    cy, sy = math.cos(rpy[2]), math.sin(rpy[2])
-    spcr, spsr = sp * cr, sp * sr
-    return np.array([
-        [[cy * cp, cy * spsr - sy * cr, cy * spcr + sy * sr],
-         [sy * cp, sy * spsr + cy * cr, sy * spcr - cy * sr],
-         [-sp, cp * sr, cp * cr]],
-        [[0.0, cy * spcr + sy * sr, -cy * spsr + sy * cr],
-         [0.0, sy * spcr - cy * sr, -sy * spsr - cy * cr],
-         [0.0, cp * cr, -cp * sr]],
-        [[-cy * sp, cy * cp * sr, cy * cp * cr],
-         [-sy * sp, sy * cp * sr, sy * cp * cr],
-         [-cp, -spsr, -spcr]],
-        [[-sy * cp, -sy * spsr - cy * cr, -sy * spcr + cy * sr],
-         [cy * cp, cy * spsr - sy * cr, cy * spcr + sy * sr],
-         [0.0, 0.0, 0.0]],
-    ])
-
-
 def _project(camera, p, W, jacobian):
     """Projections (2, n), depths (n,) and, if asked, the stacked Jacobian (2n, 6).
 
     The chain rule: ``p_C = C^T (p_W - t)``, so ``dp_C/dt = -C^T`` and
     ``dp_C/d(angle) = (dC/d(angle))^T (p_W - t)``; then ``d uv / d p_C``: for the pinhole
     ``u = (K p_C)_0 / z_C`` gives ``du/dp_C = (fx, s, cx - u) / z_C`` and
-    ``dv/dp_C = (0, fy, cy - v) / z_C`` (written out here); for a distorting camera it is
+    ``dv/dp_C = (0, fy, cy - v) / z_C`` (written out in the compiled
+    :func:`graphpose.pose._gauss_newton.pinhole_residuals`); for a distorting camera it is
     :meth:`graphpose.camera_models.Camera.project_jacobian` (the perspective division, the lens
-    model and ``K`` chained). Points at or behind ``z = 0`` give NaN or meaningless pixels:
-    callers check the depths.
+    model and ``K`` chained), chained by :func:`graphpose.pose._gauss_newton.chain_jacobians`.
+    Points at or behind ``z = 0`` give NaN or meaningless pixels: callers check the depths.
     """
-    R = _rotation_and_partials(p[3:])
-    d = W - p[:3, None]
-    n = d.shape[1]
-    # Rows 0-2: p_C = C^T d; rows 3k+3 .. 3k+5: dC_k^T d, the derivative of p_C by angle k.
-    A = R.transpose(0, 2, 1).reshape(12, 3) @ d
-    z = A[2]
-    if not isinstance(camera, PinholeCamera):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            uv, G = camera.project_jacobian(A[:3]) if jacobian else (camera.project(A[:3]), None)
-        if not jacobian:
-            return uv, z, None
-        return uv, z, (G @ _pose_partials(R, A, n)).reshape(2 * n, 6)
-    K = camera.K
+    r, z, J = _residual(camera, p, np.zeros((2, W.shape[1])), W, jacobian)
+    return -r.reshape(-1, 2).T, z, J
+
+
+def _residual(camera, p, I, W, jacobian):
+    """Measured minus predicted pixels (2n,) stacked ``(u0, v0, u1, ...)``, depths (n,) and,
+    if asked, the stacked Jacobian (2n, 6), by the compiled kernels (one call each)."""
+    n = W.shape[1]
+    p = np.ascontiguousarray(p, dtype=float)
+    W = np.ascontiguousarray(W, dtype=float)
+    R, A, z = np.empty((4, 3, 3)), np.empty((12, n)), np.empty(n)
+    J = np.empty((2 * n, 6)) if jacobian else None
+    if isinstance(camera, PinholeCamera):
+        r = np.empty(2 * n)
+        pinhole_residuals(camera.K, p, np.ascontiguousarray(I, dtype=float), W, R, A, r, z,
+                          J if jacobian else _NO_JACOBIAN, jacobian)
+        return r, z, J
+    camera_points(p, W, R, A)
+    z[:] = A[2]
     with np.errstate(divide="ignore", invalid="ignore"):
-        uv = (K[:2] @ A[:3]) / z
-    if not jacobian:
-        return uv, z, None
-    G = np.zeros((n, 2, 3))  # d(u, v) / d(p_C) per point
-    G[:, 0, 0] = K[0, 0] / z
-    G[:, 0, 1] = K[0, 1] / z
-    G[:, 0, 2] = (K[0, 2] - uv[0]) / z
-    G[:, 1, 1] = K[1, 1] / z
-    G[:, 1, 2] = (K[1, 2] - uv[1]) / z
-    return uv, z, (G @ _pose_partials(R, A, n)).reshape(2 * n, 6)
+        uv, G = camera.project_jacobian(A[:3]) if jacobian else (camera.project(A[:3]), None)
+    if jacobian:
+        chain_jacobians(np.ascontiguousarray(G, dtype=float), R, A, J)
+    return (I - uv).T.ravel(), z, J
 
 
-def _pose_partials(R, A, n):
-    """``d(p_C) / d(params)`` per point, (n, 3, 6), from :func:`_project`'s R and A."""
-    D = np.empty((n, 3, 6))
-    D[:, :, :3] = -R[0].T
-    D[:, :, 3:] = A[3:].reshape(3, 3, n).transpose(2, 1, 0)
-    return D
+#: Stands in for the Jacobian when none is asked for.
+_NO_JACOBIAN = np.empty((0, 6))
 
 
 def gauss_newton(camera, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel_sigma=None,
@@ -357,11 +328,6 @@ def reprojection_rms(residuals) -> float:
 def _cost(r, huber_px):
     """:func:`reprojection_cost` of the stacked residual vector (2m,) ``(u0, v0, u1, ...)``."""
     return reprojection_cost(r.reshape(-1, 2).T, huber_px)
-
-
-def _residual(camera, p, I, W, jacobian):
-    uv, z, J = _project(camera, p, W, jacobian)
-    return (I - uv).T.ravel(), z, J
 
 
 def _solve(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol) -> GNResult:

@@ -3,10 +3,12 @@
 The graph has one ``Pose3`` variable ``X(0)`` (the camera pose T_WC, GTSAM's own convention:
 the camera looks along its +z with x right and y down, as in :mod:`graphpose.geometry`), one
 ``Point3`` variable ``L(j)`` per junction, one projection factor per trusted junction
-(:func:`projection_factor`) and one very tight ``PriorFactorPoint3`` per landmark that pins it
-to its target position. A tight prior rather than ``NonlinearEquality`` keeps the linearised system
-non-singular, so ``Marginals`` works. Levenberg-Marquardt minimises the same reprojection
-cost as :mod:`graphpose.pose.gauss_newton`; the pipeline holds the two against each other.
+(:func:`projection_factor`) and one very tight ``PriorFactorPoint3`` per landmark that pins it to its target position. A tight prior rather
+than ``NonlinearEquality`` keeps the linearised system non-singular, so the marginals exist.
+Levenberg-Marquardt minimises the same reprojection cost as :mod:`graphpose.pose.gauss_newton`;
+the pipeline holds the two against each other. The marginal covariance comes from the
+elimination of the last polishing step (no second linearisation and elimination for
+``gtsam.Marginals``), and only where it is reported.
 
 The projection factor follows the camera (:mod:`graphpose.camera_models`): GTSAM's own
 ``GenericProjectionFactorCal3_S2``, ``...Cal3DS2`` or ``...Cal3Fisheye`` with the
@@ -177,7 +179,8 @@ def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robu
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
     check_in_front(to_camera(T_guess, Wpts[:, mask])[2], "the guess", np.flatnonzero(mask))
     if robust and pixel_sigma is None:
-        plain = _solve(camera, T_guess, Ipts, Wpts, mask, 1.0, None)
+        # Only its pose is used: no marginals.
+        plain = _solve(camera, T_guess, Ipts, Wpts, mask, 1.0, None, marginals=False)
         r = Ipts[:, mask] - camera.project(to_camera(plain[0], Wpts[:, mask]))
         pixel_sigma = max(1.4826 * float(np.median(np.abs(r))), 1e-12)
     sigma = 1.0 if pixel_sigma is None else float(pixel_sigma)
@@ -205,10 +208,11 @@ def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robu
     )
 
 
-def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k):
+def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True):
     """Build and optimise the graph.
 
-    Returns (T_WC, tangent covariance, converged, iterations, failure message or "").
+    Returns (T_WC, tangent covariance (NaN unless ``marginals``), converged, iterations,
+    failure message or "").
     """
     # 1. Create the factor graph and the camera calibration (pixels; None where GTSAM has
     #    no calibration for the model: then a custom factor on graphpose's projection).
@@ -223,6 +227,10 @@ def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k):
     #    Landmark pin: isotropic over the target point's (x, y, z), metres.
     landmark_noise = gtsam.noiseModel.Isotropic.Sigma(3, LANDMARK_SIGMA_M)
     # 3. One projection factor per trusted junction, one tight prior per target point.
+    #    (GTSAM's vectorised utilities.insertProjectionFactors would add a pinhole's factors
+    #    in one call, but it takes the landmark keys as floats, which cannot hold L(j); with
+    #    small integer keys the elimination orders the variables worse, and the whole solve
+    #    took 1.5 times as long.)
     initial = gtsam.Values()
     initial.insert(X(0), gtsam.Pose3(T_guess))
     for j in np.flatnonzero(mask):
@@ -237,7 +245,7 @@ def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k):
     params.setMaxIterations(_MAX_ITERATIONS)
     optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
     try:
-        return _optimise(graph, optimizer, Wpts, mask)
+        return _optimise(graph, optimizer, Wpts, mask, marginals)
     except RuntimeError as exc:
         # From a far-off guess the linearised system can become indeterminate (GTSAM's
         # IndeterminateSystemException): that is a failed solve, reported, not a crash.
@@ -305,7 +313,7 @@ def projection_factor(camera, uv, noise, pose_key, point_key, calibration=None):
     return gtsam.CustomFactor(noise, [pose_key, point_key], error)
 
 
-def _optimise(graph, optimizer, Wpts, mask):
+def _optimise(graph, optimizer, Wpts, mask, marginals=True):
     """Steps 5-7 of :func:`_solve`; GTSAM may raise RuntimeError on an indeterminate system."""
     result = optimizer.optimize()
     # 6. Polish with undamped Gauss-Newton steps. Levenberg-Marquardt stops when the cost
@@ -317,13 +325,16 @@ def _optimise(graph, optimizer, Wpts, mask):
     #    _POLISH_ITERATIONS, the result is reported as not converged.
     polished = False
     for _ in range(_POLISH_ITERATIONS):
-        delta = graph.linearize(result).optimize()
+        tree = graph.linearize(result).eliminateMultifrontal()
+        delta = tree.optimize()
         result = result.retract(delta)
         if np.max(np.abs(delta.at(X(0)))) < _POLISH_STEP:
             polished = True
             break
-    # 7. Marginal covariance of the pose: tangent order (rotation rad, translation m), body frame.
-    cov = gtsam.Marginals(graph, result).marginalCovariance(X(0))
+    # 7. Marginal covariance of the pose: tangent order (rotation rad, translation m), body
+    #    frame. It is the last step's elimination's (what gtsam.Marginals would eliminate
+    #    again), linearised less than _POLISH_STEP from the result: the same to rounding.
+    cov = tree.marginalCovariance(X(0)) if marginals else np.full((6, 6), np.nan)
     T = result.atPose3(X(0)).matrix()
     # The projection factors do not enforce cheirality: a solution with a point behind the
     # camera is a failure, not a pose.

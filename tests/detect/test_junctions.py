@@ -333,7 +333,7 @@ def test_a_partly_covered_raw_image_keeps_its_labels_through_the_lens():
     opencv_file("left01.jpg")  # skips (or, with GRAPHPOSE_REQUIRE_REAL=1, fails) when absent
     camera = read_camera(folder / "left.opencv.yml")
     board = Board(9, 6, 0.03)
-    image = read_image(folder / "left01.jpg")
+    image = read_image(folder / "left01.jpg", as_float=True)  # float: the cover below is a grey level in [0, 1]
     whole = extract_junctions(image, None, board, camera=camera)
     assert whole.trusted.all() and not whole.orientation_ambiguous
     grid = whole.points.reshape(2, 6, 9)

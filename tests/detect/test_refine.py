@@ -5,7 +5,8 @@ import pytest
 
 from graphpose import FisheyeCamera
 from graphpose.detect.refine import refine_junctions
-from graphpose.detect.saddle import fit_quadrics_at, fit_quadrics_moments, quadric_monomials
+from graphpose.detect._refine import fit_through_lens, fit_weighted_grid, refine_grid, ring_crosses, smoothed_patches
+from graphpose.detect.refine import _RING_COS, _RING_SIN, _gaussian_kernel
 
 
 def weighted_lstsq(v, W, x, y):
@@ -15,24 +16,169 @@ def weighted_lstsq(v, W, x, y):
     return np.linalg.lstsq(A * s[:, None], v * s, rcond=None)[0]
 
 
-def test_fit_from_monomials_is_the_weighted_least_squares_fit():
+def stationary(c):
+    a, b, g, d, e, _ = c
+    return np.linalg.solve([[2 * a, b], [b, 2 * g]], [-d, -e])
+
+
+def weighted_rms(c, v, W, x, y):
+    a, b, g, d, e, z = c
+    r = v - (a * x * x + b * x * y + g * y * y + d * x + e * y + z)
+    return np.sqrt(np.sum(W * r * r) / W.sum())
+
+
+def test_fit_through_the_lens_is_the_weighted_least_squares_fit_in_its_window():
     rng = np.random.default_rng(3)
     m, n = 5, 300
     x, y = rng.uniform(-9, 9, (m, n)), rng.uniform(-9, 9, (m, n))
     u0, v0 = rng.uniform(-2, 2, (2, m, 1))
     values = (x - u0) * (y - v0) + 0.3 * (x - u0) ** 2 + rng.normal(0, 0.5, (m, n))
-    W = rng.uniform(0, 1, (m, n))
-    points, saddle, rms = fit_quadrics_moments(quadric_monomials(x, y), values, W, 9.0)
-    for i in range(m):
-        a, b, g, d, e, z = weighted_lstsq(values[i], W[i], x[i], y[i])
-        expected = np.linalg.solve([[2 * a, b], [b, 2 * g]], [-d, -e])
-        assert np.allclose(points[:, i], expected, atol=1e-9)
-        r = values[i] - (a * x[i] ** 2 + b * x[i] * y[i] + g * y[i] ** 2 + d * x[i] + e * y[i] + z)
-        assert rms[i] == pytest.approx(np.sqrt(np.sum(W[i] * r * r) / W[i].sum()), rel=1e-6)
+    g2 = rng.uniform(0, 1, (m, n))
+    centre, radius = rng.uniform(-1, 1, (2, m)), rng.uniform(6, 9, m)
+    act = np.arange(1, m)  # the first patch is not fitted
+    points, saddle, rms = np.empty((2, m - 1)), np.zeros(m - 1, dtype=np.uint8), np.empty(m - 1)
+    fit_through_lens(x, y, values, g2, act, np.ascontiguousarray(centre[:, act]), radius[act], 9.0, points, saddle, rms)
+    for k, i in enumerate(act):
+        # refine_points' window: a smooth taper of the radius, the squared gradient, over the
+        # squared distance (at least 1).
+        r2 = (x[i] - centre[0, i]) ** 2 + (y[i] - centre[1, i]) ** 2
+        W = np.maximum(1 - r2 / radius[i] ** 2, 0) ** 2 * g2[i] / np.maximum(r2, 1)
+        c = weighted_lstsq(values[i], W, x[i], y[i])
+        np.testing.assert_allclose(points[:, k], stationary(c), atol=1e-9)
+        assert rms[k] == pytest.approx(weighted_rms(c, values[i], W, x[i], y[i]), rel=1e-6)
     assert saddle.all()
-    # The (m, h, w) form places the same pixels the same way.
-    at = fit_quadrics_at(values.reshape(m, 15, 20), W.reshape(m, 15, 20), x.reshape(m, 15, 20), y.reshape(m, 15, 20))
-    assert np.allclose(at[0], points, atol=1e-12) and np.array_equal(at[1], saddle)
+    # No undistorted centre: no weight, no saddle.
+    fit_through_lens(x, y, values, g2, act[:1], np.full((2, 1), np.nan), radius[:1], 9.0, points, saddle, rms)
+    assert not saddle[0] and np.isnan(points[:, 0]).all()
+
+
+def test_fit_on_the_grid_is_the_weighted_least_squares_fit():
+    rng = np.random.default_rng(4)
+    m, h, w = 4, 9, 13
+    v, u = np.mgrid[0:h, 0:w].astype(float)
+    x, y = u - (w - 1) / 2, v - (h - 1) / 2
+    P = np.stack([(x - rng.uniform(-2, 2)) * (y - rng.uniform(-2, 2)) + rng.normal(0, 0.3, (h, w)) for _ in range(m)])
+    W = rng.uniform(0, 1, (m, h, w))
+    W[0, :, :5] = 0.0  # zero weights are skipped, not miscounted
+    coeffs, rms = np.empty((6, m)), np.empty(m)
+    fit_weighted_grid(P, W, coeffs, rms)
+    for i in range(m):
+        c = weighted_lstsq(P[i].ravel(), W[i].ravel(), x.ravel(), y.ravel())
+        np.testing.assert_allclose(coeffs[:, i], c, rtol=1e-7, atol=1e-9)  # the ridge: 1e-12 of the trace
+        assert rms[i] == pytest.approx(weighted_rms(c, P[i].ravel(), W[i].ravel(), x.ravel(), y.ravel()), rel=1e-6)
+
+
+def convolve(a, kernel, axis):
+    """'Valid' correlation tap by tap, single precision (the reference for the patches)."""
+    n = a.shape[axis] - len(kernel) + 1
+    index = [slice(None)] * a.ndim
+    out = 0.0
+    for j, k in enumerate(kernel):
+        index[axis] = slice(j, j + n)
+        out = out + k * a[tuple(index)]
+    return out
+
+
+def reference_patches(image, base, half, kernel):
+    """Smoothed patches about ``base`` (clamped at the border) and squared gradients, in NumPy."""
+    height, width = image.shape
+    margin = len(kernel) // 2 + 1
+    offs = np.arange(-half - margin, half + margin + 1)
+    rows = np.clip(base[1][:, None] + offs, 0, height - 1)
+    cols = np.clip(base[0][:, None] + offs, 0, width - 1)
+    raw = image[rows[:, :, None], cols[:, None, :]].astype(np.float32)
+    smooth = convolve(convolve(raw, kernel, 1), kernel, 2)
+    gx = 0.5 * (smooth[:, 1:-1, 2:] - smooth[:, 1:-1, :-2])
+    gy = 0.5 * (smooth[:, 2:, 1:-1] - smooth[:, :-2, 1:-1])
+    return smooth[:, 1:-1, 1:-1].astype(float), gx * gx + gy * gy
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.float64])
+@pytest.mark.parametrize("sigma", [0.0, 0.5, 1.3])
+def test_patches_are_the_numpy_patches_bit_for_bit(dtype, sigma):
+    rng = np.random.default_rng(5)
+    image = rng.integers(0, 256, (40, 50)).astype(dtype)
+    if dtype == np.float64:
+        image /= 255.0
+    base = np.array([[0, 10, 49, 25], [0, 20, 39, 3]], dtype=np.intp)  # corners clamp
+    half = 6
+    kernel = _gaussian_kernel(sigma).astype(np.float32)
+    patches, grad2 = np.empty((4, 13, 13)), np.empty((4, 13, 13), dtype=np.float32)
+    smoothed_patches(image, base, half, kernel, patches, grad2)
+    expected, expected_g2 = reference_patches(image, base, half, kernel)
+    assert np.array_equal(patches, expected) and np.array_equal(grad2, expected_g2)
+
+
+def test_ring_test_matches_bilinear_samples():
+    from scipy import ndimage
+
+    rng = np.random.default_rng(6)
+    v, u = np.mgrid[0:15, 0:15].astype(float)
+    cross = np.tanh(u - 7.3) * np.tanh(v - 6.8)
+    patches = np.stack([cross, np.tanh(u - 7.3), rng.normal(0, 1, (15, 15)), -cross])
+    centre = np.array([[7.3, 7.0, 7.0, 7.3], [6.8, 7.0, 7.0, 6.8]])
+    radius = np.array([4.0, 4.0, 4.0, 9.0])  # the last ring leaves the patch: samples clamp
+    out = np.zeros(4, dtype=np.uint8)
+    ring_crosses(patches, centre, radius, _RING_COS, _RING_SIN, out)
+    x = centre[0][:, None] + radius[:, None] * _RING_COS
+    y = centre[1][:, None] + radius[:, None] * _RING_SIN
+    k = np.repeat(np.arange(4), 16)
+    ring = ndimage.map_coordinates(patches, [k, y.ravel(), x.ravel()], order=1, mode="nearest").reshape(4, 16)
+    total = np.abs(ring[:, 0:4] + ring[:, 8:12] - ring[:, 4:8] - ring[:, 12:16]).sum(axis=1)
+    diff = np.abs(ring[:, 0:8] - ring[:, 8:16]).sum(axis=1)
+    assert np.array_equal(out.view(bool), total > 2.0 * diff)
+    assert out.tolist()[:3] == [1, 0, 0]
+
+
+def reference_refine(image, start, radius, sigma, max_iter=8, tol=0.02, slack=2):
+    """One junction's re-centred refinement in NumPy: (point, converged, residual)."""
+    half = int(np.ceil(radius)) + slack
+    kernel = _gaussian_kernel(sigma).astype(np.float32)
+    offs = np.arange(-half, half + 1, dtype=float)
+    current = np.array(start, dtype=float)
+    base = np.rint(current).astype(int)
+    patch, g2 = (a[0] for a in reference_patches(image, base[:, None], half, kernel))
+    residual = np.nan
+    for _ in range(max_iter):
+        if np.any(np.abs(current - base) > slack - 0.5):
+            base = np.rint(current).astype(int)
+            patch, g2 = (a[0] for a in reference_patches(image, base[:, None], half, kernel))
+        r2 = (offs[:, None] - (current[1] - base[1])) ** 2 + (offs[None, :] - (current[0] - base[0])) ** 2
+        W = np.maximum(1 - r2 / radius ** 2, 0) ** 2 * g2 / np.maximum(r2, 1)
+        c = weighted_lstsq(patch.ravel(), W.ravel(), np.tile(offs, offs.size), np.repeat(offs, offs.size))
+        residual = weighted_rms(c, patch.ravel(), W.ravel(), np.tile(offs, offs.size), np.repeat(offs, offs.size))
+        a, b, g = c[:3]
+        new = base + stationary(c)
+        step = np.hypot(*(new - current))
+        if not (4 * a * g - b * b < 0 and np.all(np.abs(new - base) <= half) and step < radius):
+            return current, False, np.nan
+        current = new
+        if step < tol:
+            return current, True, residual
+    return current, False, residual
+
+
+def test_refinement_kernel_follows_the_numpy_refinement():
+    from graphpose.synth.render import render
+    from graphpose import Board, K_from_params
+    from graphpose.synth.poses import random_pose
+
+    rng = np.random.default_rng(8)
+    K = K_from_params(564.9, 564.3, 337.3, 226.5)
+    R = render(K, random_pose(rng, K, Board(), (640, 480)), Board(), (640, 480), noise_sigma=2.0, rng=rng)
+    truth = R.junctions[:, :12]
+    start = truth + rng.uniform(-2, 2, truth.shape)
+    radius = np.full(12, 7.0)
+    for image in (R.image, R.image / 255.0):
+        current, trusted, residual = start.copy(), np.zeros(12, dtype=np.uint8), np.empty(12)
+        refine_grid(image, current, radius, _gaussian_kernel(0.5).astype(np.float32), 9, 8, 0.02, 2.0,
+                    _RING_COS, _RING_SIN, trusted, residual)
+        for i in range(12):
+            point, converged, rms = reference_refine(image, start[:, i], 7.0, 0.5)
+            np.testing.assert_allclose(current[:, i], point, atol=1e-9)
+            assert bool(trusted[i]) == converged  # inside the image and crosses, all of them
+            assert residual[i] == pytest.approx(rms, rel=1e-6)
+        assert np.max(np.hypot(*(current - truth))) < 0.1
 
 
 def test_a_point_whose_ray_is_past_90_degrees_is_untrusted_not_an_error():

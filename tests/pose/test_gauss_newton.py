@@ -352,3 +352,49 @@ def test_points_left_out_by_the_mask_may_be_nan():
     np.testing.assert_allclose(res.T_WC, T, atol=1e-9)
     with pytest.raises(InputError, match=r"Ipts contains NaN .* at 16 used point\(s\) \(first index 0\)"):
         gauss_newton(camera, T, I, WPTS)
+
+
+def numpy_pose_jacobians(G, p, W):
+    """Reference: d(u, v)/d(params) from d(u, v)/d(p_C) (n, 2, 3), the chain rule in NumPy,
+    with the partials of C by the angles from C_from_rpy by central differences."""
+    C = C_from_rpy(*p[3:])
+    d = W - p[:3, None]
+    dC = []
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = 1e-6
+        dC.append((C_from_rpy(*(p[3:] + e)) - C_from_rpy(*(p[3:] - e))) / 2e-6)
+    D = np.empty((W.shape[1], 3, 6))
+    D[:, :, :3] = -C.T
+    for k in range(3):
+        D[:, :, 3 + k] = (dC[k].T @ d).T
+    return (G @ D).reshape(-1, 6)
+
+
+def test_compiled_residuals_and_jacobians_match_numpy():
+    from graphpose.pose._gauss_newton import camera_points, chain_jacobians, pinhole_residuals
+
+    rng = np.random.default_rng(11)
+    p = np.array([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
+    W = np.vstack([rng.uniform(0, 0.5, (2, 20)), rng.uniform(-0.05, 0.05, (1, 20))])
+    K_skew = K.copy()
+    K_skew[0, 1] = 1.5
+    I = rng.uniform(0, 640, (2, 20))
+    R, A, r, z, J = np.empty((4, 3, 3)), np.empty((12, 20)), np.empty(40), np.empty(20), np.empty((40, 6))
+    pinhole_residuals(K_skew, p, I, W, R, A, r, z, J, True)
+    T = T_from_params(p)
+    P = to_camera(T, W)
+    uv = (K_skew @ P)[:2] / P[2]
+    np.testing.assert_allclose(z, P[2], rtol=1e-14)
+    np.testing.assert_allclose(r, (I - uv).T.ravel(), atol=1e-10)
+    G = np.zeros((20, 2, 3))
+    G[:, 0] = np.column_stack([np.full(20, K_skew[0, 0]), np.full(20, K_skew[0, 1]), K_skew[0, 2] - uv[0]]) / P[2][:, None]
+    G[:, 1] = np.column_stack([np.zeros(20), np.full(20, K_skew[1, 1]), K_skew[1, 2] - uv[1]]) / P[2][:, None]
+    expected = numpy_pose_jacobians(G, p, W)
+    np.testing.assert_allclose(J, expected, rtol=1e-7, atol=1e-6)
+    # The general chain, from any d(u, v)/d(p_C).
+    camera_points(p, W, R, A)
+    np.testing.assert_allclose(A[:3], P, atol=1e-14)
+    G = rng.normal(0, 500, (20, 2, 3))
+    chain_jacobians(G, R, A, J)
+    np.testing.assert_allclose(J, numpy_pose_jacobians(G, p, W), rtol=1e-7, atol=1e-5)

@@ -1,0 +1,115 @@
+"""Compiled core of :mod:`graphpose.pose.gauss_newton`: residuals and analytic Jacobians (issue 19).
+
+One call projects every target point through the pose ``(x, y, z, roll, pitch, yaw)``, with
+``C = Cz(yaw) Cy(pitch) Cx(roll)`` and ``p_C = C^T (p_W - t)``, and stacks its residual and its
+2 x 6 Jacobian: the pose's derivative of the camera-frame point (``dp_C/dt = -C^T``,
+``dp_C/d(angle) = (dC/d(angle))^T (p_W - t)``) chained with ``d uv / d p_C``, written out for
+the pinhole (:func:`pinhole_residuals`) or given by the camera's model
+(:func:`camera_points`, :func:`chain_jacobians`). The callers check every input first.
+"""
+
+from libc.math cimport cos, sin
+
+
+cdef void _rotation_and_partials(const double[::1] p, double[:, :, ::1] R) noexcept nogil:
+    """C and its partials by roll, pitch, yaw into R (4, 3, 3), as
+    multiplied out so that one pass builds them all (entries 1, 2, 3: Cz Cy dCx, Cz dCy Cx, dCz Cy Cx)."""
+    cdef double cr = cos(p[3]), sr = sin(p[3]), cp = cos(p[4]), sp = sin(p[4])
+    cdef double cy = cos(p[5]), sy = sin(p[5])
+    cdef double spcr = sp * cr, spsr = sp * sr
+    R[0, 0, 0] = cy * cp; R[0, 0, 1] = cy * spsr - sy * cr; R[0, 0, 2] = cy * spcr + sy * sr
+    R[0, 1, 0] = sy * cp; R[0, 1, 1] = sy * spsr + cy * cr; R[0, 1, 2] = sy * spcr - cy * sr
+    R[0, 2, 0] = -sp; R[0, 2, 1] = cp * sr; R[0, 2, 2] = cp * cr
+    R[1, 0, 0] = 0.0; R[1, 0, 1] = cy * spcr + sy * sr; R[1, 0, 2] = -cy * spsr + sy * cr
+    R[1, 1, 0] = 0.0; R[1, 1, 1] = sy * spcr - cy * sr; R[1, 1, 2] = -sy * spsr - cy * cr
+    R[1, 2, 0] = 0.0; R[1, 2, 1] = cp * cr; R[1, 2, 2] = -cp * sr
+    R[2, 0, 0] = -cy * sp; R[2, 0, 1] = cy * cp * sr; R[2, 0, 2] = cy * cp * cr
+    R[2, 1, 0] = -sy * sp; R[2, 1, 1] = sy * cp * sr; R[2, 1, 2] = sy * cp * cr
+    R[2, 2, 0] = -cp; R[2, 2, 1] = -spsr; R[2, 2, 2] = -spcr
+    R[3, 0, 0] = -sy * cp; R[3, 0, 1] = -sy * spsr - cy * cr; R[3, 0, 2] = -sy * spcr + cy * sr
+    R[3, 1, 0] = cy * cp; R[3, 1, 1] = cy * spsr - sy * cr; R[3, 1, 2] = cy * spcr + sy * sr
+    R[3, 2, 0] = 0.0; R[3, 2, 1] = 0.0; R[3, 2, 2] = 0.0
+
+
+cdef void _points(const double[::1] p, const double[:, ::1] W, double[:, :, ::1] R,
+                  double[:, ::1] A) noexcept nogil:
+    """Rows 0-2 of A (12, n): p_C = C^T (p_W - t); rows 3k + 3 .. 3k + 5: dC_k^T (p_W - t)."""
+    cdef Py_ssize_t n = W.shape[1], j
+    cdef int k, i
+    cdef double d0, d1, d2
+    _rotation_and_partials(p, R)
+    for j in range(n):
+        d0, d1, d2 = W[0, j] - p[0], W[1, j] - p[1], W[2, j] - p[2]
+        for k in range(4):
+            for i in range(3):
+                A[3 * k + i, j] = R[k, 0, i] * d0 + R[k, 1, i] * d1 + R[k, 2, i] * d2
+
+
+cdef inline void _chain(const double[:, :, ::1] R, const double[:, ::1] A, Py_ssize_t j,
+                        double g00, double g01, double g02, double g10, double g11, double g12,
+                        double[:, ::1] J) noexcept nogil:
+    """Rows 2j, 2j + 1 of J: d(u, v)/d(p_C) (the g's) times d(p_C)/d(params)."""
+    cdef int c
+    for c in range(3):  # dp_C / dt = -C^T: its column c is -C[c, :]
+        J[2 * j, c] = -(g00 * R[0, c, 0] + g01 * R[0, c, 1] + g02 * R[0, c, 2])
+        J[2 * j + 1, c] = -(g10 * R[0, c, 0] + g11 * R[0, c, 1] + g12 * R[0, c, 2])
+    for c in range(3):
+        J[2 * j, 3 + c] = g00 * A[3 + 3 * c, j] + g01 * A[4 + 3 * c, j] + g02 * A[5 + 3 * c, j]
+        J[2 * j + 1, 3 + c] = g10 * A[3 + 3 * c, j] + g11 * A[4 + 3 * c, j] + g12 * A[5 + 3 * c, j]
+
+
+def pinhole_residuals(const double[:, ::1] K, const double[::1] p, const double[:, ::1] I,
+                      const double[:, ::1] W, double[:, :, ::1] R, double[:, ::1] A, double[::1] r,
+                      double[::1] z, double[:, ::1] J, bint jacobian):
+    """Residuals, depths and Jacobians of a pinhole camera, in place.
+
+    Parameters
+    ----------
+    K : (3, 3) float64
+        Intrinsics, pixels.
+    p : (6,) float64
+        The pose parameters, metres and radians.
+    I, W : (2, n), (3, n) float64
+        Measured pixels and target points, metres.
+    R, A : (4, 3, 3), (12, n) float64
+        Work space: the rotation and its partials, the camera-frame points and theirs.
+    r : (2n,) float64, out
+        Measured minus predicted, stacked ``(u0, v0, u1, v1, ...)``.
+    z : (n,) float64, out
+        Depths (points at or behind z = 0 give meaningless pixels: the caller checks).
+    J : (2n, 6) float64, out
+        Rows ``2j``, ``2j + 1``: ``d(u_j, v_j) / d(x, y, z, roll, pitch, yaw)``; filled only
+        when ``jacobian``.
+    """
+    cdef Py_ssize_t n = W.shape[1], j
+    cdef double x, y, zc, u, v, iz
+    with nogil:
+        _points(p, W, R, A)
+        for j in range(n):
+            x, y, zc = A[0, j], A[1, j], A[2, j]
+            u = (K[0, 0] * x + K[0, 1] * y + K[0, 2] * zc) / zc
+            v = (K[1, 0] * x + K[1, 1] * y + K[1, 2] * zc) / zc
+            z[j] = zc
+            r[2 * j] = I[0, j] - u
+            r[2 * j + 1] = I[1, j] - v
+            if jacobian:
+                iz = 1.0 / zc
+                _chain(R, A, j, K[0, 0] * iz, K[0, 1] * iz, (K[0, 2] - u) * iz,
+                       0.0, K[1, 1] * iz, (K[1, 2] - v) * iz, J)
+
+
+def camera_points(const double[::1] p, const double[:, ::1] W, double[:, :, ::1] R, double[:, ::1] A):
+    """The camera-frame points (rows 0-2 of A, (12, n)) and their partials by the angles, for
+    a camera whose projection the model gives; R (4, 3, 3) gets C and its partials."""
+    with nogil:
+        _points(p, W, R, A)
+
+
+def chain_jacobians(const double[:, :, ::1] G, const double[:, :, ::1] R, const double[:, ::1] A,
+                    double[:, ::1] J):
+    """The stacked Jacobians (2n, 6) from the model's ``d uv / d p_C`` (n, 2, 3) and
+    :func:`camera_points`' R and A, in place."""
+    cdef Py_ssize_t j
+    with nogil:
+        for j in range(G.shape[0]):
+            _chain(R, A, j, G[j, 0, 0], G[j, 0, 1], G[j, 0, 2], G[j, 1, 0], G[j, 1, 1], G[j, 1, 2], J)
