@@ -18,26 +18,23 @@ image: the resident set's peak while it handles the image, over its size before;
 reset first through ``/proc/self/clear_refs``). Per stage,
 graphpose's time on the 640 x 480 images with their polygons.
 
-Run it as a section of the benchmark: ``python scripts/bench.py speed [--quick]``.
+Run it as a section of the benchmark: ``python -m benchmarks speed [--quick]`` (or
+``python -m benchmarks.speed [--quick]``, the same).
 """
 
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 import tempfile
-import time
 from functools import partial
 from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
-
-from graphpose import Board, BoardNotFoundError, K_from_params
+from benchmarks._common import (DATA, REPO, median, opencv_classic, scaled_K, single_thread_environment, timed)
+from graphpose import Board, BoardNotFoundError
 from graphpose.camera_models import as_camera, check_image_size
 from graphpose.detect.find import find_board
 from graphpose.detect.junctions import extract_junctions
@@ -49,16 +46,10 @@ from graphpose.pose.graph import graph_pose
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
 
-DATA = REPO.parent / "shared" / "data" / "rob501"
-K = K_from_params(564.9, 564.3, 337.3, 226.5)
 BOARD = Board()
 BIG = (4032, 3024)
-
-
-def scaled_K(size):
-    """The project camera at another resolution (pixel (u, v) covers [u - 0.5, u + 0.5])."""
-    s = size[0] / 640
-    return K_from_params(s * K[0, 0], s * K[1, 1], s * (K[0, 2] + 0.5) - 0.5, s * (K[1, 2] + 0.5) - 0.5)
+#: cornerSubPix as OpenCV's calibration sample calls it: an 11 x 11 half-size (23 x 23 window), 30 iterations.
+SUBPIX = {"window": (11, 11), "iterations": 30, "eps": 0.01}
 
 
 def ours(path, bounds, camera, board=BOARD):
@@ -74,20 +65,12 @@ def ours(path, bounds, camera, board=BOARD):
 def opencv(cv2, path, K_, board=BOARD):
     """OpenCV's classic chain from the file; (rvec, tvec) or None where it finds no board."""
     image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
-    ok, corners = cv2.findChessboardCorners(image, (board.cols, board.rows))
-    if not ok:
+    corners = opencv_classic(cv2, image, (board.cols, board.rows), **SUBPIX)
+    if corners is None:
         return None
-    corners = cv2.cornerSubPix(image, corners, (11, 11), (-1, -1),
-                               (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.01))
     W = board.world_points().T.copy()
     ok, rvec, tvec = cv2.solvePnP(W, corners, K_, None, flags=cv2.SOLVEPNP_IPPE)
     return cv2.solvePnPRefineLM(W, corners, K_, None, rvec, tvec)
-
-
-def _timed(fn):
-    t = time.perf_counter()
-    out = fn()
-    return time.perf_counter() - t, out
 
 
 def compare(cv2, items, repeats):
@@ -97,9 +80,9 @@ def compare(cv2, items, repeats):
         K_ = as_camera(camera).K
         t_ours, t_cv = [], []
         for _ in range(repeats):
-            dt, est = _timed(partial(ours, path, bounds, camera))
+            dt, est = timed(partial(ours, path, bounds, camera))
             t_ours.append(dt)
-            dt, pose = _timed(partial(opencv, cv2, path, K_))
+            dt, pose = timed(partial(opencv, cv2, path, K_))
             t_cv.append(dt)
         rows.append({"image": Path(path).name, "ours_ms": 1e3 * float(np.median(t_ours)),
                      "opencv_ms": 1e3 * float(np.median(t_cv)), "ours_ok": bool(est is not None and est.ok),
@@ -127,7 +110,7 @@ def stages(items, repeats):
             "total": partial(ours, path, bounds, cam),
         }
         for _ in range(repeats):
-            times = {name: _timed(call)[0] for name, call in calls.items()}
+            times = {name: timed(call)[0] for name, call in calls.items()}
             times["refine and judge"] = times.pop("extract") - times["find board"]
             for name in names:
                 t[name].append(times[name])
@@ -162,61 +145,28 @@ def real_items():
             for c in doc["cases"]]
 
 
-_MEMORY_SCRIPT = r"""
-import json, sys
-import numpy as np
-sys.path.insert(0, sys.argv[4])
-from bench_speed import ours, opencv, scaled_K, BOARD
-import cv2
-cv2.setNumThreads(1)
-tool, warm, path = sys.argv[1], sys.argv[2], sys.argv[3]
-K_ = scaled_K((4032, 3024))
-run = (lambda p, k: ours(p, None, k)) if tool == "graphpose" else (lambda p, k: opencv(cv2, p, k))
-run(warm, scaled_K((640, 480)))          # imports and first-call costs, on a small image
-def status_mb(field):
-    with open("/proc/self/status") as f:
-        line = next(line for line in f if line.startswith(field + ":"))
-    return int(line.split()[1]) / 1024
-before = status_mb("VmRSS")
-try:  # reset the peak to the present size (Linux 4.0 and later), so only this image counts
-    with open("/proc/self/clear_refs", "w") as f:
-        f.write("5")
-    reset = True
-except OSError:
-    reset = False
-out = run(path, K_)
-peak = status_mb("VmHWM")
-print(json.dumps({"growth_mb": peak - before, "found": out is not None, "reset": reset}))
-"""
-
-
 def peak_memory(tool, warm, path):
-    """Growth of the peak resident set (MB) while ``tool`` handles ``path``, in a fresh process."""
+    """Growth of the peak resident set (MB) while ``tool`` handles ``path``, in a fresh process
+    (:mod:`benchmarks.memory_probe`)."""
     if not Path("/proc/self/status").exists():
         return None
-    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    out = subprocess.run([sys.executable, "-c", _MEMORY_SCRIPT, tool, str(warm), str(path),
-                          str(Path(__file__).resolve().parent)], capture_output=True, text=True, env=env, check=True)
+    out = subprocess.run([sys.executable, "-m", "benchmarks.memory_probe", tool, str(warm), str(path)], cwd=REPO,
+                         capture_output=True, text=True, env=single_thread_environment(), check=True)
     result = json.loads(out.stdout.strip().splitlines()[-1])
     # Without the reset the peak may be the warm-up's or the imports': not this image's.
     return result["growth_mb"] if result["reset"] else None
 
 
-def _median(rows, key, ok=None):
-    vals = [r[key] for r in rows if ok is None or (r["ours_ok"] and r["opencv_ok"])]
-    return float(np.median(vals)) if vals else float("nan")
-
-
 def _figure(name, rows, goal_ratio, goal):
     both = [r for r in rows if r["ours_ok"] and r["opencv_ok"]]
-    a, b = _median(both, "ours_ms"), _median(both, "opencv_ms")
+    a, b = median([r["ours_ms"] for r in both]), median([r["opencv_ms"] for r in both])
     return {"figure": f"{name} ({len(both)} images both found), median", "unit": "ms", "fmt": ".1f",
             "graphpose": a, "peer_name": "OpenCV classic", "peer": b, "ratio": a / b, "goal": goal,
             "met": bool(a / b <= goal_ratio)}
 
 
 def main(quick: bool = False) -> dict:
-    """Measure the section; returns its goal, headline figures and detail blocks (scripts/bench.py)."""
+    """Measure the section; returns its goal, headline figures and detail blocks (:mod:`benchmarks`)."""
     import cv2
 
     cv2.setNumThreads(1)
@@ -273,7 +223,6 @@ def main(quick: bool = False) -> dict:
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from bench import main as bench_main
+    from benchmarks.cli import main as bench_main
 
     sys.exit(bench_main(["speed", *sys.argv[1:]]))

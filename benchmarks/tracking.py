@@ -1,8 +1,8 @@
 #!/usr/bin/env python
 """Tracking benchmark: a synthetic hand-held sequence, graphpose's tracker beside OpenCV per frame.
 
-Run through ``python scripts/bench.py [tracking] [--quick]``; :func:`main` returns the
-section's figures (the dict described in ``scripts/bench.py``). Every figure is measured in
+Run through ``python -m benchmarks [tracking] [--quick]``; :func:`main` returns the
+section's figures (the dict described in :mod:`benchmarks`). Every figure is measured in
 this run. OpenCV (the peer) is imported here only.
 
 1. Render a sequence with :func:`graphpose.render_sequence` (noise 2, blur 1, board centre
@@ -44,36 +44,25 @@ this run. OpenCV (the peer) is imported here only.
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
+from benchmarks._common import match_to, opencv_classic, opencv_pnp, points, rms, rss_mb
 
 
 def _opencv_pose(cv2, image, K, truth_uv, Wpts):
     """OpenCV on one frame: (T_WC or None, seconds)."""
     start = time.perf_counter()
-    ok, corners = cv2.findChessboardCorners(image, (8, 6), flags=cv2.CALIB_CB_ADAPTIVE_THRESH)
-    if not ok:
-        return None, time.perf_counter() - start
-    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4)
-    corners = cv2.cornerSubPix(image, corners, (5, 5), (-1, -1), criteria).reshape(-1, 2)
-    obj = np.ascontiguousarray(Wpts.T, dtype=np.float64)
+    corners = opencv_classic(cv2, image, (8, 6), flags=cv2.CALIB_CB_ADAPTIVE_THRESH)
     elapsed = time.perf_counter() - start
-    order = np.argmin(np.linalg.norm(truth_uv[:, :, None] - corners.T[:, None, :], axis=0), axis=1)
-    if len(set(order.tolist())) != Wpts.shape[1]:
+    if corners is None:
         return None, elapsed
-    img = np.ascontiguousarray(corners[order], dtype=np.float64)
+    corners = match_to(truth_uv, points(corners))  # not timed: the benefit of the doubt on its order
+    if corners is None:
+        return None, elapsed
     start = time.perf_counter()
-    _, rvec, tvec = cv2.solvePnP(obj, img, K, None, flags=cv2.SOLVEPNP_IPPE)
-    rvec, tvec = cv2.solvePnPRefineLM(obj, img, K, None, rvec, tvec)
-    elapsed += time.perf_counter() - start
-    R, _ = cv2.Rodrigues(rvec)
-    T = np.eye(4)
-    T[:3, :3] = R.T  # OpenCV gives the target-to-camera transform
-    T[:3, 3] = -R.T @ tvec.ravel()
-    return T, elapsed
+    T = opencv_pnp(cv2, K, corners, Wpts)
+    return T, elapsed + time.perf_counter() - start
 
 
 def _errors(P, truth):
@@ -88,7 +77,7 @@ def _errors(P, truth):
 
 
 def _rmse(x, mask):
-    return float(np.sqrt(np.mean(x[mask] ** 2))) if mask.any() else float("nan")
+    return rms(x[mask])
 
 
 def _median(x, mask):
@@ -418,38 +407,27 @@ def _compare_forms(K, board, frames):
             "rows": rows}
 
 
-def _rss_mb() -> float:
-    """Resident memory of this process, MB (NaN where /proc/self/statm is absent)."""
-    import os
-
-    try:
-        with open("/proc/self/statm") as f:
-            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 1e6
-    except (OSError, ValueError, IndexError):
-        return float("nan")
-
-
-def _instrumented_track(seq, K, config, smooth):
-    """track_sequence on the rendered frames with the wall time, process CPU time and resident
-    memory after every frame: (track, wall seconds (n,) and CPU seconds (n,) per frame, RSS MB
-    (n,), smoothing seconds)."""
+def instrumented_track(frames, K, bounds, timestamps, config, smooth):
+    """track_sequence on ``frames`` with the wall time, process CPU time and resident memory
+    after every frame: (track, wall seconds (n,) and CPU seconds (n,) per frame, RSS MB (n,),
+    smoothing seconds)."""
     from graphpose import track_sequence
 
-    n = len(seq)
+    n = len(frames)
     stamps, cpu, rss = np.zeros(n), np.zeros(n), np.zeros(n)
 
     def progress(k, _n):
         stamps[k], cpu[k] = time.perf_counter(), time.process_time()
-        rss[k] = _rss_mb()
+        rss[k] = rss_mb()
 
     start, cpu_start = time.perf_counter(), time.process_time()
-    track = track_sequence(seq.images, K, seq.bounds, timestamps=seq.timestamps, config=config, smooth=smooth,
+    track = track_sequence(frames, K, bounds, timestamps=timestamps, config=config, smooth=smooth,
                            progress=progress)
     smooth_s = time.perf_counter() - stamps[-1]
     return track, np.diff(np.r_[start, stamps]), np.diff(np.r_[cpu_start, cpu]), rss, smooth_s
 
 
-def _lockstep_growth(K, board, track, lag_s):
+def lockstep_growth(K, board, track, lag_s):
     """The fixed-lag back end's growth, free of the machine's drift over the run.
 
     The tracked frames' junctions are replayed into two fixed-lag back ends in lockstep: one
@@ -500,7 +478,8 @@ def _long_run(K, board, quick):
     runs = {}
     for name, lag, smooth in (("fixed lag", DEFAULT_LAG_S, True), ("whole sequence", None, False)):
         gc.collect()
-        track, frame_s, frame_cpu_s, rss, smooth_s = _instrumented_track(seq, K, TrackerConfig(lag_s=lag), smooth)
+        track, frame_s, frame_cpu_s, rss, smooth_s = instrumented_track(seq.images, K, seq.bounds, seq.timestamps,
+                                                                        TrackerConfig(lag_s=lag), smooth)
         idx = np.arange(n)
         found = track.found
         back_ms = np.array([f.update_s for f in track.frames]) * 1000
@@ -516,7 +495,7 @@ def _long_run(K, board, quick):
             d, a = _errors(track.poses("smoothed"), seq.T_WC)
             runs[name].update(smooth_mm=_rmse(d, found), smooth_deg=_rmse(a, found))
         if lag is not None:
-            runs[name]["lockstep"] = _lockstep_growth(K, board, track, lag)
+            runs[name]["lockstep"] = lockstep_growth(K, board, track, lag)
         del track
     lag, whole = runs["fixed lag"], runs["whole sequence"]
     ate_ratio = lag["ate_mm"] / whole["ate_mm"]
@@ -565,7 +544,6 @@ def _long_run(K, board, quick):
 if __name__ == "__main__":
     import sys
 
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from bench import main as bench_main
+    from benchmarks.cli import main as bench_main
 
     sys.exit(bench_main(["tracking", *sys.argv[1:]]))
