@@ -2,8 +2,10 @@
 
     python -m benchmarks.memory_probe TOOL WARM_IMAGE IMAGE
 
-TOOL is ``graphpose`` (what ``graphpose estimate`` does: :func:`benchmarks.speed.ours`) or
-``opencv`` (the classic chain of :func:`benchmarks.speed.opencv`). After a warm-up on WARM_IMAGE (imports and first-call costs,
+TOOL is ``graphpose`` (the library as a user calls it: ``graphpose.read_image`` with its
+default, then ``estimate_pose``), ``graphpose estimate`` (what the command line does: 8-bit
+read, the size check, ``estimate_pose``) or ``opencv`` (the classic chain of
+:func:`benchmarks.speed.opencv`). After a warm-up on WARM_IMAGE (imports and first-call costs,
 on a small image) the peak resident set is reset to the present size through
 ``/proc/self/clear_refs`` (Linux 4.0 and later); the probe prints one JSON line:
 ``growth_mb`` (the peak while it handles IMAGE over the size before), ``found`` (a pose or
@@ -19,7 +21,17 @@ import sys
 from benchmarks._common import scaled_K, status_mb
 from benchmarks.speed import BIG, ours, opencv
 
-TOOLS = ("graphpose", "opencv")
+TOOLS = ("graphpose", "graphpose estimate", "opencv")
+
+
+def _library(path, K):
+    """``graphpose.read_image`` as a library user calls it (its default), then ``estimate_pose``."""
+    import graphpose
+
+    try:
+        return graphpose.estimate_pose(graphpose.read_image(path), None, K)
+    except graphpose.BoardNotFoundError:
+        return None
 
 
 def main(argv=None) -> int:
@@ -27,7 +39,8 @@ def main(argv=None) -> int:
     import cv2
 
     cv2.setNumThreads(1)
-    run = {"graphpose": lambda p, k: ours(p, None, k), "opencv": lambda p, k: opencv(cv2, p, k)}[tool]
+    run = {"graphpose": _library, "graphpose estimate": lambda p, k: ours(p, None, k),
+           "opencv": lambda p, k: opencv(cv2, p, k)}[tool]
     run(warm, scaled_K((640, 480)))
     before = status_mb("VmRSS")
     try:

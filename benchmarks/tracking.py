@@ -427,10 +427,11 @@ def instrumented_track(frames, K, bounds, timestamps, config, smooth):
     return track, np.diff(np.r_[start, stamps]), np.diff(np.r_[cpu_start, cpu]), rss, smooth_s
 
 
-def lockstep_growth(K, board, track, lag_s):
+def lockstep_growth(K, board, frames, lag_s):
     """The fixed-lag back end's growth, free of the machine's drift over the run.
 
-    The tracked frames' junctions are replayed into two fixed-lag back ends in lockstep: one
+    The tracked frames' junctions (``frames``: the tracker's frame results, or anything with
+    their ``index``, ``timestamp``, ``status``, ``points``, ``ids`` and ``single_T_WC``) are replayed into two fixed-lag back ends in lockstep: one
     fed the whole sequence, and a young one started afresh every 200 frames, timed so that
     it is 100-199 frames old over the sequence's last 100. Each frame is given to both, in
     alternating order, and each update timed in process CPU time; a neighbour stealing the
@@ -441,10 +442,10 @@ def lockstep_growth(K, board, track, lag_s):
     from graphpose.track.config import MotionPrior
     from graphpose.track.results import DETECTED, LOST
 
-    n = len(track.frames)
+    n = len(frames)
     times = {"long": np.full(n, np.nan), "young": np.full(n, np.nan)}
     graphs = {"long": make_backend(K, board, MotionPrior(), lag_s=lag_s), "young": None}
-    for f in track.frames:
+    for f in frames:
         k = f.index
         if graphs["young"] is None or (k - (n - 200)) % 200 == 0:
             graphs["young"] = make_backend(K, board, MotionPrior(), lag_s=lag_s)
@@ -495,7 +496,7 @@ def _long_run(K, board, quick):
             d, a = _errors(track.poses("smoothed"), seq.T_WC)
             runs[name].update(smooth_mm=_rmse(d, found), smooth_deg=_rmse(a, found))
         if lag is not None:
-            runs[name]["lockstep"] = lockstep_growth(K, board, track, lag)
+            runs[name]["lockstep"] = lockstep_growth(K, board, track.frames, lag)
         del track
     lag, whole = runs["fixed lag"], runs["whole sequence"]
     ate_ratio = lag["ate_mm"] / whole["ate_mm"]

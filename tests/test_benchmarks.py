@@ -11,9 +11,11 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from benchmarks import cli, compare
+from benchmarks.long_track import ping_pong
 from tests.conftest import REPO
 
 
@@ -67,3 +69,9 @@ def test_compare_command_exit_codes(tmp_path):
     done = subprocess.run([*run, str(tmp_path / "missing.json")], cwd=REPO, capture_output=True, text=True,
                           check=False)
     assert done.returncode == 2 and "cannot read" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_the_long_run_plays_its_frames_forward_and_back():
+    order = ping_pong(4, 11)
+    np.testing.assert_array_equal(order, [0, 1, 2, 3, 2, 1, 0, 1, 2, 3, 2])
+    assert np.all(np.abs(np.diff(order)) == 1)  # continuous: no jump back to the first frame

@@ -1,0 +1,117 @@
+"""The speed section's long run: graphpose's tracker over 10,000 frames, memory and time a frame.
+
+Issue 19 asks that tracking over 10,000 rendered frames keep its process memory flat (growth
+below 2 MB per 1,000 frames), its back end's time per frame flat (the last 100 frames at most
+1.2x frames 100-199) and the whole tracker under 3 ms a frame. Rendering 10,000 frames would
+take the benchmark longer than the tracking, so a few hundred distinct frames of one hand-held
+trajectory (:func:`graphpose.render_sequence`, no whip pans, noise 2, blur 1) are written as PNG
+files and played forward, backward, forward... (a ping-pong: the motion is continuous, it only
+turns at the ends), as file paths, so that every frame is read from its file as ``graphpose
+track`` reads a folder. The tracker runs with its defaults (the fixed-lag back end, no batch
+smoothing).
+
+Figures, as the tracking section measures its 3,000-frame run (:mod:`benchmarks.tracking`):
+memory growth is the slope of the process's resident memory (sampled after every frame, fitted
+from frame 300 on; it includes whatever the tracker keeps of every frame); the back end's growth
+is the lockstep replay of the frames' junctions (:func:`benchmarks.tracking.lockstep_growth`,
+process CPU time, free of the machine's drift); the whole tracker's time a frame is the interval
+between two progress calls (reading, front end, back end), median process CPU time, with the
+wall time beside it.
+
+This module is a block of the speed section rather than a section of its own: issue 19's
+figures then come from one section, ``python -m benchmarks speed``, in one run.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks._common import K_REAL, median
+from benchmarks.tracking import instrumented_track, lockstep_growth
+
+#: Distinct rendered frames and frames tracked: (quick, full).
+DISTINCT = (60, 300)
+FRAMES = (1000, 10000)
+#: Resident memory is fitted from this frame on (the first frames fill caches and pools).
+FIT_FROM = 300
+
+
+def ping_pong(distinct: int, total: int) -> np.ndarray:
+    """Frame order 0, 1, ..., distinct - 1, distinct - 2, ..., 1, 0, 1, ... of length ``total``."""
+    period = 2 * distinct - 2
+    k = np.arange(total) % period
+    return np.where(k < distinct, k, period - k)
+
+
+def cycled_frames(folder, distinct: int, total: int, seed: int = 19):
+    """``distinct`` rendered frames written to ``folder``: (paths in ping-pong order (total,),
+    first-frame bounds, timestamps (total,), render seconds)."""
+    from graphpose import render_sequence
+    from graphpose.io.files import encode_png
+
+    start = time.perf_counter()
+    seq = render_sequence(K_REAL, distinct, rng=seed, excursions=0, noise_sigma=2.0, blur_sigma=1.0,
+                          distance=(0.6, 1.3), supersample=1)
+    files = []
+    for k, image in enumerate(seq.images):
+        path = Path(folder) / f"frame_{k:04d}.png"
+        path.write_bytes(encode_png(image))
+        files.append(str(path))
+    order = ping_pong(distinct, total)
+    return [files[k] for k in order], seq.bounds, np.arange(total) / seq.fps, time.perf_counter() - start
+
+
+def measure(quick: bool = False):
+    """Track the long run; returns (headline figures, one block) for the speed section."""
+    from graphpose import Board
+    from graphpose.track.config import DEFAULT_LAG_S, TrackerConfig
+
+    distinct, total = DISTINCT[0 if quick else 1], FRAMES[0 if quick else 1]
+    board = Board()
+    with tempfile.TemporaryDirectory() as folder:
+        frames, bounds, timestamps, render_s = cycled_frames(folder, distinct, total)
+        track, frame_s, frame_cpu_s, rss, _ = instrumented_track(frames, K_REAL, bounds, timestamps,
+                                                                 TrackerConfig(), smooth=False)
+    idx = np.arange(total)
+    found = track.found
+    fit = idx >= min(FIT_FROM, total // 2)
+    slope = float(np.polyfit(idx[fit], rss[fit], 1)[0]) * 1000 if np.all(np.isfinite(rss[fit])) else float("nan")
+    back_ms = np.array([f.update_s for f in track.frames]) * 1000
+    early = median(back_ms[found & (idx >= 100) & (idx < 200)])
+    late = median(back_ms[found & (idx >= total - 100)])
+    growth, long_ms, young_ms = lockstep_growth(K_REAL, board, track.frames, DEFAULT_LAG_S)
+    frame_ms, frame_cpu_ms = 1000 * median(frame_s), 1000 * median(frame_cpu_s)
+    n_found = int(found.sum())
+    del track
+    block = {"title": f"graphpose track over {total:,} frames: memory and time a frame",
+             "text": "{distinct} distinct rendered 640 x 480 frames of one hand-held trajectory (no whip pans; "
+                     "rendered and written as PNG in {render_s:.0f} s) played forward and backward in turn to "
+                     "{total} frames, each read from its file; the tracker with its defaults (fixed lag "
+                     "{lag_s:.1f} s, no batch smoothing). Frames with a pose: {found}. Resident memory from frame "
+                     "{fit_from} on: {slope:.2f} MB per 1,000 frames (it includes what the tracker keeps of every "
+                     "frame). Back end, lockstep replay of the junctions (process CPU time), last 100 frames "
+                     "{long_ms:.3f} ms against a back end 100-199 frames old {young_ms:.3f} ms (ratio "
+                     "{growth:.2f}); as tracked (wall time) frames 100-199 {early:.3f} ms, last 100 {late:.3f} ms. "
+                     "Whole tracker a frame (reading, front end, back end), median: {frame_cpu_ms:.2f} ms process "
+                     "CPU time, {frame_ms:.2f} ms wall.",
+             "values": {"distinct": distinct, "render_s": render_s, "total": total, "lag_s": DEFAULT_LAG_S,
+                        "found": n_found, "fit_from": min(FIT_FROM, total // 2), "slope": slope, "long_ms": long_ms,
+                        "young_ms": young_ms, "growth": growth, "early": early, "late": late,
+                        "frame_cpu_ms": frame_cpu_ms, "frame_ms": frame_ms},
+             "columns": None, "formats": None, "rows": None}
+    figures = [
+        {"figure": f"graphpose track, memory growth per 1,000 frames ({total:,} frames)", "unit": "MB",
+         "fmt": ".2f", "graphpose": slope, "peer_name": None, "peer": None, "ratio": None, "goal": "< 2 MB",
+         "met": bool(slope < 2.0)},
+        {"figure": f"graphpose track, back end per frame, last 100 of {total:,} / frames 100-199 (lockstep replay, "
+                   "CPU time)", "unit": "", "fmt": ".2f", "graphpose": growth, "peer_name": None, "peer": None,
+         "ratio": None, "goal": "<= 1.2x", "met": bool(growth <= 1.2)},
+        {"figure": f"graphpose track, whole tracker per frame (read + front + back end), median process CPU time, "
+                   f"{total:,} frames", "unit": "ms", "fmt": ".2f", "graphpose": frame_cpu_ms, "peer_name": None,
+         "peer": None, "ratio": None, "goal": "< 3 ms", "met": bool(frame_cpu_ms < 3.0)},
+    ]
+    return figures, block
