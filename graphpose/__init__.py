@@ -86,6 +86,7 @@ _EXPORTS = {
     "Track": "track.results",
     "MotionPrior": "track.config",
     "TrackerConfig": "track.config",
+    "track_frames": "track.tracker",
     "track_sequence": "track.tracker",
     "Sequence": "synth.sequence",
     "render_sequence": "synth.sequence",

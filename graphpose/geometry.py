@@ -1,5 +1,6 @@
 """The conventions that every module of graphpose uses, and the geometry on them: rotations,
-poses and their parameters, the pinhole projection, plane-to-image homographies.
+poses and their parameters, the SE(3) toolkit (:func:`hat`, :func:`se3_exp`, :func:`se3_log`,
+:func:`pose_difference`), the pinhole projection, plane-to-image homographies.
 
 Lens models (radial-tangential, fisheye) are in :mod:`graphpose.camera_models`; this module
 is the distortion-free geometry under them.
@@ -32,6 +33,8 @@ Euler angles
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -125,6 +128,108 @@ def project(K, T_WC, P_W) -> np.ndarray:
     p = np.asarray(K, dtype=float) @ to_camera(T_WC, P_W)
     with np.errstate(divide="ignore", invalid="ignore"):
         return p[:2] / p[2]
+
+
+
+# --- SE(3): the skew matrix, the exponential and logarithm, the difference of two poses ---------
+#
+# Twists are GTSAM's ``Pose3`` tangent vectors: ``xi = (omega, v)``, the rotation (rad) FIRST, then
+# the translation part (m), for the right perturbation ``T Exp(xi)`` in the body frame, so that
+# ``se3_exp(xi)`` is ``gtsam.Pose3.Expmap(xi).matrix()`` and ``se3_log(T)`` is
+# ``gtsam.Pose3.Logmap(gtsam.Pose3(T))`` (to 1e-12, tested).
+
+def hat(w) -> np.ndarray:
+    """The skew matrix ``[w]_x`` (3, 3) of a 3-vector: ``hat(w) @ p == np.cross(w, p)``."""
+    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+
+
+def so3_log(R) -> np.ndarray:
+    """Rotation vector (3,) of a rotation matrix (3, 3), radians, accurate from 0 to pi
+    (``R = exp(hat(omega))``; at pi either sign of the axis is an answer)."""
+    s = 0.5 * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    sin = float(np.linalg.norm(s))
+    cos = 0.5 * (np.trace(R) - 1.0)
+    theta = math.atan2(sin, cos)
+    if theta < 1e-4:
+        return s * (1.0 + theta * theta / 6.0)  # theta / sin(theta)
+    if math.pi - theta < 1e-3:
+        # Near pi the skew part vanishes; the axis a is in the symmetric part:
+        # (R + R^T) / 2 = cos(theta) I + (1 - cos(theta)) a a^T.
+        A = (0.5 * (R + R.T) - cos * np.eye(3)) / (1.0 - cos)
+        i = int(np.argmax(np.diag(A)))
+        axis = A[:, i] / math.sqrt(A[i, i])
+        return theta * (axis if axis @ s >= 0 else -axis)
+    return s * (theta / sin)
+
+
+def _se3_coefficients(theta):
+    """``sin(t)/t``, ``(1 - cos t)/t^2``, ``(t - sin t)/t^3`` (series near 0)."""
+    if theta < 1e-4:
+        t2 = theta * theta
+        return 1.0 - t2 / 6.0, 0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0
+    half = math.sin(0.5 * theta)
+    return math.sin(theta) / theta, 2.0 * half * half / theta**2, (theta - math.sin(theta)) / theta**3
+
+
+def se3_log(T) -> np.ndarray:
+    """Twist ``(omega, v)`` (6,) of a rigid transform (4, 4): ``T = se3_exp(xi)``; rotation
+    (rad) first, then translation (m), GTSAM's ``Pose3.Logmap`` order."""
+    omega = so3_log(T[:3, :3])
+    theta = float(np.linalg.norm(omega))
+    W = hat(omega)
+    if theta < 1e-4:
+        c = 1.0 / 12.0 + theta * theta / 720.0
+    else:
+        c = (1.0 - 0.5 * theta * math.cos(0.5 * theta) / math.sin(0.5 * theta)) / theta**2
+    V_inv = np.eye(3) - 0.5 * W + c * (W @ W)
+    return np.r_[omega, V_inv @ T[:3, 3]]
+
+
+def se3_exp(xi) -> np.ndarray:
+    """Rigid transform (4, 4) of a twist ``(omega, v)`` (6,): rotation (rad) first, then
+    translation (m), as GTSAM's ``Pose3.Expmap``."""
+    omega, v = xi[:3], xi[3:]
+    theta = float(np.linalg.norm(omega))
+    a, b, c = _se3_coefficients(theta)
+    W = hat(omega)
+    W2 = W @ W
+    T = np.eye(4)
+    T[:3, :3] = np.eye(3) + a * W + b * W2
+    T[:3, 3] = (np.eye(3) + b * W + c * W2) @ v
+    return T
+
+
+def relative_pose(T_a, T_b) -> np.ndarray:
+    """``T_a^-1 T_b`` (4, 4) of two rigid transforms (trusted), without a general inverse."""
+    R_a = T_a[:3, :3]
+    D = np.eye(4)
+    D[:3, :3] = R_a.T @ T_b[:3, :3]
+    D[:3, 3] = R_a.T @ (T_b[:3, 3] - T_a[:3, 3])
+    return D
+
+
+def pose_difference(T_a, T_b):
+    """Distance (m) between two camera positions and angle (degrees) of their relative rotation.
+
+    The angle comes from ``atan2`` of the skew and symmetric parts, accurate for tiny angles
+    (``arccos`` of the trace loses half the digits there).
+
+    Parameters
+    ----------
+    T_a, T_b : (4, 4) array_like
+        Camera poses T_WC (trusted: rigid transforms).
+
+    Returns
+    -------
+    translation_m : float
+        ``|t_a - t_b|``, metres.
+    rotation_deg : float
+        Angle of ``C_a^T C_b``, degrees in [0, 180].
+    """
+    R = np.asarray(T_a)[:3, :3].T @ np.asarray(T_b)[:3, :3]
+    s = 0.5 * np.linalg.norm([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    angle = np.degrees(np.arctan2(s, 0.5 * (np.trace(R) - 1.0)))
+    return float(np.linalg.norm(np.asarray(T_a)[:3, 3] - np.asarray(T_b)[:3, 3])), float(angle)
 
 
 # --- homographies (the plane z = 0, and a board's grid, to the image) ---------------------------

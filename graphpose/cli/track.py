@@ -1,9 +1,10 @@
 """``graphpose track``: the camera trajectory over a sequence of frames of the board.
 
 Turns the arguments into typed values (frame files, bounds (2, 4), a camera (``--camera FILE``
-with its lens model, or a pinhole ``--K``), :class:`Board`, timestamps, a true trajectory), calls :func:`graphpose.track.tracker.track_sequence` once, and
-writes the trajectory in TUM format (``--tum``), per-frame results as JSON (``--json``), a
-picture (``--plot``) and a summary on stdout. A frame file that cannot be read is a lost
+with its lens model, or a pinhole ``--K``), :class:`Board`, timestamps, a true trajectory), calls :func:`graphpose.track.tracker.track_frames` once, and
+writes, frame by frame as the results come (:mod:`graphpose.cli.track_output`), the trajectory
+in TUM format (``--tum``) and per-frame results as JSON (``--json``); then a picture
+(``--plot``, from a few numbers kept a frame) and a summary on stdout. A frame file that cannot be read is a lost
 frame, not an error. The true trajectory (``--truth``, or the ``truth.tum`` that
 ``graphpose render-sequence`` leaves beside its frames) is drawn in the picture and measured
 against in the summary. Exit code 0 when at least one frame has a pose, 1 when every frame
@@ -15,6 +16,7 @@ from __future__ import annotations
 import argparse
 import sys
 import textwrap
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +37,8 @@ from .options import (
     parse_bounds,
     parse_positive,
 )
-from ..io.records import frame_record, target_keys, target_words
+from ..io.files import to_jsonable
+from ..io.records import frame_record, pose_block, target_keys, target_words
 
 #: ``--lag``'s default: :func:`graphpose.track.config.default_lag_s` of the frames' timestamps.
 AUTO_LAG = "auto"
@@ -117,11 +120,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     """Run ``graphpose track`` with parsed ``args``; returns the exit code."""
-    from ..io.files import dumps_json, write_json
-    from ..io.tum import write_tum
     from ..track.config import MotionPrior, TrackerConfig, default_lag_s
     from ..track.frames import frame_timestamps, list_frames, read_timestamps
-    from ..track.tracker import track_sequence
+    from ..track.tracker import track_frames
+    from .track_output import JsonStream, TrackSummary, TumStream
 
     if args.plot is not None:  # a missing extra is found now, not after the whole sequence
         from .._extras import require
@@ -139,33 +141,60 @@ def run(args) -> int:
     progress = Progress(len(files), sys.stderr)
     lag = default_lag_s(args.motion, seconds) if args.lag == AUTO_LAG else args.lag
     config = TrackerConfig(motion=MotionPrior(args.motion), target=args.target, robust=args.robust, lag_s=lag)
-    track = track_sequence(files, camera, args.bounds, board=board, timestamps=timestamps, fps=args.fps,
-                           polygons=polygons, config=config, smooth=args.smooth,
-                           progress=lambda k, n: progress.show(k + 1, files[k].name))
-    progress.clear()
-    frames = track.best_frames()
-    found = [f for f in frames if f.T_WC is not None]
-    if args.tum is not None:
-        write_tum(args.tum, [f.timestamp for f in found], [f.T_WC for f in found],
-                  header=f"graphpose track: camera pose T_WC in the target frame; {len(frames) - len(found)} "
-                  f"lost frames have no line")
+    stream = track_frames(files, camera, args.bounds, board=board, timestamps=timestamps, fps=args.fps,
+                          polygons=polygons, config=config, smooth=args.smooth,
+                          progress=lambda k, n: progress.show(k + 1, files[k].name))
     target = target_keys(camera, board, *camera_file(args, source))
-    records = {"frames": [frame_record(f, files[f.index]) for f in frames], "smoothed": bool(args.smooth),
-               "motion": args.motion, "target": args.target, "lag_s": config.lag_s, "K": camera.K,
-               "camera": target["camera"], "board": f"{board.cols}x{board.rows}x{board.square_m}"}
-    if args.json == "-":
-        sys.stdout.write(dumps_json(records))
-    elif args.json is not None:
-        write_json(args.json, records)
+    summary, kept = TrackSummary(truth), []  # kept: the picture's few numbers a frame
+    tum = None if args.tum is None else TumStream(args.tum)
+    doc = None
+    try:
+        doc = None if args.json is None else JsonStream(args.json)
+        for f in stream:
+            summary.add(f)
+            if tum is not None and f.T_WC is not None:
+                tum.add(f.timestamp, f.T_WC)
+            if doc is not None:
+                doc.add(_frame_record(f, files[f.index]))
+            if args.plot is not None:
+                kept.append(replace(f, cov=None, cov_pixel=None, single_T_WC=None, points=None, ids=None))
+        progress.clear()
+        if tum is not None:
+            tum.close(f"graphpose track: camera pose T_WC in the target frame; {summary.n - summary.found} "
+                      f"lost frames have no line")
+        if doc is not None:
+            doc.close({"smoothed": bool(args.smooth), "motion": args.motion, "target": args.target,
+                       "lag_s": config.lag_s, "K": camera.K, "camera": target["camera"],
+                       "board": f"{board.cols}x{board.rows}x{board.square_m}"})
+    except BaseException:
+        progress.clear()
+        for out in (tum, doc):
+            if out is not None:
+                out.abort()
+        raise
     if args.plot is not None:
+        from ..track.results import Track
         from ..viz.plot import plot_track
 
-        plot_track(track, args.plot, board=board, truth=truth,
-                   title=f"graphpose track: {len(frames)} frames" + (", truth in grey" if truth is not None else ""))
+        kept = tuple(kept)
+        plot_track(Track(kept, kept if args.smooth else None, config), args.plot, board=board, truth=truth,
+                   title=f"graphpose track: {len(kept)} frames" + (", truth in grey" if truth is not None else ""))
     if not args.quiet and args.json != "-":
-        print(_summary(track, frames, truth, truth_note))
+        print(summary.text(args.smooth, truth_note))
         print("camera: {}; board: {}".format(*target_words(target)))
-    return EXIT_OK if found else EXIT_FAILED
+    return EXIT_OK if summary.found else EXIT_FAILED
+
+
+def _frame_record(f, path) -> dict:
+    """The frame's JSON record (:func:`graphpose.io.records.frame_record`) with what its sigmas
+    describe, as ``graphpose estimate`` records it: ``sigma_kind``, and the pixel noise's
+    share alone in ``sigma_pixel_xyz_m`` and ``sigma_pixel_rpy_deg``."""
+    record = frame_record(f, path)
+    pixel = pose_block(f.status, None, f.T_WC, f.cov_pixel)
+    record.update(to_jsonable({"sigma_kind": None if f.T_WC is None else f.sigma_kind,
+                               "sigma_pixel_xyz_m": pixel["sigma_xyz_m"],
+                               "sigma_pixel_rpy_deg": pixel["sigma_rpy_deg"]}))
+    return record
 
 
 def _camera(args):
@@ -258,44 +287,3 @@ def _read_polygons(path: Path) -> list:
     if not isinstance(doc, list):
         raise InputError(f"--polygons {path} must hold a JSON list (one 2 x 4 polygon or null per frame)")
     return [None if p is None else as_float_array(p, f"--polygons {path} entry {k}") for k, p in enumerate(doc)]
-
-
-def _summary(track, frames, truth=None, truth_note="") -> str:
-    status = track.status
-    counts = ", ".join(f"{s} {int(np.sum(status == s))}" for s in ("tracked", "detected", "lost"))
-    found = [f for f in frames if f.T_WC is not None]
-    lines = [f"{len(frames)} frames: {counts}" + (" (smoothed)" if track.smoothed is not None else "")]
-    if found:
-        sig = np.median([f.sigma for f in found], axis=0)
-        rms = np.median([f.reprojection_rms_px for f in found])
-        ms = np.median([f.frontend_s + f.update_s for f in track.frames if f.status != "lost"]) * 1000
-        lines.append(f"median 1-sigma: {1000 * np.max(sig[:3]):.3f} mm (largest axis), "
-                     f"{np.rad2deg(np.max(sig[3:])):.4f} deg; median reprojection RMS {rms:.3f} px; "
-                     f"median {ms:.1f} ms a frame")
-    lost = np.flatnonzero(status == "lost")
-    if lost.size:
-        lines.append("lost frames: " + _ranges(lost))
-    unreadable = [f.index for f in frames if f.message.startswith("unreadable frame file")]
-    if unreadable:
-        lines.append(f"unreadable frame files (lost): {_ranges(np.array(unreadable))}; see the JSON messages")
-    if truth is not None:
-        lines.append(f"truth: {truth_note}; " + _truth_error(frames, truth))
-    return "\n".join(lines)
-
-
-def _truth_error(frames, truth) -> str:
-    """RMS position and rotation error of the frames with a pose and a true pose."""
-    from ..pose.estimate import pose_difference
-
-    errors = [pose_difference(f.T_WC, truth[f.index]) for f in frames
-              if f.T_WC is not None and np.all(np.isfinite(truth[f.index]))]
-    if not errors:
-        return "no frame with a pose has a true pose"
-    d = np.array(errors)
-    return (f"error RMS {1000 * np.sqrt(np.mean(d[:, 0] ** 2)):.3f} mm, {np.sqrt(np.mean(d[:, 1] ** 2)):.4f} deg "
-            f"over {len(d)} frames")
-
-
-def _ranges(idx) -> str:
-    runs = np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1)
-    return ", ".join(f"{r[0]}" if r.size == 1 else f"{r[0]}-{r[-1]}" for r in runs)

@@ -3,4 +3,18 @@ and timestamps (:mod:`.frames`), the front end on junctions (:mod:`.frontend`), 
 (the interface :mod:`.backend`, the fixed lag :mod:`.fixed_lag` and the whole sequence
 :mod:`.sequence_graph` on the iSAM2 settings of :mod:`.isam`), its factor model
 (:mod:`.model`, :mod:`.factors`) and the batch smoothing (:mod:`.smoothing`), tied together
-by :func:`graphpose.track.tracker.track_sequence`."""
+by :func:`graphpose.track.tracker.track_frames` (a stream of frame results) and
+:func:`graphpose.track.tracker.track_sequence` (all of them at once), with the calibration's
+uncertainty carried into the poses by :mod:`.uncertainty`."""
+
+__all__ = ["track_frames", "track_sequence"]
+
+
+def __getattr__(name: str):
+    # Lazy, as the top-level package is: importing graphpose.track.config (the command
+    # line's options) must not load GTSAM and the detector.
+    if name in __all__:
+        from . import tracker
+
+        return getattr(tracker, name)
+    raise AttributeError(f"module 'graphpose.track' has no attribute {name!r}")

@@ -68,7 +68,8 @@ class Backend(Protocol):
     frames : list of int
         Frame indices given to the back end, in order (a lost frame is never given).
     measurements : tuple of FrameMeasurement
-        What each of those frames gave the back end, in order: all that rebuilds its factors.
+        What each of those frames gave the back end, in order: all that rebuilds its factors
+        (empty for a fixed lag made without ``keep_measurements``).
     """
 
     camera: Camera
@@ -128,9 +129,11 @@ class Backend(Protocol):
 
 
 def make_backend(camera, board: Board, motion: MotionPrior, target: str = "resection",
-                 lag_s: float | None = DEFAULT_LAG_S) -> Backend:
+                 lag_s: float | None = DEFAULT_LAG_S, keep_measurements: bool = True) -> Backend:
     """The online :class:`Backend` for ``lag_s``: :class:`FixedLagGraph` over that many
-    seconds, or :class:`SequenceGraph` over the whole sequence when ``lag_s`` is None."""
+    seconds (keeping the frames' measurements for :meth:`Backend.smooth` only with
+    ``keep_measurements``), or :class:`SequenceGraph` over the whole sequence when ``lag_s``
+    is None (which keeps its whole graph whatever ``keep_measurements`` says)."""
     if lag_s is None:
         return SequenceGraph(camera, board, motion, target=target)
-    return FixedLagGraph(camera, board, motion, target=target, lag_s=lag_s)
+    return FixedLagGraph(camera, board, motion, target=target, lag_s=lag_s, keep_measurements=keep_measurements)

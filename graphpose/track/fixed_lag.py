@@ -13,6 +13,7 @@ from gtsam.symbol_shorthand import L, V, X
 from .._checks import check_number
 from ..board import Board
 from ..camera_models import as_camera
+from ..errors import InputError
 from ..pose.graph import LANDMARK_SIGMA_M
 from .config import DEFAULT_LAG_S, MotionPrior
 from .isam import fixed_lag_isam_params, refine_pose
@@ -47,6 +48,11 @@ class FixedLagGraph:
         Sigma of the landmark pins (landmark forms), metres.
     isam_params : gtsam.ISAM2Params, optional
         Settings of the smoother's iSAM2; default :func:`fixed_lag_isam_params`.
+    keep_measurements : bool
+        Keep every frame's :class:`FrameMeasurement`, online pose (and ``"wnoa"`` velocity)
+        for :meth:`smooth` (about 2 kB a frame). Without it (the tracker's way when it does not
+        smooth) the back end holds nothing per frame beyond the lag but the frame's index,
+        and :meth:`smooth` refuses.
 
     Raises
     ------
@@ -56,14 +62,14 @@ class FixedLagGraph:
 
     Notes
     -----
-    Kept for the whole sequence: one :class:`FrameMeasurement` and the online pose per
-    frame (about 2 kB for 48 junctions), for :meth:`smooth`. Everything else is bounded by
-    the lag.
+    Kept for the whole sequence: each frame's index and, with ``keep_measurements``, one
+    :class:`FrameMeasurement` and the online pose per frame (about 2 kB for 48 junctions),
+    for :meth:`smooth`. Everything else is bounded by the lag.
     """
 
     def __init__(self, camera, board: Board, motion: MotionPrior, target: str = "resection",
                  lag_s: float = DEFAULT_LAG_S, landmark_sigma_m: float = LANDMARK_SIGMA_M,
-                 isam_params: gtsam.ISAM2Params | None = None):
+                 isam_params: gtsam.ISAM2Params | None = None, keep_measurements: bool = True):
         check_number("lag_s", lag_s, 0.0, strict=True)
         self.camera = as_camera(camera)
         self._builder = FactorBuilder(self.camera, board, motion, target, landmark_sigma_m)
@@ -71,6 +77,8 @@ class FixedLagGraph:
         self._landmark_sigma_m = landmark_sigma_m
         params = isam_params if isam_params is not None else fixed_lag_isam_params()
         self._smoother = gtsam.IncrementalFixedLagSmoother(self.lag_s, params)
+        self.keep_measurements = bool(keep_measurements)
+        self._frames: list = []
         self._measurements: list = []
         self._online: dict = {}
         self._velocities: dict = {}
@@ -80,11 +88,11 @@ class FixedLagGraph:
     @property
     def frames(self) -> list:
         """Frame indices given to the back end, in order."""
-        return [m.index for m in self._measurements]
+        return list(self._frames)
 
     @property
     def measurements(self) -> tuple:
-        """Every frame's :class:`FrameMeasurement`, in order."""
+        """Every frame's :class:`FrameMeasurement`, in order (none without ``keep_measurements``)."""
         return tuple(self._measurements)
 
     def landmark_key(self, k: int, j: int) -> int:
@@ -112,7 +120,7 @@ class FixedLagGraph:
         new_segment = self._new_segment or not self._builder.segment
         graph, values, stamps = self._builder.frame(k, timestamp, points, ids, T_init, pixel_sigma)
         if self._shared:
-            if not self._measurements:
+            if not self._frames:
                 pins, pinned = self._builder.shared_landmarks()
                 graph.push_back(pins)
                 values.insert(pinned)
@@ -122,10 +130,12 @@ class FixedLagGraph:
         pose = refine_pose(self._smoother.update, lambda: self._smoother.calculateEstimatePose3(X(k)), T_init)
         cov = self._smoother.marginalCovariance(X(k))
         T = pose.matrix()
-        self._measurements.append(FrameMeasurement(k, timestamp, points, ids, float(pixel_sigma), new_segment))
-        self._online[k] = T
-        if self._builder.segment[-1][2]:
-            self._velocities[k] = self._smoother.calculateEstimateVector(V(k))
+        self._frames.append(k)
+        if self.keep_measurements:
+            self._measurements.append(FrameMeasurement(k, timestamp, points, ids, float(pixel_sigma), new_segment))
+            self._online[k] = T
+            if self._builder.segment[-1][2]:
+                self._velocities[k] = self._smoother.calculateEstimateVector(V(k))
         self._new_segment = False
         return backend_result(T, cov, time.perf_counter() - start)
 
@@ -133,7 +143,8 @@ class FixedLagGraph:
         """The smoother's current estimate of the frames still inside the lag:
         ``{k: (4, 4) T_WC}`` (older frames are marginalised)."""
         values = self._smoother.calculateEstimate()
-        return {k: values.atPose3(X(k)).matrix() for k in self.frames if values.exists(X(k))}
+        poses = (gtsam.Symbol(key) for key in values.keys())
+        return {int(p.index()): values.atPose3(p.key()).matrix() for p in poses if chr(p.chr()) == "x"}
 
     def size(self) -> tuple:
         """``(factors, variables)`` the smoother holds now (marginal priors included)."""
@@ -148,7 +159,15 @@ class FixedLagGraph:
         dict
             ``{k: BackendResult}`` for every frame given, covariances from the full graph's
             marginals.
+
+        Raises
+        ------
+        InputError
+            If the back end was made without ``keep_measurements``.
         """
+        if not self.keep_measurements:
+            raise InputError("this fixed-lag back end kept no measurements to smooth "
+                             "(make it with keep_measurements=True)")
         initial = dict(self._online)
         initial.update(self.estimate())
         return smooth_frames(self.camera, self.board, self.motion, self.target, self._measurements, initial,

@@ -39,13 +39,12 @@ predict the next frame.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..board import Board
-from ..geometry import to_camera
+from ..geometry import relative_pose, se3_exp, se3_log, to_camera
 from ..camera_models import as_camera
 from ..detect.junctions import board_smoothing, extract_junctions
 from ..detect.refine import MAX_RADIUS, SMOOTH_SIGMA, WINDOW_FRACTION, refine_junctions
@@ -295,70 +294,10 @@ def constant_velocity_prediction(T0, T1, ratio: float) -> np.ndarray:
     -------
     (4, 4) ndarray
         ``T1 Exp(ratio Log(T0^-1 T1))``, with the exact SE(3) exponential and logarithm
-        (GTSAM's ``Pose3.Expmap``/``Logmap``, the twist rotation first).
+        (:func:`graphpose.geometry.se3_exp` / :func:`~graphpose.geometry.se3_log`, GTSAM's
+        ``Pose3.Expmap``/``Logmap``, the twist rotation first).
     """
-    R0, t0, R1, t1 = T0[:3, :3], T0[:3, 3], T1[:3, :3], T1[:3, 3]
-    D = np.eye(4)
-    D[:3, :3] = R0.T @ R1
-    D[:3, 3] = R0.T @ (t1 - t0)
-    return T1 @ _se3_exp(ratio * _se3_log(D))
-
-
-def _hat(w):
-    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-
-
-def _so3_log(R):
-    """Rotation vector (3,) of a rotation matrix, accurate from 0 to pi."""
-    s = 0.5 * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    sin = float(np.linalg.norm(s))
-    cos = 0.5 * (np.trace(R) - 1.0)
-    theta = math.atan2(sin, cos)
-    if theta < 1e-4:
-        return s * (1.0 + theta * theta / 6.0)  # theta / sin(theta)
-    if math.pi - theta < 1e-3:
-        # Near pi the skew part vanishes; the axis a is in the symmetric part:
-        # (R + R^T) / 2 = cos(theta) I + (1 - cos(theta)) a a^T.
-        A = (0.5 * (R + R.T) - cos * np.eye(3)) / (1.0 - cos)
-        i = int(np.argmax(np.diag(A)))
-        axis = A[:, i] / math.sqrt(A[i, i])
-        return theta * (axis if axis @ s >= 0 else -axis)
-    return s * (theta / sin)
-
-
-def _se3_coefficients(theta):
-    """``sin(t)/t``, ``(1 - cos t)/t^2``, ``(t - sin t)/t^3`` (series near 0)."""
-    if theta < 1e-4:
-        t2 = theta * theta
-        return 1.0 - t2 / 6.0, 0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0
-    half = math.sin(0.5 * theta)
-    return math.sin(theta) / theta, 2.0 * half * half / theta**2, (theta - math.sin(theta)) / theta**3
-
-
-def _se3_log(T):
-    """Twist (omega, v) (6,) of a rigid transform: ``T = Exp(omega, v)``."""
-    omega = _so3_log(T[:3, :3])
-    theta = float(np.linalg.norm(omega))
-    W = _hat(omega)
-    if theta < 1e-4:
-        c = 1.0 / 12.0 + theta * theta / 720.0
-    else:
-        c = (1.0 - 0.5 * theta * math.cos(0.5 * theta) / math.sin(0.5 * theta)) / theta**2
-    V_inv = np.eye(3) - 0.5 * W + c * (W @ W)
-    return np.r_[omega, V_inv @ T[:3, 3]]
-
-
-def _se3_exp(xi):
-    """Rigid transform (4, 4) of a twist (omega, v): rotation first, as GTSAM's Pose3."""
-    omega, v = xi[:3], xi[3:]
-    theta = float(np.linalg.norm(omega))
-    a, b, c = _se3_coefficients(theta)
-    W = _hat(omega)
-    W2 = W @ W
-    T = np.eye(4)
-    T[:3, :3] = np.eye(3) + a * W + b * W2
-    T[:3, 3] = (np.eye(3) + b * W + c * W2) @ v
-    return T
+    return T1 @ se3_exp(ratio * se3_log(relative_pose(T0, T1)))
 
 
 def _detection_message(whys) -> str:

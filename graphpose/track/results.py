@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..pose.intrinsics import SIGMA_PIXEL
 
 #: Frame statuses: followed from the previous frame's prediction, found by full extraction,
 #: or without a usable board.
@@ -72,6 +73,14 @@ class FrameResult:
         update, seconds.
     message : str
         Why a frame was lost or fell back, empty otherwise.
+    cov_pixel : (6, 6) ndarray or None
+        The covariance from the pixel noise alone (the intrinsics taken as exact): the same
+        as ``cov`` for a camera without a covariance, None when lost.
+    sigma_kind : str
+        What ``cov`` describes, as :attr:`graphpose.pose.estimate.PoseEstimate.sigma_kind`:
+        ``"pixel noise"``, or ``"pixel noise and calibration"`` for a camera that carries
+        its intrinsics' covariance (:mod:`graphpose.track.uncertainty`: first order, per
+        frame; the calibration's error is common to every frame).
     """
 
     index: int
@@ -87,6 +96,12 @@ class FrameResult:
     frontend_s: float = 0.0
     update_s: float = 0.0
     message: str = ""
+    cov_pixel: np.ndarray | None = None
+    sigma_kind: str = SIGMA_PIXEL
+
+    def __post_init__(self):
+        if self.cov_pixel is None and self.sigma_kind == SIGMA_PIXEL:  # the two are one
+            object.__setattr__(self, "cov_pixel", self.cov)
 
     @property
     def sigma(self) -> np.ndarray | None:

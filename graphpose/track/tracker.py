@@ -1,4 +1,6 @@
-"""Tracking the camera over a sequence of frames: :func:`track_sequence`.
+"""Tracking the camera over a sequence of frames: :func:`track_frames` (a stream of frame
+results, memory flat however long the sequence) and :func:`track_sequence` (all of them in
+one :class:`~graphpose.track.results.Track`).
 
 Ties the pieces together, one frame at a time: the frame is read
 (:class:`graphpose.track.frames.FrameSource`), the front end finds its junctions and its own
@@ -9,7 +11,8 @@ and updates it (a :class:`graphpose.track.backend.Backend`:
 iSAM2 over the whole sequence, with ``lag_s=None``), and the back end's pose goes back to the
 front end to predict the next frame. A frame without a usable board, or a frame file that
 cannot be read, is lost: it gets no pose, and no motion factor spans it. At the end the whole
-sequence can be smoothed in batch.
+sequence can be smoothed in batch. Each frame's result is given as soon as it is final and
+kept by nobody but the caller (:func:`track_frames`); smoothing keeps only the measurements.
 
 Inputs are checked once, here, as :func:`graphpose.pipeline.estimate_pose` checks them
 (:func:`graphpose._checks.check_bounds` for the bounds and every per-frame polygon, and
@@ -22,6 +25,8 @@ project through the same model.
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
+from dataclasses import replace
 
 import numpy as np
 
@@ -35,12 +40,57 @@ from .config import MOTION_SPAN_FRAMES, TrackerConfig, default_lag_s, shortest_l
 from .frames import FrameSource, frame_timestamps
 from .frontend import FrontEnd
 from .results import DETECTED, LOST, FrameResult, Track
+from .uncertainty import frame_covariance
+
+
+def track_frames(frames, camera, bounds=None, *, board: Board = Board(), timestamps=None, fps: float = 30.0,
+                 polygons=None, config: TrackerConfig = TrackerConfig(), smooth: bool = False,
+                 progress=None) -> Iterator[FrameResult]:
+    """Track the camera pose over a sequence of frames, one :class:`FrameResult` at a time.
+
+    The stream of :func:`track_sequence`: the same frames, the same results, in input order,
+    but each given as soon as it is final, so that memory stays flat however long the
+    sequence. Without ``smooth``, a frame's result (the online, filtered estimate) is final
+    once the back end has added the frame, and the tracker keeps no frame's result after
+    giving it. With ``smooth``, the online pass keeps only what the batch step needs (each
+    frame's measurements, about 2 kB a frame), and the smoothed results come after the last
+    frame.
+
+    Parameters
+    ----------
+    frames, camera, bounds, board, timestamps, fps, polygons, config, progress
+        As :func:`track_sequence`. ``progress(k, n_frames)`` is called after frame ``k`` is
+        tracked (before its result is given, without ``smooth``).
+    smooth : bool
+        Give the batch-smoothed results of the whole sequence (``Track.smoothed``) instead of
+        the online ones, all after the last frame is tracked.
+
+    Returns
+    -------
+    iterator of FrameResult
+        One per input frame, in order; lost frames carry no pose.
+
+    Raises
+    ------
+    InputError
+        When called, for malformed inputs (as :func:`track_sequence`); while iterating, for
+        a frame given in memory that is not an image, a frame's size that differs from the
+        camera's, or a polygon that fails its check against the first frame read.
+
+    Examples
+    --------
+    >>> for f in track_frames("seq/", K, bounds):            # doctest: +SKIP
+    ...     print(f.index, f.status, f.T_WC)
+    """
+    run = _Run(frames, camera, bounds, board, timestamps, fps, polygons, config, smooth, progress)
+    return _smoothed_stream(run) if smooth else run.online()
 
 
 def track_sequence(frames, camera, bounds=None, *, board: Board = Board(), timestamps=None, fps: float = 30.0,
                    polygons=None, config: TrackerConfig = TrackerConfig(), smooth: bool = False,
                    progress=None) -> Track:
-    """Track the camera pose over a sequence of frames of the target.
+    """Track the camera pose over a sequence of frames of the target (every result kept:
+    :func:`track_frames` streams them).
 
     Parameters
     ----------
@@ -50,7 +100,9 @@ def track_sequence(frames, camera, bounds=None, *, board: Board = Board(), times
         (H, W) / (H, W, 3|4) arrays, or an (N, H, W) array. Files are read one at a time.
     camera : Camera or (3, 3) array_like
         The camera model (:mod:`graphpose.camera_models`; the frames are raw, with its lens
-        distortion), or pinhole intrinsics ``K``, pixels, for frames without distortion.
+        distortion), or pinhole intrinsics ``K``, pixels, for frames without distortion. A
+        camera that carries its intrinsics' covariance (a calibration's) gives covariances
+        that include it (:mod:`graphpose.track.uncertainty`).
     bounds : (2, 4) array_like, optional
         Bounding polygon of the board in the first frame (clockwise from the corner nearest
         junction 0, as in :func:`graphpose.detect.junctions.extract_junctions`). Without it
@@ -93,43 +145,80 @@ def track_sequence(frames, camera, bounds=None, *, board: Board = Board(), times
         (:func:`graphpose._checks.check_bounds`, checked against the first frame read,
         before any is tracked). A frame without a usable board is NOT an error: it is lost.
     """
-    camera = as_camera(camera)
-    board = check_board(board)
-    if not isinstance(config, TrackerConfig):
-        raise InputError(f"config must be a TrackerConfig, got {type(config).__name__}")
-    source = FrameSource(frames)
-    n = len(source)
-    if n == 0:
-        raise InputError("frames is empty")
-    t = frame_timestamps(timestamps, fps, n)
-    shortest = shortest_lag_s(config.motion.model, t)
-    if config.lag_s is not None and config.lag_s < shortest * (1 + 1e-9):
-        raise InputError(
-            f"lag_s = {config.lag_s:g} s is shorter than the {MOTION_SPAN_FRAMES[config.motion.model]} frames "
-            f"({shortest:g} s at this sequence's median frame interval) that one {config.motion.model} motion "
-            f"factor ties together: the motion prior would never act. Give lag_s of at least "
-            f"{default_lag_s(config.motion.model, t):g} s, or None for the whole-sequence back end")
-    polys, names = _polygon_list(polygons, bounds, n)
-    front = FrontEnd(camera, board, config)
-    graph = make_backend(camera, board, config.motion, target=config.target, lag_s=config.lag_s)
-    W = board.world_points()
-    results, checked = [], False
-    for k in range(n):
-        image, unreadable = _read(source, k)
-        if image is None:
-            front.lose()
-            graph.break_segment()
-            results.append(FrameResult(k, t[k], LOST, message=unreadable))
-        else:
-            path = source.path(k)
-            check_image_size(camera, image.shape, f"frame {k}" + ("" if path is None else f" ({path})"))
-            if not checked:
-                polys, checked = _check_polygons(polys, names, image.shape[:2]), True
-            results.append(_step(front, graph, W, config, k, t[k], image, polys[k]))
-        if progress is not None:
-            progress(k, n)
-    smoothed = tuple(_smoothed(graph, results, front.project, W)) if smooth else None
-    return Track(tuple(results), smoothed, config)
+    run = _Run(frames, camera, bounds, board, timestamps, fps, polygons, config, smooth, progress)
+    online = tuple(run.online())
+    return Track(online, tuple(run.smoothed(online)) if smooth else None, config)
+
+
+class _Run:
+    """One tracking run: the inputs checked (at once), the front end and the back end, and
+    the generators of its results (:meth:`online`, then :meth:`smoothed`)."""
+
+    def __init__(self, frames, camera, bounds, board, timestamps, fps, polygons, config, smooth, progress):
+        self.camera = as_camera(camera)
+        self.board = check_board(board)
+        if not isinstance(config, TrackerConfig):
+            raise InputError(f"config must be a TrackerConfig, got {type(config).__name__}")
+        self.source = FrameSource(frames)
+        n = len(self.source)
+        if n == 0:
+            raise InputError("frames is empty")
+        self.t = frame_timestamps(timestamps, fps, n)
+        shortest = shortest_lag_s(config.motion.model, self.t)
+        if config.lag_s is not None and config.lag_s < shortest * (1 + 1e-9):
+            raise InputError(
+                f"lag_s = {config.lag_s:g} s is shorter than the {MOTION_SPAN_FRAMES[config.motion.model]} frames "
+                f"({shortest:g} s at this sequence's median frame interval) that one {config.motion.model} motion "
+                f"factor ties together: the motion prior would never act. Give lag_s of at least "
+                f"{default_lag_s(config.motion.model, self.t):g} s, or None for the whole-sequence back end")
+        self.polys, self.names = _polygon_list(polygons, bounds, n)
+        self.config, self.progress = config, progress
+        self.front = FrontEnd(self.camera, self.board, config)
+        self.graph = make_backend(self.camera, self.board, config.motion, target=config.target, lag_s=config.lag_s,
+                                  keep_measurements=smooth)
+        self.W = self.board.world_points()
+
+    def online(self) -> Iterator[FrameResult]:
+        """Every frame's online result, each given as soon as it is made (none is kept)."""
+        source, t, n, checked = self.source, self.t, len(self.t), False
+        for k in range(n):
+            image, unreadable = _read(source, k)
+            if image is None:
+                self.front.lose()
+                self.graph.break_segment()
+                result = FrameResult(k, t[k], LOST, message=unreadable)
+            else:
+                path = source.path(k)
+                check_image_size(self.camera, image.shape, f"frame {k}" + ("" if path is None else f" ({path})"))
+                if not checked:
+                    self.polys, checked = _check_polygons(self.polys, self.names, image.shape[:2]), True
+                result = _step(self.front, self.graph, self.W, self.config, k, t[k], image, self.polys[k])
+            del image  # not held while the consumer works on the result
+            if self.progress is not None:
+                self.progress(k, n)
+            yield result
+
+    def smoothed(self, frames) -> Iterator[FrameResult]:
+        """The frames again with the batch-smoothed poses and covariances of the whole graph
+        (after :meth:`online` has run to the end)."""
+        batch = self.graph.smooth()
+        for f in frames:
+            if f.index not in batch:
+                yield f
+                continue
+            b = batch.pop(f.index)
+            Wk = self.W[:, f.ids]
+            cov, kind = frame_covariance(self.camera, b.T_WC, Wk, b.cov)
+            rms = _rms(self.front.project(b.T_WC, Wk) - f.points)
+            yield FrameResult(f.index, f.timestamp, f.status, b.T_WC, cov, f.junctions, rms, f.single_T_WC,
+                              f.points, f.ids, f.frontend_s, f.update_s, f.message, b.cov, kind)
+
+
+def _smoothed_stream(run) -> Iterator[FrameResult]:
+    """The online pass keeping each frame's result without its online pose and covariances
+    (the measurements are the back end's), then the smoothed results."""
+    kept = [replace(f, T_WC=None, cov=None, cov_pixel=None) if f.T_WC is not None else f for f in run.online()]
+    yield from run.smoothed(kept)
 
 
 def _read(source, k):
@@ -160,23 +249,11 @@ def _step(front, graph, W, config, k, t, image, polygon) -> FrameResult:
     sigma = max(fit.sigma_px, config.min_pixel_sigma_px)
     back = graph.add_frame(k, t, found.points, found.ids, fit.T_WC, sigma)
     front.accept(k, t, back.T_WC, image.shape[:2])
-    rms = _rms(front.project(back.T_WC, W[:, found.ids]) - found.points)
-    return FrameResult(k, t, found.status, back.T_WC, back.cov, len(found.ids), rms, fit.T_WC, found.points,
-                       found.ids, frontend_s, back.update_s, found.message)
-
-
-def _smoothed(graph, results, project, W):
-    """The frames again with the batch-smoothed poses and covariances of the whole graph
-    (``project(T_WC, P_W)``: the camera's projection)."""
-    batch = graph.smooth()
-    for f in results:
-        if f.index not in batch:
-            yield f
-            continue
-        b = batch[f.index]
-        rms = _rms(project(b.T_WC, W[:, f.ids]) - f.points)
-        yield FrameResult(f.index, f.timestamp, f.status, b.T_WC, b.cov, f.junctions, rms, f.single_T_WC,
-                          f.points, f.ids, f.frontend_s, f.update_s, f.message)
+    Wk = W[:, found.ids]
+    rms = _rms(front.project(back.T_WC, Wk) - found.points)
+    cov, kind = frame_covariance(front.camera, back.T_WC, Wk, back.cov)
+    return FrameResult(k, t, found.status, back.T_WC, cov, len(found.ids), rms, fit.T_WC, found.points,
+                       found.ids, frontend_s, back.update_s, found.message, back.cov, kind)
 
 
 def _polygon_list(polygons, bounds, n):
