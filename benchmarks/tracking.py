@@ -44,6 +44,7 @@ this run. OpenCV (the peer) is imported here only.
 from __future__ import annotations
 
 import time
+from functools import partial
 
 import numpy as np
 
@@ -427,7 +428,7 @@ def instrumented_track(frames, K, bounds, timestamps, config, smooth):
     return track, np.diff(np.r_[start, stamps]), np.diff(np.r_[cpu_start, cpu]), rss, smooth_s
 
 
-def lockstep_growth(K, board, frames, lag_s):
+def lockstep_growth(K, board, frames, lag_s, keep_measurements=True):
     """The fixed-lag back end's growth, free of the machine's drift over the run.
 
     The tracked frames' junctions (``frames``: the tracker's frame results, or anything with
@@ -435,8 +436,9 @@ def lockstep_growth(K, board, frames, lag_s):
     fed the whole sequence, and a young one started afresh every 200 frames, timed so that
     it is 100-199 frames old over the sequence's last 100. Each frame is given to both, in
     alternating order, and each update timed in process CPU time; a neighbour stealing the
-    machine in one stretch of the run then slows both alike. Returns (long / young median
-    update time over the last 100 frames, long ms, young ms).
+    machine in one stretch of the run then slows both alike. ``keep_measurements`` as the
+    tracker's back end has it (only when it will smooth). Returns (long / young median update
+    time over the last 100 frames, long ms, young ms).
     """
     from graphpose.track.backend import make_backend
     from graphpose.track.config import MotionPrior
@@ -444,11 +446,12 @@ def lockstep_growth(K, board, frames, lag_s):
 
     n = len(frames)
     times = {"long": np.full(n, np.nan), "young": np.full(n, np.nan)}
-    graphs = {"long": make_backend(K, board, MotionPrior(), lag_s=lag_s), "young": None}
+    make = partial(make_backend, K, board, MotionPrior(), lag_s=lag_s, keep_measurements=keep_measurements)
+    graphs = {"long": make(), "young": None}
     for f in frames:
         k = f.index
         if graphs["young"] is None or (k - (n - 200)) % 200 == 0:
-            graphs["young"] = make_backend(K, board, MotionPrior(), lag_s=lag_s)
+            graphs["young"] = make()
         for name in (("long", "young") if k % 2 else ("young", "long")):
             graph = graphs[name]
             if f.status in (LOST, DETECTED):
