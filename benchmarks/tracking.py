@@ -432,9 +432,10 @@ def lockstep_growth(K, board, frames, lag_s, keep_measurements=True):
     """The fixed-lag back end's growth, free of the machine's drift over the run.
 
     The tracked frames' junctions (``frames``: the tracker's frame results, or anything with
-    their ``index``, ``timestamp``, ``status``, ``points``, ``ids`` and ``single_T_WC``) are replayed into two fixed-lag back ends in lockstep: one
-    fed the whole sequence, and a young one started afresh every 200 frames, timed so that
-    it is 100-199 frames old over the sequence's last 100. Each frame is given to both, in
+    their ``index``, ``timestamp``, ``status``, ``points``, ``ids`` and ``single_T_WC``) are
+    replayed into two fixed-lag back ends in lockstep: one fed the whole sequence, and a young
+    one started afresh every 200 frames, timed so that it is 100-199 frames old over the
+    sequence's last 100. Each frame is given to both, in
     alternating order, and each update timed in process CPU time; a neighbour stealing the
     machine in one stretch of the run then slows both alike. ``keep_measurements`` as the
     tracker's back end has it (only when it will smooth). Returns (long / young median update
