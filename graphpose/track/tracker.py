@@ -53,8 +53,8 @@ def track_frames(frames, camera, bounds=None, *, board: Board = Board(), timesta
     sequence. Without ``smooth``, a frame's result (the online, filtered estimate) is final
     once the back end has added the frame, and the tracker keeps no frame's result after
     giving it. With ``smooth``, the online pass keeps only what the batch step needs (each
-    frame's measurements, about 2 kB a frame), and the smoothed results come after the last
-    frame.
+    frame's measurements and its result without the online pose, about 3 kB a frame), and
+    the smoothed results come after the last frame.
 
     Parameters
     ----------
