@@ -7,7 +7,6 @@ skipped when that data is absent (failed under GRAPHPOSE_REQUIRE_REAL=1, as in c
 """
 
 import glob
-import importlib.util
 import json
 import os
 import re
@@ -16,6 +15,8 @@ import sys
 
 import pytest
 
+from benchmarks import cli as bench_cli
+from benchmarks import page as bench_page
 from tests.conftest import REPO
 
 PAGES = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
@@ -170,25 +171,17 @@ def test_json_record_keys_are_those_of_records_docstring():
 # --- the benchmark page is generated -----------------------------------------------------------
 
 
-def _bench():
-    spec = importlib.util.spec_from_file_location("bench", REPO / "scripts" / "bench.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def test_benchmark_page_is_rendered_from_its_json():
     doc = json.loads((REPO / "docs" / "benchmarks.json").read_text())
     page = (REPO / "docs" / "benchmarks.md").read_text()
-    assert page == _bench().render_page(doc), "docs/benchmarks.md was edited by hand: python scripts/bench.py --render"
+    assert page == bench_page.render_page(doc), "docs/benchmarks.md was edited by hand: python -m benchmarks --render"
     assert ("Quick run" in page) == doc["quick"]
     for key in ("date", "machine", "versions", "commit"):
         assert doc[key]
 
 
 def test_benchmark_page_shows_every_figure_beside_its_peer_and_goal():
-    bench = _bench()
-    doc = {"format": 1, "quick": False, "date": "d", "python": "3", "commit": "c", "command": "python scripts/bench.py",
+    doc = {"format": 1, "quick": False, "date": "d", "python": "3", "commit": "c", "command": "python -m benchmarks",
            "machine": {"node": "n", "cpu": "c", "arch": "a", "cores": 2, "load_before": None},
            "versions": {"graphpose": "0"},
            "sections": [{"name": "pose", "seconds": 1.0, "goal": "Why.",
@@ -198,7 +191,7 @@ def test_benchmark_page_shows_every_figure_beside_its_peer_and_goal():
                                       "peer": None, "ratio": None, "goal": "4.5-7.5", "met": False}],
                          "blocks": [{"title": "T", "text": "x {a:.1f} {b:.2f}", "values": {"a": 1.25, "b": None},
                                      "columns": ["a", "b"], "formats": [".1f", ""], "rows": [[2.25, None]]}]}]}
-    page = bench.render_page(doc)
+    page = bench_page.render_page(doc)
     assert "| pose | GN | 0.50 ms | LM: 0.25 ms | 2.00 | < 1 ms | yes |" in page
     assert "| pose | NEES | n/a |  |  | 4.5-7.5 | no |" in page
     assert "x 1.2 n/a" in page and "| 2.2 | n/a |" in page
@@ -206,8 +199,8 @@ def test_benchmark_page_shows_every_figure_beside_its_peer_and_goal():
 
 
 def test_benchmark_without_opencv_says_how_to_install_it():
-    code = ("import runpy, sys; sys.modules['cv2'] = None; sys.argv = ['scripts/bench.py', '--quick']; "
-            "runpy.run_path('scripts/bench.py', run_name='__main__')")
+    code = ("import runpy, sys; sys.modules['cv2'] = None; sys.argv = ['benchmarks', '--quick']; "
+            "runpy.run_module('benchmarks', run_name='__main__', alter_sys=True)")
     done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60,
                           check=False)
     assert done.returncode == 2
@@ -216,17 +209,16 @@ def test_benchmark_without_opencv_says_how_to_install_it():
 
 
 def test_benchmark_update_replaces_only_the_sections_measured_and_says_when():
-    bench = _bench()
-    base = {"format": 1, "quick": False, "date": "d0", "python": "3", "commit": "c0", "command": "python scripts/bench.py",
+    base = {"format": 1, "quick": False, "date": "d0", "python": "3", "commit": "c0", "command": "python -m benchmarks",
             "machine": {"node": "n", "cpu": "c", "arch": "a", "cores": 2, "load_before": None},
             "versions": {"graphpose": "0"}}
     old = {**base, "sections": [{"name": n, "seconds": 1.0, "goal": f"old {n}", "figures": [], "blocks": []}
                                 for n in ("junctions", "pose")]}
-    new = {**base, "date": "d1", "commit": "c1", "command": "python scripts/bench.py pose noise --update",
+    new = {**base, "date": "d1", "commit": "c1", "command": "python -m benchmarks pose noise --update",
            "sections": [{"name": n, "seconds": 2.0, "goal": f"new {n}", "figures": [], "blocks": []}
                         for n in ("pose", "noise")]}
-    doc = bench.update(old, new)
-    rank = {n: i for i, n in enumerate(bench.SECTIONS)}
+    doc = bench_cli.update(old, new)
+    rank = {n: i for i, n in enumerate(bench_cli.SECTIONS)}
     expected = sorted(["junctions", "pose", "noise"], key=lambda n: rank.get(n, len(rank)))  # SECTIONS' order
     assert [s["name"] for s in doc["sections"]] == expected
     goals = {s["name"]: s["goal"] for s in doc["sections"]}
@@ -234,5 +226,5 @@ def test_benchmark_update_replaces_only_the_sections_measured_and_says_when():
     assert doc["date"] == "d0" and doc["commit"] == "c0"  # the document's own run is the full one
     runs = {s["name"]: s.get("run") for s in doc["sections"]}
     assert runs["junctions"] is None and runs["pose"]["commit"] == "c1"
-    page = bench.render_page(doc)
+    page = bench_page.render_page(doc)
     assert page.count("Measured in a run of its own: d1, commit c1") == 2

@@ -28,7 +28,7 @@ variables in the graph (iSAM2's ``Values`` are copied for the call into Python),
 factor does not. Over the whole sequence (:class:`SequenceGraph`) the update therefore grows
 with the Python factors (``"resection"``, ``"constant_velocity"``), and its memory grows with
 every form. The fixed lag bounds the graph, so every form and prior stays flat; the
-figures (``scripts/bench_tracking.py``) compare them.
+figures (``python -m benchmarks tracking``) compare them.
 """
 
 from __future__ import annotations

@@ -20,7 +20,7 @@ from tests.conftest import PROJECT_K as K
 
 #: OpenCV findChessboardCornersSB (CALIB_CB_ACCURACY) reprojection RMS on targets 01-06, px.
 #: Copied from issue 2, which set them as the goal (our junctions must fit a pinhole pose at
-#: least as well); not measured by this test. scripts/bench_junctions.py measures OpenCV
+#: least as well); not measured by this test. benchmarks/junctions.py measures OpenCV
 #: itself, side by side, in each run.
 OPENCV_SB_RMS = [0.072, 0.128, 0.103, 0.191, 0.156, 0.063]
 

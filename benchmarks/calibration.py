@@ -1,8 +1,7 @@
-#!/usr/bin/env python
 """Calibration benchmark: ``graphpose.calibrate`` beside OpenCV's calibration, on rendered sets
 with exact truth and on OpenCV's own samples.
 
-    python scripts/bench_calibration.py [--quick] [--json PATH]
+    python -m benchmarks calibration [--quick]      (or python -m benchmarks.calibration [--quick])
 
 Every figure is measured in this run (``--quick``: small sets, to check that it works).
 OpenCV (the peer) is imported here only; its corners are its own: ``findChessboardCorners``
@@ -38,7 +37,7 @@ Sections
    parameter vectors' difference against what their covariances predict
    (``d^T (C1 + C2)^-1 d``, whose mean would be 9 if the model and the noise were all), and
    the two cameras' projection difference over the image beside its predicted 1-sigma.
-4. The pose with the calibration's uncertainty (``scripts/calibration_pose_nees.py``): over 30
+4. The pose with the calibration's uncertainty (:mod:`benchmarks.calibration_pose_nees`): over 30
    trials (20 in ``--quick``) calibrate on 8 rendered views, write and read the camera file,
    estimate held-out views; the pose NEES with the covariance that includes the
    calibration's (goal 4.5-7.5) beside the pixel-noise-only one.
@@ -49,38 +48,24 @@ Sections
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
+import graphpose
+from benchmarks._common import SAMPLES, T_WC_from_opencv, opencv_classic, opencv_sb, points
+from benchmarks.calibration_pose_nees import pose_nees
+from graphpose import Board, read_camera
+from graphpose.calibrate import camera_parameters, parameter_names
+from graphpose.synth.calibration import calibration_set, fisheye_camera, radtan_camera
 
-import graphpose  # noqa: E402
-from graphpose import Board, read_camera  # noqa: E402
-from graphpose.calibrate import camera_parameters, camera_with_parameters, parameter_names  # noqa: E402
-from graphpose.synth.calibration import calibration_set, fisheye_camera, radtan_camera  # noqa: E402
-
-SAMPLES = REPO.parent / "shared" / "data" / "opencv_samples"
 SAMPLE_BOARD = Board(9, 6, 0.03)
 
 
 def _opencv_corners(cv2, image, pattern, sb=False):
     """OpenCV's corners (2, n): findChessboardCorners + cornerSubPix 5 x 5, or the SB detector."""
-    if sb:
-        ok, corners = cv2.findChessboardCornersSB(image, pattern)
-        return corners.reshape(-1, 2).T.astype(float) if ok else None
-    ok, corners = cv2.findChessboardCorners(image, pattern)
-    if not ok:
-        return None
-    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4)
-    corners = cv2.cornerSubPix(image, corners, (5, 5), (-1, -1), criteria)
-    return corners.reshape(-1, 2).T.astype(float)
+    return points(opencv_sb(cv2, image, pattern) if sb else opencv_classic(cv2, image, pattern))
 
 
 def _opencv_calibrate(cv2, images, board, model, size, sb=False):
@@ -91,7 +76,6 @@ def _opencv_calibrate(cv2, images, board, model, size, sb=False):
              if c is not None]
     obj = [W.reshape(1, -1, 3).copy() for _ in found]
     img = [c.T.reshape(1, -1, 2).astype(np.float64).copy() for _, c in found]
-    poses = None
     if model == "fisheye":
         # OpenCV 5's names (4.x: cv2.fisheye.CALIB_...). Without a starting K OpenCV's fisheye
         # calibration diverges on these images (RMS > 100 px): it starts from f = width / pi
@@ -108,12 +92,7 @@ def _opencv_calibrate(cv2, images, board, model, size, sb=False):
                                                       [m.reshape(-1, 2).astype(np.float32) for m in img], size,
                                                       None, None)
         camera = graphpose.RadTanCamera(K, D.ravel()[:5], size)
-    poses = []
-    for rvec, tvec in zip(rvecs, tvecs):  # OpenCV's target-to-camera -> T_WC
-        R, _ = cv2.Rodrigues(np.asarray(rvec, dtype=float))
-        T = np.eye(4)
-        T[:3, :3], T[:3, 3] = R.T, -R.T @ np.asarray(tvec, dtype=float).ravel()
-        poses.append(T)
+    poses = [T_WC_from_opencv(cv2, rvec, tvec) for rvec, tvec in zip(rvecs, tvecs)]
     return camera, float(rms), [(i, c, T) for (i, c), T in zip(found, poses)]
 
 
@@ -262,7 +241,7 @@ def speed(cv2, quick):
 
 
 def main(quick: bool = False) -> dict:
-    """Measure every section; returns the figures (the JSON written by ``--json``)."""
+    """Measure every part; returns the figures, which :func:`section` lays out for :mod:`benchmarks`."""
     import cv2
 
     started = time.time()
@@ -271,8 +250,6 @@ def main(quick: bool = False) -> dict:
     out["nees"] = nees(quick)
     out["samples"] = samples(cv2, quick) if SAMPLES.is_dir() else f"absent: {SAMPLES}"
     out["speed"] = speed(cv2, quick)
-    from calibration_pose_nees import pose_nees  # scripts/, beside this one
-
     out["pose_nees"] = pose_nees(quick)
     goals = []
     for name in ("radtan", "fisheye"):
@@ -307,7 +284,7 @@ def main(quick: bool = False) -> dict:
 
 
 def section(out) -> dict:
-    """The figures of :func:`main` as a section of scripts/bench.py (its documented dict)."""
+    """The figures of :func:`main` as a section of the benchmark (the dict :mod:`benchmarks` describes)."""
     figures = [{"figure": g["figure"], "unit": g["unit"], "fmt": ".3g", "graphpose": g["graphpose"],
                 "peer_name": None if g["peer"] is None else "OpenCV", "peer": g["peer"],
                 "ratio": None if g["peer"] is None else g["graphpose"] / g["peer"], "goal": g["goal"], "met": g["met"]}
@@ -360,7 +337,7 @@ def section(out) -> dict:
     blocks.append({"title": "The pose with the calibration's uncertainty",
                    "text": ("{trials} trials ({failed} calibrations failed): calibrate on 8 rendered views, write and "
                             "read the camera file, estimate held-out views of the same camera "
-                            "(scripts/calibration_pose_nees.py). Pose NEES of each trial's first held-out view: "
+                            "(benchmarks/calibration_pose_nees.py). Pose NEES of each trial's first held-out view: "
                             "{full:.2f} with the covariance that includes the calibration's, {pixel:.1f} with the "
                             "pixel noise's alone; over all {views} held-out views {full_all:.2f} and {pixel_all:.1f}; "
                             "the along-axis 1-sigma grows {ratio:.1f} times with the calibration's share."),
@@ -380,21 +357,9 @@ def section(out) -> dict:
     return {"goal": goal, "figures": figures, "blocks": blocks}
 
 
-def report(out) -> str:
-    lines = []
-    for g in out["goals"]:
-        peer = "" if g["peer"] is None else f" (OpenCV {g['peer']:.4g})"
-        met = "" if g["met"] is None else "met" if g["met"] else "NOT met"
-        lines.append(f"{g['figure']:75s} {g['graphpose']:.4g}{peer}  goal {g['goal']}  {met}")
-    return "\n".join(lines)
-
-
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="small sets, to check it works")
-    parser.add_argument("--json", metavar="PATH", help="also write the figures here")
-    args = parser.parse_args()
-    figures = main(args.quick)
-    print(report(figures))
-    if args.json:
-        Path(args.json).write_text(json.dumps(figures, indent=1, default=lambda x: x.tolist()) + "\n")
+    import sys
+
+    from benchmarks.cli import main as bench_main
+
+    sys.exit(bench_main(["calibration", *sys.argv[1:]]))

@@ -1,8 +1,8 @@
 #!/usr/bin/env python
 """Tracking benchmark: a synthetic hand-held sequence, graphpose's tracker beside OpenCV per frame.
 
-Run through ``python scripts/bench.py [tracking] [--quick]``; :func:`main` returns the
-section's figures (the dict described in ``scripts/bench.py``). Every figure is measured in
+Run through ``python -m benchmarks [tracking] [--quick]``; :func:`main` returns the
+section's figures (the dict described in :mod:`benchmarks`). Every figure is measured in
 this run. OpenCV (the peer) is imported here only.
 
 1. Render a sequence with :func:`graphpose.render_sequence` (noise 2, blur 1, board centre
@@ -44,36 +44,26 @@ this run. OpenCV (the peer) is imported here only.
 from __future__ import annotations
 
 import time
-from pathlib import Path
+from functools import partial
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
+from benchmarks._common import match_to, opencv_classic, opencv_pnp, points, rms, rss_mb
 
 
 def _opencv_pose(cv2, image, K, truth_uv, Wpts):
     """OpenCV on one frame: (T_WC or None, seconds)."""
     start = time.perf_counter()
-    ok, corners = cv2.findChessboardCorners(image, (8, 6), flags=cv2.CALIB_CB_ADAPTIVE_THRESH)
-    if not ok:
-        return None, time.perf_counter() - start
-    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4)
-    corners = cv2.cornerSubPix(image, corners, (5, 5), (-1, -1), criteria).reshape(-1, 2)
-    obj = np.ascontiguousarray(Wpts.T, dtype=np.float64)
+    corners = opencv_classic(cv2, image, (8, 6), flags=cv2.CALIB_CB_ADAPTIVE_THRESH)
     elapsed = time.perf_counter() - start
-    order = np.argmin(np.linalg.norm(truth_uv[:, :, None] - corners.T[:, None, :], axis=0), axis=1)
-    if len(set(order.tolist())) != Wpts.shape[1]:
+    if corners is None:
         return None, elapsed
-    img = np.ascontiguousarray(corners[order], dtype=np.float64)
+    corners = match_to(truth_uv, points(corners))  # not timed: the benefit of the doubt on its order
+    if corners is None:
+        return None, elapsed
     start = time.perf_counter()
-    _, rvec, tvec = cv2.solvePnP(obj, img, K, None, flags=cv2.SOLVEPNP_IPPE)
-    rvec, tvec = cv2.solvePnPRefineLM(obj, img, K, None, rvec, tvec)
-    elapsed += time.perf_counter() - start
-    R, _ = cv2.Rodrigues(rvec)
-    T = np.eye(4)
-    T[:3, :3] = R.T  # OpenCV gives the target-to-camera transform
-    T[:3, 3] = -R.T @ tvec.ravel()
-    return T, elapsed
+    T = opencv_pnp(cv2, K, corners, Wpts)
+    return T, elapsed + time.perf_counter() - start
 
 
 def _errors(P, truth):
@@ -88,7 +78,7 @@ def _errors(P, truth):
 
 
 def _rmse(x, mask):
-    return float(np.sqrt(np.mean(x[mask] ** 2))) if mask.any() else float("nan")
+    return rms(x[mask])
 
 
 def _median(x, mask):
@@ -99,7 +89,7 @@ def _median(x, mask):
 def _single_frame_times(images, K, board, frames):
     """graphpose on each chosen frame alone, as OpenCV runs: (ms (m,), found (m,) bool)."""
     from graphpose.detect.junctions import extract_junctions
-    from graphpose.errors import BoardNotFoundError, InputError
+    from graphpose.errors import GraphposeError
     from graphpose.pose.gauss_newton import gauss_newton
     from graphpose.pose.homography import pose_from_homography
 
@@ -114,7 +104,7 @@ def _single_frame_times(images, K, board, frames):
             use = J.trusted
             T0 = pose_from_homography(K, J.points[:, use], W[:, use])
             ok[i] = gauss_newton(K, T0, J.points[:, use], W[:, use]).converged
-        except (BoardNotFoundError, InputError):
+        except GraphposeError:  # no board, or a refusal of the homography or the fit: not found
             pass
         ms[i] = (time.perf_counter() - start) * 1000
     return ms, ok
@@ -418,58 +408,51 @@ def _compare_forms(K, board, frames):
             "rows": rows}
 
 
-def _rss_mb() -> float:
-    """Resident memory of this process, MB (NaN where /proc/self/statm is absent)."""
-    import os
-
-    try:
-        with open("/proc/self/statm") as f:
-            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 1e6
-    except (OSError, ValueError, IndexError):
-        return float("nan")
-
-
-def _instrumented_track(seq, K, config, smooth):
-    """track_sequence on the rendered frames with the wall time, process CPU time and resident
-    memory after every frame: (track, wall seconds (n,) and CPU seconds (n,) per frame, RSS MB
-    (n,), smoothing seconds)."""
+def instrumented_track(frames, K, bounds, timestamps, config, smooth):
+    """track_sequence on ``frames`` with the wall time, process CPU time and resident memory
+    after every frame: (track, wall seconds (n,) and CPU seconds (n,) per frame, RSS MB (n,),
+    smoothing seconds)."""
     from graphpose import track_sequence
 
-    n = len(seq)
+    n = len(frames)
     stamps, cpu, rss = np.zeros(n), np.zeros(n), np.zeros(n)
 
     def progress(k, _n):
         stamps[k], cpu[k] = time.perf_counter(), time.process_time()
-        rss[k] = _rss_mb()
+        rss[k] = rss_mb()
 
     start, cpu_start = time.perf_counter(), time.process_time()
-    track = track_sequence(seq.images, K, seq.bounds, timestamps=seq.timestamps, config=config, smooth=smooth,
+    track = track_sequence(frames, K, bounds, timestamps=timestamps, config=config, smooth=smooth,
                            progress=progress)
     smooth_s = time.perf_counter() - stamps[-1]
     return track, np.diff(np.r_[start, stamps]), np.diff(np.r_[cpu_start, cpu]), rss, smooth_s
 
 
-def _lockstep_growth(K, board, track, lag_s):
+def lockstep_growth(K, board, frames, lag_s, keep_measurements=True):
     """The fixed-lag back end's growth, free of the machine's drift over the run.
 
-    The tracked frames' junctions are replayed into two fixed-lag back ends in lockstep: one
-    fed the whole sequence, and a young one started afresh every 200 frames, timed so that
-    it is 100-199 frames old over the sequence's last 100. Each frame is given to both, in
+    The tracked frames' junctions (``frames``: the tracker's frame results, or anything with
+    their ``index``, ``timestamp``, ``status``, ``points``, ``ids`` and ``single_T_WC``) are
+    replayed into two fixed-lag back ends in lockstep: one fed the whole sequence, and a young
+    one started afresh every 200 frames, timed so that it is 100-199 frames old over the
+    sequence's last 100. Each frame is given to both, in
     alternating order, and each update timed in process CPU time; a neighbour stealing the
-    machine in one stretch of the run then slows both alike. Returns (long / young median
-    update time over the last 100 frames, long ms, young ms).
+    machine in one stretch of the run then slows both alike. ``keep_measurements`` as the
+    tracker's back end has it (only when it will smooth). Returns (long / young median update
+    time over the last 100 frames, long ms, young ms).
     """
     from graphpose.track.backend import make_backend
     from graphpose.track.config import MotionPrior
     from graphpose.track.results import DETECTED, LOST
 
-    n = len(track.frames)
+    n = len(frames)
     times = {"long": np.full(n, np.nan), "young": np.full(n, np.nan)}
-    graphs = {"long": make_backend(K, board, MotionPrior(), lag_s=lag_s), "young": None}
-    for f in track.frames:
+    make = partial(make_backend, K, board, MotionPrior(), lag_s=lag_s, keep_measurements=keep_measurements)
+    graphs = {"long": make(), "young": None}
+    for f in frames:
         k = f.index
         if graphs["young"] is None or (k - (n - 200)) % 200 == 0:
-            graphs["young"] = make_backend(K, board, MotionPrior(), lag_s=lag_s)
+            graphs["young"] = make()
         for name in (("long", "young") if k % 2 else ("young", "long")):
             graph = graphs[name]
             if f.status in (LOST, DETECTED):
@@ -500,7 +483,8 @@ def _long_run(K, board, quick):
     runs = {}
     for name, lag, smooth in (("fixed lag", DEFAULT_LAG_S, True), ("whole sequence", None, False)):
         gc.collect()
-        track, frame_s, frame_cpu_s, rss, smooth_s = _instrumented_track(seq, K, TrackerConfig(lag_s=lag), smooth)
+        track, frame_s, frame_cpu_s, rss, smooth_s = instrumented_track(seq.images, K, seq.bounds, seq.timestamps,
+                                                                        TrackerConfig(lag_s=lag), smooth)
         idx = np.arange(n)
         found = track.found
         back_ms = np.array([f.update_s for f in track.frames]) * 1000
@@ -516,7 +500,7 @@ def _long_run(K, board, quick):
             d, a = _errors(track.poses("smoothed"), seq.T_WC)
             runs[name].update(smooth_mm=_rmse(d, found), smooth_deg=_rmse(a, found))
         if lag is not None:
-            runs[name]["lockstep"] = _lockstep_growth(K, board, track, lag)
+            runs[name]["lockstep"] = lockstep_growth(K, board, track.frames, lag)
         del track
     lag, whole = runs["fixed lag"], runs["whole sequence"]
     ate_ratio = lag["ate_mm"] / whole["ate_mm"]
@@ -565,7 +549,6 @@ def _long_run(K, board, quick):
 if __name__ == "__main__":
     import sys
 
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from bench import main as bench_main
+    from benchmarks.cli import main as bench_main
 
     sys.exit(bench_main(["tracking", *sys.argv[1:]]))

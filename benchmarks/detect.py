@@ -20,25 +20,23 @@ Speed: the median time without a polygon on 640 x 480 images, and the growth of 
 with the pixel count (the same scenes rendered at 320 x 240 to 1280 x 960; exponent of a
 log-log fit).
 
-Run it as a section of the benchmark: ``python scripts/bench.py detect [--quick]`` (or
-``python scripts/bench_detect.py [--quick]``, the same).
+Run it as a section of the benchmark: ``python -m benchmarks detect [--quick]`` (or
+``python -m benchmarks.detect [--quick]``, the same).
 """
 
 from __future__ import annotations
 
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
-
-from graphpose import Board, BoardNotFoundError, K_from_params, extract_junctions
+from benchmarks._common import K_REAL as K
+from benchmarks._common import opencv_classic, opencv_sb, points, scaled_K
+from graphpose import Board, BoardNotFoundError, extract_junctions
 from graphpose.synth.scenes import random_scene
+from graphpose.track.frontend import board_symmetries
 
-K = K_from_params(564.9, 564.3, 337.3, 226.5)
 BOARDS = [Board(8, 6, 0.0635), Board(9, 6, 0.03), Board(7, 5, 0.04), Board(5, 4, 0.05), Board(11, 8, 0.025),
           Board(6, 6, 0.04), Board(10, 7, 0.025)]
 #: Scene classes: name -> (occluders, clutter)
@@ -53,17 +51,14 @@ CLASSES = {
 
 
 def symmetries(board: Board) -> list:
-    """Label permutations that map the board's coloured pattern onto itself (identity first)."""
-    idx = np.arange(board.n)
-    c, r = idx % board.cols, idx // board.cols
-    out = [idx]
-    if (board.cols + board.rows) % 2 == 0:
-        out.append((board.rows - 1 - r) * board.cols + (board.cols - 1 - c))
-        if board.cols == board.rows and board.cols % 2 == 0:  # quarter turns keep the colours
-            n = board.cols - 1
-            out.append(c * board.cols + (n - r))        # quarter turn
-            out.append((n - c) * board.cols + r)        # three quarters
-    return out
+    """Label permutations that map the board's coloured pattern onto itself (identity first):
+    the grid's turns (:func:`graphpose.track.frontend.board_symmetries`) that keep the colours."""
+    turns = board_symmetries(board)  # identity, half turn, then the quarter turns of a square grid
+    if (board.cols + board.rows) % 2:
+        return turns[:1]  # a half turn swaps the colours
+    if board.cols == board.rows and board.cols % 2 == 0:
+        return turns  # quarter turns keep them too
+    return turns[:2]
 
 
 def best_errors(points, trusted, truth, perms) -> np.ndarray:
@@ -86,9 +81,8 @@ def verdict(points, trusted, truth, board) -> str:
 def scene(rng, k: int, cls: str, size=(640, 480)):
     board = BOARDS[rng.integers(len(BOARDS))]
     occluders, clutter = CLASSES[cls]
-    # The same camera at another resolution: pixel (u, v) covers [u - 0.5, u + 0.5].
     s = size[0] / 640
-    Kc = K_from_params(s * K[0, 0], s * K[1, 1], s * (K[0, 2] + 0.5) - 0.5, s * (K[1, 2] + 0.5) - 0.5)
+    Kc = scaled_K(size)  # the same camera at another resolution
     f = s * K[0, 0]
     far = board.square_m * f / (11 * s)   # squares of about 11 px (at 640 x 480) at the far end
     near = board.square_m * f / (90 * s)  # about 90 px at the near end
@@ -113,17 +107,15 @@ def run_ours(image, board, polygon=None):
 
 def run_opencv(cv2, image, board, sb: bool):
     t = time.perf_counter()
+    pattern = (board.cols, board.rows)
     if sb:
-        ok, corners = cv2.findChessboardCornersSB(image, (board.cols, board.rows), flags=cv2.CALIB_CB_ACCURACY)
+        corners = opencv_sb(cv2, image, pattern, flags=cv2.CALIB_CB_ACCURACY)
     else:
-        ok, corners = cv2.findChessboardCorners(image, (board.cols, board.rows))
-        if ok:
-            corners = cv2.cornerSubPix(image, corners, (5, 5), (-1, -1),
-                                       (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.01))
+        corners = opencv_classic(cv2, image, pattern, iterations=30, eps=0.01)
     dt = time.perf_counter() - t
-    if not ok:
+    if corners is None:
         return None, dt
-    P = corners.reshape(-1, 2).T.astype(float)
+    P = points(corners)
     return (P, np.ones(P.shape[1], dtype=bool)), dt
 
 
@@ -178,7 +170,7 @@ def scaling(n: int, seed: int = 1) -> dict:
 
 
 def main(quick: bool = False) -> dict:
-    """Measure the section; returns its goal, headline figures and detail blocks (scripts/bench.py)."""
+    """Measure the section; returns its goal, headline figures and detail blocks (:mod:`benchmarks`)."""
     n = 120 if quick else 1200
     result = {"sweep": sweep(n), "scaling": scaling(10 if quick else 40)}
     counts = result["sweep"]["counts"]
@@ -232,7 +224,6 @@ def main(quick: bool = False) -> dict:
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from bench import main as bench_main
+    from benchmarks.cli import main as bench_main
 
     sys.exit(bench_main(["detect", *sys.argv[1:]]))

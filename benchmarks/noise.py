@@ -17,7 +17,8 @@ Every image is rendered once and given, 8-bit, to each tool:
 - graphpose: ``extract_junctions(image, polygon, board)`` with a loose polygon
   (``loose_polygon``, half of them inside the white margin) and without (``None``);
 - OpenCV classic: ``findChessboardCorners`` (default flags) + ``cornerSubPix`` (11 x 11 window),
-  and ``findChessboardCornersSB`` (``CALIB_CB_ACCURACY``), as ``scripts/bench_detect.py`` calls them.
+  and ``findChessboardCornersSB`` (``CALIB_CB_ACCURACY``), as the detect section (:mod:`benchmarks.detect`)
+  calls them.
 
 A result is *found* when its junctions (graphpose's trusted ones; all of OpenCV's) lie within
 ``TOLERANCE_PX`` of the truth in their labelled order; anything else returned is wrong: *off*
@@ -30,30 +31,25 @@ Junction RMS is over the found results; the ratio of graphpose's RMS to cornerSu
 the images both found. Times are medians per image (OpenCV single-threaded; failures
 included).
 
-Run it as a section of the benchmark: ``python scripts/bench.py noise [--quick]`` (or
-``python scripts/bench_noise.py [--quick]``, the same).
+Run it as a section of the benchmark: ``python -m benchmarks noise [--quick]`` (or
+``python -m benchmarks.noise [--quick]``, the same).
 """
 
 from __future__ import annotations
 
 import sys
-import time
-from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from bench_detect import best_errors, run_opencv, run_ours, symmetries  # noqa: E402
-
-from graphpose import Board, K_from_params  # noqa: E402
-from graphpose.synth import Degradation, degrade, motion_blur_ideal  # noqa: E402
+from benchmarks._common import K_REAL as K
+from benchmarks._common import rms
+from benchmarks.detect import best_errors, run_opencv, run_ours, symmetries
+from graphpose import Board
+from graphpose.synth import Degradation, degrade, motion_blur_ideal
 from graphpose.synth.poses import loose_polygon, random_pose
-from graphpose.synth.render import render, render_ideal  # noqa: E402
+from graphpose.synth.render import render, render_ideal
+from graphpose.track.frontend import board_symmetries
 
-K = K_from_params(564.9, 564.3, 337.3, 226.5)
 SIZE = (640, 480)
 #: Boards and the range of their squares' side in the image, pixels.
 BOARDS = ((Board(8, 6, 0.0635), (25.0, 50.0)), (Board(7, 5, 0.05), (25.0, 50.0)), (Board(9, 6, 0.03), (25.0, 40.0)))
@@ -88,17 +84,6 @@ def poses(count: int, rng) -> list:
     return out
 
 
-def opencv_orders(board: Board) -> list:
-    """OpenCV's possible orders of the truth: as rendered, half a turn (and quarter turns, square boards)."""
-    idx = np.arange(board.n)
-    out = [idx, idx[::-1]]
-    if board.cols == board.rows:
-        c, r = idx % board.cols, idx // board.cols
-        n = board.cols - 1
-        out += [c * board.cols + (n - r), (n - c) * board.cols + r]
-    return out
-
-
 def score(result, truth, orders):
     """(verdict, errors px of the junctions scored) of one result: verdict "found", "off" (labelled
     right, each junction nearest its own truth, but one beyond ``TOLERANCE_PX``), "mislabelled", or
@@ -122,8 +107,8 @@ def run_tools(cv2, image, board, polygon, truth) -> dict:
     calls = {
         "graphpose, polygon": (lambda: run_ours(image, board, polygon), [np.arange(board.n)]),
         "graphpose, no polygon": (lambda: run_ours(image, board), symmetries(board)),
-        "OpenCV classic": (lambda: run_opencv(cv2, image, board, sb=False), opencv_orders(board)),
-        "OpenCV SB": (lambda: run_opencv(cv2, image, board, sb=True), opencv_orders(board)),
+        "OpenCV classic": (lambda: run_opencv(cv2, image, board, sb=False), board_symmetries(board)),
+        "OpenCV SB": (lambda: run_opencv(cv2, image, board, sb=True), board_symmetries(board)),
     }
     out = {}
     for tool, (call, orders) in calls.items():
@@ -134,8 +119,9 @@ def run_tools(cv2, image, board, polygon, truth) -> dict:
 
 
 def _rms(errors) -> float:
+    """RMS over every junction of the results' errors (None: a result without errors)."""
     errors = [e for e in errors if e is not None]
-    return float(np.sqrt(np.mean(np.square(np.concatenate(errors))))) if errors else float("nan")
+    return rms(np.concatenate(errors)) if errors else float("nan")
 
 
 def summarise(results) -> dict:
@@ -196,7 +182,7 @@ def _grid_name(noise, blur) -> str:
 
 
 def main(quick: bool = False) -> dict:
-    """Measure the section; returns its goal, headline figures and detail blocks (scripts/bench.py)."""
+    """Measure the section; returns its goal, headline figures and detail blocks (:mod:`benchmarks`)."""
     count = 4 if quick else 30
     cells = measure(count, progress=lambda name, c: print(
         f"noise: {name}: found " + " / ".join(str(c[t]["found"]) for t in TOOLS), file=sys.stderr, flush=True))
@@ -277,6 +263,6 @@ def main(quick: bool = False) -> dict:
 
 
 if __name__ == "__main__":
-    from bench import main as bench_main
+    from benchmarks.cli import main as bench_main
 
     sys.exit(bench_main(["noise", *sys.argv[1:]]))

@@ -1,8 +1,8 @@
 #!/usr/bin/env python
 """Pose benchmark: speed, accuracy on synthetic images, uncertainty honesty, convergence basin.
 
-Run through ``python scripts/bench.py [pose] [--quick]``; :func:`main` returns the section's
-figures (the dict described in ``scripts/bench.py``). Every figure is measured in this run.
+Run through ``python -m benchmarks [pose] [--quick]``; :func:`main` returns the section's
+figures (the dict described in :mod:`benchmarks`). Every figure is measured in this run.
 OpenCV (the peer) is imported here only.
 
 Sections
@@ -28,54 +28,15 @@ Sections
 
 from __future__ import annotations
 
-import time
-from pathlib import Path
-
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-DATA = REPO.parent / "shared" / "data" / "rob501"
-
-
-def _median_time(fn, repeats, cpu=False):
-    """Median wall time of fn in seconds, or (wall, process CPU time) when ``cpu``."""
-    fn()  # warm up caches and lazy imports
-    wall, proc = [], []
-    for _ in range(repeats):
-        t, c = time.perf_counter(), time.process_time()
-        fn()
-        proc.append(time.process_time() - c)
-        wall.append(time.perf_counter() - t)
-    return (float(np.median(wall)), float(np.median(proc))) if cpu else float(np.median(wall))
-
-
-def _opencv_pnp(cv2, K, Ipts, Wpts):
-    """OpenCV's IPPE start + Levenberg-Marquardt refinement, no guess; returns T_WC."""
-    obj = np.ascontiguousarray(Wpts.T, dtype=np.float64)
-    img = np.ascontiguousarray(Ipts.T, dtype=np.float64)
-    _, rvec, tvec = cv2.solvePnP(obj, img, K, None, flags=cv2.SOLVEPNP_IPPE)
-    rvec, tvec = cv2.solvePnPRefineLM(obj, img, K, None, rvec, tvec)
-    return _T_WC_from_opencv(cv2, rvec, tvec)
+from benchmarks._common import (DATA, K_REAL, match_to, mean, median, median_time, nees, opencv_classic,
+                                opencv_pnp, params_error, points, rms)
 
 
 def _opencv_refine(cv2, K, T_guess, Ipts, Wpts):
     """OpenCV's Levenberg-Marquardt refinement started from the guess T_WC; returns T_WC."""
-    obj = np.ascontiguousarray(Wpts.T, dtype=np.float64)
-    img = np.ascontiguousarray(Ipts.T, dtype=np.float64)
-    # OpenCV's rvec/tvec map target points into the camera: T_CW, the inverse of our T_WC.
-    R_cw = T_guess[:3, :3].T
-    rvec, _ = cv2.Rodrigues(R_cw)
-    tvec = -R_cw @ T_guess[:3, 3]
-    rvec, tvec = cv2.solvePnPRefineLM(obj, img, K, None, rvec, tvec.reshape(3, 1))
-    return _T_WC_from_opencv(cv2, rvec, tvec)
-
-
-def _T_WC_from_opencv(cv2, rvec, tvec):
-    R, _ = cv2.Rodrigues(rvec)
-    T = np.eye(4)
-    T[:3, :3] = R.T  # OpenCV gives the target-to-camera transform
-    T[:3, 3] = -R.T @ tvec.ravel()
-    return T
+    return opencv_pnp(cv2, K, Ipts, Wpts, guess=T_guess)
 
 
 def _speed_sets(quick):
@@ -90,7 +51,7 @@ def _speed_sets(quick):
         for i, case in enumerate(cf.cases):
             if case.ref_junctions is not None:
                 sets.append((f"target_{i + 1:02d} ref", cf.K, case.ref_junctions, W, case.guess_T_WC))
-    K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
+    K = K_REAL
     rng = np.random.default_rng(7)
     for k in range(2 if quick else 4):
         T = random_pose(rng, K)
@@ -113,11 +74,11 @@ def speed(quick):
     sets = _speed_sets(quick)
     rows = []
     for name, K, I, W, guess in sets:
-        t_gn = _median_time(lambda: gauss_newton(K, guess, I, W), repeats)
-        t_lm = _median_time(lambda: _opencv_refine(cv2, K, guess, I, W), repeats)
-        t_lin = _median_time(lambda: gauss_newton(K, pose_from_homography(K, I, W), I, W), repeats)
-        t_cv = _median_time(lambda: _opencv_pnp(cv2, K, I, W), repeats)
-        t_graph, c_graph = _median_time(lambda: graph_pose(K, guess, I, W), max(10, repeats // 3), cpu=True)
+        t_gn = median_time(lambda: gauss_newton(K, guess, I, W), repeats)
+        t_lm = median_time(lambda: _opencv_refine(cv2, K, guess, I, W), repeats)
+        t_lin = median_time(lambda: gauss_newton(K, pose_from_homography(K, I, W), I, W), repeats)
+        t_cv = median_time(lambda: opencv_pnp(cv2, K, I, W), repeats)
+        t_graph, c_graph = median_time(lambda: graph_pose(K, guess, I, W), max(10, repeats // 3), cpu=True)
         rows.append([name, *(1e3 * np.array([t_gn, t_lm])), t_gn / t_lm, *(1e3 * np.array([t_lin, t_cv])),
                      t_lin / t_cv, 1e3 * t_graph, 1e3 * c_graph, t_graph / t_lm])
     # Medians over the sets, in ms as the rows hold them.
@@ -128,7 +89,7 @@ def speed(quick):
                ("homography + GN", lambda K, I, W, g: gauss_newton(K, pose_from_homography(K, I, W), I, W).T_WC),
                ("GTSAM from guess", lambda K, I, W, g: graph_pose(K, g, I, W).T_WC),
                ("OpenCV RefineLM from guess", lambda K, I, W, g: _opencv_refine(cv2, K, g, I, W)),
-               ("OpenCV IPPE + RefineLM", lambda K, I, W, g: _opencv_pnp(cv2, K, I, W)))
+               ("OpenCV IPPE + RefineLM", lambda K, I, W, g: opencv_pnp(cv2, K, I, W)))
     poses = [[solve(K, I, W, g) for _, solve in solvers] for _, K, I, W, g in sets]
     costs = np.array([[np.sum((project(K, T, W) - I) ** 2) for T in row] for row, (_, K, I, W, _) in zip(poses, sets)])
     excess = costs - costs.min(axis=1, keepdims=True)
@@ -220,35 +181,19 @@ def _crb(K, T, fim):
 
 def _opencv_image_pose(cv2, image, K, truth):
     """OpenCV's detector + cornerSubPix + IPPE/LM; corners matched to the truth by proximity."""
-    ok, corners = cv2.findChessboardCorners(image, (8, 6), flags=cv2.CALIB_CB_ADAPTIVE_THRESH)
-    if not ok:
-        return None
-    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4)
-    corners = cv2.cornerSubPix(image, corners, (5, 5), (-1, -1), criteria).reshape(-1, 2).T
-    order = np.argmin(np.linalg.norm(truth[:, :, None] - corners[:, None, :], axis=0), axis=1)
-    if len(set(order.tolist())) != truth.shape[1]:
+    corners = points(opencv_classic(cv2, image, (8, 6), flags=cv2.CALIB_CB_ADAPTIVE_THRESH))
+    corners = None if corners is None else match_to(truth, corners)
+    if corners is None:
         return None
     from graphpose import Board
 
-    return _opencv_pnp(cv2, K, corners[:, order], Board().world_points())
-
-
-def _rms(x):
-    return float(np.sqrt(np.mean(np.square(x)))) if len(x) else float("nan")
-
-
-def _mean(x):
-    return float(np.mean(x)) if len(x) else float("nan")
-
-
-def _median(x):
-    return float(np.median(x)) if len(x) else float("nan")
+    return opencv_pnp(cv2, K, corners, Board().world_points())
 
 
 def _error_row(label, errors):
     """RMS and median of (metres, degrees) pose errors, shape (m, 2), as mm and degrees."""
     e = np.asarray(errors, dtype=float).reshape(-1, 2)
-    return [label, 1e3 * _rms(e[:, 0]), 1e3 * _median(e[:, 0]), _rms(e[:, 1]), _median(e[:, 1])]
+    return [label, 1e3 * rms(e[:, 0]), 1e3 * median(e[:, 0]), rms(e[:, 1]), median(e[:, 1])]
 
 
 def synthetic(quick):
@@ -257,7 +202,6 @@ def synthetic(quick):
     from scipy.stats import chi2
 
     from graphpose import estimate_pose
-    from graphpose.geometry import params_from_T
     from graphpose.errors import GraphposeError
     from graphpose.pose.estimate import pose_difference
     from graphpose.synth.information import junction_information
@@ -265,10 +209,10 @@ def synthetic(quick):
     from graphpose.synth.render import render
 
     n = 20 if quick else 200
-    K = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
+    K = K_REAL
     rng = np.random.default_rng(2025)
     # Per image: our and OpenCV's (m, deg) error or None when that method failed, and the bound.
-    ours, theirs, crb, nees, jerr, reasons = [], [], [], [], [], []
+    ours, theirs, crb, nees_, jerr, reasons = [], [], [], [], [], []
     for _ in range(n):
         T = random_pose(rng, K)
         rendering = render(K, T, noise_sigma=2.0, blur_sigma=1.0, rng=rng)
@@ -283,9 +227,7 @@ def synthetic(quick):
             est = None
         ours.append(None if est is None else pose_difference(est.T_WC, T))
         if est is not None:
-            d = est.params - params_from_T(T)
-            d[3:] = (d[3:] + np.pi) % (2 * np.pi) - np.pi
-            nees.append(d @ np.linalg.solve(est.cov, d))
+            nees_.append(nees(est.cov, params_error(est.params, T)))
             jerr.append(np.hypot(*(est.junctions.points - rendering.junctions)))
         T_cv = _opencv_image_pose(cv2, rendering.image, K, rendering.junctions)
         theirs.append(None if T_cv is None else pose_difference(T_cv, T))
@@ -300,7 +242,7 @@ def synthetic(quick):
               "both": sum(o is None and t is None for o, t in zip(ours, theirs))}
 
     def bound_row(label, rows):
-        return [label, 1e3 * np.sqrt(_mean(crb[rows, 0])), "", np.degrees(np.sqrt(_mean(crb[rows, 1]))), ""]
+        return [label, 1e3 * np.sqrt(mean(crb[rows, 0])), "", np.degrees(np.sqrt(mean(crb[rows, 1]))), ""]
 
     solved_ours = [e for e in ours if e is not None]
     solved_theirs = [e for e in theirs if e is not None]
@@ -329,8 +271,8 @@ def synthetic(quick):
                  "{j_med:.4f} px. NEES of the 6-D pose error against the reported covariance: mean {nees_mean:.2f}, "
                  "median {nees_med:.2f} over {nees_n} images (chi-square(6): mean {chi_mean:.2f}, median "
                  "{chi_med:.2f}); near 6 means the reported 1-sigma is honest.",
-         "values": {"j_rms": _rms(jerr), "j_med": _median(jerr), "nees_mean": _mean(nees), "nees_med": _median(nees),
-                    "nees_n": len(nees), "chi_mean": chi2(6).mean(), "chi_med": chi2(6).median()},
+         "values": {"j_rms": rms(jerr), "j_med": median(jerr), "nees_mean": mean(nees_), "nees_med": median(nees_),
+                    "nees_n": len(nees_), "chi_mean": chi2(6).mean(), "chi_med": chi2(6).median()},
          "columns": columns, "formats": formats,
          "rows": [["graphpose", *g[1:]], ["OpenCV", *p[1:]], ["Cramer-Rao bound", *b[1:]],
                   ["graphpose / OpenCV", *(np.array(g[1:]) / np.array(p[1:]))]]},
@@ -347,8 +289,8 @@ def synthetic(quick):
         {"figure": f"{base}, rotation median", "unit": "deg", "fmt": ".4f", "graphpose": g[4], "peer_name": cv_name,
          "peer": p[4], "ratio": g[4] / p[4], "goal": "", "met": None},
         {"figure": "NEES of the pose error against its reported covariance, mean", "unit": "", "fmt": ".2f",
-         "graphpose": _mean(nees), "peer_name": None, "peer": None, "ratio": None,
-         "goal": f"4.5-7.5 (chi-square(6): {chi2(6).mean():.2f})", "met": bool(4.5 <= _mean(nees) <= 7.5)},
+         "graphpose": mean(nees_), "peer_name": None, "peer": None, "ratio": None,
+         "goal": f"4.5-7.5 (chi-square(6): {chi2(6).mean():.2f})", "met": bool(4.5 <= mean(nees_) <= 7.5)},
     ]
     return blocks, figures
 
@@ -425,7 +367,6 @@ def main(quick: bool = False) -> dict:
 if __name__ == "__main__":
     import sys
 
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from bench import main as bench_main
+    from benchmarks.cli import main as bench_main
 
     sys.exit(bench_main(["pose", *sys.argv[1:]]))

@@ -1,8 +1,7 @@
-#!/usr/bin/env python
 """Lens-distortion benchmark: graphpose on raw distorted images, against the same scenes without
 distortion and against OpenCV on the same raw images.
 
-    python scripts/bench_lens.py [--quick] [--json PATH]
+    python -m benchmarks lens [--quick]      (or python -m benchmarks.lens [--quick])
 
 Every figure is measured in this run (``--quick``: a handful of images per section, to check
 that it works; the full run renders 100 scenes per lens and 60 wide-field fisheye scenes).
@@ -38,7 +37,7 @@ Sections
    boards out to the rim.
 2. NEES of the pose error against the reported 6 x 6 covariance over every rendered
    distorted image graphpose solved (both lenses, both fisheye sets), computed as
-   ``scripts/bench_pose.py`` does; goal: mean within 4.5-7.5 (chi-square(6) has mean 6), over
+   the pose section (:mod:`benchmarks.pose`) does; goal: mean within 4.5-7.5 (chi-square(6) has mean 6), over
    at least 200 images in the full run. The same over the pinhole renders, for reference.
 3. OpenCV's stereo samples (``../shared/data/opencv_samples``: 26 raw 640 x 480 images of a 9 x 6
    junction board, 30 mm squares; the left and right cameras read from ``left.opencv.yml`` and
@@ -54,7 +53,7 @@ Sections
    judged on CPU time, which the other processes of a shared machine disturb less).
 
 OpenCV's cornerSubPix runs with ``winSize=(5, 5)`` (an 11 x 11 window) everywhere, as in
-``scripts/bench_pose.py``; OpenCV's calibration sample uses (11, 11), a 23 x 23 window, which on
+the pose section; OpenCV's calibration sample uses (11, 11), a 23 x 23 window, which on
 these 35 px squares pulls a corner of the foreshortened side of left02 and right02 by 4-5 px.
 A graphpose result counts as solved when ``estimate.ok``; a solution whose junctions lie more
 than 5 px (median) from the truth is counted as mislabelled, not solved. The load average at
@@ -63,17 +62,14 @@ the start says how busy the machine was.
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-SAMPLES = REPO.parent / "shared" / "data" / "opencv_samples"
+from benchmarks._common import (SAMPLES, match_to, mean, median, nees, opencv_classic, opencv_pnp, params_error,
+                                points, rms)
+
 SIZE = (640, 480)
 NOISE, BLUR = 2.0, 1.0
 
@@ -102,74 +98,25 @@ def field_of_view(camera):
 # --------------------------------------------------------------------------- helpers
 
 
-def _rms(x):
-    x = np.asarray(x, dtype=float)
-    return float(np.sqrt(np.mean(np.square(x)))) if x.size else float("nan")
-
-
 def _nan_rms(x):
     """RMS of the finite values."""
     x = np.asarray(x, dtype=float)
-    return _rms(x[np.isfinite(x)])
-
-
-def _mean(x):
-    return float(np.mean(x)) if len(x) else float("nan")
-
-
-def _median(x):
-    return float(np.median(x)) if len(x) else float("nan")
-
-
-def _T_WC_from_opencv(cv2, rvec, tvec):
-    R, _ = cv2.Rodrigues(rvec)
-    T = np.eye(4)
-    T[:3, :3] = R.T  # OpenCV gives the target-to-camera transform
-    T[:3, 3] = -R.T @ np.asarray(tvec).ravel()
-    return T
-
-
-def _opencv_corners(cv2, image, pattern, window):
-    """findChessboardCorners (OpenCV's default flags) + cornerSubPix; (2, n) or None."""
-    ok, corners = cv2.findChessboardCorners(image, pattern)
-    if not ok:
-        return None
-    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4)
-    corners = cv2.cornerSubPix(image, corners, window, (-1, -1), criteria)
-    return corners.reshape(-1, 2).T.astype(float)
+    return rms(x[np.isfinite(x)])
 
 
 def _opencv_pnp(cv2, camera, Ipts, Wpts):
     """OpenCV's pose from raw pixels with the lens: IPPE + LM; T_WC."""
-    obj = np.ascontiguousarray(Wpts.T, dtype=np.float64)
-    img = np.ascontiguousarray(Ipts.T, dtype=np.float64).reshape(-1, 1, 2)
     K = np.array(camera.K)
     if camera.model == "fisheye":
         # OpenCV's fisheye PnP: undistort to normalised coordinates, then plain PnP there.
-        img = cv2.fisheye.undistortPoints(img, K, np.array(camera.distortion)).astype(np.float64)
-        K, dist = np.eye(3), None
-    else:
-        dist = np.array(camera.distortion)
-    _, rvec, tvec = cv2.solvePnP(obj, img, K, dist, flags=cv2.SOLVEPNP_IPPE)
-    rvec, tvec = cv2.solvePnPRefineLM(obj, img, K, dist, rvec, tvec)
-    return _T_WC_from_opencv(cv2, rvec, tvec)
-
-
-def _match(truth, corners):
-    """Corners ordered as the truth's junctions by proximity, or None if not one-to-one."""
-    d = np.linalg.norm(truth[:, :, None] - corners[:, None, :], axis=0)
-    order = np.argmin(d, axis=1)
-    if len(set(order.tolist())) != truth.shape[1]:
-        return None
-    return corners[:, order]
+        img = np.ascontiguousarray(Ipts.T, dtype=np.float64).reshape(-1, 1, 2)
+        Ipts = cv2.fisheye.undistortPoints(img, K, np.array(camera.distortion)).reshape(-1, 2).T
+        return opencv_pnp(cv2, np.eye(3), Ipts, Wpts)
+    return opencv_pnp(cv2, K, Ipts, Wpts, dist=np.array(camera.distortion))
 
 
 def _nees(estimate, T):
-    from graphpose.geometry import params_from_T
-
-    d = estimate.params - params_from_T(T)
-    d[3:] = (d[3:] + np.pi) % (2 * np.pi) - np.pi
-    return float(d @ np.linalg.solve(estimate.cov, d))
+    return nees(estimate.cov, params_error(estimate.params, T))
 
 
 # --------------------------------------------------------------------------- 1, 2: rendered
@@ -218,10 +165,10 @@ def _ours(image, camera, board, truth, T):
 def _opencv(cv2, image, camera, board, truth, T):
     from graphpose.pose.estimate import pose_difference
 
-    corners = _opencv_corners(cv2, image, (board.cols, board.rows), (5, 5))
+    corners = points(opencv_classic(cv2, image, (board.cols, board.rows)))
     if corners is None:
         return {"solved": False, "why": "findChessboardCorners found no board"}
-    corners = _match(truth, corners)
+    corners = match_to(truth, corners)
     if corners is None:
         return {"solved": False, "why": "corners not one-to-one with the truth"}
     err = np.hypot(*(corners - truth))
@@ -242,7 +189,7 @@ def _bias_px(camera, T, board):
     except Exception:  # noqa: BLE001  (no figure for this scene)
         return float("nan")
     err = np.hypot(*(points - r.junctions))
-    return _rms(err[np.isfinite(err)]) if np.nanmedian(err) < 5.0 else float("nan")
+    return rms(err[np.isfinite(err)]) if np.nanmedian(err) < 5.0 else float("nan")
 
 
 def _rotation(w):
@@ -290,7 +237,7 @@ def _crb(camera, T, board):
 
 def _crb_rms(bounds, keep, key):
     """RMS of one bound of :func:`_crb` over the scenes at indices ``keep``."""
-    return _rms([bounds[k][key] for k in keep]) if keep else float("nan")
+    return rms([bounds[k][key] for k in keep]) if keep else float("nan")
 
 
 def _summary(results, keep):
@@ -299,8 +246,8 @@ def _summary(results, keep):
         return {"junction_rms_px": float("nan"), "translation_rms_mm": float("nan"),
                 "rotation_rms_deg": float("nan")}
     pose = np.array([results[k]["pose"] for k in keep])
-    return {"junction_rms_px": _rms(np.concatenate([results[k]["junction_err"] for k in keep])),
-            "translation_rms_mm": 1e3 * _rms(pose[:, 0]), "rotation_rms_deg": _rms(pose[:, 1])}
+    return {"junction_rms_px": rms(np.concatenate([results[k]["junction_err"] for k in keep])),
+            "translation_rms_mm": 1e3 * rms(pose[:, 0]), "rotation_rms_deg": rms(pose[:, 1])}
 
 
 def rendered(quick):
@@ -356,8 +303,8 @@ def rendered(quick):
                          "pinhole": {"translation_rms_mm": _crb_rms(crb_pin, both, "translation_mm"),
                                      "rotation_rms_deg": _crb_rms(crb_pin, both, "rotation_deg")}},
             "noise_free_junction_rms_px": {"raw": _nan_rms(bias_raw), "pinhole": _nan_rms(bias_pin)},
-            "nees_mean": {"raw": _mean([r_["nees"] for r_ in raw if r_["solved"]]),
-                          "pinhole": _mean([r_["nees"] for r_ in pinhole if r_["solved"]])},
+            "nees_mean": {"raw": mean([r_["nees"] for r_ in raw if r_["solved"]]),
+                          "pinhole": mean([r_["nees"] for r_ in pinhole if r_["solved"]])},
         }
         # The pose's RMS error over its Cramer-Rao bound, raw against pinhole: how much of the raw
         # images' larger pose error is lost by the method rather than set by the lens.
@@ -386,11 +333,11 @@ def rendered(quick):
         "solved": {"graphpose raw": sum(r_["solved"] for r_ in raw), "OpenCV raw": sum(r_["solved"] for r_ in peer)},
         "graphpose_raw": _summary(raw, [k for k in range(n_wide) if raw[k]["solved"]]),
         "on_both": {"scenes": len(both), "graphpose raw": _summary(raw, both), "OpenCV raw": _summary(peer, both)},
-        "nees_mean": {"raw": _mean([r_["nees"] for r_ in raw if r_["solved"]])},
+        "nees_mean": {"raw": mean([r_["nees"] for r_ in raw if r_["solved"]])},
     }
     failures = {key: {why: value.count(why) for why in sorted(set(value))} for key, value in reasons.items()}
-    nees = {"images": len(nees), "mean": _mean(nees), "median": _median(nees),
-            "pinhole": {"images": len(nees_pinhole), "mean": _mean(nees_pinhole), "median": _median(nees_pinhole)}}
+    nees = {"images": len(nees), "mean": mean(nees), "median": median(nees),
+            "pinhole": {"images": len(nees_pinhole), "mean": mean(nees_pinhole), "median": median(nees_pinhole)}}
     return sets, nees, failures
 
 
@@ -405,8 +352,8 @@ def _sample_images():
     cams = {"left": read_camera(SAMPLES / "left.opencv.yml"), "right": read_camera(SAMPLES / "right.opencv.xml")}
     for path in sorted(SAMPLES.glob("*.jpg")):
         side = "left" if path.name.startswith("left") else "right"
-        grey = read_image(path)  # float in [0, 1]: the 8-bit grey levels / 255, given back to both as uint8
-        yield path.name, np.rint(grey * 255.0).astype(np.uint8), cams[side]
+        # The file's 8-bit grey levels (read_image's default), given to both as they are.
+        yield path.name, read_image(path), cams[side]
 
 
 def _undistort_image(cv2, image, camera):
@@ -448,12 +395,12 @@ def samples(quick):
         if ok:
             used = est.mask & np.all(np.isfinite(est.junctions.points), axis=0)
             residual = est.junctions.points[:, used] - camera.project(to_camera(est.T_WC, W[:, used]))
-            row["graphpose_rms_px"] = _rms(np.hypot(*residual))
+            row["graphpose_rms_px"] = rms(np.hypot(*residual))
             row["graphpose_junctions"] = int(used.sum())
-        corners = _opencv_corners(cv2, image, (board.cols, board.rows), (5, 5))
+        corners = points(opencv_classic(cv2, image, (board.cols, board.rows)))
         if corners is not None:
             T_cv = _opencv_pnp(cv2, camera, corners, W)
-            row["opencv_rms_px"] = _rms(np.hypot(*(corners - camera.project(to_camera(T_cv, W)))))
+            row["opencv_rms_px"] = rms(np.hypot(*(corners - camera.project(to_camera(T_cv, W)))))
             if ok:
                 d = np.linalg.norm(est.junctions.points[:, :, None] - corners[:, None, :], axis=0)
                 row["junctions_median_distance_px"] = float(np.nanmedian(np.nanmin(d, axis=1)))
@@ -504,17 +451,17 @@ def speed(quick):
                 cpu[key].append(1e3 * (time.process_time() - c))
                 wall[key].append(1e3 * (time.perf_counter() - t))
     return {"images": timed, "skipped": skipped, "repeats": repeats,
-            "raw_median_ms": _median(wall["raw"]), "pinhole_median_ms": _median(wall["pinhole"]),
-            "raw_median_cpu_ms": _median(cpu["raw"]), "pinhole_median_cpu_ms": _median(cpu["pinhole"]),
-            "ratio": _median(wall["raw"]) / _median(wall["pinhole"]),
-            "cpu_ratio": _median(cpu["raw"]) / _median(cpu["pinhole"])}
+            "raw_median_ms": median(wall["raw"]), "pinhole_median_ms": median(wall["pinhole"]),
+            "raw_median_cpu_ms": median(cpu["raw"]), "pinhole_median_cpu_ms": median(cpu["pinhole"]),
+            "ratio": median(wall["raw"]) / median(wall["pinhole"]),
+            "cpu_ratio": median(cpu["raw"]) / median(cpu["pinhole"])}
 
 
-# --------------------------------------------------------------------------- report
+# --------------------------------------------------------------------------- the section
 
 
 def main(quick: bool = False) -> dict:
-    """Measure every section; returns the figures (the JSON written by ``--json``)."""
+    """Measure every part; returns the figures, which :func:`section` lays out for :mod:`benchmarks`."""
     import cv2
 
     started = time.time()
@@ -548,7 +495,7 @@ def main(quick: bool = False) -> dict:
 
 
 def section(out) -> dict:
-    """The figures of :func:`main` as a section of scripts/bench.py (its documented dict)."""
+    """The figures of :func:`main` as a section of the benchmark (the dict :mod:`benchmarks` describes)."""
     figures = [{"figure": g["figure"], "unit": "", "fmt": ".3g", "graphpose": g["value"], "peer_name": None,
                 "peer": None, "ratio": None, "goal": g["goal"], "met": g["met"]} for g in out["goals"]]
     rows = []
@@ -600,121 +547,9 @@ def section(out) -> dict:
     return {"goal": goal, "figures": figures, "blocks": blocks}
 
 
-def _f(x, fmt):
-    return "-" if x is None or (isinstance(x, float) and not np.isfinite(x)) else format(x, fmt)
-
-
-def report(out) -> str:
-    """The figures as plain-text tables."""
-    title = (f"Lens benchmark ({'quick' if out['quick'] else 'full'}; load average at start "
-             f"{out['load_average_at_start'][0]:.2f}; OpenCV {out['opencv']}; {out['seconds']:.0f} s)")
-    lines = [title, ""]
-    header = f"{'set / method':44s} {'solved':>8s} {'junction RMS px':>16s} {'transl. RMS mm':>15s} {'rot. RMS deg':>13s}"
-    for name in ("radtan", "fisheye"):
-        s = out["rendered"][name]
-        fov = s["camera"]["fov_deg_width_height"]
-        lines += [f"{name}: {s['scenes']} scenes, field of view {fov[0]:.0f} x {fov[1]:.0f} deg (width x height)",
-                  header]
-        for label, key in (("graphpose raw (lens model)", "graphpose_raw"),
-                           ("graphpose pinhole (same K and poses)", "graphpose_pinhole")):
-            fig = s[key]
-            solved = s["solved"]["graphpose raw" if key == "graphpose_raw" else "graphpose pinhole"]
-            lines.append(f"{label:44s} {solved:>8d} {_f(fig['junction_rms_px'], '.4f'):>16s} "
-                         f"{_f(fig['translation_rms_mm'], '.3f'):>15s} {_f(fig['rotation_rms_deg'], '.4f'):>13s}")
-        r = s["ratio_raw_to_pinhole"]
-        lines.append(f"{'  ratio raw / pinhole (junctions: goal <= 1.2)':44s} {'':>8s} {_f(r['junction_rms_px'], '.3f'):>16s} "
-                     f"{_f(r['translation_rms_mm'], '.3f'):>15s} {_f(r['rotation_rms_deg'], '.3f'):>13s}")
-        cp, fair = s["crb_pose"], s["over_bound_ratio_raw_to_pinhole"]
-        lines.append(f"{'  Cramer-Rao pose RMS, raw':44s} {'':>8s} {'':>16s} "
-                     f"{_f(cp['raw']['translation_rms_mm'], '.3f'):>15s} {_f(cp['raw']['rotation_rms_deg'], '.4f'):>13s}")
-        lines.append(f"{'  Cramer-Rao pose RMS, pinhole':44s} {'':>8s} {'':>16s} "
-                     f"{_f(cp['pinhole']['translation_rms_mm'], '.3f'):>15s} "
-                     f"{_f(cp['pinhole']['rotation_rms_deg'], '.4f'):>13s}")
-        lines.append(f"{'  over the bound, raw / pinhole (goal <= 1.2)':44s} {'':>8s} {'':>16s} "
-                     f"{_f(fair['translation_rms_mm'], '.3f'):>15s} {_f(fair['rotation_rms_deg'], '.3f'):>13s}")
-        c, b = s["crb_junction_rms_px"], s["noise_free_junction_rms_px"]
-        lines.append(f"{'  Cramer-Rao junction RMS, raw / pinhole':44s} {'':>8s} "
-                     f"{_f(c['raw'], '.4f') + ' / ' + _f(c['pinhole'], '.4f'):>16s}")
-        lines.append(f"{'  noise-free junction RMS, raw / pinhole':44s} {'':>8s} "
-                     f"{_f(b['raw'], '.4f') + ' / ' + _f(b['pinhole'], '.4f'):>16s}")
-        e = s["nees_mean"]
-        lines.append(f"{'  NEES mean, raw / pinhole':44s} {'':>8s} "
-                     f"{_f(e['raw'], '.1f') + ' / ' + _f(e['pinhole'], '.1f'):>16s}")
-        a = s["on_all_three"]
-        lines.append(f"  on the {a['scenes']} scenes all three solved:")
-        for label in ("graphpose raw", "graphpose pinhole", "OpenCV raw"):
-            fig = a[label]
-            lines.append(f"  {label:42s} {'':>8s} {_f(fig['junction_rms_px'], '.4f'):>16s} "
-                         f"{_f(fig['translation_rms_mm'], '.3f'):>15s} {_f(fig['rotation_rms_deg'], '.4f'):>13s}")
-        lines.append(f"{'OpenCV raw, scenes solved':44s} {s['solved']['OpenCV raw']:>8d}")
-        lines.append("")
-    s = out["rendered"]["fisheye whole field"]
-    lines += [f"fisheye, whole field (boards out to the rim): {s['scenes']} scenes", header]
-    fig = s["graphpose_raw"]
-    lines.append(f"{'graphpose raw, all it solved':44s} {s['solved']['graphpose raw']:>8d} "
-                 f"{_f(fig['junction_rms_px'], '.4f'):>16s} {_f(fig['translation_rms_mm'], '.3f'):>15s} "
-                 f"{_f(fig['rotation_rms_deg'], '.4f'):>13s}")
-    lines.append(f"{'  NEES mean':44s} {'':>8s} {_f(s['nees_mean']['raw'], '.1f'):>16s}")
-    lines.append(f"  on the {s['on_both']['scenes']} scenes both solved:")
-    for label in ("graphpose raw", "OpenCV raw"):
-        fig = s["on_both"][label]
-        lines.append(f"  {label:42s} {'':>8s} {_f(fig['junction_rms_px'], '.4f'):>16s} "
-                     f"{_f(fig['translation_rms_mm'], '.3f'):>15s} {_f(fig['rotation_rms_deg'], '.4f'):>13s}")
-    lines.append(f"{'OpenCV raw, scenes solved':44s} {s['solved']['OpenCV raw']:>8d}")
-    lines.append("")
-    n, p = out["nees"], out["nees"]["pinhole"]
-    lines += [(f"NEES over {n['images']} distorted images graphpose solved: mean {_f(n['mean'], '.2f')}, median "
-               f"{_f(n['median'], '.2f')} (chi-square(6): mean 6.00, median 5.35); over the {p['images']} pinhole "
-               f"renders: mean {_f(p['mean'], '.2f')}, median {_f(p['median'], '.2f')}"), ""]
-    if out["failures"]:
-        lines.append("Not solved:")
-        for key, counts in out["failures"].items():
-            for why, count in counts.items():
-                lines.append(f"  {key}: {count} x {why}")
-        lines.append("")
-    if isinstance(out["samples"], list):
-        lines += ["OpenCV samples (9 x 6 junctions, 30 mm), raw images with their cameras:",
-                  (f"{'image':12s} {'ours RMS px':>11s} {'OpenCV RMS px':>13s} {'junctions':>9s} "
-                   f"{'ours-OpenCV px':>14s} {'vs undistort-first mm':>21s} {'deg':>7s}")]
-        for row in out["samples"]:
-            note = row.get("graphpose_error", row.get("undistort_first_error", ""))
-            lines.append(f"{row['image']:12s} {_f(row.get('graphpose_rms_px'), '.4f'):>11s} "
-                         f"{_f(row.get('opencv_rms_px'), '.4f'):>13s} {_f(row.get('graphpose_junctions'), 'd'):>9s} "
-                         f"{_f(row.get('junctions_median_distance_px'), '.4f'):>14s} "
-                         f"{_f(row.get('vs_undistort_first_mm'), '.3f'):>21s} "
-                         f"{_f(row.get('vs_undistort_first_deg'), '.4f'):>7s}  {note[:60]}")
-        rows = out["samples"]
-        ours = [r["graphpose_rms_px"] for r in rows if "graphpose_rms_px" in r and "opencv_rms_px" in r]
-        theirs = [r["opencv_rms_px"] for r in rows if "graphpose_rms_px" in r and "opencv_rms_px" in r]
-        lines.append(f"median over the {len(ours)} images both solved: ours {_f(_median(ours), '.4f')} px, "
-                     f"OpenCV {_f(_median(theirs), '.4f')} px")
-        lines.append("")
-    sp = out["speed"]
-    lines += [(f"Speed ({sp['images']} raw radial-tangential images x {sp['repeats']}, the two paths alternating; "
-               f"medians): lens model {sp['raw_median_ms']:.1f} ms wall / {sp['raw_median_cpu_ms']:.1f} ms CPU, "
-               f"pinhole path {sp['pinhole_median_ms']:.1f} / {sp['pinhole_median_cpu_ms']:.1f} ms; ratio "
-               f"{sp['ratio']:.2f} wall, {sp['cpu_ratio']:.2f} CPU"), "", "Goals:"]
-    for goal in out["goals"]:
-        lines.append(f"  {goal['figure']:62s} {_f(goal['value'], '.3f'):>8s}  goal {goal['goal']:12s} "
-                     f"{'' if goal['met'] is None else 'met' if goal['met'] else 'NOT met'}")
-    return "\n".join(lines)
-
-
-def _json_default(x):
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    raise TypeError(type(x).__name__)
-
-
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="a few images per section, to check it works")
-    parser.add_argument("--json", metavar="PATH", help="also write the figures here")
-    args = parser.parse_args()
-    figures = main(args.quick)
-    print(report(figures))
-    if args.json:
-        Path(args.json).write_text(json.dumps(figures, indent=1, default=_json_default) + "\n")
-    sys.exit(0)
+    import sys
+
+    from benchmarks.cli import main as bench_main
+
+    sys.exit(bench_main(["lens", *sys.argv[1:]]))

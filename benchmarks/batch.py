@@ -1,8 +1,6 @@
-#!/usr/bin/env python
 """Batch benchmark: images per second on 1 and 2 Dask workers, and what Dask costs per image.
 
-    python scripts/bench_batch.py [--quick] [--json PATH]
-    python scripts/bench_batch.py --markdown PATH      # docs/batch.md's tables from a run's JSON
+    python -m benchmarks batch [--quick]      (or python -m benchmarks.batch [--quick])
 
 Renders a set of 640 x 480 images (the bundled K; a few distinct renders named many times
 through symbolic links) into a temporary folder and measures, each on a warm cluster (worker
@@ -27,25 +25,23 @@ processes started and their imports done before the clock starts):
   lines or Parquet), the ceiling of a cluster whatever the grouping.
 
 Each figure is the best of a few runs (2 with ``--quick``, else 3; the loop runs between the
-cluster runs too), the least disturbed on a shared machine. Prints the figures as JSON, and
-writes them to ``--json PATH`` too. Every figure is measured in this run; the load average at
-the start says how busy the machine was.
+cluster runs too), the least disturbed on a shared machine. Every figure is measured in this
+run; the load average at the start says how busy the machine was. :func:`section` lays them
+out as the page's section: the table "Measured" and the bounds "On paper" that docs/batch.md
+refers to.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
 SIZE = (640, 480)
 
 
@@ -196,7 +192,7 @@ def main(quick: bool = False) -> dict:
 
 
 def section(f: dict) -> dict:
-    """The figures of :func:`main` as a section of scripts/bench.py (its documented dict)."""
+    """The figures of :func:`main` as a section of the benchmark (the dict :mod:`benchmarks` describes)."""
     figures = [
         {"figure": "images per second, 2 workers / 1 worker", "unit": "", "fmt": ".2f",
          "graphpose": f["speedup_2_vs_1"], "peer_name": None, "peer": None, "ratio": None,
@@ -205,21 +201,19 @@ def section(f: dict) -> dict:
          "graphpose": f["overhead_ms_per_image"], "peer_name": None, "peer": None, "ratio": None,
          "goal": "small beside the work", "met": None},
     ]
-    table = markdown(f).split("\n")
-    rows = [line.strip("|").split(" | ") for line in table if line.startswith("| ") and not line.startswith("| figure")]
-    bounds = paper(f).split("\n")
-    blocks = [{"title": None, "text": table[0], "values": {}, "columns": None, "formats": None, "rows": None},
+    intro, rows = measured(f)
+    head, columns, bounds = on_paper(f)
+    blocks = [{"title": None, "text": intro, "values": {}, "columns": None, "formats": None, "rows": None},
               {"title": "Measured", "text": None, "values": {}, "columns": ["figure", "value"], "formats": ["", ""],
-               "rows": [[a.strip(), b.strip()] for a, b in rows]},
-              {"title": "On paper (docs/batch.md): the bounds these figures give", "text": bounds[0], "values": {},
-               "columns": [c.strip() for c in bounds[2].strip("|").split("|")], "formats": None,
-               "rows": [[c.strip() for c in line.strip("|").split("|")] for line in bounds[4:] if line.startswith("|")]}]
+               "rows": rows},
+              {"title": "On paper (docs/batch.md): the bounds these figures give", "text": head, "values": {},
+               "columns": columns, "formats": None, "rows": bounds}]
     goal = "graphpose batch on a local Dask cluster: images per second with 1 and 2 workers, and the cost per task."
     return {"goal": goal, "figures": figures, "blocks": blocks}
 
 
-def markdown(f: dict) -> str:
-    """The figures as the table of docs/batch.md ("Measured here")."""
+def measured(f: dict):
+    """The figures as the table "Measured": (a sentence on the run, rows [figure, value])."""
     w0, w1, w2, one = f["workers_1_dask_default_environment"], f["workers_1"], f["workers_2"], f["one_image_per_task"]
     rows = [
         ("work per image, plain loop in one process (t)", (f"{f['loop']['ms_per_image']:.1f} ms "
@@ -241,14 +235,14 @@ def markdown(f: dict) -> str:
         ("image file (640 x 480 PNG)", f"{f['image_file_kb']:.0f} KiB"),
     ]
     load = ", ".join(f"{x:.1f}" for x in f["machine"]["load_average_1_5_15"])
-    lines = [(f"{f['images']} paths over {f['distinct_images']} rendered images; load average {load} "
-             f"(1, 5, 15 min) on {f['machine']['cores']} cores at the start."), "",
-             "| figure | value |", "|---|---|"]
-    return "\n".join(lines + [f"| {a} | {b} |" for a, b in rows])
+    intro = (f"{f['images']} paths over {f['distinct_images']} rendered images; load average {load} "
+             f"(1, 5, 15 min) on {f['machine']['cores']} cores at the start.")
+    return intro, [list(row) for row in rows]
 
 
-def paper(f: dict, task_seconds: float = 0.5) -> str:
-    """The scaling bounds of docs/batch.md ("On paper") worked out from the figures."""
+def on_paper(f: dict, task_seconds: float = 0.5):
+    """The scaling bounds of docs/batch.md ("On paper") worked out from the figures: (a sentence
+    naming t, o, s and r, the table's columns, its rows)."""
     t = f["loop"]["ms_per_image"] / 1e3                       # work per image, s
     o = f["one_image_per_task"]["task_overhead_ms"] / 1e3     # a task's cost beside its work, s
     s = 1.0 / f["noop_tasks_per_s"]                           # scheduler time per task (at most), s
@@ -275,24 +269,13 @@ def paper(f: dict, task_seconds: float = 0.5) -> str:
     ]
     head = (f"With t = {1e3 * t:.1f} ms, o = {1e3 * o:.1f} ms, s <= {1e3 * s:.1f} ms and r = {1e6 * r_json:.0f} us "
             f"(JSON lines) or {1e6 * r_pq:.0f} us (Parquet):")
-    lines = [head, "", f"| | one image a task | {g} images a task (about {task_seconds:g} s) |", "|---|---|---|"]
-    return "\n".join(lines + [f"| {a} | {b} | {c} |" for a, b, c in rows])
+    columns = ["", "one image a task", f"{g} images a task (about {task_seconds:g} s)"]
+    return head, columns, [list(row) for row in rows]
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer images (300), no-op tasks (1000) and repeats (2)")
-    parser.add_argument("--json", metavar="PATH", help="also write the figures here")
-    parser.add_argument("--markdown", metavar="JSON", help="print the tables of docs/batch.md from the figures of "
-                        "an earlier run (its --json file), measuring nothing")
-    args = parser.parse_args()
-    if args.markdown:
-        figures = json.loads(Path(args.markdown).read_text())
-        print(markdown(figures) + "\n\n" + paper(figures))
-        sys.exit(0)
-    sys.path.insert(0, str(REPO))
-    result = main(quick=args.quick)
-    text = json.dumps(result, indent=1)
-    print(text)
-    if args.json:
-        Path(args.json).write_text(text + "\n")
+    import sys
+
+    from benchmarks.cli import main as bench_main
+
+    sys.exit(bench_main(["batch", *sys.argv[1:]]))

@@ -1,10 +1,9 @@
-#!/usr/bin/env python
 """The pose with the calibration's uncertainty: NEES over independent calibrate-then-estimate trials.
 
-    python scripts/calibration_pose_nees.py [--quick] [--trials N]
+    python -m benchmarks.calibration_pose_nees [--quick] [--trials N]
 
 Issue 20's "pose with calibration uncertainty" figure, for the benchmark's ``calibration``
-section (``scripts/bench_calibration.py`` calls :func:`pose_nees`): each trial renders a fresh
+section (:mod:`benchmarks.calibration` calls :func:`pose_nees`): each trial renders a fresh
 calibration set of the radtan camera (:func:`graphpose.synth.calibration.calibration_set`),
 calibrates on 8 views (``graphpose.calibrate``), writes the camera file (graphpose JSON, with
 the covariance) and reads it back, then estimates the pose of held-out views of the same
@@ -25,21 +24,12 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from benchmarks._common import mean, nees, params_error
 
 #: Views calibrated on, views estimated with the result, trials (full run, --quick).
 CALIBRATION_VIEWS = 8
 HELD_OUT = 4
 TRIALS = (30, 20)
-
-
-def _pose_error(T_est, T_true) -> np.ndarray:
-    """``params(T_est) - params(T_true)`` with the angles wrapped to (-pi, pi]."""
-    from graphpose.geometry import params_from_T
-
-    e = params_from_T(T_est) - params_from_T(T_true)
-    e[3:] = (e[3:] + np.pi) % (2 * np.pi) - np.pi
-    return e
 
 
 def pose_nees(quick: bool = False, trials: int | None = None, seed: int = 2020) -> dict:
@@ -57,6 +47,7 @@ def pose_nees(quick: bool = False, trials: int | None = None, seed: int = 2020) 
     """
     import graphpose
     from graphpose import estimate_pose, read_camera, write_camera
+    from graphpose.geometry import params_from_T
     from graphpose.synth.calibration import calibration_set, radtan_camera
 
     n = trials if trials is not None else TRIALS[1 if quick else 0]
@@ -87,15 +78,14 @@ def pose_nees(quick: bool = False, trials: int | None = None, seed: int = 2020) 
                     continue
                 if not est.ok or est.orientation_ambiguous:
                     continue
-                e = _pose_error(est.T_WC, rendering.T_WC)
-                full, pixel = float(e @ np.linalg.solve(est.cov, e)), float(e @ np.linalg.solve(est.cov_pixel, e))
+                e = params_error(params_from_T(est.T_WC), rendering.T_WC)
+                full, pixel = nees(est.cov, e), nees(est.cov_pixel, e)
                 every.append(full)
                 every_pixel.append(pixel)
                 ratio_z.append(float(np.sqrt(est.cov[2, 2] / est.cov_pixel[2, 2])))
                 if k == 0:
                     first.append(full)
                     first_pixel.append(pixel)
-    mean = lambda x: float(np.mean(x)) if x else float("nan")  # noqa: E731
     return {"trials": n - failed, "failed": failed, "why_failed": why, "views": len(every),
             "nees_first": mean(first), "nees_pixel_first": mean(first_pixel),
             "nees_all": mean(every), "nees_pixel_all": mean(every_pixel),

@@ -1,8 +1,7 @@
-#!/usr/bin/env python
 """Junction benchmark: graphpose beside OpenCV on the same images, every figure measured here.
 
-Run through ``python scripts/bench.py [junctions] [--quick]``; :func:`main` returns the
-section's figures (the dict described in ``scripts/bench.py``). OpenCV (the peer) is
+Run through ``python -m benchmarks [junctions] [--quick]``; :func:`main` returns the
+section's figures (the dict described in :mod:`benchmarks`). OpenCV (the peer) is
 imported here only.
 
 Sections
@@ -27,45 +26,26 @@ Sections
 
 from __future__ import annotations
 
-import time
-from pathlib import Path
-
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-DATA = REPO.parent / "shared" / "data" / "rob501"
-#: The real camera; synthetic images use it too.
-K_REAL = np.array([[564.9, 0.0, 337.3], [0.0, 564.3, 226.5], [0.0, 0.0, 1.0]])
+from benchmarks._common import DATA, K_REAL, match_to, median, median_time, opencv_sb, points, rms
+
 SETTINGS = ((2.0, 1.0), (6.0, 2.0))  # (noise sigma in grey levels, blur sigma in px)
 #: Pixels added around the polygon's bounding box when SB is timed on the crop.
 CROP_MARGIN = 10
-
-
-def _median_time(fn, repeats):
-    fn()  # warm up caches and lazy imports
-    times = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return float(np.median(times))
 
 
 def _opencv_sb(cv2, image8, board):
     """findChessboardCornersSB corners as (2, n), or None when it fails."""
     # ACCURACY alone: the setting behind the issue's figures (adding NORMALIZE_IMAGE is
     # worse on these images and misses target 02).
-    found, corners = cv2.findChessboardCornersSB(image8, (board.cols, board.rows), flags=cv2.CALIB_CB_ACCURACY)
-    return corners.reshape(-1, 2).T.astype(float) if found else None
+    return points(opencv_sb(cv2, image8, (board.cols, board.rows), flags=cv2.CALIB_CB_ACCURACY))
 
 
-def _match(points, reference):
-    """Columns of ``points`` reordered to the nearest column of ``reference``, or None."""
-    d = np.hypot(reference[0][:, None] - points[0][None, :], reference[1][:, None] - points[1][None, :])
-    order = np.argmin(d, axis=1)
-    if len(set(order.tolist())) != points.shape[1] or d[np.arange(len(order)), order].max() > 3.0:
-        return None
-    return points[:, order]
+def _match(corners, reference):
+    """Columns of ``corners`` reordered to the nearest column of ``reference``, or None (not
+    one-to-one, or one more than 3 px off)."""
+    return match_to(reference, corners, max_px=3.0)
 
 
 def _pose_residuals(K, guess, points, board):
@@ -78,14 +58,6 @@ def _pose_residuals(K, guess, points, board):
     return np.hypot(*(project(K, T, W) - points))
 
 
-def _rms(x):
-    return float(np.sqrt(np.mean(np.square(x)))) if len(x) else float("nan")
-
-
-def _median(x):
-    return float(np.median(x)) if len(x) else float("nan")
-
-
 def real_images(cv2):
     """Pose residual of our junctions and of SB's on the six real images: (rows, figures)."""
     from graphpose import extract_junctions, load_cases, read_image
@@ -93,21 +65,20 @@ def real_images(cv2):
     cases = load_cases(DATA / "cases.json")
     rows = []
     for case in cases.cases:
-        image = read_image(case.image)
-        image8 = np.rint(image * 255).astype(np.uint8)
+        image8 = read_image(case.image)  # the file's 8-bit grey levels, given to both as they are
         J = extract_junctions(image8, case.bounds, cases.board)
         ours = _pose_residuals(cases.K, case.guess_T_WC, J.points, cases.board)
         sb = _opencv_sb(cv2, image8, cases.board)
         sb = None if sb is None else _match(sb, J.points)
         theirs = np.array([]) if sb is None else _pose_residuals(cases.K, case.guess_T_WC, sb, cases.board)
-        rows.append([case.image.name, _rms(ours), _median(ours), _rms(theirs), _median(theirs),
-                     _rms(ours) / _rms(theirs), _median(ours) / _median(theirs),
+        rows.append([case.image.name, rms(ours), median(ours), rms(theirs), median(theirs),
+                     rms(ours) / rms(theirs), median(ours) / median(theirs),
                      f"{int(J.trusted.sum())}/{cases.board.n}"])
     ratios = np.array([r[5] for r in rows])
     figure = {"figure": "pose residual of the junctions, six real images: median of the per-image RMS",
               "unit": "px", "fmt": ".3f",
-              "graphpose": _median([r[1] for r in rows]), "peer_name": "findChessboardCornersSB",
-              "peer": _median([r[3] for r in rows]), "ratio": _median([r[1] for r in rows]) / _median([r[3] for r in rows]),
+              "graphpose": median([r[1] for r in rows]), "peer_name": "findChessboardCornersSB",
+              "peer": median([r[3] for r in rows]), "ratio": median([r[1] for r in rows]) / median([r[3] for r in rows]),
               "goal": f"at most SB's on every image (worst ratio {np.nanmax(ratios):.2f})",
               "met": bool(np.all(ratios <= 1.0))}
     block = {"title": "Real images: reprojection residual of a pinhole pose fitted to the junctions (px)",
@@ -164,9 +135,9 @@ def synthetic(cv2, count):
         def flat(errs):
             return np.concatenate(errs) if errs else np.array([])
 
-        o, c, s_, os_, b, b11 = (_rms(flat(e)) for e in (ours, subpix, sb, ours_sb, crb, crb11))
+        o, c, s_, os_, b, b11 = (rms(flat(e)) for e in (ours, subpix, sb, ours_sb, crb, crb11))
         rms_rows.append([f"{noise:g}, {blur:g}", o, c, s_, f"{len(sb)}/{count}", os_, b, b11, o / c, os_ / s_, o / b])
-        mo, mc, ms, mos = (_median(flat(e)) for e in (ours, subpix, sb, ours_sb))
+        mo, mc, ms, mos = (median(flat(e)) for e in (ours, subpix, sb, ours_sb))
         median_rows.append([f"{noise:g}, {blur:g}", mo, mc, ms, f"{len(sb)}/{count}", mos, mo / mc, mos / ms])
         setting = f"synthetic, noise {noise:g} / blur {blur:g}"
         figures += [
@@ -214,11 +185,11 @@ def speed(cv2, repeats):
     cases = load_cases(DATA / "cases.json")
     ours, whole, crop, found = [], [], [], []
     for case in cases.cases:
-        image8 = np.rint(read_image(case.image) * 255).astype(np.uint8)
+        image8 = read_image(case.image)  # the file's 8-bit grey levels
         part, origin = _crop(image8, case.bounds, CROP_MARGIN)
-        ours.append(_median_time(lambda: extract_junctions(image8, case.bounds, cases.board), repeats))
-        whole.append(_median_time(lambda: _opencv_sb(cv2, image8, cases.board), max(3, repeats // 10)))
-        crop.append(_median_time(lambda: _opencv_sb(cv2, part, cases.board), max(3, repeats // 10)))
+        ours.append(median_time(lambda: extract_junctions(image8, case.bounds, cases.board), repeats))
+        whole.append(median_time(lambda: _opencv_sb(cv2, image8, cases.board), max(3, repeats // 10)))
+        crop.append(median_time(lambda: _opencv_sb(cv2, part, cases.board), max(3, repeats // 10)))
         # Found means all 48 corners within 3 px of ours, not merely SB's own flag.
         corners = _opencv_sb(cv2, part, cases.board)
         points = extract_junctions(image8, case.bounds, cases.board).points
@@ -280,7 +251,6 @@ def main(quick: bool = False) -> dict:
 if __name__ == "__main__":
     import sys
 
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from bench import main as bench_main
+    from benchmarks.cli import main as bench_main
 
     sys.exit(bench_main(["junctions", *sys.argv[1:]]))
