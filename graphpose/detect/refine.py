@@ -63,7 +63,8 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
         Gaussian smoothing of the patches, pixels (>= 0).
     camera : Camera or (3, 3) array_like, optional
         The camera when the image is raw, with lens distortion: the saddle is then fitted
-        with each pixel where the lens undistorts it (as :func:`extract_junctions` does).
+        with each pixel where the lens straightens the edges, in the patch's own pinhole
+        frame (as :func:`extract_junctions` does).
 
     Returns
     -------
@@ -147,9 +148,9 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
 
     Each round refits only the junctions still moving; a junction that drifts off its
     patch's centre gets a new patch. With a distorting ``lens`` (a camera of
-    :mod:`graphpose.camera_models`) the fit places each raw pixel where the lens undistorts it
-    (:func:`graphpose.detect.saddle.fit_quadrics_at`): the board's edges, curved in the raw
-    image, are straight there, as the saddle model assumes, and no pixel is resampled.
+    :mod:`graphpose.camera_models`) the fit places each raw pixel in its patch's own pinhole
+    frame (:func:`_node_values`): the board's edges, curved in the raw image, are straight
+    there, as the saddle model assumes, and no pixel is resampled.
     """
     m = points.shape[1]
     current = points.astype(float).copy()
