@@ -25,7 +25,7 @@ import numpy as np
 
 from ..geometry import T_from_params, params_from_T, to_camera
 from ..errors import InputError
-from ..pose.gauss_newton import _project, _weights, reprojection_cost
+from ..pose.gauss_newton import _pose_partials, _rotation_and_partials, _weights, reprojection_cost
 from ..camera_params import camera_parameters, camera_with_parameters, projection_jacobian_intrinsics
 
 MAX_ITERATIONS = 200
@@ -73,29 +73,38 @@ class LMCalibration:
 
 def _evaluate(camera, x, observations, P):
     """Per view: residuals (2m,), the Jacobians in the intrinsics (2m, P) and the pose
-    (2m, 6); and the smallest depth."""
-    parts, points, z_min = [], [], np.inf
-    for i, (uv, W, _) in enumerate(observations):
+    (2m, 6); and the smallest depth.
+
+    The chain of :func:`graphpose.pose.gauss_newton._project`, with every view's points
+    projected in one call of the camera and of the intrinsics' Jacobian (per view, the
+    calls' overhead was most of a calibration's solve time with 40 views)."""
+    rotations, chains = [], []
+    for i, (_, W, _) in enumerate(observations):
         e = x[P + 6 * i: P + 6 * i + 6]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            pred, z, Je = _project(camera, e, W, True)
-        z_min = min(z_min, float(np.min(z)))
-        parts.append(((uv - pred).T.ravel(), Je))
-        points.append(to_camera(T_from_params(e), W))
-    # The intrinsics' Jacobian of every view's points in one call (the per-call overhead
-    # dominated with 40 views).
+        R = _rotation_and_partials(e[3:])
+        # Rows 0-2: p_C; rows 3k+3 .. 3k+5: its derivative by angle k.
+        rotations.append(R)
+        chains.append(R.transpose(0, 2, 1).reshape(12, 3) @ (W - e[:3, None]))
+    A = np.hstack(chains)
+    # The intrinsics' Jacobian at the points as T_WC places them (as the per-view code did:
+    # the same numbers to the last bit, which the solvers' 1e-6 agreement at the cost's
+    # rounding turned out to need on one of the pose-NEES benchmark's calibrations).
+    points = np.hstack([to_camera(T_from_params(x[P + 6 * i: P + 6 * i + 6]), W)
+                        for i, (_, W, _) in enumerate(observations)])
     with np.errstate(divide="ignore", invalid="ignore"):
-        Jp = projection_jacobian_intrinsics(camera, np.hstack(points))
+        pred, G = camera.project_jacobian(A[:3])
+        Jp = projection_jacobian_intrinsics(camera, points)
     out, at = [], 0
-    for (r, Je), Pc in zip(parts, points):
-        m = Pc.shape[1]
-        out.append((r, Jp[at: at + m].reshape(2 * m, P), Je))
+    for (uv, _, _), R, Ai in zip(observations, rotations, chains):
+        m = Ai.shape[1]
+        Je = (G[at: at + m] @ _pose_partials(R, Ai, m)).reshape(2 * m, 6)
+        out.append(((uv - pred[:, at: at + m]).T.ravel(), Jp[at: at + m].reshape(2 * m, P), Je))
         at += m
-    return out, z_min
+    return out, float(np.min(A[2]))
 
 
 def _cost(views, huber_px):
-    return sum(reprojection_cost(r.reshape(-1, 2).T, huber_px) for r, _, _ in views)
+    return reprojection_cost(np.concatenate([r for r, _, _ in views]).reshape(-1, 2).T, huber_px)
 
 
 def _normal(views, huber_px, P):

@@ -96,12 +96,36 @@ def _load(images, names):
     return out, labels, sizes[0]
 
 
-def _detect(image, board, camera):
-    """The trusted junctions (uv (2, m), W (3, m), index (m,)) or the reason there are none."""
-    from ..detect.junctions import extract_junctions
+def _search(image, board):
+    """The board's search in one image, which does not depend on the camera (done once for
+    every pass): ``((grey, scale, found, noise), "")`` or ``(None, reason)``."""
+    from ..detect.find import find_board
+    from ..detect.junctions import _MIN_SIDE
+    from ..detect.noise import estimate_noise
+    from ..detect.refine import grey_and_scale
 
+    grey, scale = grey_and_scale(image, _MIN_SIDE)
+    noise = estimate_noise(grey)
     try:
-        J = extract_junctions(image, None, board, camera=camera)
+        return (grey, scale, find_board(grey, board, None, noise=noise), noise), ""
+    except BoardNotFoundError as exc:
+        return None, str(exc)
+
+
+def _detect(searched, board, camera):
+    """The trusted junctions (uv (2, m), W (3, m), index (m,)) of a searched image
+    (:func:`_search`), refined and judged through ``camera`` as
+    :func:`graphpose.detect.junctions.extract_junctions` does, or the reason there are none."""
+    from ..detect.junctions import refine_found
+    from ..detect.refine import WINDOW_FRACTION
+
+    found, reason = searched
+    if found is None:
+        return None, reason
+    grey, scale, board_found, noise = found
+    lens = camera if camera is not None and np.any(camera.distortion) else None
+    try:
+        J = refine_found(grey, scale, board_found, board, lens, WINDOW_FRACTION, None, noise)
     except BoardNotFoundError as exc:
         return None, str(exc)
     index = np.flatnonzero(J.trusted)
@@ -218,8 +242,10 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
             raise InputError(f"camera must be a graphpose camera, got {type(camera).__name__}")
         check_image_size(camera, images[0], labels[0])
     obs, found_in, why = {}, {}, {}
+    searched = []  # each image's search, for every pass (it does not depend on the camera)
     for i, image in enumerate(images):
-        o, reason = _detect(image, board, camera)
+        searched.append(_search(image, board))
+        o, reason = _detect(searched[i], board, camera)
         if o is None:
             why[i] = reason
         else:
@@ -248,8 +274,8 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         camera1 = lm.camera
         poses1 = dict(zip(keys, lm.poses))
         obs2 = {}
-        for i, image in enumerate(images):
-            o, reason = _detect(image, board, camera1)
+        for i in range(n):
+            o, reason = _detect(searched[i], board, camera1)
             found = o is not None
             if not found and i in obs:
                 o = obs[i]  # the earlier pass's junctions stand

@@ -204,6 +204,15 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
         lens = None if not np.any(lens.distortion) else lens
     noise = estimate_noise(image) if smooth_sigma is None else None
     found = find_board(image, board, poly, noise=noise)
+    return refine_found(image, scale, found, board, lens, window, smooth_sigma, noise)
+
+
+def refine_found(image, scale, found, board, lens, window, smooth_sigma, noise) -> Junctions:
+    """The refinement and the verdict of :func:`extract_junctions`, from ``found`` (what
+    :func:`graphpose.detect.find.find_board` found in ``image``, grey as
+    :func:`graphpose.detect.refine.grey_and_scale` makes it, ``scale`` its grey unit, the
+    arguments checked). The search does not depend on the lens: a caller that refines one
+    image through several cameras (a calibration's passes) searches it once."""
     seen = found.seen
     grid = board.grid_indices().astype(float)
     square = np.full(board.n, np.nan)

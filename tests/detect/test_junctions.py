@@ -350,12 +350,14 @@ def test_a_partly_covered_raw_image_keeps_its_labels_through_the_lens():
     np.testing.assert_allclose(part.points[:, ~touched], whole.points[:, ~touched], atol=0.05)
 
 
-@pytest.mark.parametrize("kind, limit", [("radtan", 0.0055), ("fisheye", 0.011)])
+@pytest.mark.parametrize("kind, limit", [("radtan", 0.0055), ("fisheye", 0.007)])
 def test_junctions_through_a_strong_lens_are_fitted_where_the_lens_straightens_the_edges(kind, limit):
-    # Noise-free raw renders: the saddle fitted where the lens undistorts each pixel gives
-    # 0.0043 px RMS (radial-tangential; 0.004 on a pinhole image) and 0.0073 px (fisheye,
-    # 190 degrees); fitted on the raw pixel grid, the curved edges biased it to 0.0071 and
-    # 0.021 px, the same way at neighbouring junctions, and so the pose's NEES to 35-134.
+    # Noise-free raw renders: the saddle fitted in each patch's own frame, where the lens
+    # straightens the edges, gives 0.0045 px RMS (radial-tangential; 0.004 on a pinhole
+    # image) and 0.0046 px (fisheye, 190 degrees; 0.0073 in the camera's distortion-free
+    # image, which stretches the rim); fitted on the raw pixel grid, the curved edges biased
+    # it to 0.0071 and 0.021 px, the same way at neighbouring junctions, and so the pose's
+    # NEES to 35-134.
     from graphpose import K_from_params
     from graphpose.camera_models import FisheyeCamera, RadTanCamera
     from graphpose.synth.poses import random_pose
