@@ -25,7 +25,8 @@ import numpy as np
 
 from ..geometry import T_from_params, params_from_T, to_camera
 from ..errors import InputError
-from ..pose.gauss_newton import _pose_partials, _rotation_and_partials, _weights, reprojection_cost
+from ..pose._gauss_newton import camera_points, chain_jacobians
+from ..pose.gauss_newton import _weights, reprojection_cost
 from ..camera_params import camera_parameters, camera_with_parameters, projection_jacobian_intrinsics
 
 MAX_ITERATIONS = 200
@@ -75,16 +76,17 @@ def _evaluate(camera, x, observations, P):
     """Per view: residuals (2m,), the Jacobians in the intrinsics (2m, P) and the pose
     (2m, 6); and the smallest depth.
 
-    The chain of :func:`graphpose.pose.gauss_newton._project`, with every view's points
+    The chain of :func:`graphpose.pose.gauss_newton._project` (its compiled kernels), with every view's points
     projected in one call of the camera and of the intrinsics' Jacobian (per view, the
     calls' overhead was most of a calibration's solve time with 40 views)."""
     rotations, chains = [], []
     for i, (_, W, _) in enumerate(observations):
-        e = x[P + 6 * i: P + 6 * i + 6]
-        R = _rotation_and_partials(e[3:])
-        # Rows 0-2: p_C; rows 3k+3 .. 3k+5: its derivative by angle k.
+        # R (4, 3, 3): C and its partials by the angles; rows 0-2 of A (12, m): p_C, rows
+        # 3k+3 .. 3k+5: its derivative by angle k (the pose's compiled kernel).
+        R, Ai = np.empty((4, 3, 3)), np.empty((12, W.shape[1]))
+        camera_points(np.ascontiguousarray(x[P + 6 * i: P + 6 * i + 6]), np.ascontiguousarray(W, dtype=float), R, Ai)
         rotations.append(R)
-        chains.append(R.transpose(0, 2, 1).reshape(12, 3) @ (W - e[:3, None]))
+        chains.append(Ai)
     A = np.hstack(chains)
     # The intrinsics' Jacobian at the points as T_WC places them (as the per-view code did:
     # the same numbers to the last bit, which the solvers' 1e-6 agreement at the cost's
@@ -94,10 +96,12 @@ def _evaluate(camera, x, observations, P):
     with np.errstate(divide="ignore", invalid="ignore"):
         pred, G = camera.project_jacobian(A[:3])
         Jp = projection_jacobian_intrinsics(camera, points)
+    G = np.ascontiguousarray(G, dtype=float)
     out, at = [], 0
     for (uv, _, _), R, Ai in zip(observations, rotations, chains):
         m = Ai.shape[1]
-        Je = (G[at: at + m] @ _pose_partials(R, Ai, m)).reshape(2 * m, 6)
+        Je = np.empty((2 * m, 6))
+        chain_jacobians(G[at: at + m], R, Ai, Je)
         out.append(((uv - pred[:, at: at + m]).T.ravel(), Jp[at: at + m].reshape(2 * m, P), Je))
         at += m
     return out, float(np.min(A[2]))
