@@ -74,7 +74,8 @@ def test_the_tracker_loses_the_frame_not_the_sequence(track_clip, monkeypatch):
     def degenerate(*args, **kwargs):
         raise DegenerateGeometryError("degenerate")
 
-    monkeypatch.setattr("graphpose.pose.estimate.pose_from_homography", degenerate)
+    # The homography start of every single-image fit (detection has its own homography).
+    monkeypatch.setattr("graphpose.pose.homography.homography_dlt", degenerate)
     track = track_sequence(track_clip.images[:2], K, track_clip.bounds)
     assert list(track.status) == [LOST, LOST]
     assert all("pose fit failed: degenerate" in f.message for f in track.frames)
