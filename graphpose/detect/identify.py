@@ -181,13 +181,6 @@ def identify(lattice: Lattice, cands: Candidates, board: Board, bounds=None) -> 
     return Identity(cr[:, 1] * board.cols + cr[:, 0], M, t, ambiguous, sides, _junction0_square(M, t, dark_parity))
 
 
-def board_to_lattice(identity: Identity, board: Board) -> np.ndarray:
-    """Lattice keys (n, 2) of every board junction, row-major (inverse of the labelling)."""
-    c, r = np.meshgrid(np.arange(board.cols), np.arange(board.rows))
-    cr = np.column_stack([c.ravel(), r.ravel()])
-    return (cr - identity.offset) @ identity.rotation  # M is orthogonal: M^-1 = M^T
-
-
 # ------------------------------------------------------------------------------ evidence
 
 
