@@ -378,7 +378,7 @@ def write_sequence(sequence: Sequence, out_dir) -> Path:
     InputError
         If the folder cannot be created (a file in the way, no permission) or a file cannot
         be written; each file is written whole or not at all
-        (:func:`graphpose.io.atomic_write`), files written before the failure stay.
+        (:func:`graphpose.io.files.atomic_write`), files written before the failure stay.
     """
     out = Path(out_dir)
     try:
