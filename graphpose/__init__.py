@@ -29,6 +29,7 @@ import importlib
 from .errors import (  # noqa: F401  (re-exported: listed in __all__)
     BoardNotFoundError,
     ConvergenceError,
+    DegenerateGeometryError,
     GraphposeError,
     InputError,
     SaddleError,
@@ -94,7 +95,7 @@ _EXPORTS = {
 }
 
 __all__ = sorted(
-    ["BoardNotFoundError", "ConvergenceError", "GraphposeError", "InputError", "SaddleError",
+    ["BoardNotFoundError", "ConvergenceError", "DegenerateGeometryError", "GraphposeError", "InputError", "SaddleError",
      *_PACKAGES, *_EXPORTS],
     key=str.lower,
 )

@@ -37,5 +37,17 @@ class BoardNotFoundError(GraphposeError):
         self.two_boards = bool(two_boards)
 
 
+class DegenerateGeometryError(GraphposeError, ValueError):
+    """Valid input whose geometry admits no answer: a failed result, not bad usage (exit 1).
+
+    Points that fix no homography (collinear, repeated, coincident), a homography with no pose
+    that puts the board in front of the camera, image points where the lens model has no ray
+    in front of the camera. The detector, the tracker and the calibration catch it as "this
+    view gives no pose"; the command line turns it into exit code 1, as a failed estimate,
+    never 2 (:class:`InputError` is for arguments the caller must change). A ``ValueError``,
+    as the :class:`InputError` it used to be, so that callers catching that still do.
+    """
+
+
 class ConvergenceError(GraphposeError):
     """An iterative solver did not converge, or converged to a pose that fails its checks."""

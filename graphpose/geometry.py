@@ -39,7 +39,7 @@ import math
 import numpy as np
 
 from ._checks import check_K
-from .errors import InputError
+from .errors import DegenerateGeometryError
 
 
 def rot_x(a: float) -> np.ndarray:
@@ -255,8 +255,8 @@ def homography_dlt(src, dst) -> np.ndarray:
 
     Raises
     ------
-    InputError
-        If the points do not fix a homography (collinear or repeated).
+    DegenerateGeometryError
+        If the points do not fix a homography (collinear, repeated or coincident).
     """
     Ts, a = _normaliser(src)
     Td, b = _normaliser(dst)
@@ -272,7 +272,7 @@ def homography_dlt(src, dst) -> np.ndarray:
     # the condition costs no accuracy that matters.
     w, V = np.linalg.eigh(A.T @ A)
     if n < 4 or w[1] < _RANK_TOL**2 * w[-1]:
-        raise InputError("the points do not determine a homography (collinear or repeated points)")
+        raise DegenerateGeometryError("the points do not determine a homography (collinear or repeated points)")
     Hn = V[:, 0].reshape(3, 3)
     H = np.linalg.solve(Td, Hn @ Ts)
     return H / np.linalg.norm(H)
@@ -289,7 +289,7 @@ def _normaliser(P):
     c = P.mean(axis=1, keepdims=True)
     spread = np.mean(np.linalg.norm(P - c, axis=0))
     if not spread > 0:
-        raise InputError("the points do not determine a homography (all points coincide)")
+        raise DegenerateGeometryError("the points do not determine a homography (all points coincide)")
     k = np.sqrt(2.0) / spread
     T = np.array([[k, 0.0, -k * c[0, 0]], [0.0, k, -k * c[1, 0]], [0.0, 0.0, 1.0]])
     return T, k * (P - c)

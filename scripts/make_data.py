@@ -36,15 +36,15 @@ def make(out_dir) -> dict:
     board = Board()
     cases = []
     for i in range(1, COUNT + 1):
-        T_WC = random_pose(rng, K, board, SIZE)
+        T_WC = random_pose(K, board, SIZE, rng=rng)
         rendering = render(K, T_WC, board, SIZE, noise_sigma=2.0, blur_sigma=1.0, rng=rng)
         name = f"synthetic_{i:02d}.png"
         imsave(out_dir / name, rendering.image, check_contrast=False)
         cases.append(
             {
                 "image": name,
-                "bounds": loose_polygon(rendering, rng).tolist(),
-                "guess_T_WC": perturb_pose(rng, T_WC).tolist(),
+                "bounds": loose_polygon(rendering, rng=rng).tolist(),
+                "guess_T_WC": perturb_pose(T_WC, rng=rng).tolist(),
                 "true_T_WC": T_WC.tolist(),
                 "true_junctions": rendering.junctions.tolist(),
             }

@@ -42,7 +42,7 @@ import numpy as np
 from .._checks import check_number
 from ..board import check_board
 from ..board import Board
-from ..errors import BoardNotFoundError, InputError
+from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 from ..camera_params import camera_parameters, camera_with_parameters, model_class, parameter_names
 from .result import Calibration
 
@@ -284,7 +284,7 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
                 # for it): a start from its own homography through the camera so far.
                 try:
                     poses1[i] = pose_from_homography(camera1, o[0], o[1])
-                except InputError as exc:
+                except DegenerateGeometryError as exc:
                     o, reason = None, f"no pose from its junctions: {exc}"
             if o is not None:
                 obs2[i] = o

@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..camera_models import FisheyeCamera, PinholeCamera, RadTanCamera
-from ..errors import InputError
+from ..errors import DegenerateGeometryError, InputError
 from ..geometry import homography_dlt
 from ..pose.homography import pose_from_homography
 
@@ -129,6 +129,9 @@ def start(model: str, size, observations):
     ------
     InputError
         As :func:`zhang_intrinsics`.
+    DegenerateGeometryError
+        If a view's junctions fix no homography or no pose in front of the camera
+        (:func:`graphpose.pose.homography.pose_from_homography`).
     """
     if model == "fisheye":
         camera = fisheye_start(size, observations)
@@ -175,7 +178,7 @@ def fisheye_start(size, observations) -> FisheyeCamera:
             xy = np.where(d[front] > 0, xy, 0.0)
             try:
                 H = homography_dlt(W[:2, front], xy)
-            except InputError:
+            except DegenerateGeometryError:
                 return np.inf
             p = H @ np.vstack([W[:2, front], np.ones(int(front.sum()))])
             # Angle between the rays through the fit and the unprojected ones.

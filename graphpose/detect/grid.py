@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import BoardNotFoundError, InputError
+from ..errors import BoardNotFoundError, DegenerateGeometryError
 from ..geometry import apply_homography, homography_dlt
 
 
@@ -30,6 +30,6 @@ def fit_homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     """
     try:
         H = homography_dlt(src, dst)
-    except InputError as exc:
+    except DegenerateGeometryError as exc:
         raise BoardNotFoundError(f"the junctions found do not fix a homography: {exc}") from None
     return H / H[2, 2]

@@ -158,14 +158,14 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
     same_corners = board.cols % 2 == 0 and board.rows % 2 == 0
     found, reasons = [], []
     for M in ROTATIONS:
-        fit = _fit_rotation(M, lo, hi, extent, sides, board)
-        if isinstance(fit, tuple):
-            reasons.append((M, *fit))
+        t, why = _fit_rotation(M, lo, hi, extent, sides, board)
+        if why is not None:
+            reasons.append((M, *why))
             continue
-        if bounds is None and not same_corners and not _colours_agree(M, fit, keys[0], dark_parity):
+        if bounds is None and not same_corners and not _colours_agree(M, t, keys[0], dark_parity):
             reasons.append((M, "colour", None))
             continue
-        found.append((M, fit))
+        found.append((M, t))
     if not found:
         raise BoardNotFoundError(_refusal(reasons, extent, board, sides))
     H = fit_homography(keys.T.astype(float), lattice.points)
@@ -183,13 +183,6 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
         ambiguous = len(found) > 1
     cr = keys @ M.T + t
     return Identity(cr[:, 1] * board.cols + cr[:, 0], M, t, ambiguous, sides, _junction0_square(M, t, dark_parity))
-
-
-def board_to_lattice(identity: Identity, board: Board) -> np.ndarray:
-    """Lattice keys (n, 2) of every board junction, row-major (inverse of the labelling)."""
-    c, r = np.meshgrid(np.arange(board.cols), np.arange(board.rows))
-    cr = np.column_stack([c.ravel(), r.ravel()])
-    return (cr - identity.offset) @ identity.rotation  # M is orthogonal: M^-1 = M^T
 
 
 # ------------------------------------------------------------------------------ evidence
@@ -286,20 +279,23 @@ def _grey(view, points, step) -> np.ndarray:
 
 
 def _fit_rotation(M, lo, hi, extent, sides, board):
-    """Offset t of ``(c, r) = M (i, j) + t`` that the edges fix, or the reason there is none."""
+    """Offset t of ``(c, r) = M (i, j) + t`` that the edges fix, or the reason there is none.
+
+    Returns ``(t, None)``, t an int (2,) array, or ``(None, (reason, row))``.
+    """
     t = np.zeros(2, dtype=int)
     axes = [0 if M[row, 0] != 0 else 1 for row in (0, 1)]
     counts = (board.cols, board.rows)
     for row in (0, 1):
         if extent[axes[row]] > counts[row]:
-            return ("too large", row)
+            return None, ("too large", row)
     for row in (0, 1):
         axis, count = axes[row], counts[row]
         sign = int(M[row, axis])
         low_side, high_side = (axis, -sign), (axis, sign)  # board coordinate -1 and count
         low_edge, high_edge = sides[low_side] == "edge", sides[high_side] == "edge"
         if low_edge and high_edge and extent[axis] != count:
-            return ("size", row)
+            return None, ("size", row)
         low_key = lo[axis] if sign > 0 else hi[axis]
         high_key = hi[axis] if sign > 0 else lo[axis]
         if low_edge:
@@ -307,8 +303,8 @@ def _fit_rotation(M, lo, hi, extent, sides, board):
         elif high_edge:
             t[row] = count - 1 - sign * high_key
         else:
-            return ("hidden", row)
-    return t
+            return None, ("hidden", row)
+    return t, None
 
 
 def _colours_agree(M, t, key, dark_parity) -> bool:

@@ -57,7 +57,7 @@ def write_tum(path, timestamps, poses, header: str | None = None) -> Path:
     Parameters
     ----------
     path : str or Path
-        File to write, whole or not at all (:func:`graphpose.io.atomic_write`); its parent
+        File to write, whole or not at all (:func:`graphpose.io.files.atomic_write`); its parent
         folder must exist.
     timestamps : (N,) array_like
         Seconds, finite.

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import check_transform
-from ..errors import InputError
+from ..errors import DegenerateGeometryError, InputError
 from ..geometry import to_camera
 from ..observations import check_observations
 from .gauss_newton import GNResult, gauss_newton, huber_weights, reprojection_cost
@@ -308,7 +308,7 @@ def _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn):
     try:
         linear = pose_from_homography(camera, Ipts[:, mask], Wpts[:, mask])
         other = gauss_newton(camera, linear, Ipts, Wpts, mask=mask, huber_px=huber_px)
-    except InputError:
+    except (InputError, DegenerateGeometryError):
         return True, "ok"  # no usable homography start: nothing to compare with
     mine = reprojection_cost(gn.residuals[:, mask], huber_px)
     theirs = reprojection_cost(other.residuals[:, mask], huber_px)

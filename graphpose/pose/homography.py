@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..observations import check_observations
-from ..errors import InputError
+from ..errors import DegenerateGeometryError, InputError
 from ..geometry import homography_dlt
 
 #: Target points farther than this (metres, relative to the board's extent) from z = 0 are refused.
@@ -48,8 +48,10 @@ def pose_from_homography(camera, Ipts, Wpts) -> np.ndarray:
     Raises
     ------
     InputError
-        If the input is malformed, the target points are not on z = 0, fewer than 4 are
-        given, they are degenerate (three or more collinear so no homography is fixed), no
+        If the input is malformed, the target points are not on z = 0 or fewer than 4 are
+        given.
+    DegenerateGeometryError
+        If the points are degenerate (collinear or repeated, so no homography is fixed), no
         sign of the decomposition puts all the points in front of the camera, or a point
         lies where the camera's lens model has no ray in front of it.
     """
@@ -61,7 +63,7 @@ def pose_from_homography(camera, Ipts, Wpts) -> np.ndarray:
         Ipts = camera.undistort_pixels(Ipts)
         bad = np.flatnonzero(~np.all(np.isfinite(Ipts), axis=0))
         if bad.size:
-            raise InputError(
+            raise DegenerateGeometryError(
                 f"{bad.size} image point(s) (first index {bad[0]}) lie where the {camera.model} camera's "
                 "lens model has no ray in front of the camera: no homography start")
     H = homography_dlt(Wpts[:2], Ipts)
@@ -71,7 +73,7 @@ def pose_from_homography(camera, Ipts, Wpts) -> np.ndarray:
     if np.all(depth < 0):
         scale = -scale
     elif not np.all(depth > 0):
-        raise InputError("no pose from the homography puts every target point in front of the camera")
+        raise DegenerateGeometryError("no pose from the homography puts every target point in front of the camera")
     r1, r2, t_CW = scale * M[:, 0], scale * M[:, 1], scale * M[:, 2]
     R = _nearest_rotation(np.column_stack([r1, r2, np.cross(r1, r2)]))
     T = np.eye(4)

@@ -154,7 +154,7 @@ def calibration_set(camera, n_views: int = 30, *, rng=None, board: Board = Board
         T = None
         for attempt in range(200):  # the reach widens where the cell is hard to fill (a rim)
             grow = 1.0 + attempt / 20.0
-            T = _pose(rng, camera, board, d, *tilts, max_roll_deg, near, (grow * reach[0], grow * reach[1]))
+            T = _pose(camera, board, d, *tilts, max_roll_deg, near, (grow * reach[0], grow * reach[1]), rng=rng)
             if T is None:
                 continue
             P_C = to_camera(T, W)
@@ -168,14 +168,14 @@ def calibration_set(camera, n_views: int = 30, *, rng=None, board: Board = Board
     return CalibrationSet(camera, renderings, board)
 
 
-def _pose(rng, camera, board, distance, lo_tilt, hi_tilt, max_roll, near_px, reach):
+def _pose(camera, board, distance, lo_tilt, hi_tilt, max_roll, near_px, reach, *, rng):
     """A :func:`random_pose` with the tilt in range and the board's centre within ``reach``
     (pixels, along u and v) of ``near_px``."""
     # random_pose draws the centre's pixel uniformly: retry until it lands near the wanted
     # pixel, and the tilt is at least the minimum.
     for _ in range(50):
         try:
-            T = random_pose(rng, camera, board, distance=distance, max_tilt_deg=hi_tilt,
+            T = random_pose(camera, board, rng=rng, distance=distance, max_tilt_deg=hi_tilt,
                             max_roll_deg=max_roll, max_tries=50)
         except InputError:
             continue

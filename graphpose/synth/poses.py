@@ -15,16 +15,18 @@ from ..board import Board
 from ..geometry import project, rot_x, rot_z, to_camera
 from ..camera_models import as_camera
 from ..errors import InputError
+from ._rng import rng_was_positional
 from .lens import in_view, view_limit
 from .render import Rendering, image_points, image_size
 
 
+@rng_was_positional(0)
 def random_pose(
-    rng,
     camera,
     board: Board = Board(),
     size=None,
     *,
+    rng=None,
     distance=(0.8, 1.4),
     max_tilt_deg: float = 35.0,
     max_roll_deg: float = 40.0,
@@ -51,8 +53,6 @@ def random_pose(
 
     Parameters
     ----------
-    rng : numpy.random.Generator or int
-        Source of randomness.
     camera : Camera or (3, 3) array_like
         A :mod:`graphpose.camera_models` camera or the intrinsics ``K`` of a pinhole camera,
         pixels.
@@ -60,6 +60,9 @@ def random_pose(
         The target.
     size : (int, int), optional
         Image ``(width, height)`` in pixels; default ``camera.size``, else (640, 480).
+    rng : numpy.random.Generator, int or None, keyword
+        Source of randomness (None: fresh entropy). The old call with ``rng`` positional
+        is still accepted (:mod:`graphpose.synth._rng`).
     distance : (float, float)
         Range of the board centre's depth (distance along the ray for a distorting camera),
         metres.
@@ -141,15 +144,17 @@ def random_pose(
     )
 
 
-def loose_polygon(rendering: Rendering, rng, *, offset_px=(-4.0, 4.0), inset: bool = False) -> np.ndarray:
+@rng_was_positional(1)
+def loose_polygon(rendering: Rendering, *, rng=None, offset_px=(-4.0, 4.0), inset: bool = False) -> np.ndarray:
     """A hand-clicked-like bounding polygon of a rendered board.
 
     Parameters
     ----------
     rendering : Rendering
         The image whose board to bound.
-    rng : numpy.random.Generator or int
-        Source of randomness.
+    rng : numpy.random.Generator, int or None, keyword
+        Source of randomness (None: fresh entropy). The old call with ``rng`` positional
+        is still accepted (:mod:`graphpose.synth._rng`).
     offset_px : (float, float)
         Range of the uniform perturbation added to each coordinate of each vertex, pixels.
     inset : bool
@@ -180,15 +185,17 @@ def loose_polygon(rendering: Rendering, rng, *, offset_px=(-4.0, 4.0), inset: bo
     return outline + rng.uniform(lo, hi, (2, 4))
 
 
-def perturb_pose(rng, T_WC, *, angle_deg=(8.0, 12.0), offset_m=(0.15, 0.25)) -> np.ndarray:
+@rng_was_positional(0)
+def perturb_pose(T_WC, *, rng=None, angle_deg=(8.0, 12.0), offset_m=(0.15, 0.25)) -> np.ndarray:
     """A pose guess: ``T_WC`` rotated and moved by random amounts, like the real case files.
 
     Parameters
     ----------
-    rng : numpy.random.Generator or int
-        Source of randomness.
     T_WC : (4, 4) array_like
         The true pose.
+    rng : numpy.random.Generator, int or None, keyword
+        Source of randomness (None: fresh entropy). The old call with ``rng`` positional
+        is still accepted (:mod:`graphpose.synth._rng`).
     angle_deg : (float, float)
         Range of the rotation angle (about a uniformly random axis, applied in the camera
         frame), degrees.

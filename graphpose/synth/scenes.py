@@ -23,6 +23,7 @@ from ..board import check_board
 from ..board import Board
 from ..geometry import project
 from ..errors import InputError
+from ._rng import rng_was_positional
 from .poses import random_pose
 from .render import Rendering, render
 
@@ -55,7 +56,8 @@ class Scene:
     clutter: list
 
 
-def random_scene(rng, K, board: Board = Board(), size=(640, 480), *, occluders=(), clutter=(),
+@rng_was_positional(0)
+def random_scene(K, board: Board = Board(), size=(640, 480), *, rng=None, occluders=(), clutter=(),
                  max_roll_deg: float = 180.0, max_tilt_deg: float = 50.0, distance=(0.7, 2.2),
                  noise_sigma: float = 2.0, blur_sigma: float = 1.0, margin: float = 0.5,
                  contrast: float = 1.0, vignetting: float = 0.0) -> Scene:
@@ -63,14 +65,15 @@ def random_scene(rng, K, board: Board = Board(), size=(640, 480), *, occluders=(
 
     Parameters
     ----------
-    rng : numpy.random.Generator or int
-        Source of randomness.
     K : (3, 3) array_like
         Intrinsics, pixels.
     board : Board
         The target.
     size : (int, int)
         ``(width, height)``, pixels.
+    rng : numpy.random.Generator, int or None, keyword
+        Source of randomness (None: fresh entropy). The old call with ``rng`` positional
+        is still accepted (:mod:`graphpose.synth._rng`).
     occluders : sequence of str
         Kinds from :data:`OCCLUDERS`, painted in order; ``"edge"`` shifts the pose so that
         the image edge cuts the board.
@@ -111,10 +114,10 @@ def random_scene(rng, K, board: Board = Board(), size=(640, 480), *, occluders=(
         if kind not in ("text", "grid"):
             raise InputError(f"clutter kinds are ('text', 'grid'), got {kind!r}")
     rng = np.random.default_rng(rng)
-    T = random_pose(rng, K, board, (width, height), distance=distance, max_tilt_deg=max_tilt_deg,
+    T = random_pose(K, board, (width, height), rng=rng, distance=distance, max_tilt_deg=max_tilt_deg,
                     max_roll_deg=max_roll_deg, margin=margin)
     if "edge" in occluders:
-        T = _push_off_edge(rng, K, T, board, (width, height))
+        T = _push_off_edge(K, T, board, (width, height), rng=rng)
     mid = 125.0
     levels = {"white": mid + contrast * (215.0 - mid), "black": mid + contrast * (35.0 - mid)}
     R = render(K, T, board, (width, height), noise_sigma=0.0, quantize=False, rng=rng,
@@ -125,13 +128,13 @@ def random_scene(rng, K, board: Board = Board(), size=(640, 480), *, occluders=(
     for kind in occluders:
         if kind == "edge":
             continue
-        shape, value = _occluder(rng, kind, R, square)
+        shape, value = _occluder(kind, R, square, rng=rng)
         image = image * (1 - shape) + value * shape
         cover = np.maximum(cover, shape)
     painted = []
     sheet = _sheet_mask(R)
     for kind in clutter:
-        shape, value = _clutter(rng, kind, (height, width), square, sheet)
+        shape, value = _clutter(kind, (height, width), square, sheet, rng=rng)
         image = image * (1 - shape) + value * shape
         painted.append(kind)
     if vignetting:
@@ -182,7 +185,7 @@ def _coverage(inside, height: int, width: int, S: int = 4) -> np.ndarray:
     return acc / (S * S)
 
 
-def _occluder(rng, kind: str, R: Rendering, square: np.ndarray):
+def _occluder(kind: str, R: Rendering, square: np.ndarray, *, rng):
     """(coverage (H, W), grey value) of one occluder over the board."""
     width, height = R.size
     J = R.junctions
@@ -226,7 +229,7 @@ def _sheet_mask(R: Rendering) -> np.ndarray:
     return mask
 
 
-def _clutter(rng, kind: str, shape, square: np.ndarray, sheet: np.ndarray):
+def _clutter(kind: str, shape, square: np.ndarray, sheet: np.ndarray, *, rng):
     """(coverage, grey value) of clutter placed away from the sheet (nothing if no room)."""
     height, width = shape
     s = float(np.clip(np.median(square), 8.0, 40.0))
@@ -266,7 +269,7 @@ def _clutter(rng, kind: str, shape, square: np.ndarray, sheet: np.ndarray):
     return _coverage(inside, height, width), 25.0
 
 
-def _push_off_edge(rng, K, T_WC, board: Board, size) -> np.ndarray:
+def _push_off_edge(K, T_WC, board: Board, size, *, rng) -> np.ndarray:
     """Slide the camera sideways so that the image edge cuts off part of the board."""
     width, height = size
     T = T_WC.copy()

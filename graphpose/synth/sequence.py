@@ -43,6 +43,7 @@ from ..geometry import project, rot_x, rot_y, rot_z, to_camera
 from ..errors import InputError
 from ..io.files import write_json, write_png
 from ..io.tum import write_tum
+from ._rng import rng_was_positional
 from .poses import loose_polygon
 from .render import render, render_ideal
 
@@ -107,8 +108,6 @@ class HandHeldMotion:
 
     Parameters
     ----------
-    rng : numpy.random.Generator
-        Source of randomness.
     K : (3, 3) ndarray
         Intrinsics.
     board : Board
@@ -117,6 +116,9 @@ class HandHeldMotion:
         Image ``(width, height)``, pixels.
     duration : float
         Seconds the trajectory must cover.
+    rng : numpy.random.Generator, int or None, keyword
+        Source of randomness (None: fresh entropy). The old call with ``rng`` positional
+        is still accepted (:mod:`graphpose.synth._rng`).
     distance : (float, float)
         Range of the board centre's distance, metres.
     max_tilt_deg, max_roll_deg : float
@@ -127,19 +129,21 @@ class HandHeldMotion:
         Duration of one whip pan, seconds.
     """
 
-    def __init__(self, rng, K, board, size, duration, *, distance=(0.6, 1.3), max_tilt_deg=30.0,
+    @rng_was_positional(1)
+    def __init__(self, K, board, size, duration, *, rng=None, distance=(0.6, 1.3), max_tilt_deg=30.0,
                  max_roll_deg=20.0, excursions=2, excursion_s=0.6):
+        rng = np.random.default_rng(rng)
         self.K, self.board, self.size = K, board, size
         self.distance = distance
         self.centre_W = np.array([(board.cols - 1) / 2, (board.rows - 1) / 2, 0.0]) * board.square_m
         self._half_px = 0.5 * np.array([board.cols + 2, board.rows + 2]) * board.square_m * K[0, 0]
         self._span = max(duration, 10.0)  # normalise over at least 10 s: short clips move as slowly
-        self._slow = [_Wave(rng, (0.02, 0.1)) for _ in range(6)]
-        self._tremor = [_Wave(rng, (2.0, 4.0), parts=2) for _ in range(6)]
+        self._slow = [_Wave((0.02, 0.1), rng=rng) for _ in range(6)]
+        self._tremor = [_Wave((2.0, 4.0), parts=2, rng=rng) for _ in range(6)]
         self._tilt = np.deg2rad(max_tilt_deg)
         self._roll = np.deg2rad(max_roll_deg)
         self.start, self._pans = 0.0, []
-        self.start = self._first_full_view(rng)
+        self.start = self._first_full_view(rng=rng)
         slots = np.linspace(0.0, duration, excursions + 2)[1:-1] + self.start
         self._pans = [(t0 + rng.uniform(-0.1, 0.1) * duration / (excursions + 1), excursion_s,
                        np.deg2rad(rng.uniform(60.0, 75.0)) * rng.choice([-1.0, 1.0])) for t0 in slots]
@@ -165,7 +169,7 @@ class HandHeldMotion:
         return T
 
 
-    def _first_full_view(self, rng, tries: int = 200) -> float:
+    def _first_full_view(self, tries: int = 200, *, rng) -> float:
         """A start time whose frame shows the whole sheet, 10 px inside the image."""
         sheet = self.board.sheet_corners()
         for _ in range(tries):
@@ -185,7 +189,7 @@ class _Wave:
     :meth:`normalise` makes it span exactly [-1, 1] over a stretch of time.
     """
 
-    def __init__(self, rng, band, parts=3):
+    def __init__(self, band, parts=3, *, rng):
         self.f = rng.uniform(*band, parts)
         self.phase = rng.uniform(0.0, 2 * np.pi, parts)
         self.a = rng.uniform(0.5, 1.0, parts)
@@ -286,7 +290,7 @@ def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(),
         check_number(name, value, 0.0)
     distance = check_range("distance", distance, "(near, far) metres", minimum=0.0, strict=True)
     rng = _generator(rng)
-    motion = HandHeldMotion(rng, K, board, size, n_frames / fps, distance=distance, excursions=excursions)
+    motion = HandHeldMotion(K, board, size, n_frames / fps, rng=rng, distance=distance, excursions=excursions)
     times = np.arange(n_frames) / fps
     ideal = dict(blur_sigma=blur_sigma, supersample=supersample, background=60.0, white=215.0, black=35.0)
     # The background alone: the board drawn in the background's own grey.
@@ -310,7 +314,7 @@ def render_sequence(K, n_frames: int = 300, *, rng=None, board: Board = Board(),
             progress(k, n_frames)
     first = render(K, poses[0], board, size, noise_sigma=0.0, **ideal)  # for its outline
     return Sequence(np.array(images), times, np.array(poses), np.array(visible), np.array(subframes),
-                    loose_polygon(first, rng), K, board, float(fps))
+                    loose_polygon(first, rng=rng), K, board, float(fps))
 
 
 def _generator(rng) -> np.random.Generator:
@@ -328,15 +332,15 @@ def _ideal(K, T, board, size, ideal, background, sheet) -> np.ndarray:
     return render_ideal(K, T, board, size, **ideal)
 
 
-def visible_junctions(K, T, W, size) -> int:
+def visible_junctions(K, T_WC, W, size) -> int:
     """How many junctions a camera sees at least :data:`VISIBLE_BORDER_PX` inside its image.
 
     Parameters
     ----------
     K : (3, 3) ndarray
         Intrinsics, pixels (trusted).
-    T : (4, 4) ndarray
-        Camera pose T_WC (trusted).
+    T_WC : (4, 4) ndarray
+        Camera pose in the target frame (trusted).
     W : (3, n) ndarray
         The junctions' target points, metres.
     size : (int, int)
@@ -347,8 +351,8 @@ def visible_junctions(K, T, W, size) -> int:
     int
         Junctions in front of the camera and inside the image's border.
     """
-    uv = project(K, T, W)
-    ok = to_camera(T, W)[2] > 0
+    uv = project(K, T_WC, W)
+    ok = to_camera(T_WC, W)[2] > 0
     ok &= (uv[0] >= VISIBLE_BORDER_PX) & (uv[0] <= size[0] - 1 - VISIBLE_BORDER_PX)
     ok &= (uv[1] >= VISIBLE_BORDER_PX) & (uv[1] <= size[1] - 1 - VISIBLE_BORDER_PX)
     return int(np.count_nonzero(ok))
@@ -374,7 +378,7 @@ def write_sequence(sequence: Sequence, out_dir) -> Path:
     InputError
         If the folder cannot be created (a file in the way, no permission) or a file cannot
         be written; each file is written whole or not at all
-        (:func:`graphpose.io.atomic_write`), files written before the failure stay.
+        (:func:`graphpose.io.files.atomic_write`), files written before the failure stay.
     """
     out = Path(out_dir)
     try:

@@ -48,7 +48,7 @@ from ..geometry import relative_pose, se3_exp, se3_log, to_camera
 from ..camera_models import as_camera
 from ..detect.junctions import board_smoothing, extract_junctions
 from ..detect.refine import MAX_RADIUS, SMOOTH_SIGMA, WINDOW_FRACTION, refine_junctions
-from ..errors import BoardNotFoundError, InputError
+from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 from ..pose.estimate import fit_pose
 from .config import TrackerConfig
 from .results import DETECTED, LOST, TRACKED
@@ -268,7 +268,7 @@ class FrontEnd:
         cfg = self.config
         try:
             fit, _ = fit_pose(self.camera, points, self._W[:, ids], guess, robust=cfg.robust)
-        except InputError as exc:
+        except (InputError, DegenerateGeometryError) as exc:
             return None, f"pose fit failed: {exc}"
         if not fit.converged:
             return None, f"pose fit did not converge: {fit.message}"
@@ -324,7 +324,7 @@ def _attempt(method, *args):
     back to the next one or is lost, never the sequence."""
     try:
         return method(*args)
-    except InputError as exc:
+    except (InputError, DegenerateGeometryError) as exc:
         return None, f"{method.__name__.strip('_')} failed: {exc}"
 
 

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from graphpose import InputError
+from graphpose import DegenerateGeometryError, InputError
 from graphpose.geometry import T_from_params, project, to_camera
 from graphpose.pose.gauss_newton import gauss_newton
 from graphpose.geometry import homography_dlt
@@ -70,7 +70,7 @@ def test_result_is_a_rotation_with_board_in_front():
 def test_collinear_points_are_refused():
     W = WPTS[:, :8]  # one row of the board
     I = project(K, T_from_params([0.2, 0.1, -0.9, 0.0, 0.0, 0.0]), W)
-    with pytest.raises(InputError, match="collinear"):
+    with pytest.raises(DegenerateGeometryError, match="collinear"):
         pose_from_homography(K, I, W)
 
 
