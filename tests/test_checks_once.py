@@ -57,13 +57,6 @@ def test_every_holder_of_the_checks_is_wrapped(monkeypatch):
     assert {"graphpose.observations", "graphpose.pose.estimate"} <= wrapped, wrapped
 
 
-# Fails today: the pose core (pose/estimate.py) calls the public pose_from_homography,
-# gauss_newton and graph_pose, each of which checks again (check_observations 3-5 times, check_K
-# 4-6). The fix (unchecked cores in pose/homography.py, gauss_newton.py, graph.py, called by
-# pose/estimate.py) is in files another helper edits this round: it goes to the lead as a patch
-# (the house report); strict, so that this mark must go when it lands.
-@pytest.mark.xfail(strict=True, reason="pose/* checks its inputs again inside estimate_pose: the lead applies "
-                   "the house report's patch (unchecked cores), then removes this mark")
 @pytest.mark.parametrize("with_guess", [True, False], ids=["guess", "homography start"])
 @pytest.mark.parametrize("robust", [False, True], ids=["plain", "robust"])
 def test_one_estimate_checks_each_input_once(bundled, monkeypatch, with_guess, robust):

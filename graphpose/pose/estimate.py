@@ -35,9 +35,9 @@ from .._checks import check_transform
 from ..errors import DegenerateGeometryError, InputError
 from ..geometry import to_camera
 from ..observations import check_observations
-from .gauss_newton import GNResult, gauss_newton, huber_weights, reprojection_cost
-from .graph import HUBER_K, GraphResult, graph_pose
-from .homography import on_target_plane, pose_from_homography
+from .gauss_newton import GNResult, gauss_newton_unchecked, huber_weights, reprojection_cost
+from .graph import HUBER_K, GraphResult, graph_pose_unchecked
+from .homography import on_target_plane, pose_from_homography_unchecked
 from .intrinsics import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
 
 #: GN and the graph must agree this closely (metres, degrees): the same cost, two solvers.
@@ -240,12 +240,12 @@ def fit_pose(camera, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False)
 
 def _fit(camera, Ipts, Wpts, guess, mask, robust):
     """:func:`fit_pose` on a validated camera, points, guess and mask."""
-    start = pose_from_homography(camera, Ipts[:, mask], Wpts[:, mask]) if guess is None else guess
-    gn = gauss_newton(camera, start, Ipts, Wpts, mask=mask)
+    start = pose_from_homography_unchecked(camera, Ipts[:, mask], Wpts[:, mask]) if guess is None else guess
+    gn = gauss_newton_unchecked(camera, start, Ipts, Wpts, mask)
     if robust:
         pixel_sigma = max(1.4826 * float(np.nanmedian(np.abs(gn.residuals[:, mask]))), 1e-12)
-        gn = gauss_newton(camera, start, Ipts, Wpts, mask=mask, huber_px=HUBER_K * pixel_sigma,
-                          pixel_sigma=pixel_sigma)
+        gn = gauss_newton_unchecked(camera, start, Ipts, Wpts, mask, huber_px=HUBER_K * pixel_sigma,
+                                    pixel_sigma=pixel_sigma)
     return gn, start
 
 
@@ -261,8 +261,8 @@ def estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust) -> PoseEsti
     # Jacobian in either solver moves GTSAM off it and fails the cross-check, as a solve
     # from the shared start would; the basin question (a guess far off) is settled by
     # _compare_with_linear_start. It spares GTSAM's own descent: a third of its time.
-    graph = graph_pose(camera, gn.T_WC if gn.converged else start, Ipts, Wpts, mask=mask,
-                       pixel_sigma=pixel_sigma, robust=robust)
+    graph = graph_pose_unchecked(camera, gn.T_WC if gn.converged else start, Ipts, Wpts, mask,
+                                 pixel_sigma=pixel_sigma, robust=robust)
     converged, message = gn.converged, "ok" if gn.converged else f"Gauss-Newton: {gn.message}"
     if guess is not None and gn.converged and on_target_plane(Wpts):
         converged, message = _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn)
@@ -306,8 +306,8 @@ def estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust) -> PoseEsti
 def _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn):
     """Whether GN from the homography start finds a clearly lower cost than from the guess."""
     try:
-        linear = pose_from_homography(camera, Ipts[:, mask], Wpts[:, mask])
-        other = gauss_newton(camera, linear, Ipts, Wpts, mask=mask, huber_px=huber_px)
+        linear = pose_from_homography_unchecked(camera, Ipts[:, mask], Wpts[:, mask])
+        other = gauss_newton_unchecked(camera, linear, Ipts, Wpts, mask, huber_px=huber_px)
     except (InputError, DegenerateGeometryError):
         return True, "ok"  # no usable homography start: nothing to compare with
     mine = reprojection_cost(gn.residuals[:, mask], huber_px)

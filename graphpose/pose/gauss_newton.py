@@ -248,6 +248,14 @@ def gauss_newton(camera, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel
     T_guess = check_transform(T_guess, "T_guess")
     huber_px = None if huber_px is None else check_number("huber_px", huber_px, 0.0, strict=True)
     pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
+    return gauss_newton_unchecked(camera, T_guess, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
+
+
+def gauss_newton_unchecked(camera, T_guess, Ipts, Wpts, mask, huber_px=None, pixel_sigma=None,
+                           max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL) -> GNResult:
+    """:func:`gauss_newton` on inputs already checked at a public edge (a camera object, float
+    arrays of the right shapes, a boolean mask, a checked guess, positive ``huber_px`` and
+    ``pixel_sigma`` or None); the guess's depths are still checked (they depend on the pose)."""
     return _solve(camera, params_from_T(T_guess), Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
 
 

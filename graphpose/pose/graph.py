@@ -177,6 +177,14 @@ def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robu
     T_guess = check_transform(T_guess, "T_guess")
     pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
+    return graph_pose_unchecked(camera, T_guess, Ipts, Wpts, mask, pixel_sigma, robust, huber_k)
+
+
+def graph_pose_unchecked(camera, T_guess, Ipts, Wpts, mask, pixel_sigma=None, robust=False,
+                         huber_k: float = HUBER_K) -> GraphResult:
+    """:func:`graph_pose` on inputs already checked at a public edge (a camera object, float
+    arrays of the right shapes, a boolean mask, a checked guess, positive ``pixel_sigma`` or
+    None and ``huber_k``); the guess's depths are still checked (they depend on the pose)."""
     check_in_front(to_camera(T_guess, Wpts[:, mask])[2], "the guess", np.flatnonzero(mask))
     if robust and pixel_sigma is None:
         # Only its pose is used: no marginals.

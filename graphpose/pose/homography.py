@@ -56,6 +56,12 @@ def pose_from_homography(camera, Ipts, Wpts) -> np.ndarray:
         lies where the camera's lens model has no ray in front of it.
     """
     camera, Ipts, Wpts, _ = check_observations(camera, Ipts, Wpts)
+    return pose_from_homography_unchecked(camera, Ipts, Wpts)
+
+
+def pose_from_homography_unchecked(camera, Ipts, Wpts) -> np.ndarray:
+    """:func:`pose_from_homography` on a camera object and float points already checked at a
+    public edge (every point used); the plane and the geometry are still checked here."""
     if not on_target_plane(Wpts):
         raise InputError("Wpts must lie on the target plane z = 0 for the homography initialiser")
     K = camera.K
