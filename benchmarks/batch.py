@@ -58,11 +58,11 @@ def make_images(folder: Path, n_files: int, n_paths: int, seed: int = 3):
     rng = np.random.default_rng(seed)
     files, polys = [], []
     for i in range(n_files):
-        rendering = render(K, random_pose(rng, K, board, SIZE), board, SIZE, rng=rng)
+        rendering = render(K, random_pose(K, board, SIZE, rng=rng), board, SIZE, rng=rng)
         path = folder / f"img_{i:03d}.png"
         iio.imwrite(path, rendering.image)
         files.append(path)
-        polys.append(loose_polygon(rendering, rng))
+        polys.append(loose_polygon(rendering, rng=rng))
     paths, bounds = [], {}
     for k in range(n_paths):
         path = files[k] if k < n_files else folder / f"link_{k:05d}.png"

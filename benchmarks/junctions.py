@@ -110,9 +110,9 @@ def synthetic(cv2, count):
         rng = np.random.default_rng(2024)
         ours, subpix, sb, ours_sb, crb, crb11 = [], [], [], [], [], []
         for k in range(count):
-            T = random_pose(rng, K_REAL, board)
+            T = random_pose(K_REAL, board, rng=rng)
             R = render(K_REAL, T, board, noise_sigma=noise, blur_sigma=blur, rng=rng)
-            poly = loose_polygon(R, rng, inset=bool(k % 2))
+            poly = loose_polygon(R, inset=bool(k % 2), rng=rng)
             J = extract_junctions(R.image, poly, board)
             err = np.hypot(*(J.points - R.junctions))
             ours.append(err)

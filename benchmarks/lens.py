@@ -131,7 +131,7 @@ def _draw_pose(rng, camera, board, distance, with_pinhole):
     n = 16
     outline = (sheet[:, :, None] + (np.roll(sheet, -1, axis=1) - sheet)[:, :, None] * (np.arange(n) / n))
     for _ in range(1000):
-        T = random_pose(rng, camera, board, distance=distance)
+        T = random_pose(camera, board, distance=distance, rng=rng)
         if not with_pinhole:
             return T
         uv = project(camera.K, T, outline.reshape(3, -1))  # straight edges: corners suffice, but cheap

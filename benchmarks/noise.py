@@ -78,9 +78,9 @@ def poses(count: int, rng) -> list:
     for k in range(count):
         board, (lo, hi) = BOARDS[k % len(BOARDS)]
         depth = K[0, 0] * board.square_m / rng.uniform(lo, hi)
-        T = random_pose(rng, K, board, SIZE, distance=(depth, depth), max_tilt_deg=40.0, max_roll_deg=40.0)
+        T = random_pose(K, board, SIZE, distance=(depth, depth), max_tilt_deg=40.0, max_roll_deg=40.0, rng=rng)
         R = render(K, T, board, SIZE, noise_sigma=0.0, quantize=False, blur_sigma=0.0)  # the truth only
-        out.append((board, T, R, loose_polygon(R, rng, inset=bool(k % 2))))
+        out.append((board, T, R, loose_polygon(R, inset=bool(k % 2), rng=rng)))
     return out
 
 

@@ -54,8 +54,8 @@ def _speed_sets(quick):
     K = K_REAL
     rng = np.random.default_rng(7)
     for k in range(2 if quick else 4):
-        T = random_pose(rng, K)
-        guess = perturb_pose(rng, T)  # 8-12 degrees and 15-25 cm off, like the real case files
+        T = random_pose(K, rng=rng)
+        guess = perturb_pose(T, rng=rng)  # 8-12 degrees and 15-25 cm off, like the real case files
         sets.append((f"synthetic {k}", K, project(K, T, W) + rng.normal(0, 0.2, (2, 48)), W, guess))
     return sets
 
@@ -214,9 +214,9 @@ def synthetic(quick):
     # Per image: our and OpenCV's (m, deg) error or None when that method failed, and the bound.
     ours, theirs, crb, nees_, jerr, reasons = [], [], [], [], [], []
     for _ in range(n):
-        T = random_pose(rng, K)
+        T = random_pose(K, rng=rng)
         rendering = render(K, T, noise_sigma=2.0, blur_sigma=1.0, rng=rng)
-        polygon = loose_polygon(rendering, rng)
+        polygon = loose_polygon(rendering, rng=rng)
         try:
             est = estimate_pose(rendering.image, polygon, K)
             if not est.ok:
@@ -310,11 +310,11 @@ def basin(quick):
     good = reported = wrong = redrawn = 0
     iterations = []
     for _ in range(n):
-        T = random_pose(rng, K)
+        T = random_pose(K, rng=rng)
         I = project(K, T, W) + rng.normal(0, 0.2, (2, 48))
         T_lin = gauss_newton(K, pose_from_homography(K, I, W), I, W).T_WC
         while True:
-            guess = perturb_pose(rng, T, angle_deg=(0.0, 30.0), offset_m=(0.0, 0.5))
+            guess = perturb_pose(T, angle_deg=(0.0, 30.0), offset_m=(0.0, 0.5), rng=rng)
             try:
                 res = gauss_newton(K, guess, I, W)
                 break

@@ -133,14 +133,14 @@ def rendered(folder, count, size, rng, suffix=".png"):
     K_ = scaled_K(size)
     items = []
     for k in range(count):
-        T = random_pose(rng, K_, BOARD, size, distance=(0.8, 1.6))
+        T = random_pose(K_, BOARD, size, distance=(0.8, 1.6), rng=rng)
         R = render(K_, T, BOARD, size, noise_sigma=2.0, rng=rng, blur_sigma=float(rng.uniform(0.7, 1.5)) * size[0] / 640)
         path = Path(folder) / f"scene_{size[0]}_{k:02d}{suffix}"
         if suffix == ".png":
             path.write_bytes(encode_png(R.image))
         else:
             Image.fromarray(R.image).save(path, quality=95)
-        items.append((path, loose_polygon(R, rng, offset_px=(-4.0 * size[0] / 640, 4.0 * size[0] / 640)), K_))
+        items.append((path, loose_polygon(R, offset_px=(-4.0 * size[0] / 640, 4.0 * size[0] / 640), rng=rng), K_))
     return items
 
 

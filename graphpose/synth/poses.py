@@ -15,12 +15,10 @@ from ..board import Board
 from ..geometry import project, rot_x, rot_z, to_camera
 from ..camera_models import as_camera
 from ..errors import InputError
-from ._rng import rng_was_positional
 from .lens import in_view, view_limit
 from .render import Rendering, image_points, image_size
 
 
-@rng_was_positional(0)
 def random_pose(
     camera,
     board: Board = Board(),
@@ -61,8 +59,7 @@ def random_pose(
     size : (int, int), optional
         Image ``(width, height)`` in pixels; default ``camera.size``, else (640, 480).
     rng : numpy.random.Generator, int or None, keyword
-        Source of randomness (None: fresh entropy). The old call with ``rng`` positional
-        is still accepted (:mod:`graphpose.synth._rng`).
+        Source of randomness (None: fresh entropy).
     distance : (float, float)
         Range of the board centre's depth (distance along the ray for a distorting camera),
         metres.
@@ -144,7 +141,6 @@ def random_pose(
     )
 
 
-@rng_was_positional(1)
 def loose_polygon(rendering: Rendering, *, rng=None, offset_px=(-4.0, 4.0), inset: bool = False) -> np.ndarray:
     """A hand-clicked-like bounding polygon of a rendered board.
 
@@ -153,8 +149,7 @@ def loose_polygon(rendering: Rendering, *, rng=None, offset_px=(-4.0, 4.0), inse
     rendering : Rendering
         The image whose board to bound.
     rng : numpy.random.Generator, int or None, keyword
-        Source of randomness (None: fresh entropy). The old call with ``rng`` positional
-        is still accepted (:mod:`graphpose.synth._rng`).
+        Source of randomness (None: fresh entropy).
     offset_px : (float, float)
         Range of the uniform perturbation added to each coordinate of each vertex, pixels.
     inset : bool
@@ -185,7 +180,6 @@ def loose_polygon(rendering: Rendering, *, rng=None, offset_px=(-4.0, 4.0), inse
     return outline + rng.uniform(lo, hi, (2, 4))
 
 
-@rng_was_positional(0)
 def perturb_pose(T_WC, *, rng=None, angle_deg=(8.0, 12.0), offset_m=(0.15, 0.25)) -> np.ndarray:
     """A pose guess: ``T_WC`` rotated and moved by random amounts, like the real case files.
 
@@ -194,8 +188,7 @@ def perturb_pose(T_WC, *, rng=None, angle_deg=(8.0, 12.0), offset_m=(0.15, 0.25)
     T_WC : (4, 4) array_like
         The true pose.
     rng : numpy.random.Generator, int or None, keyword
-        Source of randomness (None: fresh entropy). The old call with ``rng`` positional
-        is still accepted (:mod:`graphpose.synth._rng`).
+        Source of randomness (None: fresh entropy).
     angle_deg : (float, float)
         Range of the rotation angle (about a uniformly random axis, applied in the camera
         frame), degrees.

@@ -23,7 +23,6 @@ from ..board import check_board
 from ..board import Board
 from ..geometry import project
 from ..errors import InputError
-from ._rng import rng_was_positional
 from .poses import random_pose
 from .render import Rendering, render
 
@@ -56,7 +55,6 @@ class Scene:
     clutter: list
 
 
-@rng_was_positional(0)
 def random_scene(K, board: Board = Board(), size=(640, 480), *, rng=None, occluders=(), clutter=(),
                  max_roll_deg: float = 180.0, max_tilt_deg: float = 50.0, distance=(0.7, 2.2),
                  noise_sigma: float = 2.0, blur_sigma: float = 1.0, margin: float = 0.5,
@@ -72,8 +70,7 @@ def random_scene(K, board: Board = Board(), size=(640, 480), *, rng=None, occlud
     size : (int, int)
         ``(width, height)``, pixels.
     rng : numpy.random.Generator, int or None, keyword
-        Source of randomness (None: fresh entropy). The old call with ``rng`` positional
-        is still accepted (:mod:`graphpose.synth._rng`).
+        Source of randomness (None: fresh entropy).
     occluders : sequence of str
         Kinds from :data:`OCCLUDERS`, painted in order; ``"edge"`` shifts the pose so that
         the image edge cuts the board.

@@ -43,7 +43,6 @@ from ..geometry import project, rot_x, rot_y, rot_z, to_camera
 from ..errors import InputError
 from ..io.files import write_json, write_png
 from ..io.tum import write_tum
-from ._rng import rng_was_positional
 from .poses import loose_polygon
 from .render import render, render_ideal
 
@@ -117,8 +116,7 @@ class HandHeldMotion:
     duration : float
         Seconds the trajectory must cover.
     rng : numpy.random.Generator, int or None, keyword
-        Source of randomness (None: fresh entropy). The old call with ``rng`` positional
-        is still accepted (:mod:`graphpose.synth._rng`).
+        Source of randomness (None: fresh entropy).
     distance : (float, float)
         Range of the board centre's distance, metres.
     max_tilt_deg, max_roll_deg : float
@@ -129,7 +127,6 @@ class HandHeldMotion:
         Duration of one whip pan, seconds.
     """
 
-    @rng_was_positional(1)
     def __init__(self, K, board, size, duration, *, rng=None, distance=(0.6, 1.3), max_tilt_deg=30.0,
                  max_roll_deg=20.0, excursions=2, excursion_s=0.6):
         rng = np.random.default_rng(rng)

@@ -67,10 +67,10 @@ def make_image_set(folder: Path, n_files: int = 10, n_paths: int = 198, seed: in
     rng = np.random.default_rng(seed)
     files, polys, estimates = [], [], []
     for i in range(n_files):
-        rendering = render(K, random_pose(rng, K, board, SIZE), board, SIZE, rng=rng)
+        rendering = render(K, random_pose(K, board, SIZE, rng=rng), board, SIZE, rng=rng)
         path = folder / f"img_{i:02d}.png"
         iio.imwrite(path, rendering.image)
-        poly = loose_polygon(rendering, rng)
+        poly = loose_polygon(rendering, rng=rng)
         files.append(path)
         polys.append(poly)
         estimates.append(estimate_pose(read_image(path, as_float=False), poly, K, board))

@@ -35,11 +35,11 @@ def same_pose_images(tmp_path_factory):
     folder = tmp_path_factory.mktemp("same-pose")
     K, board = half_K(), Board()
     rng = np.random.default_rng(11)
-    T = random_pose(rng, K, board, SIZE)
+    T = random_pose(K, board, SIZE, rng=rng)
     poly = None
     for k in range(3):
         rendering = render(K, T, board, SIZE, rng=rng)
-        poly = loose_polygon(rendering, rng) if poly is None else poly
+        poly = loose_polygon(rendering, rng=rng) if poly is None else poly
         iio.imwrite(folder / f"frame_{k}.png", rendering.image)
     expected = {str(p): estimate_pose(read_image(p, as_float=False), poly, K, board) for p in sorted(folder.glob("*.png"))}
     return folder, K, poly, expected

@@ -28,7 +28,7 @@ def raw_view(tmp_path_factory):
     folder = tmp_path_factory.mktemp("raw-view")
     camera = LENS_CAMERAS["radtan"]
     rng = np.random.default_rng(21)
-    scene = render.render(camera, poses.random_pose(rng, camera, BOARD, SIZE), BOARD, SIZE, rng=rng)
+    scene = render.render(camera, poses.random_pose(camera, BOARD, SIZE, rng=rng), BOARD, SIZE, rng=rng)
     from graphpose.io.files import write_png
 
     write_png(folder / "view.png", scene.image)

@@ -133,7 +133,7 @@ def test_a_board_of_another_size_names_the_default_and_how_to_give_the_board(tmp
     path = tmp_path / "nine_by_six.png"
     path.write_bytes(encode_png(rendering.image))
     k = f"{K[0, 0]},{K[1, 1]},{K[0, 2]},{K[1, 2]}"
-    assert main(["estimate", str(path), "--K", k, "--bounds", _bounds_text(loose_polygon(rendering, 3))]) == 1
+    assert main(["estimate", str(path), "--K", k, "--bounds", _bounds_text(loose_polygon(rendering, rng=3))]) == 1
     line = one_line(capsys)
     assert "found a 9 x 6 board of junctions; the board spec says 8 x 6" in line, line
     assert "the default board is 8x6x0.0635; give yours with --board COLSxROWSxSQUARE_M" in line

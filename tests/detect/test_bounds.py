@@ -82,8 +82,8 @@ def test_junction0_square_is_the_colour_rendered_at_junction_0s_corner(board, op
     # Rendered boards: junction 0's outer square is dark (the upper-left square); the corner
     # diagonally opposite is light on 9 x 6 (10 x 7 squares) and dark on 8 x 6 and 7 x 5.
     rng = np.random.default_rng(4)
-    R = render(K, random_pose(rng, K, board), board, rng=rng)
-    poly = loose_polygon(R, rng)
+    R = render(K, random_pose(K, board, rng=rng), board, rng=rng)
+    poly = loose_polygon(R, rng=rng)
     J = extract_junctions(R.image, poly, board)
     assert J.junction0_square == "dark" and J.trusted.all()
     np.testing.assert_allclose(J.points, R.junctions, atol=0.1)

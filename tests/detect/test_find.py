@@ -34,7 +34,7 @@ def label_error(found, truth: np.ndarray, perm=None) -> float:
 
 @pytest.mark.parametrize("seed", range(4))
 def test_candidates_lie_on_every_junction_of_a_board_at_any_rotation(seed):
-    R = random_scene(seed, K, Board(), max_roll_deg=180.0).rendering
+    R = random_scene(K, Board(), max_roll_deg=180.0, rng=seed).rendering
     cands = find_candidates(R.image)
     d = np.min(np.hypot(*(cands.points[:, :, None] - R.junctions[:, None, :])), axis=0)
     assert d.max() < 1.5, d.max()
@@ -79,7 +79,7 @@ def test_peel_drops_strays_with_fewer_than_two_neighbours():
 
 
 def test_lattice_of_a_clean_board_holds_every_junction_right_handed():
-    R = random_scene(3, K, Board()).rendering
+    R = random_scene(K, Board(), rng=3).rendering
     cands = find_candidates(R.image)
     lattice = next(lat for _, lat in grow_lattices(cands) if lat is not None)
     assert len(lattice.keys) == 48
@@ -97,7 +97,7 @@ def test_an_asymmetric_board_is_labelled_as_the_truth_at_any_rotation(seed):
     # 9 x 6 junctions = 10 x 7 squares: a half turn changes the pattern, so the square
     # colours fix junction 0 (its outer corner square is dark) whatever the roll.
     board = Board(9, 6, 0.03)
-    scene = random_scene(seed, K, board, distance=(0.45, 1.0))
+    scene = random_scene(K, board, distance=(0.45, 1.0), rng=seed)
     found = find_board(scene.image, board)
     assert not found.orientation_ambiguous
     assert found.seen.all() and label_error(found, scene.rendering.junctions) < 1.5
@@ -106,7 +106,7 @@ def test_an_asymmetric_board_is_labelled_as_the_truth_at_any_rotation(seed):
 @pytest.mark.parametrize("seed", range(8))
 def test_a_symmetric_board_is_flagged_and_labelled_by_the_upper_left_rule(seed):
     board = Board()
-    scene = random_scene(100 + seed, K, board)
+    scene = random_scene(K, board, rng=100 + seed)
     found = find_board(scene.image, board)
     truth = scene.rendering.junctions
     assert found.orientation_ambiguous and found.seen.all()
@@ -118,7 +118,7 @@ def test_a_symmetric_board_is_flagged_and_labelled_by_the_upper_left_rule(seed):
 
 def test_bounds_fix_the_orientation_of_a_symmetric_board():
     board = Board()
-    scene = random_scene(7, K, board, max_roll_deg=180.0)
+    scene = random_scene(K, board, max_roll_deg=180.0, rng=7)
     found = find_board(scene.image, board, scene.rendering.outline)
     assert not found.orientation_ambiguous
     assert label_error(found, scene.rendering.junctions) < 1.5
@@ -126,7 +126,7 @@ def test_bounds_fix_the_orientation_of_a_symmetric_board():
 
 def test_bounds_a_little_off_do_not_move_the_labels():
     board = Board()
-    scene = random_scene(8, K, board)
+    scene = random_scene(K, board, rng=8)
     rng = np.random.default_rng(0)
     base = find_board(scene.image, board, scene.rendering.outline)
     for _ in range(5):
@@ -138,7 +138,7 @@ def test_bounds_a_little_off_do_not_move_the_labels():
 
 @pytest.mark.parametrize("spec", [Board(7, 5), Board(9, 6), Board(8, 5)])
 def test_a_board_spec_that_does_not_match_the_image_is_refused(spec):
-    scene = random_scene(11, K, Board())
+    scene = random_scene(K, Board(), rng=11)
     with pytest.raises(BoardNotFoundError, match="found a 8 x 6 board of junctions; the board spec says"):
         find_board(scene.image, spec)
 
@@ -147,7 +147,7 @@ def test_a_board_cut_by_the_image_edge_keeps_its_labels_from_the_edge_that_is_se
     board = Board(9, 6, 0.03)
     labelled = 0
     for seed in range(6):
-        scene = random_scene(200 + seed, K, board, occluders=("edge",), distance=(0.45, 0.9))
+        scene = random_scene(K, board, occluders=("edge",), distance=(0.45, 0.9), rng=200 + seed)
         try:
             found = find_board(scene.image, board)
         except BoardNotFoundError as exc:
@@ -184,7 +184,7 @@ def test_occluded_boards_are_labelled_right_or_refused(occluder):
     board = Board()
     labelled = 0
     for seed in range(10):
-        scene = random_scene(300 + seed, K, board, occluders=(occluder,))
+        scene = random_scene(K, board, occluders=(occluder,), rng=300 + seed)
         try:
             found = find_board(scene.image, board)
         except BoardNotFoundError:
@@ -201,14 +201,14 @@ def test_occluded_boards_are_labelled_right_or_refused(occluder):
 def test_clutter_beside_the_board_changes_nothing():
     board = Board(9, 6, 0.03)
     for seed in range(5):
-        scene = random_scene(400 + seed, K, board, clutter=("text", "grid"), distance=(0.6, 1.0))
+        scene = random_scene(K, board, clutter=("text", "grid"), distance=(0.6, 1.0), rng=400 + seed)
         found = find_board(scene.image, board)
         assert found.seen.all() and label_error(found, scene.rendering.junctions) < 1.5
 
 
 def test_small_squares_are_found_at_full_resolution():
     board = Board()
-    scene = random_scene(12, K, board, distance=(2.8, 3.2))  # squares of about 12 px
+    scene = random_scene(K, board, distance=(2.8, 3.2), rng=12)  # squares of about 12 px
     found = find_board(scene.image, board)
     assert found.seen.all()
     truth = scene.rendering.junctions
@@ -246,7 +246,7 @@ def _large_scene(distance, seed):
     """The project camera scaled to 2560 x 1920 (a first search at an eighth), one board."""
     s = 4.0
     Kc = K_from_params(s * K[0, 0], s * K[1, 1], s * (K[0, 2] + 0.5) - 0.5, s * (K[1, 2] + 0.5) - 0.5)
-    return random_scene(seed, Kc, Board(), size=(2560, 1920), distance=distance, max_tilt_deg=40.0)
+    return random_scene(Kc, Board(), size=(2560, 1920), distance=distance, max_tilt_deg=40.0, rng=seed)
 
 
 def test_a_large_image_is_searched_at_an_eighth_and_labelled_right():
@@ -321,7 +321,7 @@ def test_square_boards_with_odd_sides_put_a_dark_corner_at_junction_0():
     # turn is ambiguous; junction 0's corner square is dark in every labelling returned.
     board = Board(5, 5, 0.05)
     for seed in range(8):
-        scene = random_scene(500 + seed, K, board, distance=(0.6, 1.0))
+        scene = random_scene(K, board, distance=(0.6, 1.0), rng=500 + seed)
         found = find_board(scene.image, board)
         truth = scene.rendering.junctions
         assert found.orientation_ambiguous
@@ -338,8 +338,8 @@ def test_a_fainter_second_board_is_not_ignored():
     # still seen, and two boards without bounds are refused.
     board = Board(5, 4, 0.03)
     half = K_from_params(564.9, 564.3, 160.0, 240.0)
-    left = random_scene(500, half, board, (320, 480), max_roll_deg=20.0, distance=(0.5, 0.7)).image
-    right = random_scene(601, half, board, (320, 480), max_roll_deg=20.0, distance=(0.5, 0.7), contrast=0.35).image
+    left = random_scene(half, board, (320, 480), max_roll_deg=20.0, distance=(0.5, 0.7), rng=500).image
+    right = random_scene(half, board, (320, 480), max_roll_deg=20.0, distance=(0.5, 0.7), contrast=0.35, rng=601).image
     assert find_board(right, board).seen.all()
     with pytest.raises(BoardNotFoundError, match="two checkerboards"):
         find_board(np.hstack([left, right]), board)

@@ -39,8 +39,8 @@ def real_junctions(real_images):
 
 def synthetic(seed, noise=2.0, blur=1.0, inset=False, **kw):
     rng = np.random.default_rng(seed)
-    R = render(K, random_pose(rng, K), noise_sigma=noise, blur_sigma=blur, rng=rng, **kw)
-    return R, loose_polygon(R, rng, inset=inset)
+    R = render(K, random_pose(K, rng=rng), noise_sigma=noise, blur_sigma=blur, rng=rng, **kw)
+    return R, loose_polygon(R, inset=inset, rng=rng)
 
 
 # ----------------------------------------------------------------------------- real images
@@ -119,20 +119,20 @@ def test_noise_free_synthetic_image_is_exact():
 
 def test_polygon_inside_the_margin_or_outside_the_sheet_gives_the_same_junctions():
     rng = np.random.default_rng(11)
-    R = render(K, random_pose(rng, K), rng=rng)
-    inset = extract_junctions(R.image, loose_polygon(R, rng, inset=True)).points
-    outside = extract_junctions(R.image, loose_polygon(R, rng, offset_px=(2.0, 5.0)) + [[-3.0], [0.0]]).points
+    R = render(K, random_pose(K, rng=rng), rng=rng)
+    inset = extract_junctions(R.image, loose_polygon(R, inset=True, rng=rng)).points
+    outside = extract_junctions(R.image, loose_polygon(R, offset_px=(2.0, 5.0), rng=rng) + [[-3.0], [0.0]]).points
     np.testing.assert_allclose(inset, outside, atol=0.01)  # the re-centring stops within 0.02 px steps
 
 
 def test_larger_board_and_other_grid():
     board = Board(5, 4, 0.08)
     rng = np.random.default_rng(12)
-    R = render(K, random_pose(rng, K, board), board, rng=rng)
-    J = extract_junctions(R.image, loose_polygon(R, rng), board)
+    R = render(K, random_pose(K, board, rng=rng), board, rng=rng)
+    J = extract_junctions(R.image, loose_polygon(R, rng=rng), board)
     assert J.points.shape == (2, 20) and J.trusted.all()
     assert np.sqrt(np.mean(np.sum((J.points - R.junctions) ** 2, axis=0))) < 0.03
-    np.testing.assert_allclose(cross_junctions(R.image, loose_polygon(R, rng), board.world_points()),
+    np.testing.assert_allclose(cross_junctions(R.image, loose_polygon(R, rng=rng), board.world_points()),
                                R.junctions, atol=0.1)
 
 
@@ -284,9 +284,9 @@ def test_board_spec_that_does_not_match_the_board_says_what_was_found(true, spec
     # the board fitted to a smaller spec.
     rng = np.random.default_rng(1)
     board = Board(*true, 0.0635)
-    R = render(K, random_pose(rng, K, board), board, rng=rng)
+    R = render(K, random_pose(K, board, rng=rng), board, rng=rng)
     message = r"found a \d x \d board of junctions; the board spec says " + f"{spec[0]} x {spec[1]}"
-    for bounds in (loose_polygon(R, rng), None):
+    for bounds in (loose_polygon(R, rng=rng), None):
         with pytest.raises(BoardNotFoundError, match=message):
             extract_junctions(R.image, bounds, Board(*spec, 0.0635))
 
@@ -374,7 +374,7 @@ def test_junctions_through_a_strong_lens_are_fitted_where_the_lens_straightens_t
     rng = np.random.default_rng(5)
     errors = []
     for _ in range(3):
-        R = render(camera, random_pose(rng, camera, board, distance=distance), board, noise_sigma=0.0, rng=rng)
+        R = render(camera, random_pose(camera, board, distance=distance, rng=rng), board, noise_sigma=0.0, rng=rng)
         J = extract_junctions(R.image, R.outline, board, camera=camera)
         assert J.trusted.sum() >= 44
         errors.append(np.hypot(*(J.points - R.junctions))[J.trusted])
@@ -393,7 +393,7 @@ def test_refine_junctions_takes_the_camera_as_extract_junctions_does():
                            size=(640, 480))
     rng = np.random.default_rng(6)
     board = Board()
-    R = render(camera, random_pose(rng, camera, board, distance=(0.45, 0.7)), board, noise_sigma=0.0, rng=rng)
+    R = render(camera, random_pose(camera, board, distance=(0.45, 0.7), rng=rng), board, noise_sigma=0.0, rng=rng)
     start = R.junctions + rng.uniform(-1.0, 1.0, R.junctions.shape)
     half = 0.5 * extract_junctions(R.image, R.outline, board, camera=camera).square_px
     errors = {}

@@ -23,7 +23,7 @@ K = K_from_params(564.9, 564.3, 337.3, 226.5)
 
 def _rendered(seed, board, noise, blur, black=35.0, white=215.0):
     rng = np.random.default_rng(seed)
-    T = random_pose(rng, K, board, (640, 480), distance=(0.6, 0.9) if board == Board() else (0.5, 0.7))
+    T = random_pose(K, board, (640, 480), distance=(0.6, 0.9) if board == Board() else (0.5, 0.7), rng=rng)
     return render(K, T, board, (640, 480), noise_sigma=noise, blur_sigma=blur, black=black, white=white, rng=rng)
 
 
@@ -42,7 +42,7 @@ def _label_error(J, truth) -> float:
 @pytest.mark.parametrize("sigma", [1.0, 4.0, 9.0, 16.0])
 def test_noise_estimate_on_a_rendered_board_with_known_noise(sigma):
     # Unquantised, so that the figure is the noise the renderer added, edges and all.
-    R = render(K, random_pose(3, K), noise_sigma=sigma, blur_sigma=1.5, rng=4, quantize=False)
+    R = render(K, random_pose(K, rng=3), noise_sigma=sigma, blur_sigma=1.5, rng=4, quantize=False)
     assert estimate_noise(R.image) == pytest.approx(sigma, rel=0.08)
     assert estimate_noise(R.image, stride=1) == pytest.approx(sigma, rel=0.08)
 
@@ -120,7 +120,7 @@ def test_noisy_blurred_and_low_contrast_boards_are_found_and_labelled(seed, boar
 def test_a_noisy_board_inside_loose_bounds_is_found():
     board = Board(7, 5, 0.04)
     R = _rendered(4, board, 16.0, 3.0)
-    J = extract_junctions(R.image, loose_polygon(R, 5), board)
+    J = extract_junctions(R.image, loose_polygon(R, rng=5), board)
     assert J.seen.all() and _label_error(J, R.junctions) < 0.6
     assert not J.orientation_ambiguous
 
@@ -132,13 +132,13 @@ def test_a_faint_board_in_a_bright_scene_is_judged_by_its_own_contrast():
     K = K_from_params(564.9, 564.3, 337.3, 226.5)
     board = Board()
     rng = np.random.default_rng(0)
-    T = random_pose(rng, K, board, (640, 480))
+    T = random_pose(K, board, (640, 480), rng=rng)
     r = render(K, T, board, (640, 480), noise_sigma=3.0, rng=rng, black=110.0, white=140.0, background=125.0,
                blur_sigma=1.5)
     image = r.image.copy()
     image[:40, :80] = 0
     image[-40:, -80:] = 255
-    J = extract_junctions(image, loose_polygon(r, rng), board)
+    J = extract_junctions(image, loose_polygon(r, rng=rng), board)
     assert J.trusted.sum() == board.n
     assert np.max(np.hypot(*(J.points - r.junctions))) < 0.5
 
@@ -148,7 +148,7 @@ def test_noisy_images_are_never_mislabelled():
     boards = [Board(), Board(7, 5, 0.04), Board(6, 6, 0.04), Board(9, 6, 0.03)]
     for seed, board in enumerate(boards):
         rng = np.random.default_rng(40 + seed)
-        T = random_pose(rng, K, board, (640, 480), distance=(0.7, 1.0))
+        T = random_pose(K, board, (640, 480), distance=(0.7, 1.0), rng=rng)
         T[0, 3] += 0.3 * (seed % 2)  # the camera moved right: the board runs off the image's left
         R = render(K, T, board, (640, 480), noise_sigma=16.0, blur_sigma=3.0, rng=rng)
         try:
@@ -172,7 +172,7 @@ def test_clean_images_take_the_fast_path_only(monkeypatch):
         return real(*args, **kwargs)
 
     monkeypatch.setattr(find_module, "_search", search)
-    R = render(K, random_pose(5, K), noise_sigma=1.0, rng=6)
+    R = render(K, random_pose(K, rng=5), noise_sigma=1.0, rng=6)
     blank = R.image.copy()
     blank[:] = np.clip(np.rint(R.image.mean() + np.random.default_rng(7).normal(0, 0.5, R.image.shape)), 0, 255)
     blank[100:300, 100:400] = 200  # a white sheet, no board

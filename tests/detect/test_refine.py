@@ -168,7 +168,7 @@ def test_refinement_kernel_follows_the_numpy_refinement():
 
     rng = np.random.default_rng(8)
     K = K_from_params(564.9, 564.3, 337.3, 226.5)
-    R = render(K, random_pose(rng, K, Board(), (640, 480)), Board(), (640, 480), noise_sigma=2.0, rng=rng)
+    R = render(K, random_pose(K, Board(), (640, 480), rng=rng), Board(), (640, 480), noise_sigma=2.0, rng=rng)
     truth = R.junctions[:, :12]
     start = truth + rng.uniform(-2, 2, truth.shape)
     radius = np.full(12, 7.0)

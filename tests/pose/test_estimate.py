@@ -92,9 +92,9 @@ def test_synthetic_images_give_accurate_poses_and_honest_uncertainty():
     rng = np.random.default_rng(2024)
     errors_t, errors_r, nees = [], [], []
     for _ in range(40):
-        T = poses.random_pose(rng, K)
+        T = poses.random_pose(K, rng=rng)
         image = render.render(K, T, noise_sigma=2.0, blur_sigma=1.0, rng=rng)
-        est = estimate_pose(image.image, poses.loose_polygon(image, rng), K)
+        est = estimate_pose(image.image, poses.loose_polygon(image, rng=rng), K)
         assert_good(est)
         dt, dr = pose_difference(est.T_WC, T)
         errors_t.append(dt)

@@ -37,12 +37,12 @@ def random_pose(rng):
 
 def guess_near(T, rng):
     """A start up to 8 degrees and 0.1 m off T."""
-    return perturb_pose(rng, T, angle_deg=(0.0, 8.0), offset_m=(0.0, 0.1))
+    return perturb_pose(T, angle_deg=(0.0, 8.0), offset_m=(0.0, 0.1), rng=rng)
 
 
 def test_exact_correspondences_give_the_exact_pose():
     rng = np.random.default_rng(0)
-    T = random_pose(rng)
+    T = random_pose(rng=rng)
     res = graph_pose(K, guess_near(T, rng), project(K, T, WPTS), WPTS, pixel_sigma=0.5)
     assert isinstance(res, GraphResult) and res.converged
     np.testing.assert_allclose(res.T_WC, T, atol=1e-8)
@@ -52,7 +52,7 @@ def test_exact_correspondences_give_the_exact_pose():
 @pytest.mark.parametrize("seed", range(5))
 def test_graph_and_gauss_newton_agree_on_pose_and_covariance(seed):
     rng = np.random.default_rng(seed)
-    T = random_pose(rng)
+    T = random_pose(rng=rng)
     I = project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48))
     guess = guess_near(T, rng)
     g = gauss_newton(K, guess, I, WPTS)
@@ -67,7 +67,7 @@ def test_graph_and_gauss_newton_agree_on_pose_and_covariance(seed):
 
 def test_agreement_with_a_mask_and_a_huber_kernel():
     rng = np.random.default_rng(10)
-    T = random_pose(rng)
+    T = random_pose(rng=rng)
     I = project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48))
     I[:, 5] += [20.0, -10.0]
     I[:, 30] += [3.0, 2.0]
@@ -84,7 +84,7 @@ def test_agreement_with_a_mask_and_a_huber_kernel():
 
 def test_given_pixel_sigma_scales_the_covariance():
     rng = np.random.default_rng(11)
-    T = random_pose(rng)
+    T = random_pose(rng=rng)
     I = project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48))
     one = graph_pose(K, T, I, WPTS, pixel_sigma=1.0)
     two = graph_pose(K, T, I, WPTS, pixel_sigma=2.0)
@@ -96,7 +96,7 @@ def test_given_pixel_sigma_scales_the_covariance():
 def test_tangent_to_parameter_jacobian_matches_differences_of_gtsam_retract():
     rng = np.random.default_rng(12)
     for _ in range(20):
-        T = random_pose(rng)
+        T = random_pose(rng=rng)
         A = params_from_tangent_jacobian(T)
         pose, h = gtsam.Pose3(T), 1e-6
         for k in range(6):
@@ -108,7 +108,7 @@ def test_tangent_to_parameter_jacobian_matches_differences_of_gtsam_retract():
 
 def test_params_cov_from_tangent_rotates_position_and_maps_angles():
     rng = np.random.default_rng(14)
-    T = random_pose(rng)
+    T = random_pose(rng=rng)
     B = rng.normal(size=(6, 6))
     cov_tangent = B @ B.T
     cov = params_cov_from_tangent(T, cov_tangent)
@@ -124,7 +124,7 @@ def test_params_cov_from_tangent_rotates_position_and_maps_angles():
 
 def test_sigmas_in_reporting_units():
     rng = np.random.default_rng(13)
-    T = random_pose(rng)
+    T = random_pose(rng=rng)
     res = graph_pose(K, T, project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48)), WPTS)
     np.testing.assert_allclose(res.sigma_xyz_m, np.sqrt(np.diag(res.cov)[:3]))
     np.testing.assert_allclose(res.sigma_rpy_rad, np.sqrt(np.diag(res.cov)[3:]))
@@ -199,7 +199,7 @@ def test_the_graphs_projection_is_ours_for_each_model(model):
     rng = np.random.default_rng(30)
     noise = gtsam.noiseModel.Unit.Create(2)
     for _ in range(5):
-        T = random_pose(rng)
+        T = random_pose(rng=rng)
         uv = camera.project(to_camera(T, WPTS))
         for j in range(0, 48, 5):
             factor = projection_factor(camera, uv[:, j], noise, X(0), L(0))
@@ -215,7 +215,7 @@ def test_custom_projection_factor_jacobians_match_differences_of_gtsam_retract(m
     camera = CAMERAS[model]
     rng = np.random.default_rng(31)
     noise = gtsam.noiseModel.Unit.Create(2)
-    T = random_pose(rng)
+    T = random_pose(rng=rng)
     for j in (0, 13, 47):
         values = _values(T, WPTS[:, j])
         factor = projection_factor(camera, np.array([300.0, 200.0]), noise, X(0), L(0))
@@ -240,7 +240,7 @@ def test_graph_and_gauss_newton_agree_on_distorted_correspondences(model):
     camera = CAMERAS[model]
     rng = np.random.default_rng(32)
     for _ in range(3):
-        T = random_pose(rng)
+        T = random_pose(rng=rng)
         I = camera.project(to_camera(T, WPTS)) + rng.normal(0, 0.3, (2, 48))
         guess = guess_near(T, rng)
         g = gauss_newton(camera, guess, I, WPTS)

@@ -24,7 +24,7 @@ def random_pose(rng):
 def test_exact_points_give_the_exact_pose():
     rng = np.random.default_rng(0)
     for _ in range(50):
-        T = random_pose(rng)
+        T = random_pose(rng=rng)
         np.testing.assert_allclose(pose_from_homography(K, project(K, T, WPTS), WPTS), T, atol=1e-8)
 
 
@@ -40,7 +40,7 @@ def test_homography_maps_source_to_destination():
 def test_noisy_points_start_gauss_newton_at_the_same_minimum():
     rng = np.random.default_rng(2)
     for _ in range(20):
-        T = random_pose(rng)
+        T = random_pose(rng=rng)
         I = project(K, T, WPTS) + rng.normal(0, 0.5, (2, 48))
         T0 = pose_from_homography(K, I, WPTS)
         assert np.all(to_camera(T0, WPTS)[2] > 0)
@@ -53,7 +53,7 @@ def test_noisy_points_start_gauss_newton_at_the_same_minimum():
 
 
 def test_four_points_are_enough():
-    T = random_pose(np.random.default_rng(3))
+    T = random_pose(rng=np.random.default_rng(3))
     W = WPTS[:, [0, 7, 40, 47]]
     np.testing.assert_allclose(pose_from_homography(K, project(K, T, W), W), T, atol=1e-8)
 

@@ -36,7 +36,7 @@ def calibrated(camera, cov=COV_K):
 
 
 def pose(rng, camera):
-    return poses.random_pose(rng, camera, BOARD, (640, 480))
+    return poses.random_pose(camera, BOARD, (640, 480), rng=rng)
 
 
 @pytest.mark.parametrize("name", ["pinhole", "radtan", "fisheye"])

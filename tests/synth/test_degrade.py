@@ -38,7 +38,7 @@ def junction_error(image, truth, half_width=8):
 
 @pytest.fixture(scope="module")
 def pose():
-    return random_pose(np.random.default_rng(3), K, Board(), distance=(0.9, 1.1))
+    return random_pose(K, Board(), distance=(0.9, 1.1), rng=np.random.default_rng(3))
 
 
 def test_read_noise_alone_is_the_renderers_noise(pose):

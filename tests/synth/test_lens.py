@@ -82,7 +82,7 @@ def test_outlines_close_and_enclose_the_exact_area(camera, distance):
     rng = np.random.default_rng(1)
     s = board.square_m
     for _ in range(2):
-        T = random_pose(rng, camera, board, distance=distance)
+        T = random_pose(camera, board, distance=distance, rng=rng)
         for x0, y0, side in ((-s, -s, s), (3 * s, 2 * s, s), (-1.5 * s, -1.5 * s, 10 * s)):
             rect = np.array([[x0, x0 + side, x0 + side, x0], [y0, y0, y0 + side, y0 + side], [0.0] * 4])
             seg = _edges(camera, T, rect)

@@ -72,7 +72,7 @@ def test_coverage_clips_to_the_image():
 
 def test_dark_area_equals_projected_black_squares():
     board = Board()
-    T = random_pose(np.random.default_rng(1), K_REAL, board)
+    T = random_pose(K_REAL, board, rng=np.random.default_rng(1))
     levels = dict(background=200.0, white=200.0, black=50.0, gradient=0.0)
     for blur in (0.0, 1.0):  # blur moves grey around but keeps its total
         I = render_ideal(K_REAL, T, board, blur_sigma=blur, supersample=2, **levels)
@@ -109,7 +109,7 @@ def test_sparse_blur_equals_dense_fine_grid_reference():
     # (plus the kernel's reach), times the light, blurred and integrated per pixel.
     board, size, S, sigma = Board(3, 3), (200, 160), 3, 0.8
     K = K_from_params(564.9, 564.3, 100.0, 80.0)
-    T = random_pose(np.random.default_rng(8), K, board, size, distance=(1.3, 1.6))
+    T = random_pose(K, board, size, distance=(1.3, 1.6), rng=np.random.default_rng(8))
     levels = dict(background=50.0, white=210.0, black=30.0)
     light = _Light(*size, 0.3, np.deg2rad(60.0))
     reach = int(np.ceil(5.0 * sigma)) + 1
@@ -165,7 +165,7 @@ def test_supersampling_2_4_and_8_agree_on_junction_positions():
     rng = np.random.default_rng(3)
     hw = 6
     for _ in range(2):
-        T = random_pose(rng, K, board, size, distance=(1.1, 1.4))
+        T = random_pose(K, board, size, distance=(1.1, 1.4), rng=rng)
         ref = render_ideal(K, T, board, size, supersample=8)
         gu, gv = image_gradients(K, T, board, size, supersample=8)
         for S, tol in ((2, 0.002), (4, 0.0005)):
@@ -254,7 +254,7 @@ def test_random_pose_keeps_the_sheet_in_view():
     rng = np.random.default_rng(11)
     board = Board()
     for _ in range(30):
-        T = random_pose(rng, K_REAL, board, (640, 480))
+        T = random_pose(K_REAL, board, (640, 480), rng=rng)
         r = render(K_REAL, T, board, noise_sigma=0.0, blur_sigma=0.0, gradient=0.0)
         uv = r.outline
         assert np.all((uv >= 8) & (uv <= np.array([[631], [471]])))
@@ -265,12 +265,12 @@ def test_random_pose_keeps_the_sheet_in_view():
 
 
 def test_loose_polygon_and_inset():
-    T = random_pose(np.random.default_rng(2), K_REAL)
+    T = random_pose(K_REAL, rng=np.random.default_rng(2))
     r = render(K_REAL, T, rng=2)
-    loose = loose_polygon(r, np.random.default_rng(5))
+    loose = loose_polygon(r, rng=np.random.default_rng(5))
     assert loose.shape == (2, 4)
     assert np.all(np.abs(loose - r.outline) <= 4.0) and np.any(np.abs(loose - r.outline) > 0.5)
-    inner = loose_polygon(r, np.random.default_rng(5), offset_px=(0.0, 0.0), inset=True)
+    inner = loose_polygon(r, offset_px=(0.0, 0.0), inset=True, rng=np.random.default_rng(5))
     squares = project(K_REAL, T, np.array([[-1, 8, 8, -1], [-1, -1, 6, 6], [0, 0, 0, 0]]) * 0.0635)
     for P in (inner,):
         for k in range(4):  # each vertex lies between the squares' corner and the sheet's
@@ -280,8 +280,8 @@ def test_loose_polygon_and_inset():
 
 
 def test_perturb_pose_moves_by_the_requested_amounts():
-    T = random_pose(np.random.default_rng(4), K_REAL)
-    G = perturb_pose(np.random.default_rng(4), T)
+    T = random_pose(K_REAL, rng=np.random.default_rng(4))
+    G = perturb_pose(T, rng=np.random.default_rng(4))
     metres, angle = pose_difference(G, T)
     assert 8.0 <= angle <= 12.0
     assert 0.15 <= metres <= 0.25
@@ -305,25 +305,25 @@ def test_perturb_pose_moves_by_the_requested_amounts():
         (lambda T: render_ideal(K_REAL, T, supersample=0), "supersample must be"),
         (lambda T: render(K_REAL, T, noise_sigma=-2.0), "noise_sigma must be"),
         (lambda T: render_ideal(K_REAL, T_from_params([0, 0, 1.0, 0, 0, 0])), "in front of the camera"),
-        (lambda T: random_pose(0, K_REAL, distance=(0.1, 0.1)), "no pose in"),
-        (lambda T: random_pose(0, K_REAL, distance=(1.0, 0.5)), "distance must be"),
-        (lambda T: random_pose(0, K_REAL, max_tilt_deg=90), "max_tilt_deg must be below"),
-        (lambda T: random_pose(0, K_REAL, max_tries=0), "max_tries must be"),
-        (lambda T: loose_polygon(render(K_REAL, T, rng=0), 0, offset_px=(3, -3)), "offset_px must be"),
+        (lambda T: random_pose(K_REAL, distance=(0.1, 0.1), rng=0), "no pose in"),
+        (lambda T: random_pose(K_REAL, distance=(1.0, 0.5), rng=0), "distance must be"),
+        (lambda T: random_pose(K_REAL, max_tilt_deg=90, rng=0), "max_tilt_deg must be below"),
+        (lambda T: random_pose(K_REAL, max_tries=0, rng=0), "max_tries must be"),
+        (lambda T: loose_polygon(render(K_REAL, T, rng=0), offset_px=(3, -3), rng=0), "offset_px must be"),
         (lambda T: junction_information(K_REAL, T, half_width=0), "half_width must be"),
         (lambda T: junction_information(K_REAL, T, noise_sigma=0.0), "noise_sigma must be a finite number > 0"),
         (lambda T: junction_information(K_REAL, T, delta=0.0), "delta must be a finite number > 0"),
         (lambda T: polygon_coverage(np.zeros((2, 2)), (4, 4)), "m >= 3 vertices"),
-        (lambda T: perturb_pose(0, np.eye(3)), "T_WC must have shape"),
-        (lambda T: random_pose(0, K_REAL, distance=1.0), r"distance must be a pair \(near, far\) metres, got 1.0"),
-        (lambda T: random_pose(0, K_REAL, distance=(0.0, 1.0)), "distance must be .* low > 0"),
-        (lambda T: random_pose(0, K_REAL, distance=(1.0, 2.0, 3.0)), "distance must be a pair"),
-        (lambda T: loose_polygon(render(K_REAL, T, rng=0), 0, offset_px=4.0), "offset_px must be a pair"),
-        (lambda T: loose_polygon(render(K_REAL, T, rng=0), 0, offset_px="34"), "offset_px must be a pair"),
-        (lambda T: perturb_pose(0, T, angle_deg=(12.0, 8.0)), "angle_deg must be .* low <= high"),
-        (lambda T: perturb_pose(0, T, angle_deg=10.0), "angle_deg must be a pair"),
-        (lambda T: perturb_pose(0, T, offset_m=(-0.1, 0.2)), "offset_m must be .* low >= 0"),
-        (lambda T: perturb_pose(0, T, offset_m=(0.1, np.inf)), "offset_m must be"),
+        (lambda T: perturb_pose(np.eye(3), rng=0), "T_WC must have shape"),
+        (lambda T: random_pose(K_REAL, distance=1.0, rng=0), r"distance must be a pair \(near, far\) metres, got 1.0"),
+        (lambda T: random_pose(K_REAL, distance=(0.0, 1.0), rng=0), "distance must be .* low > 0"),
+        (lambda T: random_pose(K_REAL, distance=(1.0, 2.0, 3.0), rng=0), "distance must be a pair"),
+        (lambda T: loose_polygon(render(K_REAL, T, rng=0), offset_px=4.0, rng=0), "offset_px must be a pair"),
+        (lambda T: loose_polygon(render(K_REAL, T, rng=0), offset_px="34", rng=0), "offset_px must be a pair"),
+        (lambda T: perturb_pose(T, angle_deg=(12.0, 8.0), rng=0), "angle_deg must be .* low <= high"),
+        (lambda T: perturb_pose(T, angle_deg=10.0, rng=0), "angle_deg must be a pair"),
+        (lambda T: perturb_pose(T, offset_m=(-0.1, 0.2), rng=0), "offset_m must be .* low >= 0"),
+        (lambda T: perturb_pose(T, offset_m=(0.1, np.inf), rng=0), "offset_m must be"),
     ],
 )
 def test_input_errors(call, match):
@@ -384,8 +384,8 @@ LENSES = [(WIDE, (0.5, 0.8)), (FISHEYE, (0.25, 0.4))]
 
 
 def test_pinhole_camera_renders_exactly_as_K():
-    T = random_pose(np.random.default_rng(6), K_REAL)
-    assert np.array_equal(T, random_pose(np.random.default_rng(6), PinholeCamera(K_REAL)))
+    T = random_pose(K_REAL, rng=np.random.default_rng(6))
+    assert np.array_equal(T, random_pose(PinholeCamera(K_REAL), rng=np.random.default_rng(6)))
     a, b = render(K_REAL, T, rng=1), render(PinholeCamera(K_REAL, (640, 480)), T, rng=1)
     assert np.array_equal(a.image, b.image) and np.array_equal(a.junctions, b.junctions)
     assert a.camera == PinholeCamera(K_REAL) and b.camera == PinholeCamera(K_REAL, (640, 480))
@@ -396,7 +396,7 @@ def test_distortion_free_lens_path_equals_the_pinhole_path():
     # cone, polylines, segments) and must give the pinhole path's image.
     rng = np.random.default_rng(12)
     for _ in range(2):
-        T = random_pose(rng, K_REAL)
+        T = random_pose(K_REAL, rng=rng)
         for settings in ({}, {"blur_sigma": 0.0}, {"blur_sigma": 0.6, "supersample": 3}):
             I = render_ideal(K_REAL, T, **settings)
             J = render_ideal(RadTanCamera(K_REAL, [0.0] * 4), T, **settings)
@@ -406,7 +406,7 @@ def test_distortion_free_lens_path_equals_the_pinhole_path():
 @pytest.mark.parametrize("camera, distance", LENSES)
 def test_distorted_render_truth_is_the_camera_projection(camera, distance):
     board = Board()
-    T = random_pose(np.random.default_rng(3), camera, board, distance=distance)
+    T = random_pose(camera, board, distance=distance, rng=np.random.default_rng(3))
     r = render(camera, T, board, rng=3)
     assert r.camera == camera and r.size == (640, 480) and r.image.shape == (480, 640)
     assert np.array_equal(r.K, camera.K)
@@ -444,7 +444,7 @@ def test_finer_polylines_and_supersampling_barely_change_distorted_junctions(cam
     # junctions by far less than any detector's error (~0.01 px); the displacement is the
     # least-squares translation of each 13 x 13 window, as in the supersampling test above.
     board = Board()
-    T = random_pose(np.random.default_rng(5), camera, board, distance=distance)
+    T = random_pose(camera, board, distance=distance, rng=np.random.default_rng(5))
     base = render_ideal(camera, T, board)
     finer = render_ideal(camera, T, board, edge_tol_px=2.5e-5)
     both = render_ideal(camera, T, board, edge_tol_px=2.5e-5, supersample=8)
@@ -493,7 +493,7 @@ def test_distorted_junctions_match_a_brute_force_reference(camera, distance):
     # translation between the two windows, how far the renderer's junction lies from the
     # reference's, is far below the detector's error (~0.01 px).
     board = Board()
-    T = random_pose(np.random.default_rng(5), camera, board, distance=distance)
+    T = random_pose(camera, board, distance=distance, rng=np.random.default_rng(5))
     levels = {"background": 0.0, "white": 100.0, "black": 0.0, "gradient": 0.0, "blur_sigma": 0.0}
     I = render_ideal(camera, T, board, **levels)
     gu, gv = image_gradients(camera, T, board, delta=0.05, **levels)
@@ -566,7 +566,7 @@ def test_random_pose_keeps_the_distorted_sheet_in_view(camera, distance):
     n = 400
     outline = (sheet[:, :, None] + (np.roll(sheet, -1, axis=1) - sheet)[:, :, None] * (np.arange(n) / n))
     for _ in range(10):
-        T = random_pose(rng, camera, board, distance=distance)
+        T = random_pose(camera, board, distance=distance, rng=rng)
         P_C = to_camera(T, outline.reshape(3, -1))
         assert np.all(in_view(P_C, view_limit(camera, (640, 480))))
         uv = camera.project(P_C)
@@ -579,7 +579,7 @@ def test_random_pose_keeps_the_distorted_sheet_in_view(camera, distance):
         normal_C = T[:3, :3].T[:, 2]
         assert np.degrees(np.arccos(normal_C @ centre_C / np.linalg.norm(centre_C))) < 35.0 + 1e-9
         assert np.linalg.norm(centre_C) == pytest.approx(np.clip(np.linalg.norm(centre_C), *distance))
-    inner = loose_polygon(r, rng, offset_px=(0.0, 0.0), inset=True)
+    inner = loose_polygon(r, offset_px=(0.0, 0.0), inset=True, rng=rng)
     assert np.all(np.hypot(*(inner - r.outline)) > 1.0)
 
 
@@ -588,7 +588,7 @@ def test_principal_point_shift_translates_the_distorted_image():
     # whole pixels moves the raw image by as many pixels.
     from dataclasses import replace
 
-    T = random_pose(np.random.default_rng(9), WIDE, distance=(0.5, 0.8))
+    T = random_pose(WIDE, distance=(0.5, 0.8), rng=np.random.default_rng(9))
     I = render_ideal(WIDE, T, gradient=0.0, blur_sigma=1.3)
     K2 = WIDE.K.copy()
     K2[0, 2] += 1.0
@@ -601,7 +601,7 @@ def test_principal_point_shift_translates_the_distorted_image():
 
 @pytest.mark.parametrize("call, match", [
     (lambda: render_ideal(WIDE, np.eye(4), size=(800, 600)), "calibrated for 640 x 480"),
-    (lambda: random_pose(0, FISHEYE, size=(320, 240)), "calibrated for 640 x 480"),
+    (lambda: random_pose(FISHEYE, size=(320, 240), rng=0), "calibrated for 640 x 480"),
     (lambda: render_ideal(WIDE, np.eye(4), edge_tol_px=0.0), "edge_tol_px must be"),
     (lambda: render_ideal(RadTanCamera(np.eye(3), [0.0] * 4), np.eye(4), board=None), "board must be"),
 ])

@@ -43,7 +43,7 @@ def test_board_is_dark_where_truth_says(short):
 
 def test_motion_is_smooth_and_excursions_leave_view():
     rng = np.random.default_rng(5)
-    motion = HandHeldMotion(rng, K, Board(), (640, 480), 10.0, excursions=2)
+    motion = HandHeldMotion(K, Board(), (640, 480), 10.0, excursions=2, rng=rng)
     poses = np.array([motion(k / 30) for k in range(300)])
     steps = np.linalg.norm(np.diff(poses[:, :3, 3], axis=0), axis=1)
     assert steps.max() < 0.03  # < 0.9 m/s

@@ -119,7 +119,7 @@ def test_a_noisy_board_is_redetected_after_a_loss_and_tracked_with_more_smoothin
     from graphpose.synth.render import render
 
     rng = np.random.default_rng(0)
-    T = random_pose(rng, K, Board(), (640, 480), distance=(0.6, 0.9))
+    T = random_pose(K, Board(), (640, 480), distance=(0.6, 0.9), rng=rng)
     frames = [render(K, T, Board(), (640, 480), noise_sigma=16.0, blur_sigma=2.0, rng=seed).image for seed in (1, 2)]
     front = FrontEnd(K, Board(), TrackerConfig())
     front.lose()
