@@ -87,7 +87,7 @@ class Backend(Protocol):
     def break_segment(self) -> None:
         """Start a new segment: the next frame gets no motion factor (called after a loss)."""
 
-    def add_frame(self, k: int, timestamp: float, points: np.ndarray, ids: np.ndarray, T_init: np.ndarray,
+    def add_frame(self, k: int, timestamp: float, points: np.ndarray, ids: np.ndarray, T_WC_init: np.ndarray,
                   pixel_sigma: float) -> BackendResult:
         """Add frame ``k`` and update the online estimate.
 
@@ -101,7 +101,7 @@ class Backend(Protocol):
             Junction pixels (u, v) seen in the frame.
         ids : (m,) int ndarray
             Which junction (row-major board index) each point is.
-        T_init : (4, 4) ndarray
+        T_WC_init : (4, 4) ndarray
             Initial guess of the pose (the frame's single-frame fit).
         pixel_sigma : float
             Standard deviation of a junction position, pixels.

@@ -105,7 +105,7 @@ class FixedLagGraph:
         self._builder.break_segment()
         self._new_segment = True
 
-    def add_frame(self, k: int, timestamp: float, points, ids, T_init, pixel_sigma: float) -> BackendResult:
+    def add_frame(self, k: int, timestamp: float, points, ids, T_WC_init, pixel_sigma: float) -> BackendResult:
         """Add frame ``k``, update the smoother and marginalise what the lag leaves behind.
 
         Parameters and return as :meth:`graphpose.track.backend.Backend.add_frame` (the
@@ -118,7 +118,7 @@ class FixedLagGraph:
         # This update marginalises every key older than this: no new factor reaches them.
         self._builder.forget_before(timestamp - self.lag_s)
         new_segment = self._new_segment or not self._builder.segment
-        graph, values, stamps = self._builder.frame(k, timestamp, points, ids, T_init, pixel_sigma)
+        graph, values, stamps = self._builder.frame(k, timestamp, points, ids, T_WC_init, pixel_sigma)
         if self._shared:
             if not self._frames:
                 pins, pinned = self._builder.shared_landmarks()
@@ -127,7 +127,7 @@ class FixedLagGraph:
             for j in range(self.board.n):  # re-stamped: never marginalised
                 stamps[L(j)] = timestamp
         self._smoother.update(graph, values, stamps)
-        pose = refine_pose(self._smoother.update, lambda: self._smoother.calculateEstimatePose3(X(k)), T_init)
+        pose = refine_pose(self._smoother.update, lambda: self._smoother.calculateEstimatePose3(X(k)), T_WC_init)
         cov = self._smoother.marginalCovariance(X(k))
         T = pose.matrix()
         self._frames.append(k)

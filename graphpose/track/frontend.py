@@ -280,24 +280,24 @@ class FrontEnd:
         return (points, ids, fit), ""
 
 
-def constant_velocity_prediction(T0, T1, ratio: float) -> np.ndarray:
-    """The pose one interval after ``T1`` if the body-frame twist from ``T0`` to ``T1`` holds.
+def constant_velocity_prediction(T_WC_0, T_WC_1, ratio: float) -> np.ndarray:
+    """The pose one interval after ``T_WC_1`` if the body-frame twist from ``T_WC_0`` to ``T_WC_1`` holds.
 
     Parameters
     ----------
-    T0, T1 : (4, 4) ndarray
+    T_WC_0, T_WC_1 : (4, 4) ndarray
         Poses T_WC of two consecutive frames (trusted: rigid transforms).
     ratio : float
-        The next frame interval over the one from ``T0`` to ``T1``.
+        The next frame interval over the one from ``T_WC_0`` to ``T_WC_1``.
 
     Returns
     -------
     (4, 4) ndarray
-        ``T1 Exp(ratio Log(T0^-1 T1))``, with the exact SE(3) exponential and logarithm
+        ``T_WC_1 Exp(ratio Log(T_WC_0^-1 T_WC_1))``, with the exact SE(3) exponential and logarithm
         (:func:`graphpose.geometry.se3_exp` / :func:`~graphpose.geometry.se3_log`, GTSAM's
         ``Pose3.Expmap``/``Logmap``, the twist rotation first).
     """
-    return T1 @ se3_exp(ratio * se3_log(relative_pose(T0, T1)))
+    return T_WC_1 @ se3_exp(ratio * se3_log(relative_pose(T_WC_0, T_WC_1)))
 
 
 def _detection_message(whys) -> str:

@@ -42,11 +42,11 @@ def fixed_lag_isam_params() -> gtsam.ISAM2Params:
     return params
 
 
-def refine_pose(update, pose_of, T_init) -> gtsam.Pose3:
+def refine_pose(update, pose_of, T_WC_init) -> gtsam.Pose3:
     """A few more iSAM2 updates while the new pose still moves by more than
     :data:`RELINEARIZE_THRESHOLD`: one update is one Gauss-Newton step, and a poor start
     needs more. (Poses are compared: the delta of every variable would cost more.)"""
-    linear, pose = gtsam.Pose3(np.asarray(T_init, dtype=float)), pose_of()
+    linear, pose = gtsam.Pose3(np.asarray(T_WC_init, dtype=float)), pose_of()
     for _ in range(RELINEARIZE_STEPS):
         if np.max(np.abs(gtsam.Pose3.Logmap(linear.between(pose)))) < RELINEARIZE_THRESHOLD:
             break

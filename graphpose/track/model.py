@@ -178,7 +178,7 @@ class FactorBuilder:
         """Key of frame ``k``'s copy of target point ``j`` (``"frame_landmarks"``)."""
         return gtsam.symbol("l", k * self._stride + j)
 
-    def frame(self, k: int, timestamp: float, points, ids, T_init, pixel_sigma: float) -> tuple:
+    def frame(self, k: int, timestamp: float, points, ids, T_WC_init, pixel_sigma: float) -> tuple:
         """Frame ``k``'s new factors and variables.
 
         Returns
@@ -186,7 +186,7 @@ class FactorBuilder:
         graph : gtsam.NonlinearFactorGraph
             Its target factors, then its motion factor (if any).
         values : gtsam.Values
-            Initial values of its new variables: ``X(k)`` at ``T_init``, its landmarks at
+            Initial values of its new variables: ``X(k)`` at ``T_WC_init``, its landmarks at
             the target points, new velocities at zero.
         stamps : dict
             ``{key: seconds}`` of the new variables (each stamped with its own frame's time).
@@ -194,7 +194,7 @@ class FactorBuilder:
         graph, values, stamps = gtsam.NonlinearFactorGraph(), gtsam.Values(), {}
         self._target_factors(graph, values, stamps, k, timestamp, points, ids, pixel_sigma)
         velocity = self._motion_factor(graph, values, stamps, k, timestamp)
-        values.insert(X(k), gtsam.Pose3(np.asarray(T_init, dtype=float)))
+        values.insert(X(k), gtsam.Pose3(np.asarray(T_WC_init, dtype=float)))
         stamps[X(k)] = timestamp
         self.segment = (self.segment + [(k, timestamp, velocity)])[-2:]
         return graph, values, stamps

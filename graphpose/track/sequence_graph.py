@@ -81,7 +81,7 @@ class SequenceGraph:
         """Start a new segment: the next frame gets no motion factor (called after a loss)."""
         self._builder.break_segment()
 
-    def add_frame(self, k: int, timestamp: float, points, ids, T_init, pixel_sigma: float) -> BackendResult:
+    def add_frame(self, k: int, timestamp: float, points, ids, T_WC_init, pixel_sigma: float) -> BackendResult:
         """Add frame ``k`` and update iSAM2.
 
         Parameters and return as :meth:`graphpose.track.backend.Backend.add_frame` (the
@@ -91,13 +91,13 @@ class SequenceGraph:
         points = np.asarray(points, dtype=float)
         ids = np.asarray(ids, dtype=int)
         new_segment = not self._builder.segment  # the first frame, or the first after a break
-        graph, values, _ = self._builder.frame(k, timestamp, points, ids, T_init, pixel_sigma)
+        graph, values, _ = self._builder.frame(k, timestamp, points, ids, T_WC_init, pixel_sigma)
         self._graph.push_back(graph)
         self._pending_graph.push_back(graph)
         self._pending_values.insert(values)
         self._measurements.append(FrameMeasurement(k, float(timestamp), points, ids, float(pixel_sigma), new_segment))
         self._isam.update(self._pending_graph, self._pending_values, constrainedKeys=self._order(k, ids))
-        pose = refine_pose(self._isam.update, lambda: self._isam.calculateEstimatePose3(X(k)), T_init)
+        pose = refine_pose(self._isam.update, lambda: self._isam.calculateEstimatePose3(X(k)), T_WC_init)
         cov = self._isam.marginalCovariance(X(k))
         self._pending_graph, self._pending_values = gtsam.NonlinearFactorGraph(), gtsam.Values()
         return backend_result(pose.matrix(), cov, time.perf_counter() - start)
