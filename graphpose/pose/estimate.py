@@ -241,11 +241,11 @@ def fit_pose(camera, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False)
 def _fit(camera, Ipts, Wpts, guess, mask, robust):
     """:func:`fit_pose` on a validated camera, points, guess and mask."""
     start = pose_from_homography(camera, Ipts[:, mask], Wpts[:, mask]) if guess is None else guess
-    gn = gauss_newton(camera, start, Ipts, Wpts, mask=mask)
+    gn = gauss_newton(camera, start, Ipts, Wpts, mask=mask, check=False)
     if robust:
         pixel_sigma = max(1.4826 * float(np.nanmedian(np.abs(gn.residuals[:, mask]))), 1e-12)
         gn = gauss_newton(camera, start, Ipts, Wpts, mask=mask, huber_px=HUBER_K * pixel_sigma,
-                          pixel_sigma=pixel_sigma)
+                          pixel_sigma=pixel_sigma, check=False)
     return gn, start
 
 
@@ -262,7 +262,7 @@ def estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust) -> PoseEsti
     # from the shared start would; the basin question (a guess far off) is settled by
     # _compare_with_linear_start. It spares GTSAM's own descent: a third of its time.
     graph = graph_pose(camera, gn.T_WC if gn.converged else start, Ipts, Wpts, mask=mask,
-                       pixel_sigma=pixel_sigma, robust=robust)
+                       pixel_sigma=pixel_sigma, robust=robust, check=False)
     converged, message = gn.converged, "ok" if gn.converged else f"Gauss-Newton: {gn.message}"
     if guess is not None and gn.converged and on_target_plane(Wpts):
         converged, message = _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn)
@@ -307,7 +307,7 @@ def _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn):
     """Whether GN from the homography start finds a clearly lower cost than from the guess."""
     try:
         linear = pose_from_homography(camera, Ipts[:, mask], Wpts[:, mask])
-        other = gauss_newton(camera, linear, Ipts, Wpts, mask=mask, huber_px=huber_px)
+        other = gauss_newton(camera, linear, Ipts, Wpts, mask=mask, huber_px=huber_px, check=False)
     except InputError:
         return True, "ok"  # no usable homography start: nothing to compare with
     mine = reprojection_cost(gn.residuals[:, mask], huber_px)

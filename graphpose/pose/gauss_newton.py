@@ -205,7 +205,7 @@ _NO_JACOBIAN = np.empty((0, 6))
 
 
 def gauss_newton(camera, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel_sigma=None,
-                 max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL) -> GNResult:
+                 max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL, check: bool = True) -> GNResult:
     """Refine a camera pose by damped Gauss-Newton on the reprojection error.
 
     Parameters
@@ -230,6 +230,10 @@ def gauss_newton(camera, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel
         Iteration cap.
     tol : float
         Convergence when the undamped step's largest entry is below ``tol`` (m, rad).
+    check : bool
+        Validate the camera, points, mask and guess (the public edge). False trusts them as
+        already checked (:func:`graphpose.pose.estimate.estimate_pose_unchecked`): a camera
+        object, float arrays of the right shapes, a boolean mask, a (4, 4) float guess.
 
     Returns
     -------
@@ -244,8 +248,9 @@ def gauss_newton(camera, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel
         non-positive ``huber_px`` or ``pixel_sigma``, or a used point behind the camera at
         the guess.
     """
-    camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
-    T_guess = check_transform(T_guess, "T_guess")
+    if check:
+        camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
+        T_guess = check_transform(T_guess, "T_guess")
     huber_px = None if huber_px is None else check_number("huber_px", huber_px, 0.0, strict=True)
     pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
     return _solve(camera, params_from_T(T_guess), Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)

@@ -136,7 +136,7 @@ class GraphResult:
 
 
 def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=False,
-               huber_k: float = HUBER_K) -> GraphResult:
+               huber_k: float = HUBER_K, check: bool = True) -> GraphResult:
     """Solve the camera pose with a GTSAM factor graph and return its marginal covariance.
 
     Parameters
@@ -161,6 +161,10 @@ def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robu
         absolute residual).
     huber_k : float
         Huber threshold in sigmas.
+    check : bool
+        Validate the camera, points, mask and guess (the public edge). False trusts them as
+        already checked (:func:`graphpose.pose.estimate.estimate_pose_unchecked`): a camera
+        object, float arrays of the right shapes, a boolean mask, a (4, 4) float guess.
 
     Returns
     -------
@@ -173,8 +177,9 @@ def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robu
         non-positive ``pixel_sigma`` or ``huber_k``, or a used point behind the camera at the
         guess.
     """
-    camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
-    T_guess = check_transform(T_guess, "T_guess")
+    if check:
+        camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
+        T_guess = check_transform(T_guess, "T_guess")
     pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
     check_in_front(to_camera(T_guess, Wpts[:, mask])[2], "the guess", np.flatnonzero(mask))
