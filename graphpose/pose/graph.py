@@ -43,7 +43,7 @@ from gtsam.symbol_shorthand import L, X
 
 from .._checks import check_in_front, check_number, check_transform
 from ..observations import check_observations
-from ..geometry import params_from_T, to_camera
+from ..geometry import hat, params_from_T, to_camera
 from .gauss_newton import reprojection_rms
 
 #: Standard deviation (metres) of the prior that pins each target point: far below anything
@@ -323,8 +323,7 @@ def projection_factor(camera, uv, noise, pose_key, point_key, calibration=None):
         uv_hat, G = camera.project_jacobian(P[:, None])
         if jacobians is not None:
             # Right perturbation T Exp(omega, v): dP = [P]x omega - v; dP / dp_W = R^T.
-            Px = np.array([[0.0, -P[2], P[1]], [P[2], 0.0, -P[0]], [-P[1], P[0], 0.0]])
-            jacobians[0] = G[0] @ np.hstack([Px, -np.eye(3)])
+            jacobians[0] = G[0] @ np.hstack([hat(P), -np.eye(3)])
             jacobians[1] = G[0] @ R.T
         return uv_hat[:, 0] - measured
 
