@@ -33,7 +33,7 @@ import numpy as np
 
 from .._checks import check_transform
 from ..errors import DegenerateGeometryError, InputError
-from ..geometry import to_camera
+from ..geometry import pose_difference, to_camera  # pose_difference: re-exported, public here too
 from ..observations import check_observations
 from .gauss_newton import GNResult, gauss_newton_unchecked, huber_weights, reprojection_cost
 from .graph import HUBER_K, GraphResult, graph_pose_unchecked
@@ -320,30 +320,6 @@ def _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn):
             f"{dt:.3g} m and {dr:.3g} deg from a better one (cost {theirs:.6g}) found from "
             f"the homography start: the guess is too far off; retry with guess=None")
     return True, "ok"
-
-
-def pose_difference(T_a, T_b):
-    """Distance (m) between two camera positions and angle (degrees) of their relative rotation.
-
-    The angle comes from ``atan2`` of the skew and symmetric parts, accurate for tiny angles
-    (``arccos`` of the trace loses half the digits there).
-
-    Parameters
-    ----------
-    T_a, T_b : (4, 4) array_like
-        Camera poses T_WC (trusted: rigid transforms).
-
-    Returns
-    -------
-    translation_m : float
-        ``|t_a - t_b|``, metres.
-    rotation_deg : float
-        Angle of ``C_a^T C_b``, degrees in [0, 180].
-    """
-    R = np.asarray(T_a)[:3, :3].T @ np.asarray(T_b)[:3, :3]
-    s = 0.5 * np.linalg.norm([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    angle = np.degrees(np.arctan2(s, 0.5 * (np.trace(R) - 1.0)))
-    return float(np.linalg.norm(np.asarray(T_a)[:3, 3] - np.asarray(T_b)[:3, 3])), float(angle)
 
 
 def cross_check(gn: GNResult, graph: GraphResult) -> CrossCheck:

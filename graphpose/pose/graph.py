@@ -43,7 +43,7 @@ from gtsam.symbol_shorthand import L, X
 
 from .._checks import check_in_front, check_number, check_transform
 from ..observations import check_observations
-from ..geometry import params_from_T, to_camera
+from ..geometry import hat, params_from_T, to_camera
 from .gauss_newton import reprojection_rms
 
 #: Standard deviation (metres) of the prior that pins each target point: far below anything
@@ -239,13 +239,26 @@ def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True):
     #    in one call, but it takes the landmark keys as floats, which cannot hold L(j); with
     #    small integer keys the elimination orders the variables worse, and the whole solve
     #    took 1.5 times as long.)
+    #    The keys, the factor's maker and the points' columns are made once, outside the loop.
     initial = gtsam.Values()
-    initial.insert(X(0), gtsam.Pose3(T_guess))
-    for j in np.flatnonzero(mask):
-        graph.add(projection_factor(camera, Ipts[:, j], pixel_noise, X(0), L(j), calibration))
-        graph.add(gtsam.PriorFactorPoint3(L(j), Wpts[:, j], landmark_noise))
+    pose_key = X(0)
+    initial.insert(pose_key, gtsam.Pose3(T_guess))
+    used = np.flatnonzero(mask)
+    uvs, points = Ipts[:, used].T.copy(), Wpts[:, used].T.copy()
+    if calibration is not None:
+        maker = PROJECTION_FACTORS[type(calibration).__name__]
+
+        def factor(uv, key):
+            return maker(uv, pixel_noise, pose_key, key, calibration)
+    else:
+        def factor(uv, key):
+            return projection_factor(camera, uv, pixel_noise, pose_key, key)
+    for j, uv, point in zip(used.tolist(), uvs, points):
+        key = L(j)
+        graph.add(factor(uv, key))
+        graph.add(gtsam.PriorFactorPoint3(key, point, landmark_noise))
         # 4. Initial values: the guessed pose and the exact target points.
-        initial.insert(L(j), Wpts[:, j])
+        initial.insert(key, point)
     # 5. Optimise with Levenberg-Marquardt from the guess.
     params = gtsam.LevenbergMarquardtParams()
     params.setRelativeErrorTol(_RELATIVE_TOL)
@@ -313,8 +326,7 @@ def projection_factor(camera, uv, noise, pose_key, point_key, calibration=None):
         uv_hat, G = camera.project_jacobian(P[:, None])
         if jacobians is not None:
             # Right perturbation T Exp(omega, v): dP = [P]x omega - v; dP / dp_W = R^T.
-            Px = np.array([[0.0, -P[2], P[1]], [P[2], 0.0, -P[0]], [-P[1], P[0], 0.0]])
-            jacobians[0] = G[0] @ np.hstack([Px, -np.eye(3)])
+            jacobians[0] = G[0] @ np.hstack([hat(P), -np.eye(3)])
             jacobians[1] = G[0] @ R.T
         return uv_hat[:, 0] - measured
 

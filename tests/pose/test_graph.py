@@ -4,6 +4,7 @@ import pytest
 from gtsam.symbol_shorthand import L, X
 
 from graphpose import InputError
+from graphpose.camera_models import as_camera
 from graphpose.geometry import T_from_params, params_from_T, project, to_camera
 from graphpose.io.cases import bundled_cases
 from graphpose.pose.estimate import (
@@ -12,10 +13,11 @@ from graphpose.pose.estimate import (
     estimate_pose_from_points,
     pose_difference,
 )
-from graphpose.pose.gauss_newton import gauss_newton
+from graphpose.pose.gauss_newton import gauss_newton, gauss_newton_unchecked
 from graphpose.pose.graph import (
     GraphResult,
     graph_pose,
+    graph_pose_unchecked,
     params_cov_from_tangent,
     params_from_tangent_jacobian,
     projection_factor,
@@ -256,3 +258,23 @@ def test_graph_and_gauss_newton_agree_on_distorted_correspondences(model):
         assert est.ok, est.message
         assert est.orientation_ambiguous is False
         assert pose_difference(est.T_WC, g.T_WC)[0] < 1e-6
+
+
+def test_unchecked_cores_give_the_checked_solve():
+    # estimate_pose_unchecked calls both solvers' unchecked cores on inputs it checked: the
+    # result must be the checked call's, and the checked call must still refuse bad input.
+    rng = np.random.default_rng(7)
+    T = random_pose(rng)
+    I = project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48))
+    mask = np.ones(48, dtype=bool)
+    mask[[3, 17]] = False
+    I[:, 3] = np.nan
+    guess = guess_near(T, rng)
+    camera = as_camera(K)
+    for solve, core in ((gauss_newton, gauss_newton_unchecked), (graph_pose, graph_pose_unchecked)):
+        a = solve(K, guess, I, WPTS, mask=mask)
+        b = core(camera, guess, I, WPTS, mask)
+        np.testing.assert_array_equal(a.T_WC, b.T_WC)
+        np.testing.assert_array_equal(a.cov, b.cov)
+        with pytest.raises(InputError, match="NaN"):
+            solve(K, guess, I, WPTS, mask=np.ones(48, dtype=bool))
