@@ -34,9 +34,9 @@ from benchmarks._common import (DATA, K_REAL, match_to, mean, median, median_tim
                                 opencv_pnp, params_error, points, rms)
 
 
-def _opencv_refine(cv2, K, T_guess, Ipts, Wpts):
+def _opencv_refine(cv2, K, T_WC_guess, Ipts, Wpts):
     """OpenCV's Levenberg-Marquardt refinement started from the guess T_WC; returns T_WC."""
-    return opencv_pnp(cv2, K, Ipts, Wpts, guess=T_guess)
+    return opencv_pnp(cv2, K, Ipts, Wpts, guess=T_WC_guess)
 
 
 def _speed_sets(quick):

@@ -204,7 +204,7 @@ def _residual(camera, p, I, W, jacobian):
 _NO_JACOBIAN = np.empty((0, 6))
 
 
-def gauss_newton(camera, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel_sigma=None,
+def gauss_newton(camera, T_WC_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel_sigma=None,
                  max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL) -> GNResult:
     """Refine a camera pose by damped Gauss-Newton on the reprojection error.
 
@@ -213,7 +213,7 @@ def gauss_newton(camera, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel
     camera : Camera or (3, 3) array_like
         The camera model (:mod:`graphpose.camera_models`; the points are then raw, distorted
         pixels), or pinhole intrinsics ``K``, pixels.
-    T_guess : (4, 4) array_like
+    T_WC_guess : (4, 4) array_like
         Starting pose T_WC.
     Ipts : (2, n) array_like
         Observed junctions (u, v), pixels; NaN allowed where ``mask`` is False.
@@ -245,18 +245,18 @@ def gauss_newton(camera, T_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel
         the guess.
     """
     camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
-    T_guess = check_transform(T_guess, "T_guess")
+    T_WC_guess = check_transform(T_WC_guess, "T_WC_guess")
     huber_px = None if huber_px is None else check_number("huber_px", huber_px, 0.0, strict=True)
     pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
-    return gauss_newton_unchecked(camera, T_guess, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
+    return gauss_newton_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
 
 
-def gauss_newton_unchecked(camera, T_guess, Ipts, Wpts, mask, huber_px=None, pixel_sigma=None,
+def gauss_newton_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, huber_px=None, pixel_sigma=None,
                            max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL) -> GNResult:
     """:func:`gauss_newton` on inputs already checked at a public edge (a camera object, float
     arrays of the right shapes, a boolean mask, a checked guess, positive ``huber_px`` and
     ``pixel_sigma`` or None); the guess's depths are still checked (they depend on the pose)."""
-    return _solve(camera, params_from_T(T_guess), Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
+    return _solve(camera, params_from_T(T_WC_guess), Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
 
 
 def _weights(r, huber_px):

@@ -135,7 +135,7 @@ class GraphResult:
         return np.degrees(np.sqrt(np.diag(self.cov_tangent)[:3]))
 
 
-def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=False,
+def graph_pose(camera, T_WC_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=False,
                huber_k: float = HUBER_K) -> GraphResult:
     """Solve the camera pose with a GTSAM factor graph and return its marginal covariance.
 
@@ -144,7 +144,7 @@ def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robu
     camera : Camera or (3, 3) array_like
         The camera model (:mod:`graphpose.camera_models`; raw, distorted pixels), or pinhole
         intrinsics ``K``, pixels (fx, fy, skew, cx, cy go into ``Cal3_S2``).
-    T_guess : (4, 4) array_like
+    T_WC_guess : (4, 4) array_like
         Starting pose T_WC.
     Ipts : (2, n) array_like
         Observed junctions (u, v), pixels; NaN allowed where ``mask`` is False.
@@ -174,26 +174,26 @@ def graph_pose(camera, T_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robu
         guess.
     """
     camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
-    T_guess = check_transform(T_guess, "T_guess")
+    T_WC_guess = check_transform(T_WC_guess, "T_WC_guess")
     pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
-    return graph_pose_unchecked(camera, T_guess, Ipts, Wpts, mask, pixel_sigma, robust, huber_k)
+    return graph_pose_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma, robust, huber_k)
 
 
-def graph_pose_unchecked(camera, T_guess, Ipts, Wpts, mask, pixel_sigma=None, robust=False,
+def graph_pose_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma=None, robust=False,
                          huber_k: float = HUBER_K) -> GraphResult:
     """:func:`graph_pose` on inputs already checked at a public edge (a camera object, float
     arrays of the right shapes, a boolean mask, a checked guess, positive ``pixel_sigma`` or
     None and ``huber_k``); the guess's depths are still checked (they depend on the pose)."""
-    check_in_front(to_camera(T_guess, Wpts[:, mask])[2], "the guess", np.flatnonzero(mask))
+    check_in_front(to_camera(T_WC_guess, Wpts[:, mask])[2], "the guess", np.flatnonzero(mask))
     if robust and pixel_sigma is None:
         # Only its pose is used: no marginals.
-        plain = _solve(camera, T_guess, Ipts, Wpts, mask, 1.0, None, marginals=False)
+        plain = _solve(camera, T_WC_guess, Ipts, Wpts, mask, 1.0, None, marginals=False)
         r = Ipts[:, mask] - camera.project(to_camera(plain[0], Wpts[:, mask]))
         pixel_sigma = max(1.4826 * float(np.median(np.abs(r))), 1e-12)
     sigma = 1.0 if pixel_sigma is None else float(pixel_sigma)
     T, cov_tangent, converged, iterations, message = _solve(
-        camera, T_guess, Ipts, Wpts, mask, sigma, huber_k if robust else None)
+        camera, T_WC_guess, Ipts, Wpts, mask, sigma, huber_k if robust else None)
     residuals = np.full((2, mask.size), np.nan)
     residuals[:, mask] = Ipts[:, mask] - camera.project(to_camera(T, Wpts[:, mask]))
     used = residuals[:, mask]
@@ -216,7 +216,7 @@ def graph_pose_unchecked(camera, T_guess, Ipts, Wpts, mask, pixel_sigma=None, ro
     )
 
 
-def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True):
+def _solve(camera, T_WC_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True):
     """Build and optimise the graph.
 
     Returns (T_WC, tangent covariance (NaN unless ``marginals``), converged, iterations,
@@ -242,7 +242,7 @@ def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True):
     #    The keys, the factor's maker and the points' columns are made once, outside the loop.
     initial = gtsam.Values()
     pose_key = X(0)
-    initial.insert(pose_key, gtsam.Pose3(T_guess))
+    initial.insert(pose_key, gtsam.Pose3(T_WC_guess))
     used = np.flatnonzero(mask)
     uvs, points = Ipts[:, used].T.copy(), Wpts[:, used].T.copy()
     if calibration is not None:
@@ -272,7 +272,7 @@ def _solve(camera, T_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True):
         # IndeterminateSystemException): that is a failed solve, reported, not a crash.
         nan = np.full((6, 6), np.nan)
         lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
-        return np.asarray(T_guess, dtype=float), nan, False, int(optimizer.iterations()), (
+        return np.asarray(T_WC_guess, dtype=float), nan, False, int(optimizer.iterations()), (
             lines[0] if lines else type(exc).__name__)
 
 

@@ -234,8 +234,8 @@ def test_convergence_basin_reaches_the_linear_initialiser_pose():
         (lambda a: {**a, "Wpts": a["Wpts"][:2]}, r"Wpts must have shape \(3, N\)"),
         (lambda a: {**a, "camera": np.diag([0.0, 564.3, 1.0])}, "focal"),
         (lambda a: {**a, "camera": np.full((3, 3), np.nan)}, "NaN"),
-        (lambda a: {**a, "T_guess": np.eye(3)}, "shape"),
-        (lambda a: {**a, "T_guess": T_from_params([0.2, 0.15, 1.0, 0, 0, 0])}, "behind the camera"),
+        (lambda a: {**a, "T_WC_guess": np.eye(3)}, "shape"),
+        (lambda a: {**a, "T_WC_guess": T_from_params([0.2, 0.15, 1.0, 0, 0, 0])}, "behind the camera"),
         (lambda a: {**a, "mask": np.ones(47, dtype=bool)}, "mask"),
         (lambda a: {**a, "mask": np.arange(48) < 3}, "at least 4"),
         (lambda a: {**a, "huber_px": -1.0}, "huber_px"),
@@ -243,7 +243,7 @@ def test_convergence_basin_reaches_the_linear_initialiser_pose():
 )
 def test_bad_input_is_refused(change, match):
     T = T_from_params([0.2, 0.15, -1.0, 0.0, 0.0, 0.0])
-    args = dict(camera=K, T_guess=T, Ipts=project(K, T, WPTS), Wpts=WPTS)
+    args = dict(camera=K, T_WC_guess=T, Ipts=project(K, T, WPTS), Wpts=WPTS)
     with pytest.raises(InputError, match=match):
         gauss_newton(**change(args))
 

@@ -152,14 +152,14 @@ def test_behind_the_camera_message_names_the_callers_index():
         (dict(pixel_sigma=0.0), "pixel_sigma"),
         (dict(huber_k=-1.0, robust=True), "huber_k"),
         (dict(mask=np.arange(48) < 2), "at least 4"),
-        (dict(T_guess=T_from_params([0.2, 0.15, 1.0, 0, 0, 0])), "behind the camera"),
+        (dict(T_WC_guess=T_from_params([0.2, 0.15, 1.0, 0, 0, 0])), "behind the camera"),
         (dict(Ipts=np.zeros((2, 47))), "same number"),
         (dict(camera=np.eye(3) * [0, 1, 1]), "focal"),
     ],
 )
 def test_bad_input_is_refused(kwargs, match):
     T = T_from_params([0.2, 0.15, -1.0, 0.0, 0.0, 0.0])
-    args = dict(camera=K, T_guess=T, Ipts=project(K, T, WPTS), Wpts=WPTS)
+    args = dict(camera=K, T_WC_guess=T, Ipts=project(K, T, WPTS), Wpts=WPTS)
     args.update(kwargs)
     with pytest.raises(InputError, match=match):
         graph_pose(**args)
