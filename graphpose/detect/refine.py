@@ -15,6 +15,8 @@ Coordinates follow :mod:`graphpose.geometry`.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .._checks import as_float_array, as_points, check_image, check_number
@@ -186,10 +188,7 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
             base[:, drift] = np.rint(current[:, drift])
             fresh = _patches(image, base[:, drift], half, kernel, radius[drift])
             patches[drift], grad2[drift], inside[drift] = fresh
-            fresh = _lens_patches(lens, base[:, drift], offs, disc, patches[drift], grad2[drift])
-            through[0][:, drift], through[1][:, drift] = fresh[0], fresh[1]
-            for held, part in zip(through[2:], fresh[2:]):
-                held[drift] = part
+            through.replace(drift, _lens_patches(lens, base[:, drift], offs, disc, patches[drift], grad2[drift]))
         new, fitted, residual[act] = _fit_through(lens, through, act, half, current[:, act] - base[:, act],
                                                   radius[act])
         step = np.hypot(*(new - current[:, act]))
@@ -204,13 +203,43 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
     return current, (state == 1) & inside & crosses.view(bool), residual
 
 
-def _lens_patches(lens, base, offs, disc, patches, grad2):
-    """What the fits through the lens reuse while a patch stays: per patch (m of them)
-    the undistorted position of its base pixel (2, m), the lens's node values (2, m, 5, 5)
-    (:func:`_node_values`), and for the pixels of ``disc`` (n of them) their positions
-    ``x, y`` (m, n) about that origin, grey values (m, n) and squared gradients (m, n), zero
-    where the lens gives no position (then the pixel has no weight).
+@dataclass
+class _LensPatches:
+    """What the fits through the lens reuse while a patch stays (m patches, n disc pixels).
+
+    Attributes
+    ----------
+    origin : (2, m) ndarray
+        The undistorted position of each patch's base pixel, in its own frame.
+    V : (2, m, 5, 5) ndarray
+        The lens's node values (:func:`_node_values`).
+    x, y : (m, n) ndarray
+        The disc pixels' positions about ``origin``.
+    values, g2 : (m, n) ndarray
+        Their grey values and squared gradients, zero where the lens gives no position.
+    frames : (m, 4, 3) ndarray
+        Each patch's own frame (:func:`_node_values`).
     """
+
+    origin: np.ndarray
+    V: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    values: np.ndarray
+    g2: np.ndarray
+    frames: np.ndarray
+
+    def replace(self, which, fresh: _LensPatches) -> None:
+        """Put ``fresh`` (the patches ``which`` (k,) made again) in place of theirs."""
+        self.origin[:, which], self.V[:, which] = fresh.origin, fresh.V
+        for name in ("x", "y", "values", "g2", "frames"):
+            getattr(self, name)[which] = getattr(fresh, name)
+
+
+def _lens_patches(lens, base, offs, disc, patches, grad2) -> _LensPatches:
+    """The :class:`_LensPatches` of patches about ``base`` (2, m): the pixels of ``disc``
+    placed through the lens in each patch's own frame (zero weight where the lens gives no
+    position)."""
     V, frames = _node_values(lens, base, offs)
     origin = V[:, :, 2, 2]  # the middle node is the base pixel
     # Each pixel's position: the polynomial through the nodes (degree four each way).
@@ -220,17 +249,18 @@ def _lens_patches(lens, base, offs, disc, patches, grad2):
     valid = np.all(np.isfinite(flat), axis=0)
     x, y = (np.ascontiguousarray(np.where(valid, f, 0.0)) for f in flat)
     g2 = np.ascontiguousarray(np.where(valid, grad2[:, rows, cols], 0.0), dtype=float)
-    return [origin, V, x, y, np.ascontiguousarray(patches[:, rows, cols]), g2, frames]
+    return _LensPatches(origin, V, x, y, np.ascontiguousarray(patches[:, rows, cols]), g2, frames)
 
 
 def _fit_through(lens, through, act, half, offset, radius):
     """One round of saddle fits in undistorted pixel coordinates, for :func:`refine_points`.
 
-    ``through`` is :func:`_lens_patches`' data of every patch, ``act`` (a,) the patches to
+    ``through`` is every patch's :class:`_LensPatches`, ``act`` (a,) the patches to
     fit, ``offset`` (2, a) their current raw estimates less their bases. Returns the new raw
     estimates (2, a), whether each fit is a saddle within its patch, and the residuals.
     """
-    origin, V, x, y, values, g2, frames = through
+    origin, V, x, y, values, g2, frames = (through.origin, through.V, through.x, through.y, through.values,
+                                           through.g2, through.frames)
     origin = origin[:, act]
     # The estimate's undistorted position, about the patch's origin; the kernel weights the
     # pixels by refine_points' window about it, in undistorted pixels (none where it has no
