@@ -48,7 +48,7 @@ from functools import partial
 
 import numpy as np
 
-from benchmarks._common import match_to, opencv_classic, opencv_pnp, points, rms, rss_mb
+from benchmarks._common import match_to, median, opencv_classic, opencv_pnp, points, rms, rss_mb
 
 
 def _opencv_pose(cv2, image, K, truth_uv, Wpts):
@@ -68,22 +68,10 @@ def _opencv_pose(cv2, image, K, truth_uv, Wpts):
 
 def _errors(P, truth):
     """Position error (mm) and rotation angle error (deg) per frame; NaN where P is NaN."""
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.track.trajectory import trajectory_errors
 
-    out = np.full((len(P), 2), np.nan)
-    for k, (T, T_true) in enumerate(zip(P, truth)):
-        if np.all(np.isfinite(T)):
-            out[k] = pose_difference(T, T_true)
+    out = trajectory_errors(P, truth)
     return out[:, 0] * 1000, out[:, 1]
-
-
-def _rmse(x, mask):
-    return rms(x[mask])
-
-
-def _median(x, mask):
-    """Median of ``x[mask]``; NaN (printed as nan) for an empty selection, without a warning."""
-    return float(np.median(x[mask])) if np.any(mask) else float("nan")
 
 
 def _single_frame_times(images, K, board, frames):
@@ -117,7 +105,7 @@ def _growth(times):
     ms = np.array([s for _, s in times]) * 1000
     if idx.size == 0:
         return float("nan"), float("nan"), float("nan"), float("nan"), -1
-    early = _median(ms, (idx >= 5) & (idx <= 15))  # NaN when no frame of 5-15 has a pose
+    early = median(ms[(idx >= 5) & (idx <= 15)])  # NaN when no frame of 5-15 has a pose
     return float(ms[np.argmin(np.abs(idx - 10))]), float(ms[-1]), early, float(np.median(ms[-11:])), int(idx[-1])
 
 
@@ -182,8 +170,8 @@ def main(quick: bool = False) -> dict:
     ate, rows = {}, []
     for name, P, mask in methods:
         d, a = _errors(P, seq.T_WC)
-        ate[name] = (_rmse(d, both), _rmse(a, both))
-        rows.append([name, int(mask.sum()), _rmse(d, mask), _rmse(a, mask), _rmse(d, both), _rmse(a, both)])
+        ate[name] = (rms(d[both]), rms(a[both]))
+        rows.append([name, int(mask.sum()), rms(d[mask]), rms(a[mask]), rms(d[both]), rms(a[both])])
     online, ours = ate["graphpose tracker, online (fixed lag)"], ate["graphpose tracker, smoothed (batch)"]
     single, peer = ate["graphpose single-frame fits"], ate["OpenCV per frame"]
     blocks.append({
@@ -236,17 +224,17 @@ def main(quick: bool = False) -> dict:
     cv_ms = np.array(cv_times) * 1000
     ours_ms = np.array([f.frontend_s + f.update_s for f in track.frames]) * 1000
     is_tracked = status == "tracked"
-    front = _median(np.array([f.frontend_s for f in track.frames]) * 1000, is_tracked)
-    back = _median(np.array([f.update_s for f in track.frames]) * 1000, found)
+    front = median((np.array([f.frontend_s for f in track.frames]) * 1000)[is_tracked])
+    back = median((np.array([f.update_s for f in track.frames]) * 1000)[found])
     speed_rows = []
     for name, mask in (("tracked by graphpose and found by OpenCV", is_tracked & cv_found),
                        ("with a graphpose pose and found by OpenCV", both)):
-        ours_m, cv_m = _median(ours_ms, mask), _median(cv_ms, mask)
+        ours_m, cv_m = median(ours_ms[mask]), median(cv_ms[mask])
         speed_rows.append([f"tracking: the {int(mask.sum())} frames {name}", ours_m, cv_m, ours_m / cv_m])
     sample = np.flatnonzero(both)[::3 if quick else 1]
     single_ms, single_ok = _single_frame_times(seq.images, K, board, sample)
     ok = np.isin(np.arange(n), sample[single_ok])
-    single_m, cv_single = _median(single_ms, single_ok), _median(cv_ms, ok)
+    single_m, cv_single = median(single_ms[single_ok]), median(cv_ms[ok])
     label = (f"no tracking, whole-image extraction + homography + Gauss-Newton: {int(single_ok.sum())} of "
              f"{sample.size} frames found")
     speed_rows.append([label, single_m, cv_single, single_m / cv_single])
@@ -321,8 +309,8 @@ def _noisy_sequence(cv2, K, board, quick):
         found = track.found
         d_online, _ = _errors(track.poses("online"), seq.T_WC)
         d_smooth, a_smooth = _errors(track.poses("smoothed"), seq.T_WC)
-        runs[noise] = {"seq": seq, "found": found, "online": _rmse(d_online, found),
-                       "smoothed": _rmse(d_smooth, found), "deg": _rmse(a_smooth, found)}
+        runs[noise] = {"seq": seq, "found": found, "online": rms(d_online[found]),
+                       "smoothed": rms(d_smooth[found]), "deg": rms(a_smooth[found])}
     seq, found = runs[NOISY[0]]["seq"], runs[NOISY[0]]["found"]
     cv_found = np.array([_opencv_pose(cv2, seq.images[k], K, project(K, seq.T_WC[k], W), W)[0] is not None
                          for k in range(n)])
@@ -488,17 +476,17 @@ def _long_run(K, board, quick):
         idx = np.arange(n)
         found = track.found
         back_ms = np.array([f.update_s for f in track.frames]) * 1000
-        early = _median(back_ms, found & (idx >= 100) & (idx < 200))
-        late = _median(back_ms, found & (idx >= n - 100))
+        early = median(back_ms[found & (idx >= 100) & (idx < 200)])
+        late = median(back_ms[found & (idx >= n - 100)])
         fit = idx >= min(300, n // 2)
         slope = float(np.polyfit(idx[fit], rss[fit], 1)[0]) * 1000 if np.all(np.isfinite(rss[fit])) else float("nan")
         d, a = _errors(track.poses("online"), seq.T_WC)
         runs[name] = {"early": early, "late": late, "growth": late / early, "mb_per_1000": slope,
-                      "frame_ms": float(np.median(frame_s)) * 1000, "frame_cpu_ms": float(np.median(frame_cpu_s)) * 1000, "ate_mm": _rmse(d, found), "ate_deg": _rmse(a, found),
+                      "frame_ms": float(np.median(frame_s)) * 1000, "frame_cpu_ms": float(np.median(frame_cpu_s)) * 1000, "ate_mm": rms(d[found]), "ate_deg": rms(a[found]),
                       "smooth_s": smooth_s if smooth else float("nan"), "found": int(found.sum())}
         if smooth:
             d, a = _errors(track.poses("smoothed"), seq.T_WC)
-            runs[name].update(smooth_mm=_rmse(d, found), smooth_deg=_rmse(a, found))
+            runs[name].update(smooth_mm=rms(d[found]), smooth_deg=rms(a[found]))
         if lag is not None:
             runs[name]["lockstep"] = lockstep_growth(K, board, track.frames, lag)
         del track

@@ -235,6 +235,7 @@ def _truth(args, n, timestamps):
     ``graphpose render-sequence`` (its ``truth.tum`` and ``bounds.json``,
     :func:`graphpose.synth.sequence.write_sequence`) holds one true pose per frame, in order."""
     from ..io.tum import read_tum
+    from ..track.trajectory import associate
 
     path, own = args.truth, False
     folder = args.frames[0] if len(args.frames) == 1 and args.frames[0].is_dir() else None
@@ -245,32 +246,13 @@ def _truth(args, n, timestamps):
     truth = read_tum(path)
     if own and len(truth) == n:
         return truth.poses, f"{path} (the rendered sequence's own, one pose per frame)"
-    poses = _match_by_time(truth, timestamps)
+    poses = associate(truth.timestamps, truth.poses, timestamps)
     matched = int(np.sum(np.isfinite(poses[:, 0, 0])))
     if matched == 0:
         raise InputError(f"{'--truth ' if not own else ''}{path}: none of its {len(truth)} poses has the "
                          f"timestamp of a frame (frames at {timestamps[0]:.6f}-{timestamps[-1]:.6f} s; "
                          f"give the frames' own times with --timestamps or --fps)")
     return poses, f"{path} ({matched} of {n} frames matched by timestamp)"
-
-
-def _match_by_time(truth, timestamps) -> np.ndarray:
-    """Truth poses at the frames' timestamps: the nearest within 10 ms and half the shortest
-    frame interval, else NaN."""
-    step = np.min(np.diff(timestamps)) if timestamps.size > 1 else np.inf
-    tolerance = min(0.01, 0.5 * step)
-    order = np.argsort(truth.timestamps)
-    times, poses = truth.timestamps[order], truth.poses[order]
-    out = np.full((timestamps.size, 4, 4), np.nan)
-    if times.size == 0:
-        return out
-    right = np.clip(np.searchsorted(times, timestamps), 1, max(times.size - 1, 1))
-    left = right - 1
-    nearest = np.where(np.abs(times[np.minimum(right, times.size - 1)] - timestamps) < np.abs(times[left] - timestamps),
-                       np.minimum(right, times.size - 1), left)
-    close = np.abs(times[nearest] - timestamps) <= tolerance
-    out[close] = poses[nearest[close]]
-    return out
 
 
 def _frame_files(paths, list_frames) -> list:
