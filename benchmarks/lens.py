@@ -192,16 +192,6 @@ def _bias_px(camera, T, board):
     return rms(err[np.isfinite(err)]) if np.nanmedian(err) < 5.0 else float("nan")
 
 
-def _rotation(w):
-    """The rotation matrix of a rotation vector (Rodrigues)."""
-    angle = np.linalg.norm(w)
-    if angle == 0.0:
-        return np.eye(3)
-    k = w / angle
-    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * K @ K
-
-
 def _crb(camera, T, board):
     """Cramer-Rao bounds of one scene: the junctions' RMS error (px, sqrt(mean trace(inv(FIM))))
     and the pose's RMS position (mm) and rotation (degrees) errors.
@@ -213,7 +203,7 @@ def _crb(camera, T, board):
     measures it): the smallest RMS errors any unbiased estimator of the pose from these junctions
     can reach. The same pixel noise costs more pose where a lens shrinks the board's image.
     """
-    from graphpose.geometry import to_camera
+    from graphpose.geometry import se3_exp, to_camera
     from graphpose.camera_models import as_camera
     from graphpose.synth.information import junction_information
 
@@ -224,7 +214,7 @@ def _crb(camera, T, board):
     def pixels(d):
         moved = T.copy()
         moved[:3, 3] = T[:3, 3] + d[:3]
-        moved[:3, :3] = _rotation(d[3:]) @ T[:3, :3]
+        moved[:3, :3] = se3_exp(np.r_[d[3:], 0.0, 0.0, 0.0])[:3, :3] @ T[:3, :3]  # exp(w) C
         return cam.project(to_camera(moved, W))
 
     h = 1e-7  # metres and radians: central differences of a smooth map
