@@ -100,11 +100,11 @@ def _search(image, board):
     """The board's search in one image, which does not depend on the camera (done once for
     every pass): ``((grey, scale, found, noise), "")`` or ``(None, reason)``."""
     from ..detect.find import find_board
-    from ..detect.junctions import _MIN_SIDE
+    from ..detect.junctions import MIN_SIDE
     from ..detect.noise import estimate_noise
     from ..detect.refine import grey_and_scale
 
-    grey, scale = grey_and_scale(image, _MIN_SIDE)
+    grey, scale = grey_and_scale(image, MIN_SIDE)
     noise = estimate_noise(grey)
     try:
         return (grey, scale, find_board(grey, board, None, noise=noise), noise), ""

@@ -34,7 +34,7 @@ from .refine import (
 
 #: Smallest image side, pixels: the smallest refinement window (radius 2) must fit, and the
 #: bilinear resampling needs two rows and columns.
-_MIN_SIDE = 5
+MIN_SIDE = 5
 
 #: A junction whose refined position is farther than this from the grid homography's
 #: prediction (fraction of the local square) is not trusted ...
@@ -190,7 +190,7 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
     >>> J.points.shape, bool(J.trusted.all()), J.orientation_ambiguous
     ((2, 48), True, True)
     """
-    image, scale = grey_and_scale(I, _MIN_SIDE)
+    image, scale = grey_and_scale(I, MIN_SIDE)
     poly = None if bounds is None else check_bounds(bounds, image.shape)
     window = check_number("window (a fraction of the square)", window, 0.0, strict=True, maximum=0.7)
     if smooth_sigma is not None:
@@ -208,11 +208,36 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
 
 
 def refine_found(image, scale, found, board, lens, window, smooth_sigma, noise) -> Junctions:
-    """The refinement and the verdict of :func:`extract_junctions`, from ``found`` (what
-    :func:`graphpose.detect.find.find_board` found in ``image``, grey as
-    :func:`graphpose.detect.refine.grey_and_scale` makes it, ``scale`` its grey unit, the
-    arguments checked). The search does not depend on the lens: a caller that refines one
-    image through several cameras (a calibration's passes) searches it once."""
+    """The refinement and the verdict of :func:`extract_junctions`, from what the search found.
+
+    The search does not depend on the lens: a caller that refines one image through several
+    cameras (a calibration's passes) searches it once and calls this for each camera. The
+    arguments are trusted (checked by the caller, as :func:`extract_junctions` checks its own).
+
+    Parameters
+    ----------
+    image : (H, W) ndarray
+        The image, grey as :func:`graphpose.detect.refine.grey_and_scale` makes it.
+    scale : float
+        Its grey unit (the residuals' scale).
+    found : FoundBoard
+        What :func:`graphpose.detect.find.find_board` found in ``image``.
+    board : Board
+        The target.
+    lens : Camera or None
+        The lens to refine through (:func:`graphpose.detect.refine.refine_points`), or None.
+    window : float
+        Window radius as a fraction of the local square side.
+    smooth_sigma : float or None
+        Refinement smoothing, pixels; from the image's noise over the board's contrast when None.
+    noise : float or None
+        The image's noise, grey levels (measured when None).
+
+    Returns
+    -------
+    Junctions
+        As :func:`extract_junctions` returns them.
+    """
     seen = found.seen
     grid = board.grid_indices().astype(float)
     square = np.full(board.n, np.nan)

@@ -371,12 +371,3 @@ def _gaussian_kernel(sigma: float) -> np.ndarray:
     t = int(np.ceil(4.0 * sigma))
     k = np.exp(-0.5 * (np.arange(-t, t + 1) / sigma) ** 2)
     return k / k.sum()
-
-
-def ring_sum(ring):
-    return np.abs(ring[:, 0:4] + ring[:, 8:12] - ring[:, 4:8] - ring[:, 12:16]).sum(axis=1)
-
-
-def ring_diff(ring):
-    return np.abs(ring[:, 0:8] - ring[:, 8:16]).sum(axis=1)
-
