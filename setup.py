@@ -4,7 +4,7 @@ Everything else about the package is declared in ``pyproject.toml``; this file e
 because setuptools takes extension modules from ``setup()``. The build backend runs it at
 install (``pip install -e .``, ``pip install .``, ``python -m build``), so a C compiler and the
 Python headers are needed there, and nothing after. Each kernel sits beside the Python module it
-serves (``graphpose/detect/_saddle.pyx`` beside ``saddle.py``) and uses typed memoryviews only,
+serves (``graphpose/detect/_refine.pyx`` beside ``refine.py``) and uses typed memoryviews only,
 so the build needs Cython but not NumPy's C headers.
 """
 

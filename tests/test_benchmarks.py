@@ -34,6 +34,8 @@ def test_the_benchmark_sets_up_no_path_by_hand():
         for node in ast.walk(tree):
             if isinstance(node, ast.Attribute) and node.attr == "path" and getattr(node.value, "id", None) == "sys":
                 pytest.fail(f"{path.name}:{node.lineno} touches sys.path")
+            if isinstance(node, ast.ImportFrom) and node.module == "sys" and any(a.name == "path" for a in node.names):
+                pytest.fail(f"{path.name}:{node.lineno} imports sys.path")
 
 
 def test_scripts_keep_only_the_example_and_the_data_maker():
