@@ -16,6 +16,8 @@ solves in double. Python's :mod:`graphpose.detect.refine` checks every input fir
 
 from libc.math cimport fabs, floor, hypot, isfinite, rint, sqrt, INFINITY, NAN
 
+from graphpose.detect._sampling cimport _ring_score
+
 import numpy as np
 
 ctypedef fused pixel:
@@ -268,12 +270,13 @@ cdef void _window_moments(const double[:, ::1] patch, const float[:, ::1] grad2,
 
 cdef bint _crosses(const double[:, ::1] patch, double cu, double cv, double radius,
                    const double[::1] cosines, const double[::1] sines) noexcept nogil:
-    """The ring test: 16 bilinear samples (clamped at the patch's edge) on a circle about
-    (cu, cv); the ChESS sum (opposite samples against the quarter-turned pair) must exceed
-    twice the diff (opposite samples against each other)."""
+    """The ring test of the search (:func:`graphpose.detect._sampling._ring_score`: the ChESS
+    sum, opposite samples against the quarter-turned pair, must exceed twice the diff,
+    opposite samples against each other) on 16 bilinear samples of the refinement's own
+    double patch (clamped at its edge) on a circle about (cu, cv)."""
     cdef double[16] ring
     cdef Py_ssize_t P = patch.shape[0], k, r0, c0, r1, c1
-    cdef double x, y, tx, ty, total = 0.0, diff = 0.0
+    cdef double x, y, tx, ty, score, theta, contrast
     for k in range(16):
         x = cu + radius * cosines[k]
         y = cv + radius * sines[k]
@@ -286,11 +289,8 @@ cdef bint _crosses(const double[:, ::1] patch, double cu, double cv, double radi
         r1 = r0 + 1 if r0 + 1 < P else r0
         ring[k] = (1.0 - ty) * ((1.0 - tx) * patch[r0, c0] + tx * patch[r0, c1]) \
             + ty * ((1.0 - tx) * patch[r1, c0] + tx * patch[r1, c1])
-    for k in range(4):
-        total += fabs(ring[k] + ring[k + 8] - ring[k + 4] - ring[k + 12])
-    for k in range(8):
-        diff += fabs(ring[k] - ring[k + 8])
-    return total > 2.0 * diff
+    _ring_score(ring, &score, &theta, &contrast)
+    return score > 0.0
 
 
 cdef inline bint _inside(double bu, double bv, double radius, Py_ssize_t H, Py_ssize_t W) noexcept nogil:
