@@ -51,7 +51,7 @@ from ..board import Board
 from ..errors import BoardNotFoundError
 from . import _identify
 from .grid import fit_homography
-from .lattice import Lattice, step_lengths
+from .lattice import Lattice
 from .search import SearchImage
 
 #: Proper rotations M of lattice keys to board (c, r) = M (i, j) + t.
@@ -141,7 +141,7 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
         message says which.
     """
     nodes = lattice.as_dict()
-    step = float(np.median(step_lengths(nodes, [tuple(k) for k in lattice.keys])))
+    step = float(np.median(lattice.step_lengths()))
     if len(lattice.keys) < board.n and step < MIN_PARTIAL_STEP_PX:
         raise BoardNotFoundError(
             f"only part of the board is seen ({len(lattice.keys)} of {board.n} junctions) and its squares "

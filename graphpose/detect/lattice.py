@@ -63,6 +63,10 @@ class Lattice:
         """``{(i, j): (2,) position}``."""
         return {(int(i), int(j)): self.points[:, k] for k, (i, j) in enumerate(self.keys)}
 
+    def step_lengths(self) -> np.ndarray:
+        """:func:`step_lengths` at every node (M,), pixels, from the arrays themselves."""
+        return _step_lengths(KeyGrid.of(self.keys, self.points), self.keys)
+
 
 def grow_lattices(cands: Candidates, *, max_seeds: int = 60, max_nodes: int = 2000, min_nodes: int = 4):
     """Lattices grown from the strongest candidates, each from a seed no earlier lattice holds.
@@ -150,7 +154,11 @@ def peel(nodes: dict) -> dict:
 
 def step_lengths(nodes: dict, keys) -> np.ndarray:
     """Typical lattice step (pixels) at each key: the mean distance to its lattice neighbours."""
-    grid = KeyGrid(nodes)
+    return _step_lengths(KeyGrid(nodes), keys)
+
+
+def _step_lengths(grid, keys) -> np.ndarray:
+    """:func:`step_lengths` of ``keys`` on a :class:`KeyGrid` of the nodes."""
     K = np.asarray(keys, dtype=int).reshape(-1, 2)
     here = grid.at(K)
     d = np.stack([np.hypot(*(grid.at(K + step) - here)) for step in _STEPS])  # (4, n), NaN: none
@@ -174,11 +182,21 @@ class KeyGrid:
 
     def __init__(self, nodes: dict, reach: int = 4):
         K = np.array(list(nodes), dtype=int).reshape(-1, 2)
+        self._fill(K, np.array(list(nodes.values()), dtype=float), reach)
+
+    @classmethod
+    def of(cls, keys: np.ndarray, points: np.ndarray, reach: int = 4) -> "KeyGrid":
+        """The grid of nodes given as arrays: keys (M, 2) at points (2, M), no dict made."""
+        grid = cls.__new__(cls)
+        grid._fill(np.asarray(keys, dtype=int).reshape(-1, 2), np.asarray(points, dtype=float).T, reach)
+        return grid
+
+    def _fill(self, K: np.ndarray, rows: np.ndarray, reach: int) -> None:
         self.reach = reach
         self.origin = K.min(axis=0) - reach
         shape = K.max(axis=0) - self.origin + reach + 1
         self.array = np.full((shape[0], shape[1], 2), np.nan)
-        self.array[K[:, 0] - self.origin[0], K[:, 1] - self.origin[1]] = np.array(list(nodes.values()), dtype=float)
+        self.array[K[:, 0] - self.origin[0], K[:, 1] - self.origin[1]] = rows
 
     def cover(self, keys: np.ndarray) -> None:
         """Grow the array (by ``2 reach`` keys) where any of ``keys`` (n, 2) would lie within

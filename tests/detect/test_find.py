@@ -13,7 +13,7 @@ from graphpose import Board, BoardNotFoundError, InputError, K_from_params
 from graphpose.geometry import T_from_params
 from graphpose.detect import find as find_module
 from graphpose.detect.find import find_board
-from graphpose.detect.lattice import grow_lattices, peel, predict, step_lengths
+from graphpose.detect.lattice import Lattice, grow_lattices, peel, predict, step_lengths
 from graphpose.detect.search import downsample, find_candidates, ring_test, search_levels
 from graphpose.synth.render import render
 from graphpose.synth.scenes import random_scene
@@ -70,6 +70,9 @@ def test_step_lengths_are_the_mean_distance_to_the_lattice_neighbours_present():
         i, j = key
         d = [np.hypot(*(nodes[k] - nodes[key])) for k in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)) if k in nodes]
         assert (np.isnan(got) and not d) or got == pytest.approx(np.mean(d), abs=1e-12)
+    # A lattice's own step lengths, read from its arrays, are the same numbers.
+    lattice = Lattice(np.array(keys), np.array([nodes[k] for k in keys]).T, 0.0)
+    assert np.array_equal(lattice.step_lengths(), step_lengths(nodes, keys), equal_nan=True)
 
 
 def test_peel_drops_strays_with_fewer_than_two_neighbours():
