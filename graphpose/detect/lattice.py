@@ -115,12 +115,12 @@ def grow_lattices(cands: Candidates, *, max_seeds: int = 60, max_nodes: int = 20
             yield strength, None
             continue
         nodes, theta0 = cross
-        nodes = peel(_grow(cands, buckets, nodes, theta0, max_nodes))
-        if len(nodes) < min_nodes:
+        keys, rows = _grow(cands, buckets, nodes, theta0, max_nodes)
+        kept = _peeled(keys)
+        if kept.sum() < min_nodes:
             yield strength, None
             continue
-        keys = np.array(list(nodes), dtype=int)
-        points = np.array(list(nodes.values())).T
+        keys, points = keys[kept].astype(int), rows[kept].T
         taken |= _within(cands.points, points, keys)
         yield strength, Lattice(keys, points, theta0)
 
@@ -143,13 +143,28 @@ def _within(P: np.ndarray, points: np.ndarray, keys: np.ndarray) -> np.ndarray:
 
 def peel(nodes: dict) -> dict:
     """Drop, repeatedly, nodes with fewer than two lattice neighbours (strays beyond an edge)."""
-    nodes = dict(nodes)
+    keys = list(nodes)
+    kept = _peeled(np.array(keys, dtype=np.int64).reshape(-1, 2))
+    return {key: nodes[key] for key, keep in zip(keys, kept) if keep}
+
+
+def _peeled(keys: np.ndarray) -> np.ndarray:
+    """Which of the (distinct) keys (M, 2) :func:`peel` keeps, (M,) bool: the nodes of two
+    lattice neighbours or more, by rounds on an occupancy array over their key box."""
+    kept = np.ones(len(keys), dtype=bool)
+    if not len(keys):
+        return kept
+    idx = keys - keys.min(axis=0) + 1
+    occupied = np.zeros(tuple(idx.max(axis=0) + 2), dtype=bool)
+    occupied[idx[:, 0], idx[:, 1]] = True
+    i, j = idx[:, 0], idx[:, 1]
     while True:
-        drop = [key for key in nodes if sum((key[0] + a, key[1] + b) in nodes for a, b in _STEPS) < 2]
-        if not drop:
-            return nodes
-        for key in drop:
-            del nodes[key]
+        count = (occupied[i + 1, j].astype(np.int8) + occupied[i - 1, j] + occupied[i, j + 1] + occupied[i, j - 1])
+        drop = kept & (count < 2)
+        if not drop.any():
+            return kept
+        kept &= ~drop
+        occupied[i[drop], j[drop]] = False
 
 
 def step_lengths(nodes: dict, keys) -> np.ndarray:
@@ -269,7 +284,7 @@ def _parity_ok(theta, theta0, parity):
     return np.where(parity == 0, c > PARITY_COS, c < -PARITY_COS)
 
 
-def _grow(cands: Candidates, buckets: tuple, nodes: dict, theta0: float, max_nodes: int) -> dict:
+def _grow(cands: Candidates, buckets: tuple, nodes: dict, theta0: float, max_nodes: int) -> tuple:
     """Grow ``nodes`` ring by ring until no free neighbouring key passes (see the module).
 
     Each round looks only at the free neighbours of the nodes added in the round before
@@ -278,6 +293,8 @@ def _grow(cands: Candidates, buckets: tuple, nodes: dict, theta0: float, max_nod
     now rest on more of the lattice. A prediction snaps to the nearest candidate within
     :data:`SNAP_FRACTION` of the local step (``buckets``: :func:`_buckets`). The rounds are
     one compiled call (``_lattice.grow``), again only when the lattice outgrows its grid.
+    Returns the keys (M, 2) of int64 in the order they were added and their positions
+    (M, 2), pixels.
     """
     grid = KeyGrid(nodes, reach=8)
     start_keys = np.array(list(nodes), dtype=np.int64)
@@ -297,8 +314,7 @@ def _grow(cands: Candidates, buckets: tuple, nodes: dict, theta0: float, max_nod
             break
         grid.cover(order[:state[0]])
     order = order[:state[0]]
-    rows = grid.at(order).T.copy()
-    return {key: rows[k] for k, key in enumerate(map(tuple, order.tolist()))}
+    return order, grid.at(order).T.copy()
 
 
 def _buckets(points: np.ndarray, cell: float = 16.0) -> tuple:

@@ -81,6 +81,18 @@ def test_peel_drops_strays_with_fewer_than_two_neighbours():
     assert set(peel(nodes)) == {(i, j) for i in range(3) for j in range(3)}
 
 
+def test_peel_keeps_what_dropping_strays_one_pass_at_a_time_keeps():
+    rng = np.random.default_rng(8)
+    for _ in range(20):
+        nodes = {(int(i), int(j)): np.array([i, j], float) for i, j in rng.integers(-4, 5, (30, 2))}
+        left = dict(nodes)  # the plain reference: whole passes over a dict until none drops
+        while drop := [k for k in left if sum((k[0] + a, k[1] + b) in left for a, b in
+                                              ((1, 0), (-1, 0), (0, 1), (0, -1))) < 2]:
+            for k in drop:
+                del left[k]
+        assert list(peel(nodes)) == list(left)
+
+
 def test_lattice_of_a_clean_board_holds_every_junction_right_handed():
     R = random_scene(K, Board(), rng=3).rendering
     cands = find_candidates(R.image)
