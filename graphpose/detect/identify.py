@@ -140,15 +140,14 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
         their first edge along a row (a quarter turn off, or another corner order). The
         message says which.
     """
-    nodes = lattice.as_dict()
+    keys = lattice.keys
+    grid = KeyGrid.of(keys, lattice.points)
     step = float(np.median(lattice.step_lengths()))
     if len(lattice.keys) < board.n and step < MIN_PARTIAL_STEP_PX:
         raise BoardNotFoundError(
             f"only part of the board is seen ({len(lattice.keys)} of {board.n} junctions) and its squares "
             f"({step:.0f} px) are too small to tell its edges from something lying across it")
-    dark_parity, mid, contrast = _square_colours(view, nodes)
-    keys = lattice.keys
-    grid = KeyGrid.of(keys, lattice.points)
+    dark_parity, mid, contrast = _square_colours(view, grid, keys)
     sides = {side: _side(view, grid, keys, side, dark_parity, mid, contrast) for side in SIDES}
     lo, hi = keys.min(axis=0), keys.max(axis=0)
     extent = hi - lo + 1
@@ -189,16 +188,19 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
 # ------------------------------------------------------------------------------ evidence
 
 
-def _square_colours(view, nodes):
-    """(dark parity of ``i + j`` of a square's upper-left key, mid grey, dark-light contrast)."""
-    keys = [(i, j) for (i, j) in nodes if (i + 1, j) in nodes and (i, j + 1) in nodes and (i + 1, j + 1) in nodes]
-    if not keys:
+def _square_colours(view, grid, keys):
+    """(dark parity of ``i + j`` of a square's upper-left key, mid grey, dark-light contrast),
+    from the squares whose four nodes (``keys`` (M, 2) on their :class:`KeyGrid`) are seen."""
+    # Each key as a square's upper-left corner: its node, the next along i, along j, and both.
+    P = np.stack([grid.at(keys + step) for step in ((0, 0), (1, 0), (0, 1), (1, 1))])  # (4, 2, M)
+    whole = np.isfinite(P).all(axis=(0, 1))
+    if not whole.any():
         raise BoardNotFoundError("the junctions found enclose no whole square of the board")
-    centres = np.array([nodes[(i, j)] + nodes[(i + 1, j)] + nodes[(i, j + 1)] + nodes[(i + 1, j + 1)]
-                        for i, j in keys]).T / 4
-    step = np.median([np.hypot(*(nodes[(i + 1, j)] - nodes[(i, j)])) for i, j in keys])
+    P, keys = P[:, :, whole], keys[whole]
+    centres = (P[0] + P[1] + P[2] + P[3]) / 4
+    step = np.median(np.hypot(*(P[1] - P[0])))
     value = _grey(view, centres, step)
-    parity = np.array([(i + j) % 2 for i, j in keys])
+    parity = (keys[:, 0] + keys[:, 1]) % 2
     even = np.median(value[parity == 0]) if np.any(parity == 0) else np.nan
     odd = np.median(value[parity == 1]) if np.any(parity == 1) else np.nan
     if not np.isfinite(even):
