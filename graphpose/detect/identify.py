@@ -168,7 +168,9 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
         found.append((M, t))
     if not found:
         raise BoardNotFoundError(_refusal(reasons, extent, board, sides))
-    H = fit_homography(keys.T.astype(float), lattice.points)
+    # The growth's fit when it made one (the same fit of the same nodes), else fitted here
+    # (collinear nodes: the fit's own refusal).
+    H = lattice.homography if lattice.homography is not None else fit_homography(keys.T.astype(float), lattice.points)
     if bounds is not None:
         M, t = min(found, key=lambda f: _bounds_mismatch(f, H, board, bounds))
         _check_bounds_order((M, t), H, board, bounds)

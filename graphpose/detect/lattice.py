@@ -53,11 +53,16 @@ class Lattice:
         Their positions (u, v), full-image pixels, to about half a pixel.
     theta0 : float
         Bright-bisector direction of the nodes with ``i + j`` even, radians.
+    homography : (3, 3) ndarray or None
+        Key-to-image homography fitted to the nodes (:func:`graphpose.detect.grid.fit_homography`
+        of ``(i, j)`` to ``(u, v)``), as :func:`grow_lattices` fitted it; None where it fitted
+        none (collinear nodes) or the lattice was made elsewhere.
     """
 
     keys: np.ndarray
     points: np.ndarray
     theta0: float
+    homography: np.ndarray | None = None
 
     def as_dict(self) -> dict:
         """``{(i, j): (2,) position}``."""
@@ -121,24 +126,25 @@ def grow_lattices(cands: Candidates, *, max_seeds: int = 60, max_nodes: int = 20
             yield strength, None
             continue
         keys, points = keys[kept].astype(int), rows[kept].T
-        taken |= _within(cands.points, points, keys)
-        yield strength, Lattice(keys, points, theta0)
+        within, H = _within(cands.points, points, keys)
+        taken |= within
+        yield strength, Lattice(keys, points, theta0, H)
 
 
-def _within(P: np.ndarray, points: np.ndarray, keys: np.ndarray) -> np.ndarray:
+def _within(P: np.ndarray, points: np.ndarray, keys: np.ndarray) -> tuple:
     """Candidates (2, N) inside the lattice's key box grown by 1.5 steps, mapped to the image
     by a homography fitted to the nodes (its own board: its junctions, corners and margin
-    are no seeds of another lattice)."""
+    are no seeds of another lattice): the mask (N,) and that homography (None if none)."""
     lo, hi = keys.min(axis=0) - 1.5, keys.max(axis=0) + 1.5
     box = np.array([[lo[0], hi[0], hi[0], lo[0]], [lo[1], lo[1], hi[1], hi[1]]])
     try:
         H = fit_homography(keys.T.astype(float), points)
     except BoardNotFoundError:  # collinear nodes fix no homography and hold no area
-        return np.zeros(P.shape[1], dtype=bool)
+        return np.zeros(P.shape[1], dtype=bool), None
     q = H @ np.vstack([box, np.ones(4)])
     if not (np.all(q[2] > 0) or np.all(q[2] < 0)):  # the box crosses the horizon
-        return np.zeros(P.shape[1], dtype=bool)
-    return points_in_poly(P.T, (q[:2] / q[2]).T)
+        return np.zeros(P.shape[1], dtype=bool), H
+    return points_in_poly(P.T, (q[:2] / q[2]).T), H
 
 
 def peel(nodes: dict) -> dict:

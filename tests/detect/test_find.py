@@ -13,6 +13,8 @@ from graphpose import Board, BoardNotFoundError, InputError, K_from_params
 from graphpose.geometry import T_from_params
 from graphpose.detect import find as find_module
 from graphpose.detect.find import find_board
+from graphpose.detect.grid import fit_homography
+from graphpose.detect.identify import identify
 from graphpose.detect.lattice import Lattice, grow_lattices, peel, predict, step_lengths
 from graphpose.detect.search import downsample, find_candidates, ring_test, search_levels
 from graphpose.synth.render import render
@@ -105,6 +107,11 @@ def test_lattice_of_a_clean_board_holds_every_junction_right_handed():
     i, j = lattice.keys[np.argmin(np.abs(lattice.keys - lattice.keys.mean(axis=0)).sum(axis=1))]
     a, b = nodes[(i + 1, j)] - nodes[(i, j)], nodes[(i, j + 1)] - nodes[(i, j)]
     assert a[0] * b[1] - a[1] * b[0] > 0
+    # The growth's homography is the fit of its keys to its points, and the labelling it
+    # spares is the labelling of the same lattice without it.
+    assert np.array_equal(lattice.homography, fit_homography(lattice.keys.T.astype(float), lattice.points))
+    bare = identify(Lattice(lattice.keys, lattice.points, lattice.theta0), cands.view, Board())
+    assert np.array_equal(bare.index, identify(lattice, cands.view, Board()).index)
 
 
 @pytest.mark.parametrize("seed", range(12))
