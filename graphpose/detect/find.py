@@ -25,7 +25,7 @@ import numpy as np
 from ..board import Board
 from ..errors import BoardNotFoundError, InputError
 from .identify import identify
-from .lattice import grow_lattices, step_lengths
+from .lattice import grow_lattices
 from .noise import bounding_window, estimate_noise, grey_range
 from .search import find_candidates, search_levels
 
@@ -208,11 +208,10 @@ def _search(image, board, bounds, region, level, noise=None, again=False) -> Fou
 
 
 def _found(lattice, identity, board) -> FoundBoard:
-    nodes = lattice.as_dict()
     points = np.full((2, board.n), np.nan)
     step = np.full(board.n, np.nan)
     points[:, identity.index] = lattice.points
-    step[identity.index] = step_lengths(nodes, [tuple(k) for k in lattice.keys])
+    step[identity.index] = lattice.step_lengths()
     seen = np.zeros(board.n, dtype=bool)
     seen[identity.index] = True
     return FoundBoard(points, seen, step, identity.orientation_ambiguous, identity.junction0_square)

@@ -51,7 +51,7 @@ from ..board import Board
 from ..errors import BoardNotFoundError
 from . import _identify
 from .grid import fit_homography
-from .lattice import Lattice, step_lengths
+from .lattice import KeyGrid, Lattice
 from .search import SearchImage
 
 #: Proper rotations M of lattice keys to board (c, r) = M (i, j) + t.
@@ -140,15 +140,15 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
         their first edge along a row (a quarter turn off, or another corner order). The
         message says which.
     """
-    nodes = lattice.as_dict()
-    step = float(np.median(step_lengths(nodes, [tuple(k) for k in lattice.keys])))
+    keys = lattice.keys
+    grid = KeyGrid.of(keys, lattice.points)
+    step = float(np.median(lattice.step_lengths()))
     if len(lattice.keys) < board.n and step < MIN_PARTIAL_STEP_PX:
         raise BoardNotFoundError(
             f"only part of the board is seen ({len(lattice.keys)} of {board.n} junctions) and its squares "
             f"({step:.0f} px) are too small to tell its edges from something lying across it")
-    dark_parity, mid, contrast = _square_colours(view, nodes)
-    sides = {side: _side(view, nodes, side, dark_parity, mid, contrast) for side in SIDES}
-    keys = lattice.keys
+    dark_parity, mid, contrast = _square_colours(view, grid, keys)
+    sides = {side: _side(view, grid, keys, side, dark_parity, mid, contrast) for side in SIDES}
     lo, hi = keys.min(axis=0), keys.max(axis=0)
     extent = hi - lo + 1
     # Junction 0's outer corner square is dark. When the four corner squares share one
@@ -168,7 +168,9 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
         found.append((M, t))
     if not found:
         raise BoardNotFoundError(_refusal(reasons, extent, board, sides))
-    H = fit_homography(keys.T.astype(float), lattice.points)
+    # The growth's fit when it made one (the same fit of the same nodes), else fitted here
+    # (collinear nodes: the fit's own refusal).
+    H = lattice.homography if lattice.homography is not None else fit_homography(keys.T.astype(float), lattice.points)
     if bounds is not None:
         M, t = min(found, key=lambda f: _bounds_mismatch(f, H, board, bounds))
         _check_bounds_order((M, t), H, board, bounds)
@@ -188,16 +190,19 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
 # ------------------------------------------------------------------------------ evidence
 
 
-def _square_colours(view, nodes):
-    """(dark parity of ``i + j`` of a square's upper-left key, mid grey, dark-light contrast)."""
-    keys = [(i, j) for (i, j) in nodes if (i + 1, j) in nodes and (i, j + 1) in nodes and (i + 1, j + 1) in nodes]
-    if not keys:
+def _square_colours(view, grid, keys):
+    """(dark parity of ``i + j`` of a square's upper-left key, mid grey, dark-light contrast),
+    from the squares whose four nodes (``keys`` (M, 2) on their :class:`KeyGrid`) are seen."""
+    # Each key as a square's upper-left corner: its node, the next along i, along j, and both.
+    P = np.stack([grid.at(keys + step) for step in ((0, 0), (1, 0), (0, 1), (1, 1))])  # (4, 2, M)
+    whole = np.isfinite(P).all(axis=(0, 1))
+    if not whole.any():
         raise BoardNotFoundError("the junctions found enclose no whole square of the board")
-    centres = np.array([nodes[(i, j)] + nodes[(i + 1, j)] + nodes[(i, j + 1)] + nodes[(i + 1, j + 1)]
-                        for i, j in keys]).T / 4
-    step = np.median([np.hypot(*(nodes[(i + 1, j)] - nodes[(i, j)])) for i, j in keys])
+    P, keys = P[:, :, whole], keys[whole]
+    centres = (P[0] + P[1] + P[2] + P[3]) / 4
+    step = np.median(np.hypot(*(P[1] - P[0])))
     value = _grey(view, centres, step)
-    parity = np.array([(i + j) % 2 for i, j in keys])
+    parity = (keys[:, 0] + keys[:, 1]) % 2
     even = np.median(value[parity == 0]) if np.any(parity == 0) else np.nan
     odd = np.median(value[parity == 1]) if np.any(parity == 1) else np.nan
     if not np.isfinite(even):
@@ -207,7 +212,7 @@ def _square_colours(view, nodes):
     return (0 if even < odd else 1), 0.5 * (even + odd), max(abs(odd - even), 1e-12)
 
 
-def _side(view, nodes, side, dark_parity, mid, contrast) -> str:
+def _side(view, grid, keys, side, dark_parity, mid, contrast) -> str:
     """Evidence on one lattice side (see the module docstring).
 
     Along the side, every outer square is sampled once (it must have the colour the
@@ -219,33 +224,31 @@ def _side(view, nodes, side, dark_parity, mid, contrast) -> str:
     occluder across part of the side cannot hide the rows where the board goes on.
     """
     axis, direction = side
-    other = 1 - axis
-    extreme = (min if direction < 0 else max)(key[axis] for key in nodes)
+    along, across = keys[:, axis], keys[:, 1 - axis]
+    extreme = int(along.min() if direction < 0 else along.max())
     inward = -direction
-
-    def key(a, b):
-        return (a, b) if axis == 0 else (b, a)
-
-    rows, corners, expect = [], [], []
     depths = np.array((OUTER_DEPTH,) + BEYOND_DEPTHS + RESUME_DEPTHS)
     # An edge is a straight line of junctions: most lattice lines must reach it (a row that
     # stops short has its end hidden, and the side beyond says nothing of the board's edge).
-    lines = {}
-    for k in nodes:
-        lines[k[other]] = (min if direction < 0 else max)(lines.get(k[other], k[axis]), k[axis])
-    if np.mean([end == extreme for end in lines.values()]) < FLAT_SIDE:
+    line, at = np.unique(across, return_inverse=True)
+    ends = np.full(line.size, extreme - direction * (int(np.ptp(along)) + 1))
+    (np.minimum if direction < 0 else np.maximum).at(ends, at, along)
+    if np.mean(ends == extreme) < FLAT_SIDE:
         return "unknown"
-    for b in sorted(k[other] for k in nodes if k[axis] == extreme):
-        four = [key(extreme, b), key(extreme, b + 1), key(extreme + inward, b), key(extreme + inward, b + 1)]
-        if not all(c in nodes for c in four):
-            continue
-        rows.append(b)
-        corners.append([nodes[c] for c in four])
-        square = key(extreme + (direction - 1) // 2, b)  # upper-left key of the outer square
-        expect.append(1.0 if (square[0] + square[1]) % 2 == dark_parity else -1.0)
+    # The side's nodes in order across it, each with the next one and the two inwards: the
+    # four corners of a square of the outer band, (axis, other) turned back into (i, j).
+    b = np.sort(across[along == extreme])
+    four = np.empty((b.size, 4, 2), dtype=int)
+    four[:, :, axis] = np.array([0, 0, inward, inward]) + extreme
+    four[:, :, 1 - axis] = b[:, None] + np.array([0, 1, 0, 1])
+    C = grid.at(four.reshape(-1, 2)).T.reshape(b.size, 4, 2)
+    whole = np.isfinite(C).all(axis=(1, 2))
+    rows, C = b[whole], C[whole]  # (m, 4, 2): the two nodes on the side, then the two inwards
     if len(rows) < 2:
         return "unknown"
-    C = np.array(corners)  # (m, 4, 2): the two nodes on the side, then the two inwards
+    # The outer square's upper-left key (extreme + (direction - 1) // 2, b) has the dark
+    # colour where its parity is the dark parity.
+    expect = np.where((extreme + (direction - 1) // 2 + rows) % 2 == dark_parity, 1.0, -1.0)
     edge = 0.5 * (C[:, 0] + C[:, 1])
     step = edge - 0.5 * (C[:, 2] + C[:, 3])  # one square outwards
     steps = np.hypot(step[:, 0], step[:, 1])
@@ -260,7 +263,7 @@ def _side(view, nodes, side, dark_parity, mid, contrast) -> str:
     # the square beyond it (one pair in four may catch clutter), and the squares do not come
     # back farther out (a bar or a fold lying across the board would show them again, along
     # much of the side). One compiled call (``_identify.side_verdict``).
-    verdict = _identify.side_verdict(np.ascontiguousarray(P), value, np.array(expect), np.array(rows, dtype=np.int64),
+    verdict = _identify.side_verdict(np.ascontiguousarray(P), value, expect, rows.astype(np.int64),
                                      np.floor(depths).astype(np.int64), float(width), float(height), float(mid),
                                      float(contrast), ALTERNATES, PLAIN)
     return _VERDICTS[verdict]

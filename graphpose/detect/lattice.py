@@ -53,15 +53,24 @@ class Lattice:
         Their positions (u, v), full-image pixels, to about half a pixel.
     theta0 : float
         Bright-bisector direction of the nodes with ``i + j`` even, radians.
+    homography : (3, 3) ndarray or None
+        Key-to-image homography fitted to the nodes (:func:`graphpose.detect.grid.fit_homography`
+        of ``(i, j)`` to ``(u, v)``), as :func:`grow_lattices` fitted it; None where it fitted
+        none (collinear nodes) or the lattice was made elsewhere.
     """
 
     keys: np.ndarray
     points: np.ndarray
     theta0: float
+    homography: np.ndarray | None = None
 
     def as_dict(self) -> dict:
         """``{(i, j): (2,) position}``."""
         return {(int(i), int(j)): self.points[:, k] for k, (i, j) in enumerate(self.keys)}
+
+    def step_lengths(self) -> np.ndarray:
+        """:func:`step_lengths` at every node (M,), pixels, from the arrays themselves."""
+        return _step_lengths(KeyGrid.of(self.keys, self.points), self.keys)
 
 
 def grow_lattices(cands: Candidates, *, max_seeds: int = 60, max_nodes: int = 2000, min_nodes: int = 4):
@@ -111,46 +120,66 @@ def grow_lattices(cands: Candidates, *, max_seeds: int = 60, max_nodes: int = 20
             yield strength, None
             continue
         nodes, theta0 = cross
-        nodes = peel(_grow(cands, buckets, nodes, theta0, max_nodes))
-        if len(nodes) < min_nodes:
+        keys, rows = _grow(cands, buckets, nodes, theta0, max_nodes)
+        kept = _peeled(keys)
+        if kept.sum() < min_nodes:
             yield strength, None
             continue
-        keys = np.array(list(nodes), dtype=int)
-        points = np.array(list(nodes.values())).T
-        taken |= _within(cands.points, points, keys)
-        yield strength, Lattice(keys, points, theta0)
+        keys, points = keys[kept].astype(int), rows[kept].T
+        within, H = _within(cands.points, points, keys)
+        taken |= within
+        yield strength, Lattice(keys, points, theta0, H)
 
 
-def _within(P: np.ndarray, points: np.ndarray, keys: np.ndarray) -> np.ndarray:
+def _within(P: np.ndarray, points: np.ndarray, keys: np.ndarray) -> tuple:
     """Candidates (2, N) inside the lattice's key box grown by 1.5 steps, mapped to the image
     by a homography fitted to the nodes (its own board: its junctions, corners and margin
-    are no seeds of another lattice)."""
+    are no seeds of another lattice): the mask (N,) and that homography (None if none)."""
     lo, hi = keys.min(axis=0) - 1.5, keys.max(axis=0) + 1.5
     box = np.array([[lo[0], hi[0], hi[0], lo[0]], [lo[1], lo[1], hi[1], hi[1]]])
     try:
         H = fit_homography(keys.T.astype(float), points)
     except BoardNotFoundError:  # collinear nodes fix no homography and hold no area
-        return np.zeros(P.shape[1], dtype=bool)
+        return np.zeros(P.shape[1], dtype=bool), None
     q = H @ np.vstack([box, np.ones(4)])
     if not (np.all(q[2] > 0) or np.all(q[2] < 0)):  # the box crosses the horizon
-        return np.zeros(P.shape[1], dtype=bool)
-    return points_in_poly(P.T, (q[:2] / q[2]).T)
+        return np.zeros(P.shape[1], dtype=bool), H
+    return points_in_poly(P.T, (q[:2] / q[2]).T), H
 
 
 def peel(nodes: dict) -> dict:
     """Drop, repeatedly, nodes with fewer than two lattice neighbours (strays beyond an edge)."""
-    nodes = dict(nodes)
+    keys = list(nodes)
+    kept = _peeled(np.array(keys, dtype=np.int64).reshape(-1, 2))
+    return {key: nodes[key] for key, keep in zip(keys, kept) if keep}
+
+
+def _peeled(keys: np.ndarray) -> np.ndarray:
+    """Which of the (distinct) keys (M, 2) :func:`peel` keeps, (M,) bool: the nodes of two
+    lattice neighbours or more, by rounds on an occupancy array over their key box."""
+    kept = np.ones(len(keys), dtype=bool)
+    if not len(keys):
+        return kept
+    idx = keys - keys.min(axis=0) + 1
+    occupied = np.zeros(tuple(idx.max(axis=0) + 2), dtype=bool)
+    occupied[idx[:, 0], idx[:, 1]] = True
+    i, j = idx[:, 0], idx[:, 1]
     while True:
-        drop = [key for key in nodes if sum((key[0] + a, key[1] + b) in nodes for a, b in _STEPS) < 2]
-        if not drop:
-            return nodes
-        for key in drop:
-            del nodes[key]
+        count = (occupied[i + 1, j].astype(np.int8) + occupied[i - 1, j] + occupied[i, j + 1] + occupied[i, j - 1])
+        drop = kept & (count < 2)
+        if not drop.any():
+            return kept
+        kept &= ~drop
+        occupied[i[drop], j[drop]] = False
 
 
 def step_lengths(nodes: dict, keys) -> np.ndarray:
     """Typical lattice step (pixels) at each key: the mean distance to its lattice neighbours."""
-    grid = KeyGrid(nodes)
+    return _step_lengths(KeyGrid(nodes), keys)
+
+
+def _step_lengths(grid, keys) -> np.ndarray:
+    """:func:`step_lengths` of ``keys`` on a :class:`KeyGrid` of the nodes."""
     K = np.asarray(keys, dtype=int).reshape(-1, 2)
     here = grid.at(K)
     d = np.stack([np.hypot(*(grid.at(K + step) - here)) for step in _STEPS])  # (4, n), NaN: none
@@ -174,11 +203,21 @@ class KeyGrid:
 
     def __init__(self, nodes: dict, reach: int = 4):
         K = np.array(list(nodes), dtype=int).reshape(-1, 2)
+        self._fill(K, np.array(list(nodes.values()), dtype=float), reach)
+
+    @classmethod
+    def of(cls, keys: np.ndarray, points: np.ndarray, reach: int = 4) -> "KeyGrid":
+        """The grid of nodes given as arrays: keys (M, 2) at points (2, M), no dict made."""
+        grid = cls.__new__(cls)
+        grid._fill(np.asarray(keys, dtype=int).reshape(-1, 2), np.asarray(points, dtype=float).T, reach)
+        return grid
+
+    def _fill(self, K: np.ndarray, rows: np.ndarray, reach: int) -> None:
         self.reach = reach
         self.origin = K.min(axis=0) - reach
         shape = K.max(axis=0) - self.origin + reach + 1
         self.array = np.full((shape[0], shape[1], 2), np.nan)
-        self.array[K[:, 0] - self.origin[0], K[:, 1] - self.origin[1]] = np.array(list(nodes.values()), dtype=float)
+        self.array[K[:, 0] - self.origin[0], K[:, 1] - self.origin[1]] = rows
 
     def cover(self, keys: np.ndarray) -> None:
         """Grow the array (by ``2 reach`` keys) where any of ``keys`` (n, 2) would lie within
@@ -251,7 +290,7 @@ def _parity_ok(theta, theta0, parity):
     return np.where(parity == 0, c > PARITY_COS, c < -PARITY_COS)
 
 
-def _grow(cands: Candidates, buckets: tuple, nodes: dict, theta0: float, max_nodes: int) -> dict:
+def _grow(cands: Candidates, buckets: tuple, nodes: dict, theta0: float, max_nodes: int) -> tuple:
     """Grow ``nodes`` ring by ring until no free neighbouring key passes (see the module).
 
     Each round looks only at the free neighbours of the nodes added in the round before
@@ -260,6 +299,8 @@ def _grow(cands: Candidates, buckets: tuple, nodes: dict, theta0: float, max_nod
     now rest on more of the lattice. A prediction snaps to the nearest candidate within
     :data:`SNAP_FRACTION` of the local step (``buckets``: :func:`_buckets`). The rounds are
     one compiled call (``_lattice.grow``), again only when the lattice outgrows its grid.
+    Returns the keys (M, 2) of int64 in the order they were added and their positions
+    (M, 2), pixels.
     """
     grid = KeyGrid(nodes, reach=8)
     start_keys = np.array(list(nodes), dtype=np.int64)
@@ -279,8 +320,7 @@ def _grow(cands: Candidates, buckets: tuple, nodes: dict, theta0: float, max_nod
             break
         grid.cover(order[:state[0]])
     order = order[:state[0]]
-    rows = grid.at(order).T.copy()
-    return {key: rows[k] for k, key in enumerate(map(tuple, order.tolist()))}
+    return order, grid.at(order).T.copy()
 
 
 def _buckets(points: np.ndarray, cell: float = 16.0) -> tuple:

@@ -326,7 +326,9 @@ def _response_peaks(S: np.ndarray):
         return np.zeros((max(h, 0), max(w, 0)), np.float32), np.zeros(0, np.int64), np.zeros(0, np.int64)
     r, scratch, peak = np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w), np.uint8)
     _search.saddle_peaks(np.ascontiguousarray(S, dtype=np.float32), r, scratch, peak)
-    rows, cols = np.nonzero(peak)
+    # Flat indices of the 0/1 bytes read as bool, then rows and columns: the same row-major
+    # peaks as np.nonzero(peak), which on a 2-D uint8 array costs ten times as long.
+    rows, cols = np.divmod(np.flatnonzero(peak.view(bool)), w)
     return r, rows, cols
 
 

@@ -13,7 +13,9 @@ from graphpose import Board, BoardNotFoundError, InputError, K_from_params
 from graphpose.geometry import T_from_params
 from graphpose.detect import find as find_module
 from graphpose.detect.find import find_board
-from graphpose.detect.lattice import grow_lattices, peel, predict, step_lengths
+from graphpose.detect.grid import fit_homography
+from graphpose.detect.identify import identify
+from graphpose.detect.lattice import Lattice, grow_lattices, peel, predict, step_lengths
 from graphpose.detect.search import downsample, find_candidates, ring_test, search_levels
 from graphpose.synth.render import render
 from graphpose.synth.scenes import random_scene
@@ -70,12 +72,27 @@ def test_step_lengths_are_the_mean_distance_to_the_lattice_neighbours_present():
         i, j = key
         d = [np.hypot(*(nodes[k] - nodes[key])) for k in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)) if k in nodes]
         assert (np.isnan(got) and not d) or got == pytest.approx(np.mean(d), abs=1e-12)
+    # A lattice's own step lengths, read from its arrays, are the same numbers.
+    lattice = Lattice(np.array(keys), np.array([nodes[k] for k in keys]).T, 0.0)
+    assert np.array_equal(lattice.step_lengths(), step_lengths(nodes, keys), equal_nan=True)
 
 
 def test_peel_drops_strays_with_fewer_than_two_neighbours():
     nodes = {(i, j): np.zeros(2) for i in range(3) for j in range(3)}
     nodes[(5, 0)] = nodes[(3, 0)] = np.zeros(2)  # (3, 0) has one neighbour, (5, 0) none
     assert set(peel(nodes)) == {(i, j) for i in range(3) for j in range(3)}
+
+
+def test_peel_keeps_what_dropping_strays_one_pass_at_a_time_keeps():
+    rng = np.random.default_rng(8)
+    for _ in range(20):
+        nodes = {(int(i), int(j)): np.array([i, j], float) for i, j in rng.integers(-4, 5, (30, 2))}
+        left = dict(nodes)  # the plain reference: whole passes over a dict until none drops
+        while drop := [k for k in left if sum((k[0] + a, k[1] + b) in left for a, b in
+                                              ((1, 0), (-1, 0), (0, 1), (0, -1))) < 2]:
+            for k in drop:
+                del left[k]
+        assert list(peel(nodes)) == list(left)
 
 
 def test_lattice_of_a_clean_board_holds_every_junction_right_handed():
@@ -90,6 +107,11 @@ def test_lattice_of_a_clean_board_holds_every_junction_right_handed():
     i, j = lattice.keys[np.argmin(np.abs(lattice.keys - lattice.keys.mean(axis=0)).sum(axis=1))]
     a, b = nodes[(i + 1, j)] - nodes[(i, j)], nodes[(i, j + 1)] - nodes[(i, j)]
     assert a[0] * b[1] - a[1] * b[0] > 0
+    # The growth's homography is the fit of its keys to its points, and the labelling it
+    # spares is the labelling of the same lattice without it.
+    assert np.array_equal(lattice.homography, fit_homography(lattice.keys.T.astype(float), lattice.points))
+    bare = identify(Lattice(lattice.keys, lattice.points, lattice.theta0), cands.view, Board())
+    assert np.array_equal(bare.index, identify(lattice, cands.view, Board()).index)
 
 
 @pytest.mark.parametrize("seed", range(12))
