@@ -23,7 +23,8 @@ step along a grid line swaps bright and dark, so neighbours along a line have ``
 The lattice and the identification read the image through one sampling context,
 :class:`SearchImage` (the smoothed search level and the full image, with their bilinear
 samples and the ring test), which :class:`Candidates` carries as ``view``; the same ring
-test on a stack of patches (the refinement's) is :func:`ring_test_patches`. The loops are compiled
+test on a stack of patches is :func:`ring_test_patches`, and the refinement's judging scores its
+own patches with the same arithmetic (``_sampling._ring_score``). The loops are compiled
 (``_search.pyx``, with ``_sampling.pxd``): one call per batch of points.
 
 Coordinates follow :mod:`graphpose.geometry`: full-image pixels ``(u, v)``, 2 x N arrays.
@@ -200,7 +201,7 @@ def ring_test(view: SearchImage, points: np.ndarray, radius) -> tuple:
     Sixteen bilinear samples on a circle: at a cross-junction opposite samples agree (point
     symmetry) and samples a quarter-turn apart disagree; an L-corner breaks the first, an
     edge the second, flat ground both. :func:`ring_test_patches` is the same test on a
-    stack of patches (the refinement's).
+    stack of patches.
 
     Parameters
     ----------
@@ -239,8 +240,11 @@ def ring_test_patches(patches: np.ndarray, centre: np.ndarray, radius) -> tuple:
 
 
 def _xy(points):
-    """Contiguous float64 rows x, y of points (2, N)."""
+    """Contiguous float64 rows x, y of points (2, N), all finite: the kernels clamp a sample
+    to the image, which a NaN position would escape (an index from ``floor(NaN)``)."""
     P = np.asarray(points, dtype=float).reshape(2, -1)
+    if not np.all(np.isfinite(P)):
+        raise InputError("sample positions must be finite (no NaN or inf)")
     return np.ascontiguousarray(P[0]), np.ascontiguousarray(P[1])
 
 

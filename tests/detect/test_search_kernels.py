@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 
+from graphpose import InputError
 from graphpose.detect import _lattice
 from graphpose.detect.lattice import KeyGrid, grow_lattices, predict
 from graphpose.detect.search import SearchImage, _response_peaks, find_candidates, ring_test, ring_test_patches
@@ -300,3 +301,12 @@ def test_the_side_verdict_is_the_plain_one_on_random_sides():
         assert got == side_reference(P, value, expect, rows, depths, 160.0, 120.0, 120.0, 160.0), trial
         verdicts.append(got)
     assert set(verdicts) == {0, 1, 2}
+
+
+def test_a_nan_sample_position_is_refused_not_read():
+    # The kernels clamp positions to the image; a NaN would escape the clamp (floor(NaN) as an
+    # index), so the samplers refuse it.
+    patches = np.zeros((1, 9, 9), dtype=np.float32)
+    for centre in (np.array([[np.nan], [4.0]]), np.array([[4.0], [np.inf]])):
+        with pytest.raises(InputError, match="finite"):
+            ring_test_patches(patches, centre, 2.5)
