@@ -6,13 +6,14 @@ differently, in the last bit: the verdict compares them with thresholds far from
 """
 
 from libc.math cimport NAN, isfinite
+from libc.stdint cimport int64_t
 
 #: Verdicts, as identify's ``_side`` names them.
 UNKNOWN, CONTINUES, EDGE = 0, 1, 2
 
 
 def side_verdict(const double[:, :, ::1] P, const double[:, ::1] value, const double[::1] expect,
-                 const long[::1] rows, const long[::1] square, double width, double height, double mid,
+                 const int64_t[::1] rows, const int64_t[::1] square, double width, double height, double mid,
                  double contrast, double alternates, double plain):
     """The verdict on one side (see ``identify._side``): :data:`UNKNOWN`, :data:`CONTINUES`
     or :data:`EDGE`.

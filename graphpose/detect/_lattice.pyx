@@ -8,6 +8,7 @@ it replaces, in the same order, so the positions are the same to the last bit.
 """
 
 from libc.math cimport hypot, cos, fabs, floor, sqrt, M_PI
+from libc.stdint cimport int64_t
 
 from graphpose.detect._sampling cimport _median, _ring_at
 
@@ -17,9 +18,9 @@ _DI[:] = [1, -1, 0, 0]
 _DJ[:] = [0, 0, 1, -1]
 
 
-cdef inline bint _get(const double[:, :, ::1] grid, long oi, long oj, long i, long j, double *u, double *v) noexcept nogil:
+cdef inline bint _get(const double[:, :, ::1] grid, int64_t oi, int64_t oj, int64_t i, int64_t j, double *u, double *v) noexcept nogil:
     """Position of key (i, j) into u, v; False where there is no node."""
-    cdef long a = i - oi, b = j - oj
+    cdef int64_t a = i - oi, b = j - oj
     if a < 0 or b < 0 or a >= grid.shape[0] or b >= grid.shape[1]:
         return False
     u[0] = grid[a, b, 0]
@@ -27,13 +28,13 @@ cdef inline bint _get(const double[:, :, ::1] grid, long oi, long oj, long i, lo
     return u[0] == u[0]
 
 
-cdef inline bint _predict(const double[:, :, ::1] grid, long oi, long oj, long i, long j,
+cdef inline bint _predict(const double[:, :, ::1] grid, int64_t oi, int64_t oj, int64_t i, int64_t j,
                           double *pu, double *pv, double *step) noexcept nogil:
     """:func:`graphpose.detect.lattice.predict` of key (i, j); False where it gives None."""
     cdef double su = 0.0, sv = 0.0, au, av, bu, bv, cu, cv, b1u, b1v, b2u, b2v, t
     cdef double steps[8]
     cdef int n = 0, s, e, p, q
-    cdef long di, dj, ei, ej
+    cdef int64_t di, dj, ei, ej
     for s in range(4):
         di, dj = _DI[s], _DJ[s]
         if not _get(grid, oi, oj, i - di, j - dj, &au, &av) or not _get(grid, oi, oj, i - 2 * di, j - 2 * dj, &bu, &bv):
@@ -69,8 +70,8 @@ cdef inline bint _predict(const double[:, :, ::1] grid, long oi, long oj, long i
     return True
 
 
-cpdef Py_ssize_t predict_round(const double[:, :, ::1] grid, long oi, long oj, const long[:, ::1] fresh,
-                               int[:, ::1] stamp, int mark, long[:, ::1] keys, double[:, ::1] guess,
+cpdef Py_ssize_t predict_round(const double[:, :, ::1] grid, int64_t oi, int64_t oj, const int64_t[:, ::1] fresh,
+                               int[:, ::1] stamp, int mark, int64_t[:, ::1] keys, double[:, ::1] guess,
                                double[::1] step) noexcept nogil:
     """The predictions of one growth round: for each key of ``fresh`` (m, 2) in order, its
     four neighbours (the lattice's step order) that hold no node and were not looked at
@@ -79,7 +80,7 @@ cpdef Py_ssize_t predict_round(const double[:, :, ::1] grid, long oi, long oj, c
     must lie on the grid. Returns their count."""
     cdef Py_ssize_t k, n = 0
     cdef int s
-    cdef long i, j, a, b
+    cdef int64_t i, j, a, b
     for k in range(fresh.shape[0]):
         for s in range(4):
             i = fresh[k, 0] + _DI[s]
@@ -95,7 +96,7 @@ cpdef Py_ssize_t predict_round(const double[:, :, ::1] grid, long oi, long oj, c
     return n
 
 
-def predict_one(const double[:, :, ::1] grid, long oi, long oj, long i, long j):
+def predict_one(const double[:, :, ::1] grid, int64_t oi, int64_t oj, int64_t i, int64_t j):
     """:func:`graphpose.detect.lattice.predict` of key (i, j): ``((u, v), step)`` or None."""
     cdef double u, v, step
     if not _predict(grid, oi, oj, i, j, &u, &v, &step):
@@ -103,12 +104,12 @@ def predict_one(const double[:, :, ::1] grid, long oi, long oj, long i, long j):
     return (u, v), step
 
 
-cdef inline long _along(const double *vx, const double *vy, const double *length, const long *pool, Py_ssize_t m,
+cdef inline int64_t _along(const double *vx, const double *vy, const double *length, const int64_t *pool, Py_ssize_t m,
                         double dx, double dy, double cos_limit) noexcept nogil:
     """The entry of ``pool`` (m of them) nearest the direction (dx, dy) within 15 degrees and
     0.7-1.4 of its length, or -1."""
     cdef double size = hypot(dx, dy), c, ratio, err, best_err = 0.0
-    cdef long n, best = -1
+    cdef int64_t n, best = -1
     cdef Py_ssize_t k
     for k in range(m):
         n = pool[k]
@@ -122,12 +123,12 @@ cdef inline long _along(const double *vx, const double *vy, const double *length
     return best
 
 
-cdef int _pick(const double *vx, const double *vy, const double *length, const long *opposite, Py_ssize_t m,
-               long *out) noexcept nogil:
+cdef int _pick(const double *vx, const double *vy, const double *length, const int64_t *opposite, Py_ssize_t m,
+               int64_t *out) noexcept nogil:
     """:func:`pick_cross` on C arrays."""
     cdef double cos_limit = cos(15.0 * (M_PI / 180.0))
     cdef Py_ssize_t p, k
-    cdef long a, b, c, d, n
+    cdef int64_t a, b, c, d, n
     cdef int count, best = 0
     for p in range(m if m < 3 else 3):
         a = opposite[p]
@@ -150,7 +151,7 @@ cdef int _pick(const double *vx, const double *vy, const double *length, const l
     return best
 
 
-def pick_cross(const double[:, ::1] vec, const double[::1] length, const long[::1] opposite, long[::1] out):
+def pick_cross(const double[:, ::1] vec, const double[::1] length, const int64_t[::1] opposite, int64_t[::1] out):
     """The arms of a seed's cross among its neighbours at ``vec`` (2, m) from it, ``length``
     (m,) away, those of opposite parity ``opposite``: neighbour indices ``(a, b, c, d)`` for
     keys (1, 0), (-1, 0), (0, 1), (0, -1) into ``out`` (-1 where absent). Each of the first
@@ -158,7 +159,7 @@ def pick_cross(const double[:, ::1] vec, const double[::1] length, const long[::
     nearest the reverse direction (:func:`_along`), arm (0, 1) the first opposite neighbour
     well off its line, and (0, -1) the one opposite that; the cross with most nodes (at least
     four, the first of equals) wins. Returns its node count (0: none)."""
-    cdef long arms[4]
+    cdef int64_t arms[4]
     cdef int count = _pick(&vec[0, 0], &vec[1, 0], &length[0], &opposite[0], opposite.shape[0], arms)
     if count:
         for k in range(4):
@@ -166,9 +167,9 @@ def pick_cross(const double[:, ::1] vec, const double[::1] length, const long[::
     return count
 
 
-def seed_cross(const double[:, ::1] points, const double[::1] theta, const long[::1] nb, long k,
+def seed_cross(const double[:, ::1] points, const double[::1] theta, const int64_t[::1] nb, int64_t k,
                const float[:, :] smooth, int level, double parity_cos, double ring_fraction, double min_score,
-               long[::1] arms, double[::1] theta0):
+               int64_t[::1] arms, double[::1] theta0):
     """The cross of five (or four) nodes around candidate ``k`` (see
     :func:`graphpose.detect.lattice._seed_cross`), in one call.
 
@@ -182,9 +183,9 @@ def seed_cross(const double[:, ::1] points, const double[::1] theta, const long[
     cdef double vx[12]
     cdef double vy[12]
     cdef double length[12]
-    cdef long opposite[12]
-    cdef long pick[4]
-    cdef long node[5]
+    cdef int64_t opposite[12]
+    cdef int64_t pick[4]
+    cdef int64_t node[5]
     cdef double d[4]
     cdef double score, th, contrast, t0, step, t, x, y, rad, s = 1 << level, c
     cdef Py_ssize_t m = nb.shape[0], n, q, p, r, count = 0, nodes
@@ -237,14 +238,14 @@ def seed_cross(const double[:, ::1] points, const double[::1] theta, const long[
     return nodes
 
 
-cdef inline long _nearest(const double[:, ::1] points, const long[::1] start, const long[::1] items, long nx, long ny,
+cdef inline int64_t _nearest(const double[:, ::1] points, const int64_t[::1] start, const int64_t[::1] items, int64_t nx, int64_t ny,
                           double cell, double x, double y, double reach) noexcept nogil:
     """The candidate nearest (x, y) if it lies within ``reach`` (Euclidean, as a k-d tree
     measures it), else -1; candidates are bucketed in square cells of side ``cell``
     (``items[start[c]:start[c + 1]]`` in cell ``c = cy nx + cx``)."""
-    cdef long cx0 = <long>floor((x - reach) / cell), cx1 = <long>floor((x + reach) / cell)
-    cdef long cy0 = <long>floor((y - reach) / cell), cy1 = <long>floor((y + reach) / cell)
-    cdef long cx, cy, c, best = -1, n
+    cdef int64_t cx0 = <int64_t>floor((x - reach) / cell), cx1 = <int64_t>floor((x + reach) / cell)
+    cdef int64_t cy0 = <int64_t>floor((y - reach) / cell), cy1 = <int64_t>floor((y + reach) / cell)
+    cdef int64_t cx, cy, c, best = -1, n
     cdef Py_ssize_t q
     cdef double dx, dy, d, best_d = 0.0
     if cx0 < 0:
@@ -268,11 +269,11 @@ cdef inline long _nearest(const double[:, ::1] points, const long[::1] start, co
     return best
 
 
-def grow(double[:, :, ::1] grid, long oi, long oj, int[:, ::1] stamp, long[:, ::1] order, long[:, ::1] fresh,
-         long[::1] state, long max_nodes, const double[:, ::1] points, const long[::1] start, const long[::1] items,
-         long nx, long ny, double cell, const float[:, :] smooth, int level, double width, double height,
+def grow(double[:, :, ::1] grid, int64_t oi, int64_t oj, int[:, ::1] stamp, int64_t[:, ::1] order, int64_t[:, ::1] fresh,
+         int64_t[::1] state, int64_t max_nodes, const double[:, ::1] points, const int64_t[::1] start, const int64_t[::1] items,
+         int64_t nx, int64_t ny, double cell, const float[:, :] smooth, int level, double width, double height,
          double theta0, double ring_fraction, double snap_fraction, double min_score, double parity_cos,
-         long[:, ::1] keys, double[:, ::1] guess, double[::1] step):
+         int64_t[:, ::1] keys, double[:, ::1] guess, double[::1] step):
     """The growth rounds of :func:`graphpose.detect.lattice._grow`, compiled.
 
     ``order`` holds the nodes' keys in the order they joined, ``fresh`` those the next round
@@ -284,10 +285,10 @@ def grow(double[:, :, ::1] grid, long oi, long oj, int[:, ::1] stamp, long[:, ::
     ``grid`` and ``order``. Returns 0 when growth has ended, 1 when a new node lies within
     one key of the grid's edge (grow the grid, then call again).
     """
-    cdef long n_order = state[0], n_fresh = state[1], full = state[2]
+    cdef int64_t n_order = state[0], n_fresh = state[1], full = state[2]
     cdef int mark = <int>state[3]
     cdef Py_ssize_t n, q, r, good
-    cdef long a, b, cand, ni = grid.shape[0], nj = grid.shape[1]
+    cdef int64_t a, b, cand, ni = grid.shape[0], nj = grid.shape[1]
     cdef double s = 1 << level, margin, qx, qy, x, y, rad, score, th, contrast, c
     cdef bint edge = False
     with nogil:
