@@ -42,16 +42,6 @@ def ring_image(const float[:, :] a, const double[::1] x, const double[::1] y, co
             _ring_at(a, x[k], y[k], radius[k], &score[k], &theta[k], &contrast[k])
 
 
-def ring_patches(const float[:, :, :] patches, const double[::1] x, const double[::1] y, const double[::1] radius,
-                 double[::1] score, double[::1] theta, double[::1] contrast):
-    """The ring test of patch ``k`` of a stack (m, h, w) at its own column ``x[k]``, row
-    ``y[k]``, radius ``radius[k]``, in patch pixels."""
-    cdef Py_ssize_t k
-    with nogil:
-        for k in range(x.shape[0]):
-            _ring_at(patches[k], x[k], y[k], radius[k], &score[k], &theta[k], &contrast[k])
-
-
 def saddle_peaks(const float[:, ::1] S, float[:, ::1] r, float[:, ::1] rowmax, unsigned char[:, ::1] peak):
     """The saddle response of :func:`graphpose.detect.search.find_candidates` and its peaks.
 

@@ -22,9 +22,8 @@ step along a grid line swaps bright and dark, so neighbours along a line have ``
 
 The lattice and the identification read the image through one sampling context,
 :class:`SearchImage` (the smoothed search level and the full image, with their bilinear
-samples and the ring test), which :class:`Candidates` carries as ``view``; the same ring
-test on a stack of patches is :func:`ring_test_patches`, and the refinement's judging scores its
-own patches with the same arithmetic (``_sampling._ring_score``). The loops are compiled
+samples and the ring test), which :class:`Candidates` carries as ``view``; the refinement's
+judging scores its own patches with the same ring arithmetic (``_sampling._ring_score``). The loops are compiled
 (``_search.pyx``, with ``_sampling.pxd``): one call per batch of points.
 
 Coordinates follow :mod:`graphpose.geometry`: full-image pixels ``(u, v)``, 2 x N arrays.
@@ -200,8 +199,7 @@ def ring_test(view: SearchImage, points: np.ndarray, radius) -> tuple:
 
     Sixteen bilinear samples on a circle: at a cross-junction opposite samples agree (point
     symmetry) and samples a quarter-turn apart disagree; an L-corner breaks the first, an
-    edge the second, flat ground both. :func:`ring_test_patches` is the same test on a
-    stack of patches.
+    edge the second, flat ground both.
 
     Parameters
     ----------
@@ -225,18 +223,6 @@ def ring_test(view: SearchImage, points: np.ndarray, radius) -> tuple:
         Peak-to-peak grey range on the ring, in the image's grey units.
     """
     return view.ring_test(points, radius)
-
-
-def ring_test_patches(patches: np.ndarray, centre: np.ndarray, radius) -> tuple:
-    """:func:`ring_test` on a stack of patches: patch ``k`` of ``patches`` (m, h, w) read
-    around its own ``centre[:, k]`` (x, y), patch pixels, at ``radius`` (float or (m,))
-    patch pixels. Returns the same ``(score, theta, contrast)``, each (m,)."""
-    P = np.ascontiguousarray(patches, dtype=np.float32)
-    x, y = _xy(centre)
-    rad = np.ascontiguousarray(np.broadcast_to(np.asarray(radius, dtype=float), x.shape))
-    score, theta, contrast = np.empty(x.size), np.empty(x.size), np.empty(x.size)
-    _search.ring_patches(P, x, y, rad, score, theta, contrast)
-    return score, theta, contrast
 
 
 def _xy(points):

@@ -14,7 +14,7 @@ import pytest
 from graphpose import InputError
 from graphpose.detect import _lattice
 from graphpose.detect.lattice import KeyGrid, grow_lattices, predict
-from graphpose.detect.search import SearchImage, _response_peaks, find_candidates, ring_test, ring_test_patches
+from graphpose.detect.search import SearchImage, _response_peaks, find_candidates, ring_test
 
 STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
 
@@ -74,14 +74,6 @@ def test_ring_test_is_the_chess_test_on_sixteen_bilinear_samples():
                               (y[:, None] + rad * np.sin(angles)).ravel()).astype(np.float32).reshape(50, 16)
     for got, want in zip(ring_test(view, P, radius), ring_reference(ring.astype(float))):
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
-    # A stack of patches is read patch by patch, each around its own centre.
-    patches = np.stack([view.smooth, view.smooth[::-1].copy()])
-    centre = np.array([[5.2, 7.1], [4.4, 3.3]])
-    for k in range(2):
-        one = SearchImage(patches[k], 0, patches[k])
-        got = [part[k] for part in ring_test_patches(patches, centre, [2.5, 3.0])]
-        np.testing.assert_allclose(got, [part[0] for part in ring_test(one, centre[:, k:k + 1], [2.5, 3.0][k])],
-                                   rtol=0, atol=0)
 
 
 def test_a_cross_junction_scores_above_zero_and_an_edge_below():
@@ -306,7 +298,10 @@ def test_the_side_verdict_is_the_plain_one_on_random_sides():
 def test_a_nan_sample_position_is_refused_not_read():
     # The kernels clamp positions to the image; a NaN would escape the clamp (floor(NaN) as an
     # index), so the samplers refuse it.
-    patches = np.zeros((1, 9, 9), dtype=np.float32)
+    image = np.zeros((20, 20), dtype=np.float32)
+    view = SearchImage(image, 0, image)
     for centre in (np.array([[np.nan], [4.0]]), np.array([[4.0], [np.inf]])):
         with pytest.raises(InputError, match="finite"):
-            ring_test_patches(patches, centre, 2.5)
+            ring_test(view, centre, 2.5)
+        with pytest.raises(InputError, match="finite"):
+            view.sample(centre)
