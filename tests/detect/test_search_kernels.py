@@ -305,3 +305,45 @@ def test_a_nan_sample_position_is_refused_not_read():
             ring_test(view, centre, 2.5)
         with pytest.raises(InputError, match="finite"):
             view.sample(centre)
+
+
+@pytest.mark.parametrize("shape", [(240, 320), (7, 5), (2, 9), (1, 1)])
+def test_the_search_smoothing_is_scipys_gaussian_to_the_bit(shape):
+    # SciPy is the reference here (a runtime dependency): the kernel must give what
+    # ndimage.gaussian_filter gave the search before it, edges (reflected) included, and
+    # lines shorter than the kernel, where the reflection folds more than once.
+    from scipy import ndimage
+
+    from graphpose.detect.search import RESPONSE_SIGMA, smooth
+
+    a = np.random.default_rng(3).uniform(0, 255, shape).astype(np.float32)
+    expected = ndimage.gaussian_filter(a, RESPONSE_SIGMA, truncate=3.0)
+    assert smooth(a).dtype == np.float32
+    np.testing.assert_array_equal(smooth(a), expected)
+
+
+def immerkaer_reference(image, s):
+    """|Immerkaer's mask| at every s-th row and column, float32, the plain way."""
+    a = image.astype(np.float32)
+    h, w = a.shape
+    out = []
+    for i in range(0, h - 2, s):
+        for j in range(0, w - 2, s):
+            p = a[i:i + 3, j:j + 3]
+            out.append(abs(p[0, 0] - 2 * p[0, 1] + p[0, 2] - 2 * (p[1, 0] - 2 * p[1, 1] + p[1, 2])
+                           + p[2, 0] - 2 * p[2, 1] + p[2, 2]))
+    return np.array(out, dtype=np.float32)
+
+
+@pytest.mark.parametrize("s", [1, 3, 4])
+def test_the_noise_median_of_an_eight_bit_image_is_the_partitions(s):
+    from graphpose.detect.noise import _MAD_TO_SIGMA, estimate_noise
+
+    rng = np.random.default_rng(s)
+    for image in (rng.integers(0, 256, (41, 57)).astype(np.uint8), np.full((9, 9), 7, np.uint8),
+                  (rng.uniform(size=(30, 40)) > 0.5).astype(np.uint8) * 255):
+        r = immerkaer_reference(image, s)
+        median = np.partition(r, r.size // 2)[r.size // 2]
+        assert estimate_noise(image, stride=s) == pytest.approx(float(median) * _MAD_TO_SIGMA / 6.0, rel=1e-15)
+        # The float path (the same responses, partitioned) agrees with the counted one.
+        assert estimate_noise(image.astype(np.float32), stride=s) == estimate_noise(image, stride=s)
