@@ -5,7 +5,7 @@ Means are taken left to right (NumPy's pairwise sums of these few values may ass
 differently, in the last bit: the verdict compares them with thresholds far from those bits).
 """
 
-from libc.math cimport NAN, isfinite
+from libc.math cimport NAN, hypot, isfinite
 from libc.stdint cimport int64_t
 
 #: Verdicts, as identify's ``_side`` names them.
@@ -87,3 +87,89 @@ def side_verdict(const double[:, :, ::1] P, const double[:, ::1] value, const do
         if valid and (total / valid > plain or high > (1 if valid // 3 < 1 else valid // 3)):
             return UNKNOWN
     return EDGE
+
+
+def side_geometry(const double[:, :, ::1] grid, int64_t oi, int64_t oj, const int64_t[:, ::1] keys, int axis,
+                  int direction, const double[::1] depths, double flat_side, int64_t dark_parity,
+                  double[:, :, ::1] P, int64_t[::1] rows, double[::1] expect, double[::1] steps):
+    """The sample points of one lattice side (see ``identify._side``), or -1 where the side is
+    not an edge line of the lattice (fewer than ``flat_side`` of its lattice lines reach it).
+
+    ``grid`` is a :class:`graphpose.detect.lattice.KeyGrid`'s array (NaN where no node), key
+    ``(i, j)`` at ``grid[i - oi, j - oj]``; ``keys`` (M, 2) the lattice's nodes; the side is
+    the lowest (``direction`` -1) or highest (+1) ``keys[:, axis]``. For each node on it, in
+    ascending order of its other coordinate ``b``, whose outer-band square (``b`` to ``b + 1``
+    along the side, one key inwards) has all four nodes, in order: ``rows`` gets ``b``,
+    ``expect`` +1 where that square's parity is ``dark_parity`` (else -1), ``steps`` the
+    length of one square outwards, and ``P[p, :, d]`` (u, v) the point ``depths[d]`` squares
+    outwards from the side's midpoint of the square. Returns how many rows were written
+    (the buffers hold M).
+    """
+    cdef Py_ssize_t M = keys.shape[0], D = depths.shape[0], k, d, m = 0, n_lines = 0, reach_end = 0
+    cdef Py_ssize_t gi = grid.shape[0], gj = grid.shape[1]
+    cdef int64_t extreme, lo_b, hi_b, a, b, inward = -direction, q
+    cdef int64_t ii[4]
+    cdef int64_t jj[4]
+    cdef double c[4][2]
+    cdef double eu, ev, su, sv
+    cdef int64_t[::1] ends
+    cdef unsigned char[::1] on_side
+    cdef int corner, whole
+    import numpy as np
+    if M == 0:
+        return -1
+    extreme, lo_b, hi_b = keys[0, axis], keys[0, 1 - axis], keys[0, 1 - axis]
+    for k in range(M):
+        a, b = keys[k, axis], keys[k, 1 - axis]
+        if (direction < 0 and a < extreme) or (direction > 0 and a > extreme):
+            extreme = a
+        lo_b = b if b < lo_b else lo_b
+        hi_b = b if b > hi_b else hi_b
+    # Each lattice line across the side ends where its farthest node along ``axis`` is.
+    ends = np.empty(hi_b - lo_b + 1, dtype=np.int64)
+    on_side = np.zeros(hi_b - lo_b + 1, dtype=np.uint8)
+    for k in range(hi_b - lo_b + 1):
+        ends[k] = 0
+    for k in range(M):
+        a, b = keys[k, axis], keys[k, 1 - axis] - lo_b
+        if not on_side[b]:
+            on_side[b] = 1
+            ends[b] = a
+            n_lines += 1
+        elif (direction < 0 and a < ends[b]) or (direction > 0 and a > ends[b]):
+            ends[b] = a
+    for k in range(hi_b - lo_b + 1):
+        if on_side[k] and ends[k] == extreme:
+            reach_end += 1
+    if reach_end / <double>n_lines < flat_side:
+        return -1
+    # The nodes on the side (ascending b) whose outer-band square is whole.
+    for b in range(lo_b, hi_b + 1):
+        if not (on_side[b - lo_b] and ends[b - lo_b] == extreme):
+            continue
+        whole = 1
+        for corner in range(4):
+            q = extreme + (inward if corner >= 2 else 0)
+            if axis == 0:
+                ii[corner], jj[corner] = q - oi, b + (corner % 2) - oj
+            else:
+                ii[corner], jj[corner] = b + (corner % 2) - oi, q - oj
+            if ii[corner] < 0 or jj[corner] < 0 or ii[corner] >= gi or jj[corner] >= gj:
+                whole = 0
+                break
+            c[corner][0], c[corner][1] = grid[ii[corner], jj[corner], 0], grid[ii[corner], jj[corner], 1]
+            if not (isfinite(c[corner][0]) and isfinite(c[corner][1])):
+                whole = 0
+                break
+        if not whole:
+            continue
+        rows[m] = b
+        expect[m] = 1.0 if ((extreme + (direction - 1) // 2 + b) % 2 + 2) % 2 == dark_parity else -1.0
+        eu, ev = 0.5 * (c[0][0] + c[1][0]), 0.5 * (c[0][1] + c[1][1])
+        su, sv = eu - 0.5 * (c[2][0] + c[3][0]), ev - 0.5 * (c[2][1] + c[3][1])
+        steps[m] = hypot(su, sv)
+        for d in range(D):
+            P[m, 0, d] = eu + su * depths[d]
+            P[m, 1, d] = ev + sv * depths[d]
+        m += 1
+    return m

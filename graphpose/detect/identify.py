@@ -74,6 +74,10 @@ MIN_PARTIAL_STEP_PX = 12.0
 FLAT_SIDE = 0.75
 #: Sides, as (lattice axis, direction).
 SIDES = ((0, -1), (0, 1), (1, -1), (1, 1))
+#: Every depth a side is sampled at, in squares outwards from it.
+_DEPTHS = np.array((OUTER_DEPTH,) + BEYOND_DEPTHS + RESUME_DEPTHS)
+#: The square each depth lies in (0 the outer band's).
+_DEPTH_SQUARES = np.floor(_DEPTHS).astype(np.int64)
 #: The compiled verdicts' names.
 _VERDICTS = {_identify.UNKNOWN: "unknown", _identify.CONTINUES: "continues", _identify.EDGE: "edge"}
 
@@ -224,37 +228,24 @@ def _side(view, grid, keys, side, dark_parity, mid, contrast) -> str:
     occluder across part of the side cannot hide the rows where the board goes on.
     """
     axis, direction = side
-    along, across = keys[:, axis], keys[:, 1 - axis]
-    extreme = int(along.min() if direction < 0 else along.max())
-    inward = -direction
-    depths = np.array((OUTER_DEPTH,) + BEYOND_DEPTHS + RESUME_DEPTHS)
+    depths = _DEPTHS
     # An edge is a straight line of junctions: most lattice lines must reach it (a row that
     # stops short has its end hidden, and the side beyond says nothing of the board's edge).
-    line, at = np.unique(across, return_inverse=True)
-    ends = np.full(line.size, extreme - direction * (int(np.ptp(along)) + 1))
-    (np.minimum if direction < 0 else np.maximum).at(ends, at, along)
-    if np.mean(ends == extreme) < FLAT_SIDE:
+    # Along the side, the outer band's squares (the two nodes on the side, then the two
+    # inwards) whose four nodes are seen give a row each: its key across the side, whether
+    # its outer square is dark (its upper-left key's parity is the dark parity), one square
+    # outwards, and the points at the depths beyond the side. One compiled call
+    # (``_identify.side_geometry``).
+    n = len(keys)
+    P, rows, expect, steps = np.empty((n, 2, depths.size)), np.empty(n, np.int64), np.empty(n), np.empty(n)
+    m = _identify.side_geometry(grid.array, int(grid.origin[0]), int(grid.origin[1]),
+                                np.ascontiguousarray(keys, dtype=np.int64), axis, direction, depths, FLAT_SIDE,
+                                int(dark_parity), P, rows, expect, steps)
+    if m < 2:
         return "unknown"
-    # The side's nodes in order across it, each with the next one and the two inwards: the
-    # four corners of a square of the outer band, (axis, other) turned back into (i, j).
-    b = np.sort(across[along == extreme])
-    four = np.empty((b.size, 4, 2), dtype=int)
-    four[:, :, axis] = np.array([0, 0, inward, inward]) + extreme
-    four[:, :, 1 - axis] = b[:, None] + np.array([0, 1, 0, 1])
-    C = grid.at(four.reshape(-1, 2)).T.reshape(b.size, 4, 2)
-    whole = np.isfinite(C).all(axis=(1, 2))
-    rows, C = b[whole], C[whole]  # (m, 4, 2): the two nodes on the side, then the two inwards
-    if len(rows) < 2:
-        return "unknown"
-    # The outer square's upper-left key (extreme + (direction - 1) // 2, b) has the dark
-    # colour where its parity is the dark parity.
-    expect = np.where((extreme + (direction - 1) // 2 + rows) % 2 == dark_parity, 1.0, -1.0)
-    edge = 0.5 * (C[:, 0] + C[:, 1])
-    step = edge - 0.5 * (C[:, 2] + C[:, 3])  # one square outwards
-    steps = np.hypot(step[:, 0], step[:, 1])
-    P = edge[:, :, None] + step[:, :, None] * depths  # (m, 2, depths)
+    P, rows, expect, steps = P[:m], rows[:m], expect[:m], steps[:m]
     height, width = view.shape
-    value = _grey(view, P.transpose(1, 0, 2).reshape(2, -1), np.median(steps)).reshape(len(rows), depths.size)
+    value = _grey(view, P.transpose(1, 0, 2).reshape(2, -1), np.median(steps)).reshape(m, depths.size)
     # Each sample as +1 for the dark squares' grey, -1 for the light ones' (NaN outside the
     # image); the outer band must alternate with the lattice's colours. Square k beyond the
     # outer one has the outer square's colour times (-1)^k: pairs of neighbouring rows on
@@ -263,8 +254,7 @@ def _side(view, grid, keys, side, dark_parity, mid, contrast) -> str:
     # the square beyond it (one pair in four may catch clutter), and the squares do not come
     # back farther out (a bar or a fold lying across the board would show them again, along
     # much of the side). One compiled call (``_identify.side_verdict``).
-    verdict = _identify.side_verdict(np.ascontiguousarray(P), value, expect, rows.astype(np.int64),
-                                     np.floor(depths).astype(np.int64), float(width), float(height), float(mid),
+    verdict = _identify.side_verdict(P, value, expect, rows, _DEPTH_SQUARES, float(width), float(height), float(mid),
                                      float(contrast), ALTERNATES, PLAIN)
     return _VERDICTS[verdict]
 

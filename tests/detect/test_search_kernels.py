@@ -295,6 +295,69 @@ def test_the_side_verdict_is_the_plain_one_on_random_sides():
     assert set(verdicts) == {0, 1, 2}
 
 
+def side_geometry_reference(grid, keys, side, depths, flat_side, dark_parity):
+    """identify's side geometry the plain NumPy way: (P, rows, expect, steps), or None where
+    the side is not flat (or fewer than 2 rows)."""
+    axis, direction = side
+    along, across = keys[:, axis], keys[:, 1 - axis]
+    extreme = int(along.min() if direction < 0 else along.max())
+    line, at = np.unique(across, return_inverse=True)
+    ends = np.full(line.size, extreme - direction * (int(np.ptp(along)) + 1))
+    (np.minimum if direction < 0 else np.maximum).at(ends, at, along)
+    if np.mean(ends == extreme) < flat_side:
+        return None
+    b = np.sort(across[along == extreme])
+    four = np.empty((b.size, 4, 2), dtype=int)
+    four[:, :, axis] = np.array([0, 0, -direction, -direction]) + extreme
+    four[:, :, 1 - axis] = b[:, None] + np.array([0, 1, 0, 1])
+    C = grid.at(four.reshape(-1, 2)).T.reshape(b.size, 4, 2)
+    whole = np.isfinite(C).all(axis=(1, 2))
+    rows, C = b[whole], C[whole]
+    if len(rows) < 2:
+        return None
+    expect = np.where((extreme + (direction - 1) // 2 + rows) % 2 == dark_parity, 1.0, -1.0)
+    edge = 0.5 * (C[:, 0] + C[:, 1])
+    step = edge - 0.5 * (C[:, 2] + C[:, 3])
+    return edge[:, :, None] + step[:, :, None] * depths, rows, expect, np.hypot(step[:, 0], step[:, 1])
+
+
+def test_the_side_geometry_is_the_plain_one_on_random_lattices():
+    from graphpose.detect import _identify
+    from graphpose.detect.identify import _DEPTHS, FLAT_SIDE, SIDES
+
+    rng = np.random.default_rng(8)
+    flat = 0
+    for trial in range(300):
+        # A grid of keys with holes and ragged edges, about a random (also negative) origin.
+        cols, rows_ = int(rng.integers(2, 9)), int(rng.integers(2, 7))
+        i, j = np.meshgrid(np.arange(cols), np.arange(rows_), indexing="ij")
+        keys = np.column_stack([i.ravel(), j.ravel()]) + rng.integers(-5, 5, 2)
+        keys = keys[rng.random(len(keys)) > rng.choice([0.0, 0.1, 0.3])]
+        if len(keys) < 2:
+            continue
+        H = np.array([[30.0, 2.0, 100.0], [-1.0, 28.0, 80.0], [1e-3, 2e-3, 1.0]]) + rng.normal(0, 1e-3, (3, 3))
+        q = H @ np.vstack([keys.T, np.ones(len(keys))])
+        grid = KeyGrid.of(keys, q[:2] / q[2])
+        for side in SIDES:
+            for parity in (0, 1):
+                want = side_geometry_reference(grid, keys, side, _DEPTHS, FLAT_SIDE, parity)
+                n = len(keys)
+                P, r, e, s = np.empty((n, 2, _DEPTHS.size)), np.empty(n, np.int64), np.empty(n), np.empty(n)
+                m = _identify.side_geometry(grid.array, int(grid.origin[0]), int(grid.origin[1]),
+                                            np.ascontiguousarray(keys, dtype=np.int64), side[0], side[1], _DEPTHS,
+                                            FLAT_SIDE, parity, P, r, e, s)
+                if want is None:
+                    assert m < 2, (trial, side)
+                    continue
+                flat += 1
+                assert m == len(want[1]), (trial, side)
+                np.testing.assert_array_equal(P[:m], want[0])
+                np.testing.assert_array_equal(r[:m], want[1])
+                np.testing.assert_array_equal(e[:m], want[2])
+                np.testing.assert_array_equal(s[:m], want[3])
+    assert flat > 200  # most sides were compared, not refused
+
+
 def test_a_nan_sample_position_is_refused_not_read():
     # The kernels clamp positions to the image; a NaN would escape the clamp (floor(NaN) as an
     # index), so the samplers refuse it.
