@@ -7,7 +7,7 @@ NaN where there is no node; keys off the grid have none. The arithmetic is that 
 it replaces, in the same order, so the positions are the same to the last bit.
 """
 
-from libc.math cimport hypot, cos, fabs, floor, sqrt, M_PI
+from libc.math cimport NAN, hypot, cos, fabs, floor, sqrt, M_PI
 from libc.stdint cimport int64_t
 
 from graphpose.detect._sampling cimport _median, _ring_at
@@ -343,3 +343,22 @@ def grow(double[:, :, ::1] grid, int64_t oi, int64_t oj, int[:, ::1] stamp, int6
                 break
     state[0], state[1], state[2], state[3] = n_order, n_fresh, full, mark
     return 1 if edge else 0
+
+
+def step_lengths(const double[:, :, ::1] grid, int64_t oi, int64_t oj, const int64_t[:, ::1] keys, double[::1] out):
+    """``out[k]``: the mean distance from node ``keys[k]`` to its lattice neighbours
+    (``(i +- 1, j)``, ``(i, j +- 1)``, summed in that order), NaN where it has none; ``grid``
+    a :class:`graphpose.detect.lattice.KeyGrid`'s array, key ``(i, j)`` at
+    ``grid[i - oi, j - oj]``."""
+    cdef Py_ssize_t k, s
+    cdef double u, v, un, vn, total
+    cdef int count
+    with nogil:
+        for k in range(keys.shape[0]):
+            total, count = 0.0, 0
+            if _get(grid, oi, oj, keys[k, 0], keys[k, 1], &u, &v):
+                for s in range(4):
+                    if _get(grid, oi, oj, keys[k, 0] + _DI[s], keys[k, 1] + _DJ[s], &un, &vn):
+                        total = total + hypot(un - u, vn - v)
+                        count += 1
+            out[k] = total / count if count > 0 else NAN

@@ -28,7 +28,6 @@ from . import _lattice
 from .grid import fit_homography
 from .search import Candidates
 
-_STEPS = ((1, 0), (-1, 0), (0, 1), (0, -1))
 #: Ring-test radius as a fraction of the local lattice step.
 RING_FRACTION = 0.35
 #: Smallest ring-test score that counts as a cross-junction.
@@ -179,13 +178,12 @@ def step_lengths(nodes: dict, keys) -> np.ndarray:
 
 
 def _step_lengths(grid, keys) -> np.ndarray:
-    """:func:`step_lengths` of ``keys`` on a :class:`KeyGrid` of the nodes."""
-    K = np.asarray(keys, dtype=int).reshape(-1, 2)
-    here = grid.at(K)
-    d = np.stack([np.hypot(*(grid.at(K + step) - here)) for step in _STEPS])  # (4, n), NaN: none
-    with np.errstate(invalid="ignore"):
-        count = np.sum(np.isfinite(d), axis=0)
-        return np.where(count > 0, np.nansum(d, axis=0) / np.maximum(count, 1), np.nan)
+    """:func:`step_lengths` of ``keys`` on a :class:`KeyGrid` of the nodes: one compiled
+    pass (``_lattice.step_lengths``); NaN for a key that is no node or has no neighbour."""
+    K = np.ascontiguousarray(np.asarray(keys).reshape(-1, 2), dtype=np.int64)
+    out = np.empty(len(K))
+    _lattice.step_lengths(grid.array, int(grid.origin[0]), int(grid.origin[1]), K, out)
+    return out
 
 
 class KeyGrid:

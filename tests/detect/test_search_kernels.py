@@ -358,6 +358,23 @@ def test_the_side_geometry_is_the_plain_one_on_random_lattices():
     assert flat > 200  # most sides were compared, not refused
 
 
+def test_step_lengths_are_the_plain_mean_distances_to_the_neighbours():
+    from graphpose.detect.lattice import step_lengths
+
+    rng = np.random.default_rng(9)
+    for trial in range(50):
+        keys = {(int(i), int(j)) for i, j in rng.integers(-4, 5, (int(rng.integers(1, 40)), 2))}
+        nodes = {key: rng.uniform(0, 300, 2) for key in keys}
+        asked = list(keys) + [(9, 9), (-20, 3)]  # two keys that are no nodes
+        want = []
+        for i, j in asked:
+            here = nodes.get((i, j))
+            d = [np.hypot(*(nodes[(i + a, j + b)] - here)) for a, b in STEPS
+                 if here is not None and (i + a, j + b) in nodes]
+            want.append(np.sum(d) / len(d) if d else np.nan)
+        np.testing.assert_allclose(step_lengths(nodes, asked), want, rtol=1e-15)
+
+
 def test_a_nan_sample_position_is_refused_not_read():
     # The kernels clamp positions to the image; a NaN would escape the clamp (floor(NaN) as an
     # index), so the samplers refuse it.
