@@ -202,3 +202,51 @@ def noise_median_u8(const unsigned char[:, :] image, Py_ssize_t s, Py_ssize_t[::
                 v = k
                 break
     return v if n > 0 else -1
+
+
+cdef double _select(double *v, Py_ssize_t n, Py_ssize_t k) noexcept nogil:
+    """The ``k``-th smallest (0-based) of ``v[:n]``, which is reordered (Hoare's selection:
+    ``v[:k]`` ends at most it, ``v[k + 1:]`` at least it)."""
+    cdef Py_ssize_t lo = 0, hi = n - 1, i, j
+    cdef double pivot, t
+    while lo < hi:
+        pivot = v[(lo + hi) // 2]
+        i, j = lo, hi
+        while i <= j:
+            while v[i] < pivot:
+                i += 1
+            while v[j] > pivot:
+                j -= 1
+            if i <= j:
+                t = v[i]
+                v[i] = v[j]
+                v[j] = t
+                i += 1
+                j -= 1
+        if k <= j:
+            hi = j
+        elif k >= i:
+            lo = i
+        else:
+            break
+    return v[k]
+
+
+def median(const double[::1] x, double[::1] scratch):
+    """The median of ``x`` (n >= 1) as ``np.median`` gives it: the middle value, the mean of
+    the middle two for even n, NaN if any value is NaN. ``scratch`` holds n values."""
+    cdef Py_ssize_t n = x.shape[0], k
+    cdef double a, b
+    for k in range(n):
+        if x[k] != x[k]:
+            return float("nan")
+        scratch[k] = x[k]
+    with nogil:
+        b = _select(&scratch[0], n, n // 2)
+        if n % 2 == 0:
+            a = scratch[0]  # the largest of scratch[:n // 2], all at most b
+            for k in range(1, n // 2):
+                if scratch[k] > a:
+                    a = scratch[k]
+            b = (a + b) / 2.0
+    return b

@@ -52,7 +52,7 @@ from ..errors import BoardNotFoundError
 from . import _identify
 from .grid import fit_homography
 from .lattice import KeyGrid, Lattice
-from .search import SearchImage
+from .search import SearchImage, median
 
 #: Proper rotations M of lattice keys to board (c, r) = M (i, j) + t.
 ROTATIONS = (np.array([[1, 0], [0, 1]]), np.array([[0, -1], [1, 0]]),
@@ -146,7 +146,7 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
     """
     keys = lattice.keys
     grid = KeyGrid.of(keys, lattice.points)
-    step = float(np.median(lattice.step_lengths()))
+    step = float(median(lattice.step_lengths()))
     if len(lattice.keys) < board.n and step < MIN_PARTIAL_STEP_PX:
         raise BoardNotFoundError(
             f"only part of the board is seen ({len(lattice.keys)} of {board.n} junctions) and its squares "
@@ -204,11 +204,11 @@ def _square_colours(view, grid, keys):
         raise BoardNotFoundError("the junctions found enclose no whole square of the board")
     P, keys = P[:, :, whole], keys[whole]
     centres = (P[0] + P[1] + P[2] + P[3]) / 4
-    step = np.median(np.hypot(*(P[1] - P[0])))
+    step = median(np.hypot(*(P[1] - P[0])))
     value = _grey(view, centres, step)
     parity = (keys[:, 0] + keys[:, 1]) % 2
-    even = np.median(value[parity == 0]) if np.any(parity == 0) else np.nan
-    odd = np.median(value[parity == 1]) if np.any(parity == 1) else np.nan
+    even = median(value[parity == 0]) if np.any(parity == 0) else np.nan
+    odd = median(value[parity == 1]) if np.any(parity == 1) else np.nan
     if not np.isfinite(even):
         even = 2 * np.mean(value) - odd
     if not np.isfinite(odd):
@@ -245,7 +245,7 @@ def _side(view, grid, keys, side, dark_parity, mid, contrast) -> str:
         return "unknown"
     P, rows, expect, steps = P[:m], rows[:m], expect[:m], steps[:m]
     height, width = view.shape
-    value = _grey(view, P.transpose(1, 0, 2).reshape(2, -1), np.median(steps)).reshape(m, depths.size)
+    value = _grey(view, P.transpose(1, 0, 2).reshape(2, -1), median(steps)).reshape(m, depths.size)
     # Each sample as +1 for the dark squares' grey, -1 for the light ones' (NaN outside the
     # image); the outer band must alternate with the lattice's colours. Square k beyond the
     # outer one has the outer square's colour times (-1)^k: pairs of neighbouring rows on

@@ -23,6 +23,7 @@ from ..observations import MIN_JUNCTIONS
 from .find import find_board
 from .noise import bounding_window, estimate_noise, grey_range
 from .grid import fit_homography, square_sides
+from .search import median
 from .refine import (
     MAX_RADIUS,
     SMOOTH_SIGMA,
@@ -285,7 +286,7 @@ def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None) -> Ju
             f"(need {need})")
     # On a clean board every junction's fit residual is within ~15 % of the median;
     # a partly covered or smudged junction fits worse.
-    ok = ok & (residual <= _RESIDUAL_RATIO * np.median(residual[ok]))
+    ok = ok & (residual <= _RESIDUAL_RATIO * median(residual[ok]))
     trusted = ok.copy()
     for _ in range(4):
         H = fit_homography(grid[:, trusted], flat[:, trusted])
@@ -294,7 +295,7 @@ def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None) -> Ju
         # The board's own spread sets the gate: five of its sigmas (the median distance of
         # a 2-D normal is 1.18 sigma), between 0.3 px and 1 px, and never a fraction of a
         # small square more. A junction a sticker or a bar half covers is pulled further.
-        sigma = np.median(off[trusted]) / 1.18
+        sigma = median(off[trusted]) / 1.18
         limit = np.minimum(np.clip(5.0 * sigma, _GATE_PX[0], _GATE_PX[1]), np.maximum(_GRID_TOLERANCE * square, _GATE_PX[0]))
         with np.errstate(invalid="ignore"):
             agree = ok & (off < limit)

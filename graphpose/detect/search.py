@@ -304,6 +304,14 @@ def _gaussian_taps() -> np.ndarray:
     return phi[radius:].copy()
 
 
+def median(values) -> float:
+    """``np.median`` of a few values (1-D, at least one), in one compiled call
+    (``_search.median``) at a tenth of its time: the middle value, the mean of the middle
+    two for an even count, NaN if any is NaN."""
+    x = np.ascontiguousarray(values, dtype=float).reshape(-1)
+    return _search.median(x, np.empty_like(x))
+
+
 def noise_floor(noise: float, level: int) -> float:
     """The saddle response that white pixel noise of ``noise`` grey levels stays below.
 

@@ -375,6 +375,18 @@ def test_step_lengths_are_the_plain_mean_distances_to_the_neighbours():
         np.testing.assert_allclose(step_lengths(nodes, asked), want, rtol=1e-15)
 
 
+def test_the_median_is_numpys_to_the_bit():
+    from graphpose.detect.search import median
+
+    rng = np.random.default_rng(10)
+    for trial in range(2000):
+        n = int(rng.integers(1, 80))
+        # Ties (whole numbers, rounded values) as well as distinct values, odd and even counts.
+        for x in (rng.normal(size=n), rng.integers(0, 4, n).astype(float), np.round(rng.normal(size=n), 1)):
+            assert median(x) == np.median(x), (trial, x)
+    assert np.isnan(median([1.0, np.nan, 2.0]))
+
+
 def test_a_nan_sample_position_is_refused_not_read():
     # The kernels clamp positions to the image; a NaN would escape the clamp (floor(NaN) as an
     # index), so the samplers refuse it.
