@@ -250,3 +250,28 @@ def median(const double[::1] x, double[::1] scratch):
                     a = scratch[k]
             b = (a + b) / 2.0
     return b
+
+
+def kth_grey_u8(const unsigned char[:, :] image, Py_ssize_t s, const Py_ssize_t[::1] ks, Py_ssize_t[::1] out):
+    """``out[q]``: the ``ks[q]``-th smallest (0-based) of the pixels at every ``s``-th row and
+    column of the 8-bit ``image`` (``image[::s, ::s]``), by counting its 256 grey levels;
+    each of ``ks`` below the count of those pixels."""
+    cdef Py_ssize_t counts[256]
+    cdef Py_ssize_t h = image.shape[0], w = image.shape[1], i, j, g, q = 0, seen = 0
+    with nogil:
+        for g in range(256):
+            counts[g] = 0
+        i = 0
+        while i < h:
+            j = 0
+            while j < w:
+                counts[image[i, j]] += 1
+                j += s
+            i += s
+        for q in range(ks.shape[0]):
+            seen = 0
+            for g in range(256):
+                seen += counts[g]
+                if seen > ks[q]:
+                    out[q] = g
+                    break

@@ -387,6 +387,25 @@ def test_the_median_is_numpys_to_the_bit():
     assert np.isnan(median([1.0, np.nan, 2.0]))
 
 
+def test_the_grey_range_of_an_eight_bit_image_is_the_partitions():
+    from graphpose.detect.noise import grey_range
+
+    rng = np.random.default_rng(11)
+    for trial in range(200):
+        image = rng.integers(0, 256, tuple(rng.integers(1, 60, 2))).astype(np.uint8)
+        if trial % 3 == 0:
+            image = image[::2, 1:]  # a strided view, as a board's crop is
+        stride, tail = int(rng.integers(1, 5)), float(rng.choice([0.0, 1.0, 5.0, 25.0, 50.0, 70.0]))
+        values = image[::stride, ::stride].ravel()
+        if values.size == 0:
+            assert grey_range(image, stride=stride, tail=tail) == 0.0
+            continue
+        k = np.rint(np.array([tail, 100.0 - tail]) / 100.0 * (values.size - 1)).astype(int)
+        lo, hi = np.partition(values, k)[k]
+        assert grey_range(image, stride=stride, tail=tail) == float(hi) - float(lo), trial
+        assert grey_range(image.astype(float), stride=stride, tail=tail) == float(hi) - float(lo), trial
+
+
 def test_a_nan_sample_position_is_refused_not_read():
     # The kernels clamp positions to the image; a NaN would escape the clamp (floor(NaN) as an
     # index), so the samplers refuse it.
