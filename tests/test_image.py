@@ -144,3 +144,55 @@ def test_a_broken_file_is_named_truncated_or_corrupt_never_a_missing_plugin(tmp_
         read_image(tmp_path / "empty.png")
     with pytest.raises(InputError, match="not an image file at all: graphpose reads PNG, JPEG"):
         read_image(tmp_path / "notes.dat")
+
+
+def test_read_image_gives_the_decoders_pixels_without_a_copy_and_they_outlive_the_file(tmp_path):
+    import gc
+
+    from PIL import Image
+
+    rng = np.random.default_rng(4)
+    A = rng.integers(0, 256, (37, 53)).astype(np.uint8)
+    Image.fromarray(A).save(tmp_path / "a.png")
+    I = read_image(tmp_path / "a.png")
+    # Pillow's own memory, through its Arrow export, where this Pillow has one.
+    exported = hasattr(Image.Image, "__arrow_c_array__")
+    owner = I.base.obj if isinstance(I.base, memoryview) else I.base
+    assert (type(owner).__name__ == "GreyPixels") == exported
+    assert I.dtype == np.uint8 and I.flags["C_CONTIGUOUS"]
+    assert not I.flags["WRITEABLE"]  # as np.asarray of a Pillow image: the decoder's pixels
+    gc.collect()
+    junk = [np.full(A.shape, 7, np.uint8) for _ in range(20)]  # reuse of freed memory would show
+    np.testing.assert_array_equal(I, A)
+    with pytest.raises(ValueError, match="read-only"):
+        I[0, 0] = 0
+    J = I.copy()  # what a caller who draws on it does
+    J[0, 0] = 255 - A[0, 0]
+    np.testing.assert_array_equal(I, A)
+    del junk
+
+
+def test_read_image_copies_where_pillow_will_not_export(tmp_path, monkeypatch):
+    from PIL import Image
+
+    A = np.arange(12 * 9, dtype=np.uint8).reshape(12, 9)
+    Image.fromarray(A).save(tmp_path / "a.png")
+
+    def refuse(self, *args, **kwargs):  # as Pillow refuses an image kept in several blocks
+        raise ValueError("Image rows are not contiguous in memory.")
+
+    monkeypatch.setattr(Image.Image, "__arrow_c_array__", refuse, raising=False)
+    I = read_image(tmp_path / "a.png")
+    np.testing.assert_array_equal(I, A)
+    assert I.dtype == np.uint8 and not I.flags["WRITEABLE"]  # as the export's, read-only
+
+
+def test_the_pixel_view_declines_an_export_that_is_not_8_bit_grey():
+    from PIL import Image
+
+    from graphpose._pixels import grey_view
+
+    im = Image.fromarray(np.zeros((4, 6), np.uint8))
+    assert grey_view(*im.__arrow_c_array__(), 5, 6) is None  # another size
+    assert grey_view(*Image.new("I", (6, 4)).__arrow_c_array__(), 4, 6) is None  # 32-bit pixels
+    assert np.asarray(grey_view(*im.__arrow_c_array__(), 4, 6)).shape == (4, 6)

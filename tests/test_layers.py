@@ -18,7 +18,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "graphpose"
 #: Bottom up. Each layer is a tuple of groups; a group is a module or subpackage (dotted,
 #: below ``graphpose``), and the most specific group containing a module is its own.
 LAYERS = (
-    ("errors",),
+    # errors, and the compiled view of decoded pixels (it imports no graphpose module).
+    ("errors", "_pixels"),
     # The facade: it imports its errors only; every other name loads on first use (PEP 562).
     ("_checks", "_extras", "__init__"),
     ("geometry",),
