@@ -275,3 +275,38 @@ def kth_grey_u8(const unsigned char[:, :] image, Py_ssize_t s, const Py_ssize_t[
                 if seen > ks[q]:
                     out[q] = g
                     break
+
+
+def block_means_u8(const unsigned char[:, ::1] image, int level, float scale, float[:, ::1] out,
+                   unsigned short[::1] rows):
+    """``out[i, j]``: the sum of the 8-bit ``image``'s 2^level x 2^level block (i, j), exact in
+    integers (``level`` <= 4), times ``scale`` (``4^-level``) in float32, for the ``out.shape``
+    whole blocks; ``rows`` is scratch of ``out.shape[1] * 2^level`` sums. The block row's
+    image rows are summed into ``rows`` first (whole contiguous rows, which the compiler
+    vectorises), then each block's columns."""
+    cdef Py_ssize_t s = 1 << level, h = out.shape[0], w = out.shape[1], n = w << level, i, j, p, q, x
+    cdef const unsigned char *row
+    cdef unsigned short *acc = &rows[0]
+    cdef unsigned int total
+    cdef const unsigned char *below
+    cdef float *o
+    with nogil:
+        if s == 2:  # half resolution, the VGA search's level: the four pixels at once
+            for i in range(h):
+                row, below, o = &image[2 * i, 0], &image[2 * i + 1, 0], &out[i, 0]
+                for j in range(w):
+                    o[j] = <float>(<unsigned int>row[2 * j] + row[2 * j + 1] + below[2 * j] + below[2 * j + 1]) * scale
+        else:
+            for i in range(h):
+                row = &image[i * s, 0]
+                for x in range(n):
+                    acc[x] = row[x]
+                for p in range(1, s):
+                    row = &image[i * s + p, 0]
+                    for x in range(n):
+                        acc[x] = acc[x] + row[x]
+                for j in range(w):
+                    total = 0
+                    for q in range(s):
+                        total = total + acc[j * s + q]
+                    out[i, j] = <float>total * scale

@@ -261,16 +261,21 @@ def search_levels(shape, *, side: int = SEARCH_SIDE) -> range:
 def downsample(image: np.ndarray, level: int) -> np.ndarray:
     """Means over 2^level x 2^level blocks as float32 (odd last rows and columns dropped).
 
-    Rows are summed first (whole rows, contiguous), then columns of the 2^level times
-    smaller result. uint8 images are summed exactly in uint16 (up to level 4: 4^4 x 255 <
-    2^16), without a float copy of the full image; others in float32, converted once
-    (adding float64 into float32 would convert at every sum).
+    uint8 images are summed exactly in integers (up to level 4: 4^4 x 255 < 2^16), without
+    a float copy of the full image: a C-contiguous one in one compiled pass
+    (``_search.block_means_u8``), another (a strided view) with NumPy, rows summed first (in
+    uint16), then columns of the 2^level times smaller result. Others are summed in float32,
+    converted once (adding float64 into float32 would convert at every sum), as NumPy sums.
     """
     if level == 0:
         return image.astype(np.float32, copy=False)
     s = 2**level
     h, w = image.shape[0] // s * s, image.shape[1] // s * s
     exact = image.dtype == np.uint8 and 4**level * 255 < 2**16
+    if exact and image.flags.c_contiguous:  # one compiled pass, the same sums and scaling
+        out = np.empty((h // s, w // s), dtype=np.float32)
+        _search.block_means_u8(image, level, np.float32(4.0 ** -level), out, np.empty(w, dtype=np.uint16))
+        return out
     src = image if image.dtype == np.uint8 else image.astype(np.float32, copy=False)
     rows = np.add(src[0:h:s, :w], src[1:h:s, :w], dtype=np.uint16 if exact else np.float32)
     for k in range(2, s):

@@ -406,6 +406,30 @@ def test_the_grey_range_of_an_eight_bit_image_is_the_partitions():
         assert grey_range(image.astype(float), stride=stride, tail=tail) == float(hi) - float(lo), trial
 
 
+@pytest.mark.parametrize("shape", [(480, 640), (7, 9), (33, 17), (16, 16)])
+def test_block_means_are_the_same_compiled_and_strided(shape):
+    # A C-contiguous 8-bit image goes through the compiled pass, a strided view of the same
+    # pixels through NumPy's strided sums: the same exact integer sums, the same float32.
+    from graphpose.detect.search import downsample
+
+    image = np.random.default_rng(12).integers(0, 256, shape).astype(np.uint8)
+    padded = np.zeros((shape[0], 2 * shape[1]), np.uint8)
+    padded[:, ::2] = image
+    view = padded[:, ::2]
+    assert image.flags.c_contiguous and not view.flags.c_contiguous
+    for level in range(1, 5):
+        if min(shape) < 2**level:
+            continue
+        a, b = downsample(image, level), downsample(view, level)
+        assert a.dtype == np.float32 and a.shape == (shape[0] // 2**level, shape[1] // 2**level)
+        np.testing.assert_array_equal(a, b)
+        # and each is the block's plain mean
+        s = 2**level
+        h, w = a.shape
+        plain = image[:h * s, :w * s].reshape(h, s, w, s).sum(axis=(1, 3)) / 4.0**level
+        np.testing.assert_allclose(a, plain, rtol=1e-6)
+
+
 def test_a_nan_sample_position_is_refused_not_read():
     # The kernels clamp positions to the image; a NaN would escape the clamp (floor(NaN) as an
     # index), so the samplers refuse it.
