@@ -173,3 +173,37 @@ def side_geometry(const double[:, :, ::1] grid, int64_t oi, int64_t oj, const in
             P[m, 1, d] = ev + sv * depths[d]
         m += 1
     return m
+
+
+def whole_squares(const double[:, :, ::1] grid, int64_t oi, int64_t oj, const int64_t[:, ::1] keys,
+                  double[:, ::1] centres, double[::1] steps, int64_t[::1] parity):
+    """The lattice squares whose upper-left node is a key of ``keys`` (M, 2) and whose four
+    nodes (``(i, j)``, ``(i + 1, j)``, ``(i, j + 1)``, ``(i + 1, j + 1)``) are all on ``grid``
+    (a :class:`graphpose.detect.lattice.KeyGrid`'s array, key ``(i, j)`` at
+    ``grid[i - oi, j - oj]``), in the order of ``keys``: ``centres[:, m]`` the mean of the four
+    nodes (summed in that order), ``steps[m]`` the first side's length (node to the next along
+    ``i``), ``parity[m]`` ``(i + j) mod 2``. Returns how many were written (the buffers hold M)."""
+    cdef Py_ssize_t M = keys.shape[0], gi = grid.shape[0], gj = grid.shape[1], k, c, m = 0
+    cdef int64_t a, b
+    cdef double u[4]
+    cdef double v[4]
+    cdef int whole
+    for k in range(M):
+        whole = 1
+        for c in range(4):
+            a, b = keys[k, 0] + (c % 2) - oi, keys[k, 1] + (c // 2) - oj
+            if a < 0 or b < 0 or a >= gi or b >= gj:
+                whole = 0
+                break
+            u[c], v[c] = grid[a, b, 0], grid[a, b, 1]
+            if not (isfinite(u[c]) and isfinite(v[c])):
+                whole = 0
+                break
+        if not whole:
+            continue
+        centres[0, m] = (((u[0] + u[1]) + u[2]) + u[3]) / 4
+        centres[1, m] = (((v[0] + v[1]) + v[2]) + v[3]) / 4
+        steps[m] = hypot(u[1] - u[0], v[1] - v[0])
+        parity[m] = ((keys[k, 0] + keys[k, 1]) % 2 + 2) % 2
+        m += 1
+    return m

@@ -197,16 +197,17 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
 def _square_colours(view, grid, keys):
     """(dark parity of ``i + j`` of a square's upper-left key, mid grey, dark-light contrast),
     from the squares whose four nodes (``keys`` (M, 2) on their :class:`KeyGrid`) are seen."""
-    # Each key as a square's upper-left corner: its node, the next along i, along j, and both.
-    P = np.stack([grid.at(keys + step) for step in ((0, 0), (1, 0), (0, 1), (1, 1))])  # (4, 2, M)
-    whole = np.isfinite(P).all(axis=(0, 1))
-    if not whole.any():
+    # Each key as a square's upper-left corner: its node, the next along i, along j, and both;
+    # the squares with all four seen, their centres, first sides and parities in one compiled
+    # call (``_identify.whole_squares``).
+    n = len(keys)
+    centres, steps, parity = np.empty((2, n)), np.empty(n), np.empty(n, dtype=np.int64)
+    m = _identify.whole_squares(grid.array, int(grid.origin[0]), int(grid.origin[1]),
+                                np.ascontiguousarray(keys, dtype=np.int64), centres, steps, parity)
+    if m == 0:
         raise BoardNotFoundError("the junctions found enclose no whole square of the board")
-    P, keys = P[:, :, whole], keys[whole]
-    centres = (P[0] + P[1] + P[2] + P[3]) / 4
-    step = median(np.hypot(*(P[1] - P[0])))
-    value = _grey(view, centres, step)
-    parity = (keys[:, 0] + keys[:, 1]) % 2
+    centres, parity = centres[:, :m], parity[:m]
+    value = _grey(view, centres, median(steps[:m]))
     even = median(value[parity == 0]) if np.any(parity == 0) else np.nan
     odd = median(value[parity == 1]) if np.any(parity == 1) else np.nan
     if not np.isfinite(even):
@@ -351,14 +352,14 @@ def _check_bounds_order(fit, H, board, bounds) -> None:
     """
     corners = _corners_in_image(fit, H, board)
     P = np.asarray(bounds, dtype=float)
-    nearest = np.argmin(np.hypot(P[0][:, None] - corners[0][None], P[1][:, None] - corners[1][None]), axis=1)
-    if board.cols != board.rows and any(np.array_equal(nearest, np.roll(np.arange(4), s)) for s in (1, 3)):
+    nearest = np.argmin(np.hypot(P[0][:, None] - corners[0][None], P[1][:, None] - corners[1][None]), axis=1).tolist()
+    if board.cols != board.rows and nearest in ([3, 0, 1, 2], [1, 2, 3, 0]):  # a quarter turn either way
         raise BoardNotFoundError(
             f"the bounds do not outline the board found: they are a quarter turn off (their first edge "
             f"runs along a column of the {board.cols} x {board.rows} board); start them at junction 0's "
             f"corner with the first edge along a row ({board.cols} junctions)")
-    if not np.array_equal(nearest, np.arange(4)):
-        k = int(np.flatnonzero(nearest != np.arange(4))[0])
+    if nearest != [0, 1, 2, 3]:
+        k = next(k for k in range(4) if nearest[k] != k)
         raise BoardNotFoundError(
             f"the bounds do not outline the board found: their vertex {k} lies nearest the board's "
             f"corner {int(nearest[k])}; give the board's outline clockwise from the corner nearest "

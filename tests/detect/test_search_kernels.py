@@ -430,6 +430,35 @@ def test_block_means_are_the_same_compiled_and_strided(shape):
         np.testing.assert_allclose(a, plain, rtol=1e-6)
 
 
+def test_whole_squares_are_the_plain_ones_on_random_lattices():
+    from graphpose.detect import _identify
+
+    rng = np.random.default_rng(13)
+    compared = 0
+    for trial in range(200):
+        cols, rows_ = int(rng.integers(1, 9)), int(rng.integers(1, 7))
+        i, j = np.meshgrid(np.arange(cols), np.arange(rows_), indexing="ij")
+        keys = np.column_stack([i.ravel(), j.ravel()]) + rng.integers(-5, 5, 2)
+        keys = keys[rng.random(len(keys)) > rng.choice([0.0, 0.2, 0.5])]
+        if not len(keys):
+            continue
+        grid = KeyGrid.of(keys, rng.uniform(0, 500, (2, len(keys))))
+        # The plain way: the four nodes of each key's square, those with all four seen.
+        P = np.stack([grid.at(keys + step) for step in ((0, 0), (1, 0), (0, 1), (1, 1))])
+        whole = np.isfinite(P).all(axis=(0, 1))
+        n = len(keys)
+        centres, steps, parity = np.empty((2, n)), np.empty(n), np.empty(n, np.int64)
+        m = _identify.whole_squares(grid.array, int(grid.origin[0]), int(grid.origin[1]),
+                                    np.ascontiguousarray(keys, dtype=np.int64), centres, steps, parity)
+        assert m == whole.sum(), trial
+        P = P[:, :, whole]
+        np.testing.assert_array_equal(centres[:, :m], (P[0] + P[1] + P[2] + P[3]) / 4)
+        np.testing.assert_array_equal(steps[:m], np.hypot(*(P[1] - P[0])))
+        np.testing.assert_array_equal(parity[:m], keys[whole].sum(axis=1) % 2)
+        compared += m
+    assert compared > 500
+
+
 def test_a_nan_sample_position_is_refused_not_read():
     # The kernels clamp positions to the image; a NaN would escape the clamp (floor(NaN) as an
     # index), so the samplers refuse it.
