@@ -319,9 +319,10 @@ def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None, undis
         H = fit_homography(grid[:, trusted], flat[:, trusted])
     # Where the fit failed on a junction that was seen, the grid's prediction is the best
     # estimate left; it stays untrusted. Unseen junctions stay NaN.
-    predicted = apply_homography(H, grid)
-    if lens is not None:
-        predicted = lens.distort_pixels(predicted)
-    best = np.where(ok, points, np.where(seen, predicted, np.nan))
+    best = np.where(ok, points, np.nan)
+    lost = seen & ~ok
+    if lost.any():
+        predicted = apply_homography(H, grid[:, lost])
+        best[:, lost] = predicted if lens is None else lens.distort_pixels(predicted)
     return Junctions(best, trusted, np.where(ok, residual, np.nan), np.where(seen, square, np.nan), H,
                      seen.copy(), bool(ambiguous))
