@@ -11,10 +11,16 @@ Each step solves the dense normal equations with the exact analytic Jacobian: in
 squares, which lowers the Huber cost at each accepted step). The plain Gauss-Newton step is
 tried first; a step that raises the cost is damped (``H + lambda diag(H)``) until it falls.
 
-It stops when every parameter's step is below 1e-10 of its own standard deviation
-(``sqrt(diag(H^-1))`` at unit pixel noise) or, once the promised decrease is below the cost's
-rounding, after a few more undamped steps; where no damped step lowers the cost any more it
-has converged if the undamped step is below 1e-6 of every sigma, and failed otherwise.
+It stops when every unknown's Gauss-Newton step is below 1e-10 of its own standard deviation
+(``sqrt(diag(H^-1))`` at unit pixel noise): a rule in the parameters' own scale, which does
+not depend on the cost's last bits. Near the minimum the decrease a step promises
+(``g . delta / 2``) falls below the cost's rounding (:func:`_rounding`: each residual is a
+difference of pixels of a few hundred, so its last bits move the cost by about
+``eps sum_j |rho'(r_j)| |uv_j|``), and comparing costs can no longer judge a step; the step
+itself, from the gradient, is still accurate, so it is taken undamped as long as the cost
+does not rise beyond that rounding. Where even so the step stays above 1e-10 of a sigma after
+60 such steps, or no damped step lowers the cost, it has converged if the step is below 1e-6
+of every sigma, and failed otherwise.
 """
 
 from __future__ import annotations
@@ -23,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry import T_from_params, params_from_T, to_camera
+from ..geometry import T_from_params, params_from_T
 from ..errors import InputError
 from ..pose._gauss_newton import camera_points, chain_jacobians
 from ..pose.gauss_newton import _weights, reprojection_cost
@@ -32,9 +38,11 @@ from ..camera_params import camera_parameters, camera_with_parameters, projectio
 MAX_ITERATIONS = 200
 #: Convergence: the step below this many of each parameter's standard deviations.
 STEP_SIGMAS = 1e-10
-#: ... or, where no step can lower the cost any more (its rounding), below this many.
+#: ... or, where the steps at the cost's rounding do not get there, below this many.
 ROUNDING_SIGMAS = 1e-6
-_COST_RTOL = 1e-13
+#: Roundings per residual in the cost's rounding (:func:`_rounding`): the prediction's few
+#: operations on pixels of the image's size.
+_ROUNDINGS = 4.0
 _MAX_POLISH_STEPS = 60
 _LAMBDA_MAX = 1e12
 
@@ -88,14 +96,9 @@ def _evaluate(camera, x, observations, P):
         rotations.append(R)
         chains.append(Ai)
     A = np.hstack(chains)
-    # The intrinsics' Jacobian at the points as T_WC places them (as the per-view code did:
-    # the same numbers to the last bit, which the solvers' 1e-6 agreement at the cost's
-    # rounding turned out to need on one of the pose-NEES benchmark's calibrations).
-    points = np.hstack([to_camera(T_from_params(x[P + 6 * i: P + 6 * i + 6]), W)
-                        for i, (_, W, _) in enumerate(observations)])
     with np.errstate(divide="ignore", invalid="ignore"):
         pred, G = camera.project_jacobian(A[:3])
-        Jp = projection_jacobian_intrinsics(camera, points)
+        Jp = projection_jacobian_intrinsics(camera, A[:3])
     G = np.ascontiguousarray(G, dtype=float)
     out, at = [], 0
     for (uv, _, _), R, Ai in zip(observations, rotations, chains):
@@ -109,6 +112,19 @@ def _evaluate(camera, x, observations, P):
 
 def _cost(views, huber_px):
     return reprojection_cost(np.concatenate([r for r, _, _ in views]).reshape(-1, 2).T, huber_px)
+
+
+def _rounding(views, scale, huber_px) -> float:
+    """The cost's rounding: how far the last bits of the residuals can move it.
+
+    Each residual ``r = uv - predicted`` is the difference of two pixels of about ``scale``
+    (2M,) (the measured ones' magnitudes), so its rounding is a few ``eps |uv|``, and the cost
+    moves by ``rho'`` times that: ``_ROUNDINGS eps sum |w r| |uv|`` (``w r = rho'(r)``, the
+    Huber weights ``w``). A bound, not an estimate: the roundings do not all add up.
+    """
+    r = np.concatenate([r for r, _, _ in views])
+    w = _weights(r, huber_px)
+    return float(_ROUNDINGS * np.finfo(float).eps * np.sum(np.abs(r if w is None else w * r) * scale))
 
 
 def _normal(views, huber_px, P):
@@ -171,6 +187,7 @@ def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = M
     x = np.concatenate([camera_parameters(camera)] + [params_from_T(T) for T in poses])
     views, _ = _evaluate(camera, x, observations, P)
     cost = _cost(views, huber_px)
+    scale = np.concatenate([np.abs(uv).T.ravel() for uv, _, _ in observations])
     lam, converged, message, it, polish = 0.0, False, "iteration cap reached", 0, 0
     S = np.full((P, P), np.nan)
     while it < max_iterations:
@@ -186,11 +203,15 @@ def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = M
             converged, message = True, "converged"
             break
         g = np.concatenate([gp, ge.ravel()])
-        polishing = 0.5 * (g @ delta_gn) <= _COST_RTOL * cost
+        rounding = _rounding(views, scale, huber_px)
+        polishing = 0.5 * (g @ delta_gn) <= rounding
         if polishing:
             polish += 1
             if polish > _MAX_POLISH_STEPS:
-                converged, message = True, "converged (step at the rounding limit)"
+                if np.all(np.abs(delta_gn) <= ROUNDING_SIGMAS * sd):
+                    converged, message = True, "converged (step at the rounding limit)"
+                else:
+                    message = "the steps at the cost's rounding do not converge"
                 break
         try:
             delta = delta_gn if lam == 0.0 or polishing else _step(*blocks, lam)[0]
@@ -206,7 +227,7 @@ def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = M
             cost_new = np.inf
         if not np.isfinite(cost_new):
             cost_new = np.inf
-        if cost_new < cost or (polishing and cost_new <= cost * (1.0 + 100 * _COST_RTOL)):
+        if cost_new < cost or (polishing and cost_new <= cost + rounding):
             x, views, cost, camera = x_new, views_new, cost_new, trial
             lam = 0.0 if lam < 1e-6 else lam / 10.0
         else:

@@ -7,7 +7,8 @@ its stationary point, the re-centring until it stops moving, and the ring test t
 result. Each junction's rounds depend only on its own pixels, so the junctions are refined one
 after the other with one patch buffer. The lens-aware refinement reuses the patches
 (:func:`smoothed_patches`), the ring test (:func:`ring_crosses`) and the fit from the pixels'
-own positions (:func:`fit_through_lens`).
+own positions (:func:`fit_through_lens`), and places the pixels and the estimates in each
+patch's own frame by the polynomial through its nodes (:func:`lens_disc`, :func:`lens_centres`).
 
 The pixel work is in single precision, as the NumPy code it replaces did it (the same
 operations in the same order, so the patches and weights are bit-identical); the fit sums and
@@ -498,3 +499,81 @@ def fit_through_lens(const double[:, ::1] x, const double[:, ::1] y, const doubl
             points[0, i], points[1, i] = fit[0], fit[1]
             saddle[i] = fit[2] != 0.0
             rms[i] = fit[3]
+
+
+def lens_disc(const double[:, :, :, ::1] V, const double[:, ::1] L, const Py_ssize_t[::1] rows,
+              const Py_ssize_t[::1] cols, const double[:, :, ::1] patches, const float[:, :, ::1] grad2,
+              double[:, ::1] x, double[:, ::1] y, double[:, ::1] values, double[:, ::1] g2):
+    """The disc pixels of each patch placed through the lens, for the lens-aware fit, in place.
+
+    Pixel ``k`` of patch ``j``, at (``rows[k]``, ``cols[k]``) of its patch, goes to the
+    polynomial through the patch's 5 x 5 node values ``V`` (2, m, 5, 5) [row node, column
+    node] by the Lagrange basis ``L`` (5, P) at the patch's offsets, less the middle node (the
+    patch's origin): ``x, y`` (m, n); its grey value and squared gradient into ``values, g2``
+    (m, n). A pixel without a finite position (a node the lens does not image) gets
+    position 0 and weight 0.
+    """
+    cdef Py_ssize_t m = V.shape[1], n = rows.shape[0], P = L.shape[1], j, k, a, b, c, r, col
+    cdef double[:, :, ::1] VL = np.empty((2, 5, P))
+    cdef double s, px, py, ox, oy
+    with nogil:
+        for j in range(m):
+            # The column basis applied first: VL[c, a, col] = sum_b V[c, j, a, b] L[b, col].
+            for c in range(2):
+                for a in range(5):
+                    for col in range(P):
+                        s = 0.0
+                        for b in range(5):
+                            s = s + V[c, j, a, b] * L[b, col]
+                        VL[c, a, col] = s
+            ox, oy = V[0, j, 2, 2], V[1, j, 2, 2]
+            for k in range(n):
+                r, col = rows[k], cols[k]
+                px = 0.0
+                py = 0.0
+                for a in range(5):
+                    px = px + L[a, r] * VL[0, a, col]
+                    py = py + L[a, r] * VL[1, a, col]
+                px = px - ox
+                py = py - oy
+                values[j, k] = patches[j, r, col]
+                if isfinite(px) and isfinite(py):
+                    x[j, k], y[j, k] = px, py
+                    g2[j, k] = grad2[j, r, col]
+                else:
+                    x[j, k], y[j, k], g2[j, k] = 0.0, 0.0, 0.0
+
+
+cdef inline void _basis(double t, double half, double* L) noexcept nogil:
+    """The Lagrange basis (5,) of the nodes ``linspace(-half, half, 5)`` at ``t``."""
+    cdef double nodes[5]
+    cdef int a, b
+    for a in range(5):
+        nodes[a] = -half + 0.5 * half * a
+    for a in range(5):
+        L[a] = 1.0
+        for b in range(5):
+            if b != a:
+                L[a] = L[a] * (t - nodes[b]) / (nodes[a] - nodes[b])
+
+
+def lens_centres(const double[:, :, :, ::1] V, const Py_ssize_t[::1] act, const double[:, ::1] offset,
+                 double half, double[:, ::1] out):
+    """The positions (2, a), in their patches' frames about the patches' origins, of points at
+    ``offset`` (2, a) raw pixels from the bases of patches ``act`` (a,): the polynomial through
+    each patch's node values ``V`` (2, m, 5, 5), as :func:`lens_disc` places the pixels."""
+    cdef Py_ssize_t i, j, a, b, c
+    cdef double Lu[5]
+    cdef double Lv[5]
+    cdef double s
+    with nogil:
+        for i in range(act.shape[0]):
+            j = act[i]
+            _basis(offset[0, i], half, Lu)
+            _basis(offset[1, i], half, Lv)
+            for c in range(2):
+                s = 0.0
+                for a in range(5):
+                    for b in range(5):
+                        s = s + V[c, j, a, b] * Lv[a] * Lu[b]
+                out[c, i] = s - V[c, j, 2, 2]

@@ -249,9 +249,10 @@ def refine_found(image, scale, found, board, lens, window, smooth_sigma, noise) 
     points = np.full((2, board.n), np.nan)
     ok = np.zeros(board.n, dtype=bool)
     residual = np.full(board.n, np.nan)
+    flat = None if lens is None else np.full((2, int(seen.sum())), np.nan)
     points[:, seen], ok[seen], residual[seen] = refine_points(image, found.points[:, seen], radius, smooth_sigma,
-                                                              lens=lens)
-    J = _judge(points, ok, residual * scale, square, grid, seen, found.orientation_ambiguous, lens)
+                                                              lens=lens, undistorted=flat)
+    J = _judge(points, ok, residual * scale, square, grid, seen, found.orientation_ambiguous, lens, flat)
     return replace(J, junction0_square=found.junction0_square)
 
 
@@ -268,15 +269,20 @@ def board_smoothing(image: np.ndarray, points: np.ndarray, square: np.ndarray, n
     return noise_smoothing(noise, contrast, float(np.nanmedian(square)))
 
 
-def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None) -> Junctions:
+def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None, undistorted=None) -> Junctions:
     """Fit the grid homography to the refined points and decide what to trust.
 
     With a distorting ``lens`` the homography is fitted to, and judged on, the undistorted
-    positions (a planar grid is a homography only through a pinhole).
+    positions (a planar grid is a homography only through a pinhole): ``undistorted`` (2, seen)
+    where the refinement gave them (:func:`graphpose.detect.refine.refine_points`), else the
+    lens's inversion of the points.
     """
     flat = points.copy()
     if lens is not None:  # unseen junctions stay NaN
-        flat[:, seen] = lens.undistort_pixels(points[:, seen])
+        if undistorted is None:
+            undistorted = lens.undistort_pixels(points[:, seen])
+        # Only the junctions the refinement trusts are judged; each has its ray from its fit.
+        flat[:, seen] = np.where(ok[seen], undistorted, np.nan)
     ok = ok & np.all(np.isfinite(flat), axis=0)
     n_seen = int(seen.sum())
     need = max(MIN_JUNCTIONS, n_seen // 2)
@@ -314,9 +320,10 @@ def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None) -> Ju
         H = fit_homography(grid[:, trusted], flat[:, trusted])
     # Where the fit failed on a junction that was seen, the grid's prediction is the best
     # estimate left; it stays untrusted. Unseen junctions stay NaN.
-    predicted = apply_homography(H, grid)
-    if lens is not None:
-        predicted = lens.distort_pixels(predicted)
-    best = np.where(ok, points, np.where(seen, predicted, np.nan))
+    best = np.where(ok, points, np.nan)
+    lost = seen & ~ok
+    if lost.any():
+        predicted = apply_homography(H, grid[:, lost])
+        best[:, lost] = predicted if lens is None else lens.distort_pixels(predicted)
     return Junctions(best, trusted, np.where(ok, residual, np.nan), np.where(seen, square, np.nan), H,
                      seen.copy(), bool(ambiguous))

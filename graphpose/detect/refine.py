@@ -22,7 +22,7 @@ import numpy as np
 from .._checks import as_float_array, as_points, check_image, check_number
 from ..errors import InputError
 from ..image import as_grey
-from ._refine import fit_through_lens, refine_grid, ring_crosses, smoothed_patches
+from ._refine import fit_through_lens, lens_centres, lens_disc, refine_grid, ring_crosses, smoothed_patches
 
 #: Default refinement window radius, as a fraction of the local square side.
 WINDOW_FRACTION = 0.5
@@ -149,7 +149,7 @@ _RING_COS, _RING_SIN = np.cos(_RING_ANGLES), np.sin(_RING_ANGLES)
 
 
 def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sigma: float,
-            max_iter: int = 8, tol: float = 0.02, lens=None):
+            max_iter: int = 8, tol: float = 0.02, lens=None, undistorted=None):
     """Re-centred, gradient-weighted saddle fits: (points (2, m), trusted (m,), residual (m,)).
 
     Each junction is refitted until it stops moving; one that drifts off its patch's centre
@@ -157,7 +157,10 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
     :func:`graphpose.detect._refine.refine_grid`. With a distorting ``lens`` (a camera of
     :mod:`graphpose.camera_models`) the fit places each raw pixel where the lens undistorts it
     (:func:`graphpose.detect._refine.fit_through_lens`): the board's edges, curved in the raw
-    image, are straight there, as the saddle model assumes, and no pixel is resampled.
+    image, are straight there, as the saddle model assumes, and no pixel is resampled. Each
+    accepted fit is a ray first, so an ``undistorted`` (2, m) array, if given, receives the
+    refined points' pixels in the lens's distortion-free image (:meth:`Camera.undistort_pixels`
+    of them, without inverting the lens again; NaN where no fit was accepted).
     """
     m = points.shape[1]
     current = np.array(points, dtype=float, order="C")
@@ -178,6 +181,8 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
     disc = (offs[:, None] ** 2 + offs[None, :] ** 2) <= (radius.max() + slack + 1.0) ** 2
     through = _lens_patches(lens, base, offs, disc, patches, grad2)
     residual = np.full(m, np.nan)
+    ideal = np.full((2, m), np.nan) if undistorted is None else undistorted
+    ideal[:] = np.nan
     state = np.zeros(m, dtype=int)  # 0 moving, 1 converged, 2 failed
     for _ in range(max_iter):
         act = np.flatnonzero(state == 0)
@@ -189,11 +194,12 @@ def refine_points(image: np.ndarray, points: np.ndarray, radius: np.ndarray, sig
             fresh = _patches(image, base[:, drift], half, kernel, radius[drift])
             patches[drift], grad2[drift], inside[drift] = fresh
             through.replace(drift, _lens_patches(lens, base[:, drift], offs, disc, patches[drift], grad2[drift]))
-        new, fitted, residual[act] = _fit_through(lens, through, act, half, current[:, act] - base[:, act],
-                                                  radius[act])
+        new, flat, fitted, residual[act] = _fit_through(lens, through, act, half, current[:, act] - base[:, act],
+                                                        radius[act])
         step = np.hypot(*(new - current[:, act]))
         ok = fitted & np.isfinite(step) & (step < radius[act])
         current[:, act[ok]] = new[:, ok]
+        ideal[:, act[ok]] = flat[:, ok]
         state[act[~ok]] = 2
         state[act[ok & (step < tol)]] = 1
     fitted = state != 2
@@ -241,15 +247,15 @@ def _lens_patches(lens, base, offs, disc, patches, grad2) -> _LensPatches:
     placed through the lens in each patch's own frame (zero weight where the lens gives no
     position)."""
     V, frames = _node_values(lens, base, offs)
-    origin = V[:, :, 2, 2]  # the middle node is the base pixel
-    # Each pixel's position: the polynomial through the nodes (degree four each way).
+    # Each pixel's position: the polynomial through the nodes (degree four each way), less
+    # the middle node's (the base pixel's), by the compiled kernel.
     L = _lagrange(np.linspace(-offs[-1], offs[-1], 5), offs)
     rows, cols = np.nonzero(disc)
-    flat = (L.T @ (V @ L))[:, :, rows, cols] - origin[:, :, None]
-    valid = np.all(np.isfinite(flat), axis=0)
-    x, y = (np.ascontiguousarray(np.where(valid, f, 0.0)) for f in flat)
-    g2 = np.ascontiguousarray(np.where(valid, grad2[:, rows, cols], 0.0), dtype=float)
-    return _LensPatches(origin, V, x, y, np.ascontiguousarray(patches[:, rows, cols]), g2, frames)
+    m, n = base.shape[1], rows.size
+    x, y, values, g2 = (np.empty((m, n)) for _ in range(4))
+    V = np.ascontiguousarray(V)
+    lens_disc(V, L, rows.astype(np.intp), cols.astype(np.intp), patches, grad2, x, y, values, g2)
+    return _LensPatches(V[:, :, 2, 2], V, x, y, values, g2, frames)
 
 
 def _fit_through(lens, through, act, half, offset, radius):
@@ -257,7 +263,8 @@ def _fit_through(lens, through, act, half, offset, radius):
 
     ``through`` is every patch's :class:`_LensPatches`, ``act`` (a,) the patches to
     fit, ``offset`` (2, a) their current raw estimates less their bases. Returns the new raw
-    estimates (2, a), whether each fit is a saddle within its patch, and the residuals.
+    estimates (2, a), their pixels in the lens's distortion-free image (2, a), whether each
+    fit is a saddle within its patch, and the residuals.
     """
     origin, V, x, y, values, g2, frames = (through.origin, through.V, through.x, through.y, through.values,
                                            through.g2, through.frames)
@@ -265,18 +272,19 @@ def _fit_through(lens, through, act, half, offset, radius):
     # The estimate's undistorted position, about the patch's origin; the kernel weights the
     # pixels by refine_points' window about it, in undistorted pixels (none where it has no
     # undistorted position: a fisheye past 90 degrees).
-    c = _undistort_in_patch(V[:, act], half, offset) - origin
+    c = np.empty((2, act.size))
+    lens_centres(V, act, np.ascontiguousarray(offset), float(half), c)
     known = np.all(np.isfinite(c), axis=0)
     pts, saddle, residual = np.empty((2, act.size)), np.zeros(act.size, dtype=np.uint8), np.empty(act.size)
-    fit_through_lens(x, y, values, g2, act.astype(np.intp), np.ascontiguousarray(c), radius, float(half), pts,
+    fit_through_lens(x, y, values, g2, act, c, radius, float(half), pts,
                      saddle, residual)
     saddle = saddle.view(bool)
     found = np.all(np.isfinite(pts), axis=0) & known
     within = found & (np.hypot(*np.where(found, pts - c, 0.0)) < half)
-    new = np.full((2, act.size), np.nan)
+    new, flat = np.full((2, act.size), np.nan), np.full((2, act.size), np.nan)
     if found.any():
-        new[:, found] = _from_frames(lens, frames[act[found]], origin[:, found] + pts[:, found])
-    return new, saddle & within & np.all(np.isfinite(new), axis=0), residual
+        new[:, found], flat[:, found] = _from_frames(lens, frames[act[found]], origin[:, found] + pts[:, found])
+    return new, flat, saddle & within & np.all(np.isfinite(new), axis=0), residual
 
 
 def _node_values(lens, base, offs):
@@ -321,12 +329,17 @@ def _node_values(lens, base, offs):
     return xy, frames
 
 
-def _from_frames(lens, frames, xy) -> np.ndarray:
+def _from_frames(lens, frames, xy):
     """Raw pixels (2, a) of positions ``xy`` (2, a) in the patches' frames (a, 4, 3) of
-    :func:`_node_values`."""
+    :func:`_node_values`, and their pixels in the lens's distortion-free image (2, a; NaN for
+    a ray at or behind z = 0, as :meth:`Camera.undistort_pixels` gives)."""
     R, scale = frames[:, :3], frames[:, 3, 0]
     local = np.vstack([xy / scale, np.ones(xy.shape[1])])
-    return lens.project(np.einsum("aji,ja->ia", R, local))
+    rays = np.einsum("aji,ja->ia", R, local)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(rays[2] > 0, rays[2], np.nan)
+        flat = lens.K[:2, :2] @ (rays[:2] / z) + lens.K[:2, 2:3]
+    return lens.project(rays), flat
 
 
 def _lagrange(nodes, t) -> np.ndarray:
@@ -342,13 +355,6 @@ def _lagrange(nodes, t) -> np.ndarray:
     np.cumprod(d[::-1], axis=0, out=after[1:])
     gaps = nodes[:, None] - nodes[None, :] + np.eye(n)
     return before[:n] * after[n - 1::-1] / np.prod(gaps, axis=1)[:, None]
-
-
-def _undistort_in_patch(V, half, offset) -> np.ndarray:
-    """Undistorted positions (2, a) of points at ``offset`` (2, a) from their patch bases,
-    by each patch's node values ``V`` (2, a, 5, 5) (see :func:`_node_values`)."""
-    L = _lagrange(np.linspace(-half, half, 5), offset.ravel()).reshape(5, 2, -1)  # (5, [u, v], a)
-    return np.einsum("cmab,am,bm->cm", V, L[:, 1], L[:, 0])
 
 
 def _patches(image, base, half, kernel, radius):

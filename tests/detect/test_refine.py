@@ -6,8 +6,9 @@ import pytest
 from graphpose import Board, FisheyeCamera, extract_junctions
 from graphpose.geometry import to_camera
 from graphpose.detect.refine import refine_junctions
-from graphpose.detect._refine import fit_through_lens, fit_weighted_grid, refine_grid, ring_crosses, smoothed_patches
-from graphpose.detect.refine import _RING_COS, _RING_SIN, _gaussian_kernel
+from graphpose.detect._refine import (fit_through_lens, fit_weighted_grid, lens_centres, lens_disc, refine_grid,
+                                      ring_crosses, smoothed_patches)
+from graphpose.detect.refine import _RING_COS, _RING_SIN, _gaussian_kernel, _lagrange
 from graphpose.synth.calibration import fisheye_camera
 from graphpose.synth.render import render
 
@@ -53,6 +54,55 @@ def test_fit_through_the_lens_is_the_weighted_least_squares_fit_in_its_window():
     # No undistorted centre: no weight, no saddle.
     fit_through_lens(x, y, values, g2, act[:1], np.full((2, 1), np.nan), radius[:1], 9.0, points, saddle, rms)
     assert not saddle[0] and np.isnan(points[:, 0]).all()
+
+
+def test_lens_kernels_place_pixels_by_the_polynomial_through_the_nodes():
+    # lens_disc and lens_centres against the NumPy tensor product L^T V L of the Lagrange
+    # basis (which the lens-aware refinement used before the kernels), NaN nodes included.
+    rng = np.random.default_rng(8)
+    m, half = 4, 7
+    offs = np.arange(-half, half + 1, dtype=float)
+    P = offs.size
+    V = rng.normal(0.0, 3.0, (2, m, 5, 5))
+    V[:, 3, 4, 0] = np.nan  # a node the lens does not image: patch 3 has no positions there
+    L = _lagrange(np.linspace(-half, half, 5), offs)
+    disc = offs[:, None] ** 2 + offs[None, :] ** 2 <= 6.5 ** 2
+    rows, cols = np.nonzero(disc)
+    patches = rng.uniform(0, 1, (m, P, P))
+    grad2 = rng.uniform(0, 1, (m, P, P)).astype(np.float32)
+    x, y, values, g2 = (np.empty((m, rows.size)) for _ in range(4))
+    lens_disc(V, L, rows.astype(np.intp), cols.astype(np.intp), patches, grad2, x, y, values, g2)
+    flat = (L.T @ (V @ L))[:, :, rows, cols] - V[:, :, 2, 2][:, :, None]
+    valid = np.all(np.isfinite(flat), axis=0)
+    assert not valid[3].all() and valid[:3].all()
+    np.testing.assert_allclose(x, np.where(valid, flat[0], 0.0), atol=1e-12)
+    np.testing.assert_allclose(y, np.where(valid, flat[1], 0.0), atol=1e-12)
+    np.testing.assert_array_equal(values, patches[:, rows, cols])
+    np.testing.assert_array_equal(g2, np.where(valid, grad2[:, rows, cols], 0.0))
+    act = np.array([2, 0, 1], dtype=np.intp)
+    offset = rng.uniform(-2, 2, (2, act.size))
+    out = np.empty((2, act.size))
+    lens_centres(V, act, offset, float(half), out)
+    Lo = _lagrange(np.linspace(-half, half, 5), offset.ravel()).reshape(5, 2, -1)
+    want = np.einsum("cmab,am,bm->cm", V[:, act], Lo[:, 1], Lo[:, 0]) - V[:, act, 2, 2]
+    np.testing.assert_allclose(out, want, atol=1e-12)
+
+
+def test_the_refinement_gives_the_undistorted_points_of_its_fits():
+    # The rays of the fits through the lens, as the verdict uses them instead of inverting
+    # the lens again: the refined points' undistort_pixels.
+    from graphpose.detect.refine import grey_and_scale, refine_points
+
+    camera = fisheye_camera()
+    board = Board()
+    T = np.array([[1.0, 0, 0, 0.12], [0, 1, 0, 0.09], [0, 0, 1, -0.45], [0, 0, 0, 1]])
+    r = render(camera, T, board, noise_sigma=1.0, rng=5)
+    image, _ = grey_and_scale(r.image)
+    start = r.junctions + np.random.default_rng(6).uniform(-0.3, 0.3, r.junctions.shape)
+    flat = np.empty_like(start)
+    points, trusted, _ = refine_points(image, start, np.full(start.shape[1], 8.0), 0.5, lens=camera, undistorted=flat)
+    assert trusted.sum() >= 40
+    np.testing.assert_allclose(flat[:, trusted], camera.undistort_pixels(points[:, trusted]), atol=1e-8)
 
 
 def test_fit_on_the_grid_is_the_weighted_least_squares_fit():
