@@ -321,6 +321,15 @@ def side_geometry_reference(grid, keys, side, depths, flat_side, dark_parity):
     return edge[:, :, None] + step[:, :, None] * depths, rows, expect, np.hypot(step[:, 0], step[:, 1])
 
 
+def ragged_keys(rng, min_side, drop):
+    """A random grid of lattice keys with holes and ragged edges, about a random (also
+    negative) origin: (M, 2) int, possibly empty; ``drop`` the fractions of keys to drop."""
+    cols, rows = int(rng.integers(min_side, 9)), int(rng.integers(min_side, 7))
+    i, j = np.meshgrid(np.arange(cols), np.arange(rows), indexing="ij")
+    keys = np.column_stack([i.ravel(), j.ravel()]) + rng.integers(-5, 5, 2)
+    return keys[rng.random(len(keys)) > rng.choice(drop)]
+
+
 def test_the_side_geometry_is_the_plain_one_on_random_lattices():
     from graphpose.detect import _identify
     from graphpose.detect.identify import _DEPTHS, FLAT_SIDE, SIDES
@@ -328,11 +337,7 @@ def test_the_side_geometry_is_the_plain_one_on_random_lattices():
     rng = np.random.default_rng(8)
     flat = 0
     for trial in range(300):
-        # A grid of keys with holes and ragged edges, about a random (also negative) origin.
-        cols, rows_ = int(rng.integers(2, 9)), int(rng.integers(2, 7))
-        i, j = np.meshgrid(np.arange(cols), np.arange(rows_), indexing="ij")
-        keys = np.column_stack([i.ravel(), j.ravel()]) + rng.integers(-5, 5, 2)
-        keys = keys[rng.random(len(keys)) > rng.choice([0.0, 0.1, 0.3])]
+        keys = ragged_keys(rng, 2, [0.0, 0.1, 0.3])
         if len(keys) < 2:
             continue
         H = np.array([[30.0, 2.0, 100.0], [-1.0, 28.0, 80.0], [1e-3, 2e-3, 1.0]]) + rng.normal(0, 1e-3, (3, 3))
@@ -436,10 +441,7 @@ def test_whole_squares_are_the_plain_ones_on_random_lattices():
     rng = np.random.default_rng(13)
     compared = 0
     for trial in range(200):
-        cols, rows_ = int(rng.integers(1, 9)), int(rng.integers(1, 7))
-        i, j = np.meshgrid(np.arange(cols), np.arange(rows_), indexing="ij")
-        keys = np.column_stack([i.ravel(), j.ravel()]) + rng.integers(-5, 5, 2)
-        keys = keys[rng.random(len(keys)) > rng.choice([0.0, 0.2, 0.5])]
+        keys = ragged_keys(rng, 1, [0.0, 0.2, 0.5])
         if not len(keys):
             continue
         grid = KeyGrid.of(keys, rng.uniform(0, 500, (2, len(keys))))
