@@ -260,9 +260,10 @@ def estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust) -> PoseEsti
     # cost, so a converged GN answer must already be GTSAM's minimum. A wrong projection or
     # Jacobian in either solver moves GTSAM off it and fails the cross-check, as a solve
     # from the shared start would; the basin question (a guess far off) is settled by
-    # _compare_with_linear_start. It spares GTSAM's own descent: a third of its time.
+    # _compare_with_linear_start. It spares GTSAM's own descent: from a converged answer the
+    # undamped steps alone confirm it (from_minimum), where they fail GTSAM descends from it.
     graph = graph_pose_unchecked(camera, gn.T_WC if gn.converged else start, Ipts, Wpts, mask,
-                                 pixel_sigma=pixel_sigma, robust=robust)
+                                 pixel_sigma=pixel_sigma, robust=robust, from_minimum=gn.converged)
     converged, message = gn.converged, "ok" if gn.converged else f"Gauss-Newton: {gn.message}"
     if guess is not None and gn.converged and on_target_plane(Wpts):
         converged, message = _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn)
