@@ -387,22 +387,27 @@ def _polish(graph, values, ordering):
     they never get there within _POLISH_ITERATIONS, ``polished`` is False.
     """
     for _ in range(_POLISH_ITERATIONS):
-        tree = graph.linearize(values).eliminateMultifrontal(ordering)
-        delta = tree.optimize()
+        # Sequential elimination in the star ordering: the pose comes last, so its
+        # conditional has no parents and is its marginal (step 7); a Bayes tree would hold
+        # the same conditional in its root clique, at more cost.
+        bayes_net = graph.linearize(values).eliminateSequential(ordering)
+        delta = bayes_net.optimize()
         values = values.retract(delta)
         if np.max(np.abs(delta.at(POSE_KEY))) < _POLISH_STEP:
-            return values, tree, True
-    return values, tree, False
+            return values, bayes_net, True
+    return values, bayes_net, False
 
 
 def _answer(polished, Wpts, mask, marginals, iterations, converged):
     """Step 7: the pose, its marginal covariance and the convergence report (``converged``:
     the descent's own, before the polish and the cheirality)."""
-    result, tree, done = polished
+    result, bayes_net, done = polished
     # 7. Marginal covariance of the pose: tangent order (rotation rad, translation m), body
     #    frame. It is the last step's elimination's (what gtsam.Marginals would eliminate
-    #    again), linearised less than _POLISH_STEP from the result: the same to rounding.
-    cov = tree.marginalCovariance(POSE_KEY) if marginals else np.full((6, 6), np.nan)
+    #    again), linearised less than _POLISH_STEP from the result: the same to rounding. The
+    #    pose's conditional, eliminated last, is its marginal: the inverse of its information
+    #    (as GaussianBayesTree.marginalCovariance inverts its root clique's).
+    cov = np.linalg.inv(bayes_net.back().information()) if marginals else np.full((6, 6), np.nan)
     T = result.atPose3(POSE_KEY).matrix()
     # The projection factors do not enforce cheirality: a solution with a point behind the
     # camera is a failure, not a pose.
