@@ -291,7 +291,7 @@ def estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust) -> PoseEsti
         converged=converged,
         iterations=gn.iterations,
         reprojection_rms_px=gn.residual_rms_px,
-        residuals=Ipts - camera.project(to_camera(gn.T_WC, Wpts)),
+        residuals=_all_residuals(camera, gn, Ipts, Wpts),
         mask=mask,
         junctions=None,
         cross_check=check,
@@ -302,6 +302,17 @@ def estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust) -> PoseEsti
         cov_pixel=graph.cov,
         sigma_kind=kind,
     )
+
+
+def _all_residuals(camera, gn, Ipts, Wpts):
+    """Measured minus predicted pixels at Gauss-Newton's pose for every point (2, n): its own
+    residuals for the points it used, projected here only for the measured points it did not
+    use; NaN where a point was not measured."""
+    residuals = gn.residuals.copy()
+    rest = np.flatnonzero(~gn.mask & np.all(np.isfinite(Ipts), axis=0))
+    if rest.size:
+        residuals[:, rest] = Ipts[:, rest] - camera.project(to_camera(gn.T_WC, Wpts[:, rest]))
+    return residuals
 
 
 def _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn):
