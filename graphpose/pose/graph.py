@@ -193,27 +193,30 @@ def graph_pose_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma=None,
     """:func:`graph_pose` on inputs already checked at a public edge (a camera object, float
     arrays of the right shapes, a boolean mask, a checked guess, positive ``pixel_sigma`` or
     None and ``huber_k``); the guess's depths are still checked (they depend on the pose)."""
-    check_in_front(to_camera(T_WC_guess, Wpts[:, mask])[2], "the guess", np.flatnonzero(mask))
+    keys = np.flatnonzero(mask)
+    I, W = Ipts[:, keys], Wpts[:, keys]  # the used points, once
+    check_in_front(to_camera(T_WC_guess, W)[2], "the guess", keys)
     if robust and pixel_sigma is None:
         # Only its pose is used: no marginals. A minimum of the robust cost is none of the
         # plain one, so this solve descends.
-        plain = _solve(camera, T_WC_guess, Ipts, Wpts, mask, 1.0, None, marginals=False)
-        r = Ipts[:, mask] - camera.project(to_camera(plain[0], Wpts[:, mask]))
+        plain = _solve(camera, T_WC_guess, I, W, keys, 1.0, None, marginals=False)
+        r = I - camera.project(to_camera(plain[0], W))
         pixel_sigma = max(1.4826 * float(np.median(np.abs(r))), 1e-12)
     sigma = 1.0 if pixel_sigma is None else float(pixel_sigma)
     T, cov_tangent, converged, iterations, message = _solve(
-        camera, T_WC_guess, Ipts, Wpts, mask, sigma, huber_k if robust else None, from_minimum=from_minimum)
+        camera, T_WC_guess, I, W, keys, sigma, huber_k if robust else None, from_minimum=from_minimum)
+    used = I - camera.project(to_camera(T, W))
     residuals = np.full((2, mask.size), np.nan)
-    residuals[:, mask] = Ipts[:, mask] - camera.project(to_camera(T, Wpts[:, mask]))
-    used = residuals[:, mask]
+    residuals[:, keys] = used
     if pixel_sigma is None:
         m = used.shape[1]
         sigma = math.sqrt(float(np.sum(used**2)) / (2 * m - 6))
         cov_tangent = sigma**2 * cov_tangent
+    params = params_from_T(T)
     return GraphResult(
         T_WC=T,
-        params=params_from_T(T),
-        cov=params_cov_from_tangent(T, cov_tangent),
+        params=params,
+        cov=_params_cov(T, params, cov_tangent),
         cov_tangent=cov_tangent,
         sigma_px=sigma,
         converged=converged,
@@ -225,13 +228,14 @@ def graph_pose_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma=None,
     )
 
 
-def _solve(camera, T_WC_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True, from_minimum=False):
-    """Build and optimise the graph.
+def _solve(camera, T_WC_guess, I, W, keys, sigma, huber_k, marginals=True, from_minimum=False):
+    """Build and optimise the graph on the used points ``I`` (2, m), ``W`` (3, m) of the
+    junctions ``keys`` (m,).
 
     Returns (T_WC, tangent covariance (NaN unless ``marginals``), converged, iterations,
     failure message or "").
     """
-    graph, initial, ordering = _build(camera, T_WC_guess, Ipts, Wpts, mask, sigma, huber_k)
+    graph, initial, ordering = _build(camera, T_WC_guess, I, W, keys, sigma, huber_k)
     if from_minimum:
         # 5a. The guess is a converged minimum of the same cost (Gauss-Newton's answer): the
         #     undamped steps of step 6 alone confirm it, without Levenberg-Marquardt's own
@@ -243,7 +247,7 @@ def _solve(camera, T_WC_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True,
         except RuntimeError:
             solved = None
         if solved is not None and solved[2]:
-            return _answer(solved, Wpts, mask, marginals, 0, np.isfinite(graph.error(solved[0])))
+            return _answer(solved, W, marginals, 0, np.isfinite(graph.error(solved[0])))
     # 5. Optimise with Levenberg-Marquardt from the guess.
     params = gtsam.LevenbergMarquardtParams()
     params.setRelativeErrorTol(_RELATIVE_TOL)
@@ -252,7 +256,7 @@ def _solve(camera, T_WC_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True,
     params.setOrdering(ordering)
     optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
     try:
-        return _optimise(graph, optimizer, ordering, Wpts, mask, marginals)
+        return _optimise(graph, optimizer, ordering, W, marginals)
     except RuntimeError as exc:
         # From a far-off guess the linearised system can become indeterminate (GTSAM's
         # IndeterminateSystemException): that is a failed solve, reported, not a crash.
@@ -268,7 +272,7 @@ def _solve(camera, T_WC_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True,
 POSE_KEY = X(0)
 
 
-def _build(camera, T_WC_guess, Ipts, Wpts, mask, sigma, huber_k):
+def _build(camera, T_WC_guess, I, W, keys, sigma, huber_k):
     """Steps 1-4 of the solve: the graph, its initial values and its elimination ordering."""
     # 1. Create the factor graph and the camera calibration (pixels; None where GTSAM has
     #    no calibration for the model: then a custom factor on graphpose's projection).
@@ -287,18 +291,17 @@ def _build(camera, T_WC_guess, Ipts, Wpts, mask, sigma, huber_k):
     #    (utilities.insertProjectionFactors); the other models' one at a time.
     initial = gtsam.Values()
     initial.insert(POSE_KEY, gtsam.Pose3(T_WC_guess))
-    used = np.flatnonzero(mask)
-    keys = used.tolist()
     if type(calibration).__name__ == "Cal3_S2":
-        gtsam.utilities.insertProjectionFactors(graph, POSE_KEY, used.astype(float), Ipts[:, used],
-                                                pixel_noise, calibration)
+        gtsam.utilities.insertProjectionFactors(graph, POSE_KEY, keys.astype(float), I, pixel_noise, calibration)
+        keys = keys.tolist()
     else:
+        keys = keys.tolist()
         add = graph.add
-        for key, uv in zip(keys, Ipts[:, used].T.copy()):
+        for key, uv in zip(keys, I.T.copy()):
             add(projection_factor(camera, uv, pixel_noise, POSE_KEY, key, calibration))
     # 4. The priors and the initial values: the guessed pose and the exact target points.
     add_prior, insert = graph.addPriorPoint3, initial.insertPoint3
-    for key, point in zip(keys, Wpts[:, used].T.copy()):
+    for key, point in zip(keys, W.T.copy()):
         add_prior(key, point, landmark_noise)
         insert(key, point)
     # The elimination ordering: every target point, then the pose. The graph is a star about
@@ -368,11 +371,11 @@ def projection_factor(camera, uv, noise, pose_key, point_key, calibration=None):
     return gtsam.CustomFactor(noise, [pose_key, point_key], error)
 
 
-def _optimise(graph, optimizer, ordering, Wpts, mask, marginals=True):
+def _optimise(graph, optimizer, ordering, W, marginals=True):
     """Steps 5-7 of :func:`_solve`; GTSAM may raise RuntimeError on an indeterminate system."""
     result = optimizer.optimize()
     converged = optimizer.iterations() < _MAX_ITERATIONS and np.isfinite(optimizer.error())
-    return _answer(_polish(graph, result, ordering), Wpts, mask, marginals, int(optimizer.iterations()),
+    return _answer(_polish(graph, result, ordering), W, marginals, int(optimizer.iterations()),
                    converged)
 
 
@@ -398,7 +401,7 @@ def _polish(graph, values, ordering):
     return values, bayes_net, False
 
 
-def _answer(polished, Wpts, mask, marginals, iterations, converged):
+def _answer(polished, W, marginals, iterations, converged):
     """Step 7: the pose, its marginal covariance and the convergence report (``converged``:
     the descent's own, before the polish and the cheirality)."""
     result, bayes_net, done = polished
@@ -411,7 +414,7 @@ def _answer(polished, Wpts, mask, marginals, iterations, converged):
     T = result.atPose3(POSE_KEY).matrix()
     # The projection factors do not enforce cheirality: a solution with a point behind the
     # camera is a failure, not a pose.
-    in_front = np.all(to_camera(T, Wpts[:, mask])[2] > 0)
+    in_front = np.all(to_camera(T, W)[2] > 0)
     converged = converged and done and in_front
     return T, np.asarray(cov), bool(converged), iterations, ""
 
@@ -431,8 +434,13 @@ def params_from_tangent_jacobian(T_WC) -> np.ndarray:
         with ``M = [e_x, Cx^T e_y, (Cy Cx)^T e_z]`` (see the module docstring). Singular at
         pitch = +-90 degrees.
     """
+    return _tangent_jacobian(T_WC, params_from_T(T_WC))
+
+
+def _tangent_jacobian(T_WC, params):
+    """:func:`params_from_tangent_jacobian` with the pose's ``params`` at hand."""
     C = T_WC[:3, :3]
-    roll, pitch, _ = params_from_T(T_WC)[3:]
+    roll, pitch = float(params[3]), float(params[4])
     cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
     M = np.array([[1.0, 0.0, -sp], [0.0, cr, sr * cp], [0.0, -sr, cr * cp]])
     A = np.zeros((6, 6))
@@ -458,5 +466,10 @@ def params_cov_from_tangent(T_WC, cov_tangent) -> np.ndarray:
         Covariance of ``(x, y, z, roll, pitch, yaw)`` in m and rad, ``A cov_tangent A^T``
         with ``A`` from :func:`params_from_tangent_jacobian`; infinite or NaN at gimbal lock.
     """
-    A = params_from_tangent_jacobian(T_WC)
+    return _params_cov(T_WC, params_from_T(T_WC), cov_tangent)
+
+
+def _params_cov(T_WC, params, cov_tangent):
+    """:func:`params_cov_from_tangent` with the pose's ``params`` at hand."""
+    A = _tangent_jacobian(T_WC, params)
     return A @ cov_tangent @ A.T
