@@ -74,6 +74,24 @@ cdef inline void _chain(const double[:, :, ::1] R, const double[:, ::1] A, Py_ss
         J[2 * j + 1, c] = rows[6 + c]
 
 
+cdef inline void _pinhole_point(const double[:, ::1] K, const double[:, :, ::1] R, const double[:, ::1] A,
+                                const double[:, ::1] I, Py_ssize_t j, double[::1] r, double[::1] z,
+                                double* rows) noexcept nogil:
+    """Point j through a pinhole: its depth into z, its residual into r and, unless ``rows`` is
+    NULL, its two Jacobian rows into that (2, 6) buffer (:func:`_chain_rows`), with
+    ``du/dp_C = (fx, s, cx - u) / z_C`` and ``dv/dp_C = (0, fy, cy - v) / z_C``."""
+    cdef double x = A[0, j], y = A[1, j], zc = A[2, j], u, v, iz
+    u = (K[0, 0] * x + K[0, 1] * y + K[0, 2] * zc) / zc
+    v = (K[1, 0] * x + K[1, 1] * y + K[1, 2] * zc) / zc
+    z[j] = zc
+    r[2 * j] = I[0, j] - u
+    r[2 * j + 1] = I[1, j] - v
+    if rows != NULL:
+        iz = 1.0 / zc
+        _chain_rows(R, A, j, K[0, 0] * iz, K[0, 1] * iz, (K[0, 2] - u) * iz,
+                    0.0, K[1, 1] * iz, (K[1, 2] - v) * iz, rows)
+
+
 def pinhole_residuals(const double[:, ::1] K, const double[::1] p, const double[:, ::1] I,
                       const double[:, ::1] W, double[:, :, ::1] R, double[:, ::1] A, double[::1] r,
                       double[::1] z, double[:, ::1] J, bint jacobian):
@@ -98,20 +116,18 @@ def pinhole_residuals(const double[:, ::1] K, const double[::1] p, const double[
         when ``jacobian``.
     """
     cdef Py_ssize_t n = W.shape[1], j
-    cdef double x, y, zc, u, v, iz
+    cdef double rows[12]
+    cdef int c
     with nogil:
         _points(p, W, R, A)
         for j in range(n):
-            x, y, zc = A[0, j], A[1, j], A[2, j]
-            u = (K[0, 0] * x + K[0, 1] * y + K[0, 2] * zc) / zc
-            v = (K[1, 0] * x + K[1, 1] * y + K[1, 2] * zc) / zc
-            z[j] = zc
-            r[2 * j] = I[0, j] - u
-            r[2 * j + 1] = I[1, j] - v
             if jacobian:
-                iz = 1.0 / zc
-                _chain(R, A, j, K[0, 0] * iz, K[0, 1] * iz, (K[0, 2] - u) * iz,
-                       0.0, K[1, 1] * iz, (K[1, 2] - v) * iz, J)
+                _pinhole_point(K, R, A, I, j, r, z, rows)
+                for c in range(6):
+                    J[2 * j, c] = rows[c]
+                    J[2 * j + 1, c] = rows[6 + c]
+            else:
+                _pinhole_point(K, R, A, I, j, r, z, NULL)
 
 
 def camera_points(const double[::1] p, const double[:, ::1] W, double[:, :, ::1] R, double[:, ::1] A):
@@ -159,7 +175,7 @@ def pinhole_normal_equations(const double[:, ::1] K, const double[::1] p, const 
     """
     cdef Py_ssize_t n = W.shape[1], j
     cdef int a, b
-    cdef double x, y, zc, u, v, iz, du, dv, e, w, cost = 0.0, chi2 = 0.0
+    cdef double du, dv, e, w, cost = 0.0, chi2 = 0.0
     cdef double J[12]
     with nogil:
         for a in range(6):
@@ -168,14 +184,8 @@ def pinhole_normal_equations(const double[:, ::1] K, const double[::1] p, const 
                 H[a, b] = 0.0
         _points(p, W, R, A)
         for j in range(n):
-            x, y, zc = A[0, j], A[1, j], A[2, j]
-            u = (K[0, 0] * x + K[0, 1] * y + K[0, 2] * zc) / zc
-            v = (K[1, 0] * x + K[1, 1] * y + K[1, 2] * zc) / zc
-            z[j] = zc
-            du = I[0, j] - u
-            dv = I[1, j] - v
-            r[2 * j] = du
-            r[2 * j + 1] = dv
+            _pinhole_point(K, R, A, I, j, r, z, J)
+            du, dv = r[2 * j], r[2 * j + 1]
             w = 1.0
             e = du * du + dv * dv
             if huber_px > 0.0:
@@ -188,9 +198,6 @@ def pinhole_normal_equations(const double[:, ::1] K, const double[::1] p, const 
             else:
                 cost += 0.5 * e
             chi2 += w * (du * du + dv * dv)
-            iz = 1.0 / zc
-            _chain_rows(R, A, j, K[0, 0] * iz, K[0, 1] * iz, (K[0, 2] - u) * iz,
-                        0.0, K[1, 1] * iz, (K[1, 2] - v) * iz, J)
             for a in range(6):
                 g[a] += w * (J[a] * du + J[6 + a] * dv)
                 for b in range(a, 6):
