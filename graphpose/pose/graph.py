@@ -2,13 +2,18 @@
 
 The graph has one ``Pose3`` variable ``X(0)`` (the camera pose T_WC, GTSAM's own convention:
 the camera looks along its +z with x right and y down, as in :mod:`graphpose.geometry`), one
-``Point3`` variable ``L(j)`` per junction, one projection factor per trusted junction
-(:func:`projection_factor`) and one very tight ``PriorFactorPoint3`` per landmark that pins it to its target position. A tight prior rather
+``Point3`` variable per trusted junction (key ``j``, the junction's index), one projection
+factor per trusted junction (:func:`projection_factor`) and one very tight
+``PriorFactorPoint3`` per landmark that pins it to its target position. A tight prior rather
 than ``NonlinearEquality`` keeps the linearised system non-singular, so the marginals exist.
-Levenberg-Marquardt minimises the same reprojection cost as :mod:`graphpose.pose.gauss_newton`;
-the pipeline holds the two against each other. The marginal covariance comes from the
-elimination of the last polishing step (no second linearisation and elimination for
-``gtsam.Marginals``), and only where it is reported.
+Levenberg-Marquardt minimises the same reprojection cost as :mod:`graphpose.pose.gauss_newton`,
+then undamped Gauss-Newton steps polish its answer; the pipeline holds the two solvers against
+each other. Started at Gauss-Newton's converged answer (``from_minimum``, as the pipeline
+starts it), the undamped steps alone confirm that minimum, and Levenberg-Marquardt runs only
+where they do not. The graph is a star about the pose, eliminated in the ordering without
+fill-in (every landmark, then the pose); the marginal covariance comes from the elimination of
+the last polishing step (no second linearisation and elimination for ``gtsam.Marginals``),
+and only where it is reported.
 
 The projection factor follows the camera (:mod:`graphpose.camera_models`): GTSAM's own
 ``GenericProjectionFactorCal3_S2``, ``...Cal3DS2`` or ``...Cal3Fisheye`` with the
