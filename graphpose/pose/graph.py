@@ -312,11 +312,7 @@ def _build(camera, T_WC_guess, I, W, keys, sigma, huber_k):
     # The elimination ordering: every target point, then the pose. The graph is a star about
     # the pose, so this is the ordering without fill-in (COLAMD's own finds it too, at a
     # cost in every elimination), and the pose's marginal is the root clique's.
-    ordering = gtsam.Ordering()
-    for key in keys:
-        ordering.push_back(key)
-    ordering.push_back(POSE_KEY)
-    return graph, initial, ordering
+    return graph, initial, gtsam.Ordering([*keys, POSE_KEY])
 
 
 #: GTSAM's projection factor for each calibration :meth:`graphpose.camera_models.Camera.gtsam_calibration` gives.
