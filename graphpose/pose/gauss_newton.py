@@ -372,7 +372,7 @@ def _solve(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, t
         except np.linalg.LinAlgError:
             message = "normal equations singular (gimbal lock or degenerate points)"
             break
-        if np.max(np.abs(delta_gn)) < tol:
+        if np.abs(delta_gn).max() < tol:
             converged, message = True, "converged"
             break
         # When the decrease a step promises (1/2 g^T delta) is below the cost's rounding
@@ -388,7 +388,7 @@ def _solve(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, t
         delta = delta_gn if lam == 0.0 or polishing else np.linalg.solve(H + lam * np.diag(np.diag(H)), g)
         p_new = p + delta
         new = _normal(camera, p_new, I, W, huber_px)
-        cost_new = new[2] if np.all(new[1] > MIN_DEPTH) else np.inf
+        cost_new = new[2] if new[1].min() > MIN_DEPTH else np.inf  # (NaN depths fail too)
         if not np.isfinite(cost_new):
             cost_new = np.inf  # a point the lens model cannot image
         if cost_new < cost or (polishing and cost_new <= cost * (1.0 + 100 * _COST_RTOL)):
