@@ -397,7 +397,7 @@ def _polish(graph, values, ordering):
         bayes_net = graph.linearize(values).eliminateSequential(ordering)
         delta = bayes_net.optimize()
         values = values.retract(delta)
-        if np.max(np.abs(delta.at(POSE_KEY))) < _POLISH_STEP:
+        if np.abs(delta.at(POSE_KEY)).max() < _POLISH_STEP:
             return values, bayes_net, True
     return values, bayes_net, False
 
