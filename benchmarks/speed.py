@@ -113,7 +113,9 @@ def stages(items, repeats):
             "find board": partial(find_board, image, BOARD, bounds),
             "extract": partial(extract_junctions, image, bounds, BOARD, camera=cam),
             "start + Gauss-Newton": partial(fit_pose, cam, J.points, W, mask=J.trusted),
-            "GTSAM + marginals": partial(graph_pose, cam, gn.T_WC, J.points, W, mask=J.trusted),
+            # as estimate_pose runs it: from Gauss-Newton's converged answer (from_minimum)
+            "GTSAM + marginals": partial(graph_pose, cam, gn.T_WC, J.points, W, mask=J.trusted,
+                                         from_minimum=gn.converged),
             "total": partial(ours, path, bounds, cam),
         }
         for _ in range(repeats):

@@ -5,10 +5,13 @@ One call projects every target point through the pose ``(x, y, z, roll, pitch, y
 2 x 6 Jacobian: the pose's derivative of the camera-frame point (``dp_C/dt = -C^T``,
 ``dp_C/d(angle) = (dC/d(angle))^T (p_W - t)``) chained with ``d uv / d p_C``, written out for
 the pinhole (:func:`pinhole_residuals`) or given by the camera's model
-(:func:`camera_points`, :func:`chain_jacobians`). The callers check every input first.
+(:func:`camera_points`, :func:`chain_jacobians`). For the pinhole, :func:`pinhole_normal_equations`
+sums each point's rows straight into the 6 x 6 normal equations of a Gauss-Newton step (with
+the Huber kernel's weights), so the stacked Jacobian is never formed. The callers check every
+input first.
 """
 
-from libc.math cimport cos, sin
+from libc.math cimport cos, sin, sqrt
 
 
 cdef void _rotation_and_partials(const double[::1] p, double[:, :, ::1] R) noexcept nogil:
@@ -45,17 +48,48 @@ cdef void _points(const double[::1] p, const double[:, ::1] W, double[:, :, ::1]
                 A[3 * k + i, j] = R[k, 0, i] * d0 + R[k, 1, i] * d1 + R[k, 2, i] * d2
 
 
+cdef inline void _chain_rows(const double[:, :, ::1] R, const double[:, ::1] A, Py_ssize_t j,
+                             double g00, double g01, double g02, double g10, double g11, double g12,
+                             double* J) noexcept nogil:
+    """d(u, v)/d(p_C) (the g's) times d(p_C)/d(params) into a (2, 6) row-major buffer: row 0
+    (u) in J[0:6], row 1 (v) in J[6:12]."""
+    cdef int c
+    for c in range(3):  # dp_C / dt = -C^T: its column c is -C[c, :]
+        J[c] = -(g00 * R[0, c, 0] + g01 * R[0, c, 1] + g02 * R[0, c, 2])
+        J[6 + c] = -(g10 * R[0, c, 0] + g11 * R[0, c, 1] + g12 * R[0, c, 2])
+    for c in range(3):
+        J[3 + c] = g00 * A[3 + 3 * c, j] + g01 * A[4 + 3 * c, j] + g02 * A[5 + 3 * c, j]
+        J[9 + c] = g10 * A[3 + 3 * c, j] + g11 * A[4 + 3 * c, j] + g12 * A[5 + 3 * c, j]
+
+
 cdef inline void _chain(const double[:, :, ::1] R, const double[:, ::1] A, Py_ssize_t j,
                         double g00, double g01, double g02, double g10, double g11, double g12,
                         double[:, ::1] J) noexcept nogil:
     """Rows 2j, 2j + 1 of J: d(u, v)/d(p_C) (the g's) times d(p_C)/d(params)."""
+    cdef double rows[12]
     cdef int c
-    for c in range(3):  # dp_C / dt = -C^T: its column c is -C[c, :]
-        J[2 * j, c] = -(g00 * R[0, c, 0] + g01 * R[0, c, 1] + g02 * R[0, c, 2])
-        J[2 * j + 1, c] = -(g10 * R[0, c, 0] + g11 * R[0, c, 1] + g12 * R[0, c, 2])
-    for c in range(3):
-        J[2 * j, 3 + c] = g00 * A[3 + 3 * c, j] + g01 * A[4 + 3 * c, j] + g02 * A[5 + 3 * c, j]
-        J[2 * j + 1, 3 + c] = g10 * A[3 + 3 * c, j] + g11 * A[4 + 3 * c, j] + g12 * A[5 + 3 * c, j]
+    _chain_rows(R, A, j, g00, g01, g02, g10, g11, g12, rows)
+    for c in range(6):
+        J[2 * j, c] = rows[c]
+        J[2 * j + 1, c] = rows[6 + c]
+
+
+cdef inline void _pinhole_point(const double[:, ::1] K, const double[:, :, ::1] R, const double[:, ::1] A,
+                                const double[:, ::1] I, Py_ssize_t j, double[::1] r, double[::1] z,
+                                double* rows) noexcept nogil:
+    """Point j through a pinhole: its depth into z, its residual into r and, unless ``rows`` is
+    NULL, its two Jacobian rows into that (2, 6) buffer (:func:`_chain_rows`), with
+    ``du/dp_C = (fx, s, cx - u) / z_C`` and ``dv/dp_C = (0, fy, cy - v) / z_C``."""
+    cdef double x = A[0, j], y = A[1, j], zc = A[2, j], u, v, iz
+    u = (K[0, 0] * x + K[0, 1] * y + K[0, 2] * zc) / zc
+    v = (K[1, 0] * x + K[1, 1] * y + K[1, 2] * zc) / zc
+    z[j] = zc
+    r[2 * j] = I[0, j] - u
+    r[2 * j + 1] = I[1, j] - v
+    if rows != NULL:
+        iz = 1.0 / zc
+        _chain_rows(R, A, j, K[0, 0] * iz, K[0, 1] * iz, (K[0, 2] - u) * iz,
+                    0.0, K[1, 1] * iz, (K[1, 2] - v) * iz, rows)
 
 
 def pinhole_residuals(const double[:, ::1] K, const double[::1] p, const double[:, ::1] I,
@@ -82,20 +116,18 @@ def pinhole_residuals(const double[:, ::1] K, const double[::1] p, const double[
         when ``jacobian``.
     """
     cdef Py_ssize_t n = W.shape[1], j
-    cdef double x, y, zc, u, v, iz
+    cdef double rows[12]
+    cdef int c
     with nogil:
         _points(p, W, R, A)
         for j in range(n):
-            x, y, zc = A[0, j], A[1, j], A[2, j]
-            u = (K[0, 0] * x + K[0, 1] * y + K[0, 2] * zc) / zc
-            v = (K[1, 0] * x + K[1, 1] * y + K[1, 2] * zc) / zc
-            z[j] = zc
-            r[2 * j] = I[0, j] - u
-            r[2 * j + 1] = I[1, j] - v
             if jacobian:
-                iz = 1.0 / zc
-                _chain(R, A, j, K[0, 0] * iz, K[0, 1] * iz, (K[0, 2] - u) * iz,
-                       0.0, K[1, 1] * iz, (K[1, 2] - v) * iz, J)
+                _pinhole_point(K, R, A, I, j, r, z, rows)
+                for c in range(6):
+                    J[2 * j, c] = rows[c]
+                    J[2 * j + 1, c] = rows[6 + c]
+            else:
+                _pinhole_point(K, R, A, I, j, r, z, NULL)
 
 
 def camera_points(const double[::1] p, const double[:, ::1] W, double[:, :, ::1] R, double[:, ::1] A):
@@ -113,3 +145,64 @@ def chain_jacobians(const double[:, :, ::1] G, const double[:, :, ::1] R, const 
     with nogil:
         for j in range(G.shape[0]):
             _chain(R, A, j, G[j, 0, 0], G[j, 0, 1], G[j, 0, 2], G[j, 1, 0], G[j, 1, 1], G[j, 1, 2], J)
+
+
+def pinhole_normal_equations(const double[:, ::1] K, const double[::1] p, const double[:, ::1] I,
+                             const double[:, ::1] W, double huber_px, double[:, :, ::1] R,
+                             double[:, ::1] A, double[::1] r, double[::1] z, double[:, ::1] H,
+                             double[::1] g):
+    """Residuals, depths, the cost and the weighted normal equations of a pinhole camera, in place.
+
+    Parameters
+    ----------
+    K, p, I, W, R, A, r, z
+        As :func:`pinhole_residuals`.
+    huber_px : float
+        Huber threshold on each point's 2-D error norm, pixels; 0 for plain least squares.
+    H : (6, 6) float64, out
+        ``J^T diag(w) J``, with ``J`` the stacked Jacobian of :func:`pinhole_residuals` and
+        ``w`` each point's weight (1, or ``huber_px / e`` beyond the threshold).
+    g : (6,) float64, out
+        ``J^T diag(w) r``.
+
+    Returns
+    -------
+    cost : float
+        ``1/2 sum r^2``, or with ``huber_px`` the Huber cost ``sum rho(e_j)``
+        (:func:`graphpose.pose.gauss_newton.reprojection_cost`).
+    chi2 : float
+        ``sum w r^2``.
+    """
+    cdef Py_ssize_t n = W.shape[1], j
+    cdef int a, b
+    cdef double du, dv, e, w, cost = 0.0, chi2 = 0.0
+    cdef double J[12]
+    with nogil:
+        for a in range(6):
+            g[a] = 0.0
+            for b in range(6):
+                H[a, b] = 0.0
+        _points(p, W, R, A)
+        for j in range(n):
+            _pinhole_point(K, R, A, I, j, r, z, J)
+            du, dv = r[2 * j], r[2 * j + 1]
+            w = 1.0
+            e = du * du + dv * dv
+            if huber_px > 0.0:
+                e = sqrt(e)
+                if e <= huber_px:
+                    cost += 0.5 * e * e
+                else:
+                    w = huber_px / e
+                    cost += huber_px * (e - 0.5 * huber_px)
+            else:
+                cost += 0.5 * e
+            chi2 += w * (du * du + dv * dv)
+            for a in range(6):
+                g[a] += w * (J[a] * du + J[6 + a] * dv)
+                for b in range(a, 6):
+                    H[a, b] += w * (J[a] * J[b] + J[6 + a] * J[6 + b])
+        for a in range(6):
+            for b in range(a):
+                H[a, b] = H[b, a]
+    return cost, chi2

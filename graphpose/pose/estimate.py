@@ -260,9 +260,10 @@ def estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust) -> PoseEsti
     # cost, so a converged GN answer must already be GTSAM's minimum. A wrong projection or
     # Jacobian in either solver moves GTSAM off it and fails the cross-check, as a solve
     # from the shared start would; the basin question (a guess far off) is settled by
-    # _compare_with_linear_start. It spares GTSAM's own descent: a third of its time.
+    # _compare_with_linear_start. It spares GTSAM's own descent: from a converged answer the
+    # undamped steps alone confirm it (from_minimum), where they fail GTSAM descends from it.
     graph = graph_pose_unchecked(camera, gn.T_WC if gn.converged else start, Ipts, Wpts, mask,
-                                 pixel_sigma=pixel_sigma, robust=robust)
+                                 pixel_sigma=pixel_sigma, robust=robust, from_minimum=gn.converged)
     converged, message = gn.converged, "ok" if gn.converged else f"Gauss-Newton: {gn.message}"
     if guess is not None and gn.converged and on_target_plane(Wpts):
         converged, message = _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn)
@@ -290,7 +291,7 @@ def estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust) -> PoseEsti
         converged=converged,
         iterations=gn.iterations,
         reprojection_rms_px=gn.residual_rms_px,
-        residuals=Ipts - camera.project(to_camera(gn.T_WC, Wpts)),
+        residuals=_all_residuals(camera, gn, Ipts, Wpts),
         mask=mask,
         junctions=None,
         cross_check=check,
@@ -301,6 +302,17 @@ def estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust) -> PoseEsti
         cov_pixel=graph.cov,
         sigma_kind=kind,
     )
+
+
+def _all_residuals(camera, gn, Ipts, Wpts):
+    """Measured minus predicted pixels at Gauss-Newton's pose for every point (2, n): its own
+    residuals for the points it used, projected here only for the measured points it did not
+    use; NaN where a point was not measured."""
+    residuals = gn.residuals.copy()
+    rest = np.flatnonzero(~gn.mask & np.all(np.isfinite(Ipts), axis=0))
+    if rest.size:
+        residuals[:, rest] = Ipts[:, rest] - camera.project(to_camera(gn.T_WC, Wpts[:, rest]))
+    return residuals
 
 
 def _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn):

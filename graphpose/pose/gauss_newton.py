@@ -39,7 +39,7 @@ from ..observations import check_observations
 from ..geometry import T_from_params, params_from_T
 from ..camera_models import PinholeCamera, as_camera
 from ..errors import ConvergenceError, InputError
-from ._gauss_newton import camera_points, chain_jacobians, pinhole_residuals
+from ._gauss_newton import camera_points, chain_jacobians, pinhole_normal_equations, pinhole_residuals
 
 #: Default iteration cap (damped and undamped steps both count).
 MAX_ITERATIONS = 100
@@ -338,24 +338,41 @@ def _cost(r, huber_px):
     return reprojection_cost(r.reshape(-1, 2).T, huber_px)
 
 
+def _normal(camera, p, I, W, huber_px):
+    """At the pose parameters ``p``: the residuals (2m,) stacked ``(u0, v0, u1, ...)``, the depths
+    (m,), the cost (:func:`reprojection_cost`), ``chi2 = sum w r^2`` and the weighted normal
+    equations ``H = J^T W J`` (6, 6), ``g = J^T W r`` (6,) of a step (``W`` the Huber kernel's
+    weights, :func:`huber_weights`; all 1 without it). For the pinhole one compiled call
+    (:func:`graphpose.pose._gauss_newton.pinhole_normal_equations`) sums them without forming
+    the stacked Jacobian; for a lens model, from :func:`_residual`'s."""
+    if isinstance(camera, PinholeCamera):
+        n = W.shape[1]
+        r, z, H, g = np.empty(2 * n), np.empty(n), np.empty((6, 6)), np.empty(6)
+        cost, chi2 = pinhole_normal_equations(camera.K, np.ascontiguousarray(p, dtype=float), I, W,
+                                              0.0 if huber_px is None else float(huber_px),
+                                              np.empty((4, 3, 3)), np.empty((12, n)), r, z, H, g)
+        return r, z, cost, chi2, H, g
+    r, z, J = _residual(camera, p, I, W, True)
+    w = _weights(r, huber_px)
+    Jw = J if w is None else J * w[:, None]
+    chi2 = float(r @ r) if w is None else float(r @ (w * r))
+    return r, z, _cost(r, huber_px), chi2, Jw.T @ J, Jw.T @ r
+
+
 def _solve(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol) -> GNResult:
-    I, W = Ipts[:, mask], Wpts[:, mask]
-    r, depth, J = _residual(camera, p, I, W, True)
+    I, W = np.ascontiguousarray(Ipts[:, mask]), np.ascontiguousarray(Wpts[:, mask])
+    r, depth, cost, chi2, H, g = _normal(camera, p, I, W, huber_px)
     check_in_front(depth, "the guess", np.flatnonzero(mask))
-    cost = _cost(r, huber_px)
     lam, converged, message, it, polish_steps = 0.0, False, "iteration cap reached", 0, 0
     while it < max_iterations:
         it += 1
-        w = _weights(r, huber_px)
-        Jw = J if w is None else J * w[:, None]
-        H = Jw.T @ J
-        g = Jw.T @ r  # r = measured - predicted, so the step solves H delta = +J^T r
+        # r = measured - predicted, so the step solves H delta = +J^T r = g
         try:
             delta_gn = np.linalg.solve(H, g)
         except np.linalg.LinAlgError:
             message = "normal equations singular (gimbal lock or degenerate points)"
             break
-        if np.max(np.abs(delta_gn)) < tol:
+        if np.abs(delta_gn).max() < tol:
             converged, message = True, "converged"
             break
         # When the decrease a step promises (1/2 g^T delta) is below the cost's rounding
@@ -370,36 +387,35 @@ def _solve(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, t
                 break
         delta = delta_gn if lam == 0.0 or polishing else np.linalg.solve(H + lam * np.diag(np.diag(H)), g)
         p_new = p + delta
-        r_new, z_new, J_new = _residual(camera, p_new, I, W, True)
-        cost_new = _cost(r_new, huber_px) if np.all(z_new > MIN_DEPTH) else np.inf
+        new = _normal(camera, p_new, I, W, huber_px)
+        cost_new = new[2] if new[1].min() > MIN_DEPTH else np.inf  # (NaN depths fail too)
         if not np.isfinite(cost_new):
             cost_new = np.inf  # a point the lens model cannot image
         if cost_new < cost or (polishing and cost_new <= cost * (1.0 + 100 * _COST_RTOL)):
-            p, r, J, cost = p_new, r_new, J_new, cost_new
+            p, (r, _, cost, chi2, H, g) = p_new, new
             lam = 0.0 if lam < 1e-6 else lam / 10.0
         else:
             lam = 1e-4 if lam == 0.0 else lam * 10.0
             if lam > _LAMBDA_MAX:
                 message = "damped steps cannot lower the cost"
                 break
-    return _result(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, J, r, converged, it, message)
+    return _result(camera, p, I, W, mask, huber_px, pixel_sigma, H, r, chi2, converged, it, message)
 
 
-def _result(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, J, r, converged, it, message) -> GNResult:
+def _result(camera, p, I, W, mask, huber_px, pixel_sigma, H, r, chi2, converged, it, message) -> GNResult:
+    """The result at ``p`` from its residuals, ``chi2`` and normal matrix (of the used points
+    ``I``, ``W``)."""
     T = T_from_params(p)
     params = params_from_T(T)  # angles back into their principal ranges
     if np.max(np.abs(params - p)) > 1e-9:
-        # Same pose, but the Jacobian belongs to the parameters it is reported in.
-        r, _, J = _residual(camera, params, Ipts[:, mask], Wpts[:, mask], True)
-    m = int(np.count_nonzero(mask))
+        # Same pose, but the covariance belongs to the parameters it is reported in.
+        r, _, _, chi2, H, _ = _normal(camera, params, I, W, huber_px)
+    m = W.shape[1]
     residuals = np.full((2, mask.size), np.nan)
     residuals[:, mask] = r.reshape(m, 2).T
-    w = _weights(r, huber_px)
-    Jw = J if w is None else J * w[:, None]
-    chi2 = float(r @ r) if w is None else float(r @ (w * r))
     sigma = np.sqrt(chi2 / (2 * m - 6)) if pixel_sigma is None else float(pixel_sigma)
     try:
-        cov = sigma**2 * np.linalg.inv(Jw.T @ J)
+        cov = sigma**2 * np.linalg.inv(H)
     except np.linalg.LinAlgError:
         cov = np.full((6, 6), np.nan)
     return GNResult(

@@ -2,13 +2,18 @@
 
 The graph has one ``Pose3`` variable ``X(0)`` (the camera pose T_WC, GTSAM's own convention:
 the camera looks along its +z with x right and y down, as in :mod:`graphpose.geometry`), one
-``Point3`` variable ``L(j)`` per junction, one projection factor per trusted junction
-(:func:`projection_factor`) and one very tight ``PriorFactorPoint3`` per landmark that pins it to its target position. A tight prior rather
+``Point3`` variable per trusted junction (key ``j``, the junction's index), one projection
+factor per trusted junction (:func:`projection_factor`) and one very tight
+``PriorFactorPoint3`` per landmark that pins it to its target position. A tight prior rather
 than ``NonlinearEquality`` keeps the linearised system non-singular, so the marginals exist.
-Levenberg-Marquardt minimises the same reprojection cost as :mod:`graphpose.pose.gauss_newton`;
-the pipeline holds the two against each other. The marginal covariance comes from the
-elimination of the last polishing step (no second linearisation and elimination for
-``gtsam.Marginals``), and only where it is reported.
+Levenberg-Marquardt minimises the same reprojection cost as :mod:`graphpose.pose.gauss_newton`,
+then undamped Gauss-Newton steps polish its answer; the pipeline holds the two solvers against
+each other. Started at Gauss-Newton's converged answer (``from_minimum``, as the pipeline
+starts it), the undamped steps alone confirm that minimum, and Levenberg-Marquardt runs only
+where they do not. The graph is a star about the pose, eliminated in the ordering without
+fill-in (every landmark, then the pose); the marginal covariance comes from the elimination of
+the last polishing step (no second linearisation and elimination for ``gtsam.Marginals``),
+and only where it is reported.
 
 The projection factor follows the camera (:mod:`graphpose.camera_models`): GTSAM's own
 ``GenericProjectionFactorCal3_S2``, ``...Cal3DS2`` or ``...Cal3Fisheye`` with the
@@ -90,7 +95,8 @@ class GraphResult:
         the Gauss-Newton steps after it shrank below 1e-10, and every used point is in
         front of the camera.
     iterations : int
-        Levenberg-Marquardt iterations.
+        Levenberg-Marquardt iterations: 0 when the guess was taken as a minimum
+        (``from_minimum``) and the undamped steps confirmed it.
     residuals : (2, n) ndarray
         Measured minus predicted pixels at the solution, NaN for masked points.
     residual_rms_px : float
@@ -136,7 +142,7 @@ class GraphResult:
 
 
 def graph_pose(camera, T_WC_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=False,
-               huber_k: float = HUBER_K) -> GraphResult:
+               huber_k: float = HUBER_K, from_minimum: bool = False) -> GraphResult:
     """Solve the camera pose with a GTSAM factor graph and return its marginal covariance.
 
     Parameters
@@ -161,6 +167,12 @@ def graph_pose(camera, T_WC_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, r
         absolute residual).
     huber_k : float
         Huber threshold in sigmas.
+    from_minimum : bool
+        ``T_WC_guess`` is a converged minimum of the same cost (Gauss-Newton's answer, as
+        :func:`graphpose.pose.estimate.estimate_pose_from_points` passes it): the undamped
+        steps alone confirm it, without Levenberg-Marquardt (``iterations`` is then 0); where
+        they do not converge from it, Levenberg-Marquardt runs from it as without the flag.
+        The answer is GTSAM's either way.
 
     Returns
     -------
@@ -177,34 +189,39 @@ def graph_pose(camera, T_WC_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, r
     T_WC_guess = check_transform(T_WC_guess, "T_WC_guess")
     pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
-    return graph_pose_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma, robust, huber_k)
+    return graph_pose_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma, robust, huber_k,
+                                from_minimum=bool(from_minimum))
 
 
 def graph_pose_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma=None, robust=False,
-                         huber_k: float = HUBER_K) -> GraphResult:
+                         huber_k: float = HUBER_K, *, from_minimum: bool = False) -> GraphResult:
     """:func:`graph_pose` on inputs already checked at a public edge (a camera object, float
     arrays of the right shapes, a boolean mask, a checked guess, positive ``pixel_sigma`` or
     None and ``huber_k``); the guess's depths are still checked (they depend on the pose)."""
-    check_in_front(to_camera(T_WC_guess, Wpts[:, mask])[2], "the guess", np.flatnonzero(mask))
+    keys = np.flatnonzero(mask)
+    I, W = Ipts[:, keys], Wpts[:, keys]  # the used points, once
+    check_in_front(to_camera(T_WC_guess, W)[2], "the guess", keys)
     if robust and pixel_sigma is None:
-        # Only its pose is used: no marginals.
-        plain = _solve(camera, T_WC_guess, Ipts, Wpts, mask, 1.0, None, marginals=False)
-        r = Ipts[:, mask] - camera.project(to_camera(plain[0], Wpts[:, mask]))
+        # Only its pose is used: no marginals. A minimum of the robust cost is none of the
+        # plain one, so this solve descends.
+        plain = _solve(camera, T_WC_guess, I, W, keys, 1.0, None, marginals=False)
+        r = I - camera.project(to_camera(plain[0], W))
         pixel_sigma = max(1.4826 * float(np.median(np.abs(r))), 1e-12)
     sigma = 1.0 if pixel_sigma is None else float(pixel_sigma)
     T, cov_tangent, converged, iterations, message = _solve(
-        camera, T_WC_guess, Ipts, Wpts, mask, sigma, huber_k if robust else None)
+        camera, T_WC_guess, I, W, keys, sigma, huber_k if robust else None, from_minimum=from_minimum)
+    used = I - camera.project(to_camera(T, W))
     residuals = np.full((2, mask.size), np.nan)
-    residuals[:, mask] = Ipts[:, mask] - camera.project(to_camera(T, Wpts[:, mask]))
-    used = residuals[:, mask]
+    residuals[:, keys] = used
     if pixel_sigma is None:
         m = used.shape[1]
         sigma = math.sqrt(float(np.sum(used**2)) / (2 * m - 6))
         cov_tangent = sigma**2 * cov_tangent
+    params = params_from_T(T)
     return GraphResult(
         T_WC=T,
-        params=params_from_T(T),
-        cov=params_cov_from_tangent(T, cov_tangent),
+        params=params,
+        cov=_params_cov(T, params, cov_tangent),
         cov_tangent=cov_tangent,
         sigma_px=sigma,
         converged=converged,
@@ -216,12 +233,52 @@ def graph_pose_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma=None,
     )
 
 
-def _solve(camera, T_WC_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True):
-    """Build and optimise the graph.
+def _solve(camera, T_WC_guess, I, W, keys, sigma, huber_k, marginals=True, from_minimum=False):
+    """Build and optimise the graph on the used points ``I`` (2, m), ``W`` (3, m) of the
+    junctions ``keys`` (m,).
 
     Returns (T_WC, tangent covariance (NaN unless ``marginals``), converged, iterations,
     failure message or "").
     """
+    graph, initial, ordering = _build(camera, T_WC_guess, I, W, keys, sigma, huber_k)
+    if from_minimum:
+        # 5a. The guess is a converged minimum of the same cost (Gauss-Newton's answer): the
+        #     undamped steps of step 6 alone confirm it, without Levenberg-Marquardt's own
+        #     iteration (an error, a linearisation and a damped elimination, then the error
+        #     again). Where they do not converge from it (or the system is indeterminate), the
+        #     solve below runs from the same guess, as if the guess had not been taken as one.
+        try:
+            solved = _polish(graph, initial, ordering)
+        except RuntimeError:
+            solved = None
+        if solved is not None and solved[2]:
+            return _answer(solved, W, marginals, 0, np.isfinite(graph.error(solved[0])))
+    # 5. Optimise with Levenberg-Marquardt from the guess.
+    params = gtsam.LevenbergMarquardtParams()
+    params.setRelativeErrorTol(_RELATIVE_TOL)
+    params.setAbsoluteErrorTol(_ABSOLUTE_TOL)
+    params.setMaxIterations(_MAX_ITERATIONS)
+    params.setOrdering(ordering)
+    optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
+    try:
+        return _optimise(graph, optimizer, ordering, W, marginals)
+    except RuntimeError as exc:
+        # From a far-off guess the linearised system can become indeterminate (GTSAM's
+        # IndeterminateSystemException): that is a failed solve, reported, not a crash.
+        nan = np.full((6, 6), np.nan)
+        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+        return np.asarray(T_WC_guess, dtype=float), nan, False, int(optimizer.iterations()), (
+            lines[0] if lines else type(exc).__name__)
+
+
+#: GTSAM key of the pose ``X(0)``; junction j's target point has the key j (small integers:
+#: GTSAM's vectorised ``utilities.insertProjectionFactors`` takes them as floats, exact below
+#: 2^53, which a ``Symbol`` such as ``L(j)`` is not).
+POSE_KEY = X(0)
+
+
+def _build(camera, T_WC_guess, I, W, keys, sigma, huber_k):
+    """Steps 1-4 of the solve: the graph, its initial values and its elimination ordering."""
     # 1. Create the factor graph and the camera calibration (pixels; None where GTSAM has
     #    no calibration for the model: then a custom factor on graphpose's projection).
     graph = gtsam.NonlinearFactorGraph()
@@ -234,46 +291,28 @@ def _solve(camera, T_WC_guess, Ipts, Wpts, mask, sigma, huber_k, marginals=True)
             gtsam.noiseModel.mEstimator.Huber.Create(huber_k), pixel_noise)
     #    Landmark pin: isotropic over the target point's (x, y, z), metres.
     landmark_noise = gtsam.noiseModel.Isotropic.Sigma(3, LANDMARK_SIGMA_M)
-    # 3. One projection factor per trusted junction, one tight prior per target point.
-    #    (GTSAM's vectorised utilities.insertProjectionFactors would add a pinhole's factors
-    #    in one call, but it takes the landmark keys as floats, which cannot hold L(j); with
-    #    small integer keys the elimination orders the variables worse, and the whole solve
-    #    took 1.5 times as long.)
-    #    The keys, the factor's maker and the points' columns are made once, outside the loop.
+    # 3. One projection factor per trusted junction, one tight prior per target point. A
+    #    pinhole's factors are GTSAM's GenericProjectionFactorCal3_S2, added in one call
+    #    (utilities.insertProjectionFactors); the other models' one at a time.
     initial = gtsam.Values()
-    pose_key = X(0)
-    initial.insert(pose_key, gtsam.Pose3(T_WC_guess))
-    used = np.flatnonzero(mask)
-    uvs, points = Ipts[:, used].T.copy(), Wpts[:, used].T.copy()
-    if calibration is not None:
-        maker = PROJECTION_FACTORS[type(calibration).__name__]
-
-        def factor(uv, key):
-            return maker(uv, pixel_noise, pose_key, key, calibration)
+    initial.insert(POSE_KEY, gtsam.Pose3(T_WC_guess))
+    if type(calibration).__name__ == "Cal3_S2":
+        gtsam.utilities.insertProjectionFactors(graph, POSE_KEY, keys.astype(float), I, pixel_noise, calibration)
+        keys = keys.tolist()
     else:
-        def factor(uv, key):
-            return projection_factor(camera, uv, pixel_noise, pose_key, key)
-    for j, uv, point in zip(used.tolist(), uvs, points):
-        key = L(j)
-        graph.add(factor(uv, key))
-        graph.add(gtsam.PriorFactorPoint3(key, point, landmark_noise))
-        # 4. Initial values: the guessed pose and the exact target points.
-        initial.insert(key, point)
-    # 5. Optimise with Levenberg-Marquardt from the guess.
-    params = gtsam.LevenbergMarquardtParams()
-    params.setRelativeErrorTol(_RELATIVE_TOL)
-    params.setAbsoluteErrorTol(_ABSOLUTE_TOL)
-    params.setMaxIterations(_MAX_ITERATIONS)
-    optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
-    try:
-        return _optimise(graph, optimizer, Wpts, mask, marginals)
-    except RuntimeError as exc:
-        # From a far-off guess the linearised system can become indeterminate (GTSAM's
-        # IndeterminateSystemException): that is a failed solve, reported, not a crash.
-        nan = np.full((6, 6), np.nan)
-        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
-        return np.asarray(T_WC_guess, dtype=float), nan, False, int(optimizer.iterations()), (
-            lines[0] if lines else type(exc).__name__)
+        keys = keys.tolist()
+        add = graph.add
+        for key, uv in zip(keys, I.T.copy()):
+            add(projection_factor(camera, uv, pixel_noise, POSE_KEY, key, calibration))
+    # 4. The priors and the initial values: the guessed pose and the exact target points.
+    add_prior, insert = graph.addPriorPoint3, initial.insertPoint3
+    for key, point in zip(keys, W.T.copy()):
+        add_prior(key, point, landmark_noise)
+        insert(key, point)
+    # The elimination ordering: every target point, then the pose. The graph is a star about
+    # the pose, so this is the ordering without fill-in (COLAMD's own finds it too, at a
+    # cost in every elimination), and the pose's marginal is the root clique's.
+    return graph, initial, gtsam.Ordering([*keys, POSE_KEY])
 
 
 #: GTSAM's projection factor for each calibration :meth:`graphpose.camera_models.Camera.gtsam_calibration` gives.
@@ -333,35 +372,52 @@ def projection_factor(camera, uv, noise, pose_key, point_key, calibration=None):
     return gtsam.CustomFactor(noise, [pose_key, point_key], error)
 
 
-def _optimise(graph, optimizer, Wpts, mask, marginals=True):
+def _optimise(graph, optimizer, ordering, W, marginals=True):
     """Steps 5-7 of :func:`_solve`; GTSAM may raise RuntimeError on an indeterminate system."""
     result = optimizer.optimize()
-    # 6. Polish with undamped Gauss-Newton steps. Levenberg-Marquardt stops when the cost
-    #    stops falling visibly, which along weakly observed directions (tilt against sideways
-    #    translation) can leave 1e-7 m; the steps, computed from the gradient, stay accurate
-    #    below the cost's rounding noise. They converge linearly (rate 0.01-0.2 with 1 px
-    #    noise on plain least squares, 0.35-0.6 with the Huber kernel's reweighted steps), so
-    #    they run until the pose step is below _POLISH_STEP; if they never get there within
-    #    _POLISH_ITERATIONS, the result is reported as not converged.
-    polished = False
+    converged = optimizer.iterations() < _MAX_ITERATIONS and np.isfinite(optimizer.error())
+    return _answer(_polish(graph, result, ordering), W, marginals, int(optimizer.iterations()),
+                   converged)
+
+
+def _polish(graph, values, ordering):
+    """Step 6: undamped Gauss-Newton steps from ``values``; (values, last elimination, polished).
+
+    Levenberg-Marquardt stops when the cost stops falling visibly, which along weakly
+    observed directions (tilt against sideways translation) can leave 1e-7 m; the steps,
+    computed from the gradient, stay accurate below the cost's rounding noise. They converge
+    linearly (rate 0.01-0.2 with 1 px noise on plain least squares, 0.35-0.6 with the Huber
+    kernel's reweighted steps), so they run until the pose step is below _POLISH_STEP; if
+    they never get there within _POLISH_ITERATIONS, ``polished`` is False.
+    """
     for _ in range(_POLISH_ITERATIONS):
-        tree = graph.linearize(result).eliminateMultifrontal()
-        delta = tree.optimize()
-        result = result.retract(delta)
-        if np.max(np.abs(delta.at(X(0)))) < _POLISH_STEP:
-            polished = True
-            break
+        # Sequential elimination in the star ordering: the pose comes last, so its
+        # conditional has no parents and is its marginal (step 7); a Bayes tree would hold
+        # the same conditional in its root clique, at more cost.
+        bayes_net = graph.linearize(values).eliminateSequential(ordering)
+        delta = bayes_net.optimize()
+        values = values.retract(delta)
+        if np.abs(delta.at(POSE_KEY)).max() < _POLISH_STEP:
+            return values, bayes_net, True
+    return values, bayes_net, False
+
+
+def _answer(polished, W, marginals, iterations, converged):
+    """Step 7: the pose, its marginal covariance and the convergence report (``converged``:
+    the descent's own, before the polish and the cheirality)."""
+    result, bayes_net, done = polished
     # 7. Marginal covariance of the pose: tangent order (rotation rad, translation m), body
     #    frame. It is the last step's elimination's (what gtsam.Marginals would eliminate
-    #    again), linearised less than _POLISH_STEP from the result: the same to rounding.
-    cov = tree.marginalCovariance(X(0)) if marginals else np.full((6, 6), np.nan)
-    T = result.atPose3(X(0)).matrix()
+    #    again), linearised less than _POLISH_STEP from the result: the same to rounding. The
+    #    pose's conditional, eliminated last, is its marginal: the inverse of its information
+    #    (as GaussianBayesTree.marginalCovariance inverts its root clique's).
+    cov = np.linalg.inv(bayes_net.back().information()) if marginals else np.full((6, 6), np.nan)
+    T = result.atPose3(POSE_KEY).matrix()
     # The projection factors do not enforce cheirality: a solution with a point behind the
     # camera is a failure, not a pose.
-    in_front = np.all(to_camera(T, Wpts[:, mask])[2] > 0)
-    converged = (optimizer.iterations() < _MAX_ITERATIONS and np.isfinite(optimizer.error())
-                 and polished and in_front)
-    return T, np.asarray(cov), bool(converged), int(optimizer.iterations()), ""
+    in_front = np.all(to_camera(T, W)[2] > 0)
+    converged = converged and done and in_front
+    return T, np.asarray(cov), bool(converged), iterations, ""
 
 
 def params_from_tangent_jacobian(T_WC) -> np.ndarray:
@@ -379,8 +435,13 @@ def params_from_tangent_jacobian(T_WC) -> np.ndarray:
         with ``M = [e_x, Cx^T e_y, (Cy Cx)^T e_z]`` (see the module docstring). Singular at
         pitch = +-90 degrees.
     """
+    return _tangent_jacobian(T_WC, params_from_T(T_WC))
+
+
+def _tangent_jacobian(T_WC, params):
+    """:func:`params_from_tangent_jacobian` with the pose's ``params`` at hand."""
     C = T_WC[:3, :3]
-    roll, pitch, _ = params_from_T(T_WC)[3:]
+    roll, pitch = float(params[3]), float(params[4])
     cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
     M = np.array([[1.0, 0.0, -sp], [0.0, cr, sr * cp], [0.0, -sr, cr * cp]])
     A = np.zeros((6, 6))
@@ -406,5 +467,10 @@ def params_cov_from_tangent(T_WC, cov_tangent) -> np.ndarray:
         Covariance of ``(x, y, z, roll, pitch, yaw)`` in m and rad, ``A cov_tangent A^T``
         with ``A`` from :func:`params_from_tangent_jacobian`; infinite or NaN at gimbal lock.
     """
-    A = params_from_tangent_jacobian(T_WC)
+    return _params_cov(T_WC, params_from_T(T_WC), cov_tangent)
+
+
+def _params_cov(T_WC, params, cov_tangent):
+    """:func:`params_cov_from_tangent` with the pose's ``params`` at hand."""
+    A = _tangent_jacobian(T_WC, params)
     return A @ cov_tangent @ A.T

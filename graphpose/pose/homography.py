@@ -7,8 +7,9 @@ The target is the plane z = 0, so a target point ``(x, y, 0)`` images as
 with ``C^T = [r1 r2 r3]`` the rotation from target to camera and ``t_CW = -C^T t`` (see
 :mod:`graphpose.geometry`). The homography ``H ~ K [r1 r2 t_CW]`` is found by the normalised
 direct linear transform (:func:`graphpose.geometry.homography_dlt`, Hartley & Zisserman, Multiple View Geometry, 2nd ed., alg. 4.2) and
-split with K into a rotation (made orthonormal by SVD) and a translation whose sign puts the
-board in front of the camera. The result minimises an algebraic error, not the reprojection
+split with K into a rotation (made orthonormal: the nearest rotation, the orthogonal polar
+factor) and a translation whose sign puts the board in front of the camera, in one compiled
+call (:func:`graphpose.pose._homography.homography_pose`). The result minimises an algebraic error, not the reprojection
 error: it is a starting point for :func:`graphpose.pose.gauss_newton.gauss_newton`.
 
 A camera with lens distortion (:mod:`graphpose.camera_models`) is handled by undistorting the image
@@ -23,6 +24,7 @@ import numpy as np
 from ..observations import check_observations
 from ..errors import DegenerateGeometryError, InputError
 from ..geometry import homography_dlt
+from ._homography import homography_pose
 
 #: Target points farther than this (metres, relative to the board's extent) from z = 0 are refused.
 _PLANE_TOL = 1e-6
@@ -72,19 +74,9 @@ def pose_from_homography_unchecked(camera, Ipts, Wpts) -> np.ndarray:
             raise DegenerateGeometryError(
                 f"{bad.size} image point(s) (first index {bad[0]}) lie where the {camera.model} camera's "
                 "lens model has no ray in front of the camera: no homography start")
-    H = homography_dlt(Wpts[:2], Ipts)
-    M = np.linalg.solve(K, H)  # ~ [r1 r2 t_CW] up to scale and sign
-    scale = 2.0 / (np.linalg.norm(M[:, 0]) + np.linalg.norm(M[:, 1]))
-    depth = M[2] @ np.vstack([Wpts[:2], np.ones(Wpts.shape[1])])
-    if np.all(depth < 0):
-        scale = -scale
-    elif not np.all(depth > 0):
+    T = np.empty((4, 4))
+    if not homography_pose(K, homography_dlt(Wpts[:2], Ipts), np.ascontiguousarray(Wpts[:2]), T):
         raise DegenerateGeometryError("no pose from the homography puts every target point in front of the camera")
-    r1, r2, t_CW = scale * M[:, 0], scale * M[:, 1], scale * M[:, 2]
-    R = _nearest_rotation(np.column_stack([r1, r2, np.cross(r1, r2)]))
-    T = np.eye(4)
-    T[:3, :3] = R.T
-    T[:3, 3] = -R.T @ t_CW
     return T
 
 
@@ -104,9 +96,3 @@ def on_target_plane(Wpts) -> bool:
     """
     extent = max(1.0, float(np.max(np.abs(Wpts[:2]))))
     return bool(np.max(np.abs(Wpts[2])) <= _PLANE_TOL * extent)
-
-
-def _nearest_rotation(M):
-    """The rotation nearest to M in the Frobenius norm (SVD, determinant forced to +1)."""
-    U, _, Vt = np.linalg.svd(M)
-    return U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt

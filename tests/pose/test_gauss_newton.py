@@ -19,6 +19,7 @@ from graphpose.pose.estimate import pose_difference
 from graphpose.pose.gauss_newton import (
     find_jacobian,
     gauss_newton,
+    huber_weights,
     pose_estimate_nls,
     projection_jacobians,
     reprojection_cost,
@@ -398,3 +399,28 @@ def test_compiled_residuals_and_jacobians_match_numpy():
     G = rng.normal(0, 500, (20, 2, 3))
     chain_jacobians(G, R, A, J)
     np.testing.assert_allclose(J, numpy_pose_jacobians(G, p, W), rtol=1e-7, atol=1e-5)
+
+
+@pytest.mark.parametrize("huber_px", [0.0, 3.0], ids=["plain", "huber"])
+def test_compiled_normal_equations_match_the_stacked_jacobian(huber_px):
+    from graphpose.pose._gauss_newton import pinhole_normal_equations, pinhole_residuals
+
+    rng = np.random.default_rng(12)
+    p = np.array([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
+    W = np.vstack([rng.uniform(0, 0.5, (2, 20)), rng.uniform(-0.05, 0.05, (1, 20))])
+    K_skew = K.copy()
+    K_skew[0, 1] = 1.5
+    T = T_from_params(p)
+    I = project(K_skew, T, W) + rng.normal(0, 2.0, (2, 20))  # some errors beyond the threshold
+    R, A, r, z, J = np.empty((4, 3, 3)), np.empty((12, 20)), np.empty(40), np.empty(20), np.empty((40, 6))
+    pinhole_residuals(K_skew, p, I, W, R, A, r, z, J, True)
+    H, g, r2, z2 = np.empty((6, 6)), np.empty(6), np.empty(40), np.empty(20)
+    cost, chi2 = pinhole_normal_equations(K_skew, p, I, W, huber_px, R, A, r2, z2, H, g)
+    np.testing.assert_array_equal(r2, r)
+    np.testing.assert_array_equal(z2, z)
+    w = np.ones(40) if huber_px == 0.0 else huber_weights(r.reshape(-1, 2).T, huber_px)
+    assert huber_px == 0.0 or np.any(w < 1)
+    np.testing.assert_allclose(H, (J * w[:, None]).T @ J, rtol=1e-12)
+    np.testing.assert_allclose(g, (J * w[:, None]).T @ r, rtol=1e-12, atol=1e-12 * np.max(np.abs(g)))
+    assert cost == pytest.approx(reprojection_cost(r.reshape(-1, 2).T, huber_px or None), rel=1e-13)
+    assert chi2 == pytest.approx(float(r @ (w * r)), rel=1e-13)

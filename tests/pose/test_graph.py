@@ -278,3 +278,53 @@ def test_unchecked_cores_give_the_checked_solve():
         np.testing.assert_array_equal(a.cov, b.cov)
         with pytest.raises(InputError, match="NaN"):
             solve(K, guess, I, WPTS, mask=np.ones(48, dtype=bool))
+
+
+# ------------------------------------------------------------------ from Gauss-Newton's minimum
+
+
+@pytest.mark.parametrize("model", ["pinhole", "radtan", "rational"])
+@pytest.mark.parametrize("robust", [False, True], ids=["plain", "robust"])
+def test_from_a_minimum_the_undamped_steps_alone_give_the_descents_answer(model, robust):
+    camera = LENS_CAMERAS[model]
+    rng = np.random.default_rng(40)
+    T = random_pose(rng)
+    I = camera.project(to_camera(T, WPTS)) + rng.normal(0, 0.3, (2, 48))
+    I[:, 5] += 4.0  # an outlier for the Huber kernel
+    g = gauss_newton(camera, guess_near(T, rng), I, WPTS, huber_px=1.345 * 0.3 if robust else None)
+    assert g.converged
+    sigma = 0.3 if robust else None
+    descent = graph_pose(camera, g.T_WC, I, WPTS, pixel_sigma=sigma, robust=robust)
+    confirmed = graph_pose(camera, g.T_WC, I, WPTS, pixel_sigma=sigma, robust=robust, from_minimum=True)
+    assert descent.converged and descent.iterations >= 1
+    assert confirmed.converged and confirmed.iterations == 0  # no Levenberg-Marquardt
+    assert max(pose_difference(confirmed.T_WC, descent.T_WC)) < 1e-9
+    np.testing.assert_allclose(confirmed.cov, descent.cov, rtol=1e-7)
+    np.testing.assert_allclose(confirmed.residuals, descent.residuals, atol=1e-9)
+
+
+def test_a_start_the_undamped_steps_do_not_confirm_gets_the_descent(monkeypatch):
+    # One undamped step cannot reach 1e-10 from 1 mm off the minimum: the solve then runs
+    # Levenberg-Marquardt from that start, as without from_minimum (the same arithmetic).
+    monkeypatch.setattr("graphpose.pose.graph._POLISH_ITERATIONS", 1)
+    rng = np.random.default_rng(41)
+    T = random_pose(rng)
+    I = project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48))
+    g = gauss_newton(K, T, I, WPTS)
+    off = T_from_params(g.params + [1e-3, 0, 0, 0, 0, 0])
+    flagged = graph_pose(K, off, I, WPTS, from_minimum=True)
+    plain = graph_pose(K, off, I, WPTS)
+    assert flagged.iterations == plain.iterations >= 1
+    assert flagged.converged == plain.converged
+    np.testing.assert_array_equal(flagged.T_WC, plain.T_WC)
+    np.testing.assert_array_equal(flagged.cov, plain.cov)
+
+
+def test_an_indeterminate_system_from_a_flagged_start_is_reported_as_without_the_flag():
+    cases = bundled_cases()
+    case = cases.cases[0]
+    guess = T_from_params([0.8988, -0.2123, -0.9709, 1.4218, -1.2728, 3.0092])
+    args = (cases.K, guess, case.true_junctions, cases.board.world_points())
+    flagged, plain = graph_pose(*args, from_minimum=True), graph_pose(*args)
+    assert not flagged.converged and "Indeterminate" in flagged.message
+    assert flagged.message == plain.message and flagged.iterations == plain.iterations

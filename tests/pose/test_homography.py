@@ -104,3 +104,48 @@ def test_on_target_plane_tolerance_is_relative_to_the_extent():
 def test_bad_input_is_refused(K_, I_, W_, match):
     with pytest.raises(InputError, match=match):
         pose_from_homography(K_, I_, W_)
+
+
+def test_the_compiled_split_is_the_svd_one():
+    # The kernel's nearest rotation (the polar factor by Newton's iteration) and its back
+    # substitution against NumPy's SVD and solve, on homographies far from a rigid one (the
+    # columns of K^-1 H up to 30 % off orthonormal) and with a skewed K.
+    from graphpose.pose._homography import homography_pose
+
+    rng = np.random.default_rng(7)
+    K_skew = K.copy()
+    K_skew[0, 1] = 3.0
+    for camera in (K, K_skew):
+        for _ in range(40):
+            T = random_pose(rng)
+            H = camera @ np.column_stack([T[:3, :3].T[:, :2], -T[:3, :3].T @ T[:3, 3]])
+            H = H @ (np.eye(3) + rng.uniform(-0.3, 0.3, (3, 3)) * [[1, 1, 0], [1, 1, 0], [0, 0, 0]])
+            H *= rng.choice([-1.0, 1.0]) * rng.uniform(0.1, 10.0)
+            M = np.linalg.solve(camera, H)
+            scale = 2.0 / (np.linalg.norm(M[:, 0]) + np.linalg.norm(M[:, 1]))
+            depth = M[2] @ np.vstack([WPTS[:2], np.ones(WPTS.shape[1])])
+            if not (np.all(depth > 0) or np.all(depth < 0)):
+                continue
+            scale = -scale if np.all(depth < 0) else scale
+            r1, r2, t = scale * M.T
+            U, _, Vt = np.linalg.svd(np.column_stack([r1, r2, np.cross(r1, r2)]))
+            R = U @ Vt
+            out = np.empty((4, 4))
+            assert homography_pose(camera, H, np.ascontiguousarray(WPTS[:2]), out)
+            np.testing.assert_allclose(out[:3, :3], R.T, atol=1e-13)
+            np.testing.assert_allclose(out[:3, 3], -R.T @ t, atol=1e-12)
+            np.testing.assert_array_equal(out[3], [0, 0, 0, 1])
+
+
+def test_points_on_both_sides_of_the_camera_are_refused(monkeypatch):
+    from graphpose.pose import homography
+    from graphpose.pose._homography import homography_pose
+
+    # A homography that sends the board's plane through the camera: depths of both signs.
+    H = K @ np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [-5.0, 0.0, 1.0]])
+    out = np.full((4, 4), 7.0)
+    assert not homography_pose(K, H, np.ascontiguousarray(WPTS[:2]), out)
+    assert np.all(out == 7.0)  # left as it was
+    monkeypatch.setattr(homography, "homography_dlt", lambda src, dst: H)
+    with pytest.raises(DegenerateGeometryError, match="in front"):
+        pose_from_homography(K, project(K, random_pose(np.random.default_rng(1)), WPTS), WPTS)
