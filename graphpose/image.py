@@ -5,12 +5,14 @@ Pixel conventions are in :mod:`graphpose.geometry`.
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
 
 from ._checks import check_image
 from ._pixels import grey_view
+from ._png import SIGNATURE, decode_grey8
 from .errors import InputError
 
 #: ITU-R BT.601 luma weights for R, G, B.
@@ -138,12 +140,21 @@ def _known_format(path: Path) -> bool:
 
 
 def _read_eight_bit(path: Path):
-    """The file as uint8 grey through Pillow's decoder, or None when it is not 8-bit (or
-    Pillow cannot open it: the general reader then says why)."""
+    """The file as uint8 grey: an 8-bit grey PNG by :func:`graphpose._png.decode_grey8`, any
+    other file through Pillow's decoder; None when it is not 8-bit (or Pillow cannot open it:
+    the general reader then says why)."""
     from PIL import Image, UnidentifiedImageError
 
+    source = path
+    with open(path, "rb") as f:
+        if f.read(len(SIGNATURE)) == SIGNATURE:  # a PNG: read whole, decoded here if it can be
+            data = SIGNATURE + f.read()
+            grey = decode_grey8(data, Image.MAX_IMAGE_PIXELS)
+            if grey is not None:
+                return grey
+            source = io.BytesIO(data)  # Pillow reads the rest of PNG, from the bytes read
     try:
-        with Image.open(path) as im:
+        with Image.open(source) as im:
             if im.mode not in _EIGHT_BIT_MODES:
                 return None
             if im.format == "JPEG":

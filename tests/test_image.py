@@ -153,8 +153,8 @@ def test_read_image_gives_the_decoders_pixels_without_a_copy_and_they_outlive_th
 
     rng = np.random.default_rng(4)
     A = rng.integers(0, 256, (37, 53)).astype(np.uint8)
-    Image.fromarray(A).save(tmp_path / "a.png")
-    I = read_image(tmp_path / "a.png")
+    Image.fromarray(A).save(tmp_path / "a.tif")  # Pillow's decoder (a grey PNG is graphpose's own)
+    I = read_image(tmp_path / "a.tif")
     # Pillow's own memory, through its Arrow export, where this Pillow has one.
     exported = hasattr(Image.Image, "__arrow_c_array__")
     owner = I.base.obj if isinstance(I.base, memoryview) else I.base
@@ -176,13 +176,13 @@ def test_read_image_copies_where_pillow_will_not_export(tmp_path, monkeypatch):
     from PIL import Image
 
     A = np.arange(12 * 9, dtype=np.uint8).reshape(12, 9)
-    Image.fromarray(A).save(tmp_path / "a.png")
+    Image.fromarray(A).save(tmp_path / "a.tif")
 
     def refuse(self, *args, **kwargs):  # as Pillow refuses an image kept in several blocks
         raise ValueError("Image rows are not contiguous in memory.")
 
     monkeypatch.setattr(Image.Image, "__arrow_c_array__", refuse, raising=False)
-    I = read_image(tmp_path / "a.png")
+    I = read_image(tmp_path / "a.tif")
     np.testing.assert_array_equal(I, A)
     assert I.dtype == np.uint8 and not I.flags["WRITEABLE"]  # as the export's, read-only
 

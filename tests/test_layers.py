@@ -21,7 +21,8 @@ LAYERS = (
     # errors, and the compiled view of decoded pixels (it imports no graphpose module).
     ("errors", "_pixels"),
     # The facade: it imports its errors only; every other name loads on first use (PEP 562).
-    ("_checks", "_extras", "__init__"),
+    # _png: the grey-PNG reader, on the compiled pixels.
+    ("_checks", "_extras", "__init__", "_png"),
     ("geometry",),
     ("board", "camera_models", "image"),
     ("camera_params",),
