@@ -255,10 +255,9 @@ def _step(front, graph, W, config, k, t, image, polygon, read) -> FrameResult:
     cpu = time.process_time()
     back = graph.add_frame(k, t, found.points, found.ids, fit.T_WC, sigma)
     back_cpu = time.process_time() - cpu
-    front.accept(k, t, back.T_WC, image.shape[:2])
-    Wk = W[:, found.ids]
-    rms = _rms(front.project(back.T_WC, Wk) - found.points)
-    cov, kind = frame_covariance(front.camera, back.T_WC, Wk, back.cov)
+    seen = front.accept(k, t, back.T_WC, image.shape[:2])
+    rms = _rms(seen[:, found.ids] - found.points)
+    cov, kind = frame_covariance(front.camera, back.T_WC, W[:, found.ids], back.cov)
     return FrameResult(k, t, found.status, back.T_WC, cov, len(found.ids), rms, fit.T_WC, found.points,
                        found.ids, frontend_s, back.update_s, found.message, back.cov, kind, read[0],
                        (read[1], frontend_cpu, back_cpu))
