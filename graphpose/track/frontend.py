@@ -13,8 +13,9 @@ projection through the sequence's camera, :mod:`graphpose.camera_models`, on the
    prediction.
 3. **Fit** the frame's own pose with the single-image pipeline's fit,
    :func:`graphpose.pose.estimate.fit_pose`: from the prediction, Gauss-Newton and, with
-   ``robust``, its Huber gate on outlying junctions; the same input checks as
-   :func:`graphpose.pipeline.estimate_pose`.
+   ``robust``, its Huber gate on outlying junctions. Its input checks are not repeated: the
+   junctions are the refinement's (finite), the start the prediction (rigid), and the frame
+   itself was checked once, at the tracker's edge.
 4. **Fall back** to full extraction (:func:`graphpose.detect.junctions.extract_junctions`, with
    its noise-aware search on noisy frames, then
    ``fit_pose`` from the homography) when too few junctions survive, when the motion is too
@@ -51,7 +52,9 @@ from ..camera_models import as_camera
 from ..detect.junctions import board_smoothing, extract_junctions
 from ..detect.refine import MAX_RADIUS, SMOOTH_SIGMA, WINDOW_FRACTION, refine_junctions
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
-from ..pose.estimate import fit_pose
+# fit_pose without its input checks: the front end's junctions and poses are its own, made
+# finite and rigid here (the public fit's checks were a tenth of a tracked frame's front end).
+from ..pose.estimate import _fit as fit_pose_unchecked
 from .config import TrackerConfig
 from .results import DETECTED, LOST, TRACKED
 
@@ -284,7 +287,8 @@ class FrontEnd:
         checks; ((points, ids, fit), "") or (None, why)."""
         cfg = self.config
         try:
-            fit, _ = fit_pose(self.camera, points, self._W[:, ids], guess, robust=cfg.robust)
+            fit, _ = fit_pose_unchecked(self.camera, points, self._W[:, ids], guess, np.ones(ids.size, dtype=bool),
+                                        cfg.robust)
         except (InputError, DegenerateGeometryError) as exc:
             return None, f"pose fit failed: {exc}"
         if not fit.converged:
