@@ -5,7 +5,8 @@ projection through the sequence's camera, :mod:`graphpose.camera_models`, on the
 
 1. **Predict** the pose from the last two frames with a constant body-frame twist
    (:func:`constant_velocity_prediction`), and every junction's pixel position from it.
-2. **Refine** the predictions with the saddle fit (:func:`graphpose.detect.refine.refine_junctions`),
+2. **Refine** the predictions with the saddle fit (:func:`graphpose.detect.refine.refine_junctions`'s
+   core, :func:`~graphpose.detect.refine.refine_points`: the frame was checked at the tracker's edge),
    its smoothing set from the image's noise over the board's contrast as measured at the
    last detection (:func:`graphpose.detect.junctions.board_smoothing`: as on single images,
    more smoothing on noisy frames, so that the fits converge and pass the ring test there);
@@ -50,7 +51,7 @@ from ..board import Board
 from ..geometry import to_camera
 from ..camera_models import as_camera
 from ..detect.junctions import board_smoothing, extract_junctions
-from ..detect.refine import MAX_RADIUS, SMOOTH_SIGMA, WINDOW_FRACTION, refine_junctions
+from ..detect.refine import MAX_RADIUS, SMOOTH_SIGMA, WINDOW_FRACTION, refine_points
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 # fit_pose without its input checks: the front end's junctions and poses are its own, made
 # finite and rigid here (the public fit's checks were a tenth of a tracked frame's front end).
@@ -100,6 +101,8 @@ class FrontEnd:
 
     def __init__(self, camera, board: Board, config: TrackerConfig):
         self.camera, self.board, self.config = as_camera(camera), board, config
+        # The refinement's lens: the camera when it distorts (refine_junctions' rule).
+        self._lens = self.camera if np.any(self.camera.distortion) else None
         self._W = board.world_points()
         self._sheet = board.sheet_corners()
         n, sq = board.n, board.square_m
@@ -236,8 +239,9 @@ class FrontEnd:
         ids = np.flatnonzero(inside)
         if ids.size < cfg.min_junctions:
             return None, f"only {ids.size} predicted junctions in the image"
-        points, trusted, _ = refine_junctions(image, uv[:, ids], radius[ids], camera=self.camera,
-                                              smooth_sigma=self._smooth)
+        # refine_junctions' core: the frame was checked once, at the tracker's edge (a float
+        # frame's finiteness check alone is a pass over every pixel), the windows are >= 2 px.
+        points, trusted, _ = refine_points(image, uv[:, ids], radius[ids], self._smooth, lens=self._lens)
         keep = trusted & (np.hypot(*(points - uv[:, ids])) < cfg.gate_px)
         if np.count_nonzero(keep) < cfg.min_junctions:
             return None, (f"only {np.count_nonzero(keep)} of {ids.size} junctions refined within "
