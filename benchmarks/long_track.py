@@ -208,10 +208,8 @@ def measure(quick: bool = False, cv2=None):
                    f"{total:,} frames", "unit": "ms", "fmt": ".2f", "graphpose": frame_cpu_ms, "peer_name": None,
          "peer": None, "ratio": None, "goal": "< 3 ms", "met": bool(frame_cpu_ms < 3.0)},
         {"figure": f"graphpose track, of which reading the frame (PNG, read_image), median process CPU time, "
-                   f"{total:,} frames; peer: the same files by OpenCV imread after the run", "unit": "ms",
-         "fmt": ".2f", "graphpose": part_ms[0], "peer_name": "OpenCV imread" if cv2 is not None else None,
-         "peer": imread_ms if cv2 is not None else None,
-         "ratio": part_ms[0] / imread_ms if cv2 is not None else None, "goal": "", "met": None},
+                   f"{total:,} frames", "unit": "ms", "fmt": ".2f", "graphpose": part_ms[0], "peer_name": None,
+         "peer": None, "ratio": None, "goal": "", "met": None},
         {"figure": f"graphpose track, of which the front end, median process CPU time, {total:,} frames",
          "unit": "ms", "fmt": ".2f", "graphpose": part_ms[1], "peer_name": None, "peer": None, "ratio": None,
          "goal": "", "met": None},
@@ -219,4 +217,9 @@ def measure(quick: bool = False, cv2=None):
          "unit": "ms", "fmt": ".2f", "graphpose": part_ms[2], "peer_name": None, "peer": None, "ratio": None,
          "goal": "", "met": None},
     ]
+    if cv2 is not None:
+        figures.append({"figure": f"reading the long run's {distinct} PNG frames again, read_image against OpenCV "
+                                  "imread (grey) in turn, median process CPU time", "unit": "ms", "fmt": ".2f",
+                        "graphpose": read_ms, "peer_name": "OpenCV imread", "peer": imread_ms,
+                        "ratio": read_ms / imread_ms, "goal": "", "met": None})
     return figures, block
