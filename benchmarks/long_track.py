@@ -18,7 +18,15 @@ from frame 300 on: whatever the tracker keeps of every frame shows in it); the b
 is the lockstep replay of the frames' junctions (:func:`benchmarks.tracking.lockstep_growth`,
 process CPU time, free of the machine's drift); the whole tracker's time a frame is the interval
 between two results of the stream (reading, front end, back end), median process CPU time,
-with the wall time beside it.
+with the wall time beside it. Beside it, from the same run, the median process CPU time of each
+part as the stream reports it (``FrameResult.cpu_s``): reading the frame (its PNG decoded by
+:func:`graphpose.image.read_image`, 8-bit grey, and its size checked), the front end
+(:meth:`graphpose.track.frontend.FrontEnd.measure`: prediction, refinement, the frame's own fit
+and checks) and the back end (the fixed-lag smoother's ``add_frame``: the frame's factors, the
+update, the marginal covariance); what is left of the interval (the back end's pose taken for
+the next prediction, the reprojection RMS, the result, this benchmark's own bookkeeping) is
+given too. After the run, the same files are read again by ``read_image`` and by OpenCV's
+``imread`` (grey) in turn, the reading's peer.
 
 This module is a block of the speed section rather than a section of its own: issue 19's
 figures then come from one section, ``python -m benchmarks speed``, in one run.
@@ -79,11 +87,14 @@ class Kept:
         self.timestamp = np.full(n, np.nan)
         self.status = np.full(n, "lost", dtype="<U8")
         self.update_s = np.full(n, np.nan)
+        self.cpu_s = np.full((n, 3), np.nan)
 
     def keep(self, f) -> None:
-        """Frame result ``f``'s junctions, single-frame pose, timestamp, status and update time."""
+        """Frame result ``f``'s junctions, single-frame pose, timestamp, status, update time and
+        the CPU time of its parts (reading, front end, back end)."""
         k = f.index
         self.timestamp[k], self.status[k], self.update_s[k] = f.timestamp, f.status, f.update_s
+        self.cpu_s[k] = f.cpu_s
         if f.points is not None:
             self.points[k][:, f.ids] = f.points
             self.seen[k, f.ids] = True
@@ -116,8 +127,28 @@ def streamed(frames, K, bounds, timestamps, board):
     return kept, np.diff(np.r_[start, stamps]), np.diff(np.r_[cpu_start, cpu]), rss
 
 
-def measure(quick: bool = False):
-    """Track the long run; returns (headline figures, one block) for the speed section."""
+def read_times(cv2, files, repeats: int = 5):
+    """Median process CPU time (ms) of reading each of ``files`` with graphpose's
+    ``read_image(path, as_float=False)`` and with OpenCV's ``imread`` (grey), in turn:
+    (graphpose ms, OpenCV ms); OpenCV's is NaN without ``cv2``."""
+    from graphpose.image import read_image
+
+    tools = {"graphpose": lambda path: read_image(path, as_float=False)}
+    if cv2 is not None:
+        tools["opencv"] = lambda path: cv2.imread(path, cv2.IMREAD_GRAYSCALE)
+    times = {name: [] for name in tools}
+    for path in files:
+        for _ in range(repeats):
+            for name, read in tools.items():
+                start = time.process_time()
+                read(path)
+                times[name].append(time.process_time() - start)
+    return tuple(1000 * median(times[name]) if name in times else float("nan") for name in ("graphpose", "opencv"))
+
+
+def measure(quick: bool = False, cv2=None):
+    """Track the long run; returns (headline figures, one block) for the speed section (``cv2``:
+    OpenCV, the reading's peer, or None)."""
     from graphpose import Board
     from graphpose.track.config import DEFAULT_LAG_S
     from graphpose.track.results import LOST
@@ -127,6 +158,7 @@ def measure(quick: bool = False):
     with tempfile.TemporaryDirectory() as folder:
         frames, bounds, timestamps, render_s = cycled_frames(folder, distinct, total)
         kept, frame_s, frame_cpu_s, rss = streamed(frames, K_REAL, bounds, timestamps, board)
+        read_ms, imread_ms = read_times(cv2, frames[:distinct])
     idx = np.arange(total)
     found = kept.status != LOST
     fit = idx >= min(FIT_FROM, total // 2)
@@ -137,6 +169,8 @@ def measure(quick: bool = False):
     growth, long_ms, young_ms = lockstep_growth(K_REAL, board, kept.frames(), DEFAULT_LAG_S,
                                                 keep_measurements=False)
     frame_ms, frame_cpu_ms = 1000 * median(frame_s), 1000 * median(frame_cpu_s)
+    part_ms = 1000 * np.median(kept.cpu_s, axis=0)
+    rest_ms = 1000 * median(frame_cpu_s - kept.cpu_s.sum(axis=1))
     n_found = int(found.sum())
     block = {"title": f"graphpose track over {total:,} frames: memory and time a frame",
              "text": "{distinct} distinct rendered 640 x 480 frames of one hand-held trajectory (no whip pans; "
@@ -148,11 +182,20 @@ def measure(quick: bool = False):
                      "{long_ms:.3f} ms against a back end 100-199 frames old {young_ms:.3f} ms (ratio "
                      "{growth:.2f}); as tracked (wall time) frames 100-199 {early:.3f} ms, last 100 {late:.3f} ms. "
                      "Whole tracker a frame (reading, front end, back end), median: {frame_cpu_ms:.2f} ms process "
-                     "CPU time, {frame_ms:.2f} ms wall.",
+                     "CPU time, {frame_ms:.2f} ms wall. Its parts, median process CPU time a frame in the same run "
+                     "(FrameResult.cpu_s): reading the PNG (read_image, 8-bit grey, and the size check) "
+                     "{read_cpu_ms:.2f} ms; front end (prediction, refinement at the predicted junctions, the "
+                     "frame's own fit, its checks) {front_cpu_ms:.2f} ms; back end (the frame's factors, the "
+                     "fixed-lag update, the marginal covariance) {back_cpu_ms:.2f} ms; the rest of the interval "
+                     "(the pose taken for the next prediction, the reprojection RMS, the result, the benchmark's "
+                     "bookkeeping) {rest_ms:.2f} ms. The same {distinct} files read again after the run, in turn: "
+                     "read_image {read_ms:.2f} ms, OpenCV imread (grey) {imread_ms:.2f} ms.",
              "values": {"distinct": distinct, "render_s": render_s, "total": total, "lag_s": DEFAULT_LAG_S,
                         "found": n_found, "fit_from": min(FIT_FROM, total // 2), "slope": slope, "long_ms": long_ms,
                         "young_ms": young_ms, "growth": growth, "early": early, "late": late,
-                        "frame_cpu_ms": frame_cpu_ms, "frame_ms": frame_ms},
+                        "frame_cpu_ms": frame_cpu_ms, "frame_ms": frame_ms, "read_cpu_ms": part_ms[0],
+                        "front_cpu_ms": part_ms[1], "back_cpu_ms": part_ms[2], "rest_ms": rest_ms,
+                        "read_ms": read_ms, "imread_ms": imread_ms},
              "columns": None, "formats": None, "rows": None}
     figures = [
         {"figure": f"graphpose track, memory growth per 1,000 frames ({total:,} frames)", "unit": "MB",
@@ -164,5 +207,19 @@ def measure(quick: bool = False):
         {"figure": f"graphpose track, whole tracker per frame (read + front + back end), median process CPU time, "
                    f"{total:,} frames", "unit": "ms", "fmt": ".2f", "graphpose": frame_cpu_ms, "peer_name": None,
          "peer": None, "ratio": None, "goal": "< 3 ms", "met": bool(frame_cpu_ms < 3.0)},
+        {"figure": f"graphpose track, of which reading the frame (PNG, read_image), median process CPU time, "
+                   f"{total:,} frames", "unit": "ms", "fmt": ".2f", "graphpose": part_ms[0], "peer_name": None,
+         "peer": None, "ratio": None, "goal": "", "met": None},
+        {"figure": f"graphpose track, of which the front end, median process CPU time, {total:,} frames",
+         "unit": "ms", "fmt": ".2f", "graphpose": part_ms[1], "peer_name": None, "peer": None, "ratio": None,
+         "goal": "", "met": None},
+        {"figure": f"graphpose track, of which the back end, median process CPU time, {total:,} frames",
+         "unit": "ms", "fmt": ".2f", "graphpose": part_ms[2], "peer_name": None, "peer": None, "ratio": None,
+         "goal": "", "met": None},
     ]
+    if cv2 is not None:
+        figures.append({"figure": f"reading the long run's {distinct} PNG frames again, read_image against OpenCV "
+                                  "imread (grey) in turn, median process CPU time", "unit": "ms", "fmt": ".2f",
+                        "graphpose": read_ms, "peer_name": "OpenCV imread", "peer": imread_ms,
+                        "ratio": read_ms / imread_ms, "goal": "", "met": None})
     return figures, block

@@ -23,7 +23,8 @@ goal's figure) and as ``graphpose estimate`` reads the file (8-bit). In memory, 
 + ``cornerSubPix`` (11 x 11), timed in turn. Per stage, graphpose's time on the 640 x 480 images
 with their polygons. Last, ``graphpose track`` over a long run (:mod:`benchmarks.long_track`:
 10,000 frames, 1,000 with ``--quick``): memory growth, the back end's growth, the whole
-tracker's time a frame. Goals: issue 19's.
+tracker's time a frame and that of its parts (reading, front end, back end; OpenCV's ``imread``
+beside the reading). Goals: issue 19's.
 
 Run it as a section of the benchmark: ``python -m benchmarks speed [--quick]`` (or
 ``python -m benchmarks.speed [--quick]``, the same).
@@ -291,7 +292,7 @@ def main(quick: bool = False) -> dict:
         if rows:
             blocks.append(_per_image(f"Per image, in memory, extraction alone: {name} (median ms of {repeats} "
                                      "runs)", rows, subpix))
-    long_figures, long_block = long_track.measure(quick)
+    long_figures, long_block = long_track.measure(quick, cv2)
     figures += long_figures
     blocks.append(long_block)
     goal = ("From an image file to a cross-checked pose with covariance, as `graphpose estimate` does (both "

@@ -3,7 +3,11 @@
 - :func:`resection_factor`: one factor holding all the junctions of a frame, the camera's
   projection (:mod:`graphpose.camera_models`, lens distortion included) of the FIXED target
   points, with its analytic Jacobian. It is the limit of the
-  landmark forms of :mod:`graphpose.track.backend` as their prior sigma goes to 0.
+  landmark forms of :mod:`graphpose.track.backend` as their prior sigma goes to 0. GTSAM has
+  no factor of its own for it (its C++ ``ResectioningFactor`` is an example, not in the
+  Python bindings, whose own example is a ``CustomFactor``), so its error is one call of the
+  compiled kernel :mod:`graphpose.track._resection` (the pinhole written out; another camera's
+  projection and ``d uv / d p_C`` from its model, chained there).
 - :func:`constant_velocity_factor`: a three-pose factor saying the body-frame twist stays
   the same from one frame interval to the next.
 
@@ -17,8 +21,12 @@ import gtsam
 import numpy as np
 
 from .._checks import as_points, check_number
-from ..camera_models import as_camera
+from ..camera_models import PinholeCamera, as_camera
 from ..errors import InputError
+from ._resection import camera_frame, model_resection, pinhole_resection
+
+#: Stands in for the Jacobian (and the model's d uv / d p_C) when none is asked for.
+_NO_JACOBIAN, _NO_G = np.empty((0, 6)), np.empty((0, 2, 3))
 
 
 def resection_factor(key, points, Wpts, camera, pixel_sigma: float) -> gtsam.CustomFactor:
@@ -59,25 +67,48 @@ def resection_factor(key, points, Wpts, camera, pixel_sigma: float) -> gtsam.Cus
     if Wpts.shape[1] != m:
         raise InputError(f"points and Wpts must hold the same number of points, got {m} and {Wpts.shape[1]}")
     check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
-    camera = as_camera(camera)
+    return resection_factor_unchecked(key, points, Wpts, as_camera(camera), float(pixel_sigma))
+
+
+def resection_factor_unchecked(key, points, Wpts, camera, pixel_sigma: float) -> gtsam.CustomFactor:
+    """:func:`resection_factor` on inputs already checked (a camera object, finite float
+    (2, m) and (3, m) arrays, a positive sigma): the back end's frames, checked at the
+    tracker's edge, build their factors through it."""
+    points, Wpts = np.ascontiguousarray(points, dtype=float), np.ascontiguousarray(Wpts, dtype=float)
+    m = points.shape[1]
     behind = 2.0 * camera.fx
     noise = gtsam.noiseModel.Isotropic.Sigma(2 * m, pixel_sigma)
 
+    if isinstance(camera, PinholeCamera):
+        K = np.ascontiguousarray(camera.K, dtype=float)
+
+        def error(factor, values, jacobians):
+            T = values.atPose3(factor.keys()[0]).matrix()
+            e = np.empty(2 * m)
+            if jacobians is None:
+                pinhole_resection(T, Wpts, points, K, behind, e, _NO_JACOBIAN, False)
+            else:
+                J = np.empty((2 * m, 6))
+                pinhole_resection(T, Wpts, points, K, behind, e, J, True)
+                jacobians[0] = J
+            return e
+
+        return gtsam.CustomFactor(noise, [key], error)
+
     def error(factor, values, jacobians):
-        T = values.atPose3(factor.keys()[0])
-        P = T.rotation().matrix().T @ (Wpts - T.translation()[:, None])
-        front = P[2] > 0
+        P = np.empty((3, m))
+        camera_frame(values.atPose3(factor.keys()[0]).matrix(), Wpts, P)
+        e = np.empty(2 * m)
         with np.errstate(divide="ignore", invalid="ignore"):
-            uv, G = camera.project_jacobian(P)  # G: (m, 2, 3), d uv / d p_C
-        e = np.where(front, uv - points, behind).T.ravel()
-        if jacobians is not None:
-            G = np.where(front[:, None, None], G, 0.0)
-            # d uv / d omega = g x p_C for each row g of G (g . ([p_C]x omega) = omega . (g x p_C)).
-            Pt = P.T
-            J = np.empty((2 * m, 6))
-            J[0::2, :3], J[0::2, 3:] = np.cross(G[:, 0], Pt), -G[:, 0]
-            J[1::2, :3], J[1::2, 3:] = np.cross(G[:, 1], Pt), -G[:, 1]
-            jacobians[0] = J
+            if jacobians is None:
+                model_resection(P, np.ascontiguousarray(camera.project(P)), _NO_G, points, behind, e,
+                                _NO_JACOBIAN, False)
+            else:
+                uv, G = camera.project_jacobian(P)  # G: (m, 2, 3), d uv / d p_C
+                J = np.empty((2 * m, 6))
+                model_resection(P, np.ascontiguousarray(uv), np.ascontiguousarray(G, dtype=float), points, behind,
+                                e, J, True)
+                jacobians[0] = J
         return e
 
     return gtsam.CustomFactor(noise, [key], error)
@@ -103,15 +134,17 @@ def constant_velocity_factor(ka, kb, kc, ratio: float, noise) -> gtsam.CustomFac
     """
 
     def error(factor, values, jacobians):
-        A, B, C = (values.atPose3(key) for key in factor.keys())
-        Ha, Hb1, Hb2, Hc = (np.zeros((6, 6), order="F") for _ in range(4))
-        L1, L2 = np.zeros((6, 6), order="F"), np.zeros((6, 6), order="F")
-        v1 = gtsam.Pose3.Logmap(A.between(B, Ha, Hb1), L1)
-        v2 = gtsam.Pose3.Logmap(B.between(C, Hb2, Hc), L2)
-        if jacobians is not None:
-            jacobians[0] = -ratio * L1 @ Ha
-            jacobians[1] = L2 @ Hb2 - ratio * L1 @ Hb1
-            jacobians[2] = L2 @ Hc
+        a, b, c = factor.keys()
+        A, B, C = values.atPose3(a), values.atPose3(b), values.atPose3(c)
+        if jacobians is None:
+            return gtsam.Pose3.Logmap(B.between(C)) - ratio * gtsam.Pose3.Logmap(A.between(B))
+        # between's derivative by its second pose is the identity (GTSAM's LieGroup::between).
+        Ha, Hb, L1, L2 = (np.zeros((6, 6), order="F") for _ in range(4))
+        v1 = gtsam.Pose3.Logmap(A.between(B, Ha), L1)
+        v2 = gtsam.Pose3.Logmap(B.between(C, Hb), L2)
+        jacobians[0] = -ratio * L1 @ Ha
+        jacobians[1] = L2 @ Hb - ratio * L1
+        jacobians[2] = L2
         return v2 - ratio * v1
 
     return gtsam.CustomFactor(noise, [ka, kb, kc], error)

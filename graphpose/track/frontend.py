@@ -5,7 +5,8 @@ projection through the sequence's camera, :mod:`graphpose.camera_models`, on the
 
 1. **Predict** the pose from the last two frames with a constant body-frame twist
    (:func:`constant_velocity_prediction`), and every junction's pixel position from it.
-2. **Refine** the predictions with the saddle fit (:func:`graphpose.detect.refine.refine_junctions`),
+2. **Refine** the predictions with the saddle fit (:func:`graphpose.detect.refine.refine_junctions`'s
+   core, :func:`~graphpose.detect.refine.refine_points`: the frame was checked at the tracker's edge),
    its smoothing set from the image's noise over the board's contrast as measured at the
    last detection (:func:`graphpose.detect.junctions.board_smoothing`: as on single images,
    more smoothing on noisy frames, so that the fits converge and pass the ring test there);
@@ -13,8 +14,9 @@ projection through the sequence's camera, :mod:`graphpose.camera_models`, on the
    prediction.
 3. **Fit** the frame's own pose with the single-image pipeline's fit,
    :func:`graphpose.pose.estimate.fit_pose`: from the prediction, Gauss-Newton and, with
-   ``robust``, its Huber gate on outlying junctions; the same input checks as
-   :func:`graphpose.pipeline.estimate_pose`.
+   ``robust``, its Huber gate on outlying junctions. Its input checks are not repeated: the
+   junctions are the refinement's (finite), the start the prediction (rigid), and the frame
+   itself was checked once, at the tracker's edge.
 4. **Fall back** to full extraction (:func:`graphpose.detect.junctions.extract_junctions`, with
    its noise-aware search on noisy frames, then
    ``fit_pose`` from the homography) when too few junctions survive, when the motion is too
@@ -39,17 +41,21 @@ predict the next frame.
 
 from __future__ import annotations
 
+import heapq
 from dataclasses import dataclass
 
+import gtsam
 import numpy as np
 
 from ..board import Board
-from ..geometry import relative_pose, se3_exp, se3_log, to_camera
+from ..geometry import to_camera
 from ..camera_models import as_camera
 from ..detect.junctions import board_smoothing, extract_junctions
-from ..detect.refine import MAX_RADIUS, SMOOTH_SIGMA, WINDOW_FRACTION, refine_junctions
+from ..detect.refine import MAX_RADIUS, SMOOTH_SIGMA, WINDOW_FRACTION, refine_points
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
-from ..pose.estimate import fit_pose
+# fit_pose without its input checks: the front end's junctions and poses are its own, made
+# finite and rigid here (the public fit's checks were a tenth of a tracked frame's front end).
+from ..pose.estimate import _fit as fit_pose_unchecked
 from .config import TrackerConfig
 from .results import DETECTED, LOST, TRACKED
 
@@ -95,14 +101,23 @@ class FrontEnd:
 
     def __init__(self, camera, board: Board, config: TrackerConfig):
         self.camera, self.board, self.config = as_camera(camera), board, config
+        # The refinement's lens: the camera when it distorts (refine_junctions' rule).
+        self._lens = self.camera if np.any(self.camera.distortion) else None
         self._W = board.world_points()
         self._sheet = board.sheet_corners()
+        n, sq = board.n, board.square_m
+        # One projection a prediction: the junctions, then each moved one square along x and
+        # along y (the local square side, _square_px); one an accepted pose: the junctions, then
+        # the sheet's corners.
+        self._W_steps = np.hstack([self._W, self._W + [[sq], [0.0], [0.0]], self._W + [[0.0], [sq], [0.0]]])
+        self._W_sheet = np.hstack([self._W, self._sheet])
         self._symmetries = board_symmetries(board)
         self._recent = []  # (k, timestamp, T_WC) of the last two frames with a pose, consecutive
         self._last = None  # the newest pose, kept through losses: it orients re-detections
+        self._seen = None  # the junctions' pixels at the newest pose (its accept's projection)
         self._reference = None  # the pose a fresh detection is oriented by (this frame's)
         self._outline = None  # sheet outline of the last frame whose junctions were all in view
-        self._rms = []  # fit RMS of every frame with a pose
+        self._rms = RunningMedian()  # fit RMS of every frame with a pose
         # Smoothing of the tracked refinement, from the noise over the board's contrast as
         # measured at the last detection (noise changes slowly; measuring it costs a
         # detection's time, not a tracked frame's).
@@ -151,18 +166,24 @@ class FrontEnd:
         if found is None:
             return Measurement(LOST, message=message or "no polygon to search")
         points, ids, fit = found
-        self._rms.append(fit.residual_rms_px)
+        self._rms.add(fit.residual_rms_px)
         return Measurement(status, points, ids, fit, message if status == DETECTED else "")
 
-    def accept(self, k: int, timestamp: float, T_WC, shape) -> None:
-        """Take the back end's pose of frame ``k`` (image ``shape`` (H, W)) for the next predictions."""
+    def accept(self, k: int, timestamp: float, T_WC, shape) -> np.ndarray:
+        """Take the back end's pose of frame ``k`` (image ``shape`` (H, W)) for the next
+        predictions; returns where that pose sees every junction, pixels (2, n) (the tracker's
+        reprojection RMS reads it)."""
         self._recent = (self._recent + [(k, timestamp, T_WC)])[-2:]
         self._last = T_WC
+        n = self.board.n
+        uv = self.project(T_WC, self._W_sheet)
+        self._seen = uv[:, :n]
         # The anchor of re-detection after a loss: the newest frame with the whole grid of
         # junctions in the image, whether or not the sheet's margin was cut by the border
         # (the detection polygons are clipped to the image).
-        if _inside(self.project(T_WC, self._W), shape):
-            self._outline = self.project(T_WC, self._sheet)
+        if _inside(self._seen, shape):
+            self._outline = uv[:, n:]
+        return self._seen
 
     def lose(self) -> None:
         """Frame without a pose: the next one cannot be predicted."""
@@ -197,14 +218,16 @@ class FrontEnd:
     # ----------------------------------------------------------------- junctions
     def _track(self, image, T_pred):
         """Refine predicted junctions; ((points, ids, fit), "") or (None, why)."""
-        cfg = self.config
-        if np.any(to_camera(T_pred, self._W)[2] <= 0):
+        cfg, n = self.config, self.board.n
+        P = to_camera(T_pred, self._W_steps)
+        if (P[2, :n] <= 0).any():
             return None, "prediction puts the board behind the camera"
-        uv = self.project(T_pred, self._W)
-        side = _square_px(self.project, T_pred, self._W, uv, self.board.square_m)
-        if not np.all(np.isfinite(side)):
+        steps = self.camera.project(P)
+        uv = steps[:, :n]
+        side = _square_px(uv, steps[:, n:2 * n], steps[:, 2 * n:])
+        if not np.isfinite(side).all():
             return None, "prediction puts the board where the lens model has no image"
-        speed = np.median(np.hypot(*(uv - self.project(self._recent[-1][2], self._W))) / side)
+        speed = _median(np.hypot(*(uv - self._seen)) / side)
         if speed > cfg.max_speed:
             return None, f"predicted motion {speed:.2f} squares a frame is too fast to track"
         radius = np.clip(cfg.window_fraction * side, *cfg.window_px)
@@ -216,8 +239,9 @@ class FrontEnd:
         ids = np.flatnonzero(inside)
         if ids.size < cfg.min_junctions:
             return None, f"only {ids.size} predicted junctions in the image"
-        points, trusted, _ = refine_junctions(image, uv[:, ids], radius[ids], camera=self.camera,
-                                              smooth_sigma=self._smooth)
+        # refine_junctions' core: the frame was checked once, at the tracker's edge (a float
+        # frame's finiteness check alone is a pass over every pixel), the windows are >= 2 px.
+        points, trusted, _ = refine_points(image, uv[:, ids], radius[ids], self._smooth, lens=self._lens)
         keep = trusted & (np.hypot(*(points - uv[:, ids])) < cfg.gate_px)
         if np.count_nonzero(keep) < cfg.min_junctions:
             return None, (f"only {np.count_nonzero(keep)} of {ids.size} junctions refined within "
@@ -267,14 +291,15 @@ class FrontEnd:
         checks; ((points, ids, fit), "") or (None, why)."""
         cfg = self.config
         try:
-            fit, _ = fit_pose(self.camera, points, self._W[:, ids], guess, robust=cfg.robust)
+            fit, _ = fit_pose_unchecked(self.camera, points, self._W[:, ids], guess, np.ones(ids.size, dtype=bool),
+                                        cfg.robust)
         except (InputError, DegenerateGeometryError) as exc:
             return None, f"pose fit failed: {exc}"
         if not fit.converged:
             return None, f"pose fit did not converge: {fit.message}"
         limit = cfg.max_rms_px
         if len(self._rms) >= 5:
-            limit = min(limit, max(cfg.rms_factor * float(np.median(self._rms)), cfg.rms_floor_px))
+            limit = min(limit, max(cfg.rms_factor * self._rms.median(), cfg.rms_floor_px))
         if fit.residual_rms_px > limit:
             return None, f"fit residual {fit.residual_rms_px:.3f} px RMS exceeds {limit:.3f} px"
         return (points, ids, fit), ""
@@ -293,11 +318,14 @@ def constant_velocity_prediction(T_WC_0, T_WC_1, ratio: float) -> np.ndarray:
     Returns
     -------
     (4, 4) ndarray
-        ``T_WC_1 Exp(ratio Log(T_WC_0^-1 T_WC_1))``, with the exact SE(3) exponential and logarithm
-        (:func:`graphpose.geometry.se3_exp` / :func:`~graphpose.geometry.se3_log`, GTSAM's
-        ``Pose3.Expmap``/``Logmap``, the twist rotation first).
+        ``T_WC_1 Exp(ratio Log(T_WC_0^-1 T_WC_1))``, with GTSAM's exact SE(3) exponential and
+        logarithm (``Pose3.Expmap``/``Logmap``, the twist rotation first; the maps of
+        :func:`graphpose.geometry.se3_exp` / :func:`~graphpose.geometry.se3_log`, in C++:
+        a sixth of their time).
     """
-    return T_WC_1 @ se3_exp(ratio * se3_log(relative_pose(T_WC_0, T_WC_1)))
+    P1 = gtsam.Pose3(T_WC_1)
+    twist = gtsam.Pose3.Logmap(gtsam.Pose3(T_WC_0).between(P1))
+    return P1.compose(gtsam.Pose3.Expmap(ratio * twist)).matrix()
 
 
 def _detection_message(whys) -> str:
@@ -353,12 +381,52 @@ def board_symmetries(board: Board) -> list:
     return perms
 
 
-def _square_px(project, T_WC, Wpts, uv, square_m) -> np.ndarray:
-    """Local square side at each junction, pixels: the shorter projected grid step
-    (``project(T_WC, P_W)`` the camera's projection)."""
-    du = project(T_WC, Wpts + [[square_m], [0.0], [0.0]]) - uv
-    dv = project(T_WC, Wpts + [[0.0], [square_m], [0.0]]) - uv
-    return np.minimum(np.hypot(*du), np.hypot(*dv))
+def _square_px(uv, uv_x, uv_y) -> np.ndarray:
+    """Local square side at each junction, pixels: the shorter projected grid step, from the
+    junctions' pixels ``uv`` and those of the points one square along x and along y (2, n)."""
+    return np.minimum(np.hypot(*(uv_x - uv)), np.hypot(*(uv_y - uv)))
+
+
+def _median(x) -> float:
+    """``np.median`` of a short 1-D array (a tenth of its time): the middle value, the mean of
+    the middle two for an even count, NaN if any is NaN."""
+    s = np.sort(x)
+    h = s.size // 2
+    if s.size == 0 or np.isnan(s[-1]):
+        return float("nan")
+    return float(s[h]) if s.size % 2 else float((s[h - 1] + s[h]) / 2)
+
+
+class RunningMedian:
+    """The median of every value added so far, ``np.median``'s to the bit, each addition and
+    median in O(log n) (two heaps: the lower half as a max-heap, the upper as a min-heap),
+    where ``np.median`` of the growing list cost O(n) a frame (a millisecond at 10,000)."""
+
+    def __init__(self):
+        self._low, self._high = [], []  # -values of the lower half; values of the upper half
+
+    def __len__(self) -> int:
+        return len(self._low) + len(self._high)
+
+    def add(self, value) -> None:
+        """Add a finite number."""
+        value = float(value)
+        if self._low and value > -self._low[0]:
+            heapq.heappush(self._high, value)
+        else:
+            heapq.heappush(self._low, -value)
+        if len(self._low) > len(self._high) + 1:
+            heapq.heappush(self._high, -heapq.heappop(self._low))
+        elif len(self._high) > len(self._low):
+            heapq.heappush(self._low, -heapq.heappop(self._high))
+
+    def median(self) -> float:
+        """The median (NaN before any value): the middle value, the mean of the middle two."""
+        if not self._low:
+            return float("nan")
+        if len(self._low) > len(self._high):
+            return -self._low[0]
+        return (-self._low[0] + self._high[0]) / 2
 
 
 def _inside(uv, shape) -> bool:

@@ -17,7 +17,8 @@ Keys as in GTSAM's examples:
 
   * ``"resection"`` (default): one factor per frame holding all its junctions, the camera's
     projection (lens distortion included) of the FIXED target points, analytic Jacobian
-    (:func:`graphpose.track.factors.resection_factor`, a Python ``CustomFactor``). This is
+    (:func:`graphpose.track.factors.resection_factor`, a ``CustomFactor`` whose error is one
+    call of a compiled kernel, GTSAM having no such factor of its own). This is
     the limit of the landmark forms as their prior sigma goes to 0.
   * ``"frame_landmarks"``: the single-image graph of :mod:`graphpose.pose.graph` repeated per
     frame, GTSAM's C++ factors only (but for a rational radial-tangential camera, which GTSAM
@@ -74,7 +75,7 @@ from ..board import Board
 from ..errors import InputError
 from ..pose.graph import projection_factor
 from .config import TARGET_FORMS, MotionPrior
-from .factors import constant_velocity_factor, resection_factor
+from .factors import constant_velocity_factor, resection_factor_unchecked
 
 
 def landmark_stride(board: Board) -> int:
@@ -201,7 +202,7 @@ class FactorBuilder:
 
     def _target_factors(self, graph, values, stamps, k, timestamp, points, ids, pixel_sigma) -> None:
         if self.target == "resection":
-            graph.add(resection_factor(X(k), points, self._Wpts[:, ids], self.camera, pixel_sigma))
+            graph.add(resection_factor_unchecked(X(k), points, self._Wpts[:, ids], self.camera, pixel_sigma))
             return
         noise = gtsam.noiseModel.Isotropic.Sigma(2, pixel_sigma)
         for uv, j in zip(points.T, ids.tolist()):

@@ -81,6 +81,16 @@ class FrameResult:
         ``"pixel noise"``, or ``"pixel noise and calibration"`` for a camera that carries
         its intrinsics' covariance (:mod:`graphpose.track.uncertainty`: first order, per
         frame; the calibration's error is common to every frame).
+    read_s : float
+        Wall time of reading the frame (its file decoded, or the image given in memory
+        converted, and its size checked), seconds.
+    cpu_s : tuple of float
+        Process CPU time of the frame's three parts, seconds: ``(read, front end, back end)``,
+        the spans of ``read_s``, ``frontend_s`` and ``update_s`` (the back end's measured
+        around its ``add_frame`` call; 0 for a part the frame did not reach). A few clock reads
+        a frame (about 1 us each); what is left of the interval between two results (taking
+        the back end's pose for the next prediction, the reprojection RMS, the result itself)
+        is in none of them.
     """
 
     index: int
@@ -98,6 +108,8 @@ class FrameResult:
     message: str = ""
     cov_pixel: np.ndarray | None = None
     sigma_kind: str = SIGMA_PIXEL
+    read_s: float = 0.0
+    cpu_s: tuple = (0.0, 0.0, 0.0)
 
     def __post_init__(self):
         if self.cov_pixel is None and self.sigma_kind == SIGMA_PIXEL:  # the two are one

@@ -182,17 +182,20 @@ class _Run:
         """Every frame's online result, each given as soon as it is made (none is kept)."""
         source, t, n, checked = self.source, self.t, len(self.t), False
         for k in range(n):
+            wall, cpu = time.perf_counter(), time.process_time()
             image, unreadable = _read(source, k)
             if image is None:
                 self.front.lose()
                 self.graph.break_segment()
-                result = FrameResult(k, t[k], LOST, message=unreadable)
+                read = (time.perf_counter() - wall, time.process_time() - cpu)
+                result = FrameResult(k, t[k], LOST, message=unreadable, read_s=read[0], cpu_s=(read[1], 0.0, 0.0))
             else:
                 path = source.path(k)
                 check_image_size(self.camera, image.shape, f"frame {k}" + ("" if path is None else f" ({path})"))
                 if not checked:
                     self.polys, checked = _check_polygons(self.polys, self.names, image.shape[:2]), True
-                result = _step(self.front, self.graph, self.W, self.config, k, t[k], image, self.polys[k])
+                read = (time.perf_counter() - wall, time.process_time() - cpu)
+                result = _step(self.front, self.graph, self.W, self.config, k, t[k], image, self.polys[k], read)
             del image  # not held while the consumer works on the result
             if self.progress is not None:
                 self.progress(k, n)
@@ -211,7 +214,7 @@ class _Run:
             cov, kind = frame_covariance(self.camera, b.T_WC, Wk, b.cov)
             rms = _rms(self.front.project(b.T_WC, Wk) - f.points)
             yield FrameResult(f.index, f.timestamp, f.status, b.T_WC, cov, f.junctions, rms, f.single_T_WC,
-                              f.points, f.ids, f.frontend_s, f.update_s, f.message, b.cov, kind)
+                              f.points, f.ids, f.frontend_s, f.update_s, f.message, b.cov, kind, f.read_s, f.cpu_s)
 
 
 def _smoothed_stream(run) -> Iterator[FrameResult]:
@@ -232,28 +235,32 @@ def _read(source, k):
         return None, f"unreadable frame file: {exc}"
 
 
-def _step(front, graph, W, config, k, t, image, polygon) -> FrameResult:
-    """One frame through the front end and the back end."""
-    start = time.perf_counter()
+def _step(front, graph, W, config, k, t, image, polygon, read) -> FrameResult:
+    """One frame through the front end and the back end (``read``: the reading's wall and
+    CPU seconds)."""
+    wall, cpu = time.perf_counter(), time.process_time()
     found = front.measure(k, t, image, polygon)
-    frontend_s = time.perf_counter() - start
+    frontend_s, frontend_cpu = time.perf_counter() - wall, time.process_time() - cpu
     if found.status == LOST:
         front.lose()
         graph.break_segment()
-        return FrameResult(k, t, LOST, frontend_s=frontend_s, message=found.message)
+        return FrameResult(k, t, LOST, frontend_s=frontend_s, message=found.message, read_s=read[0],
+                           cpu_s=(read[1], frontend_cpu, 0.0))
     if found.status == DETECTED:
         # The motion model failed to predict this frame (or there was none): no motion
         # factor may tie it to the frames before.
         graph.break_segment()
     fit = found.fit
     sigma = max(fit.sigma_px, config.min_pixel_sigma_px)
+    cpu = time.process_time()
     back = graph.add_frame(k, t, found.points, found.ids, fit.T_WC, sigma)
-    front.accept(k, t, back.T_WC, image.shape[:2])
-    Wk = W[:, found.ids]
-    rms = _rms(front.project(back.T_WC, Wk) - found.points)
-    cov, kind = frame_covariance(front.camera, back.T_WC, Wk, back.cov)
+    back_cpu = time.process_time() - cpu
+    seen = front.accept(k, t, back.T_WC, image.shape[:2])
+    rms = _rms(seen[:, found.ids] - found.points)
+    cov, kind = frame_covariance(front.camera, back.T_WC, W[:, found.ids], back.cov)
     return FrameResult(k, t, found.status, back.T_WC, cov, len(found.ids), rms, fit.T_WC, found.points,
-                       found.ids, frontend_s, back.update_s, found.message, back.cov, kind)
+                       found.ids, frontend_s, back.update_s, found.message, back.cov, kind, read[0],
+                       (read[1], frontend_cpu, back_cpu))
 
 
 def _polygon_list(polygons, bounds, n):

@@ -76,3 +76,24 @@ def test_resection_factor_error_and_jacobian_through_the_camera(camera):
     # A pinhole factor on the same pixels sees the distortion as error.
     if camera is not K:
         assert np.abs(resection_factor(X(0), uv, W, K, 0.5).unwhitenedError(values)).max() > 1.0
+
+
+@pytest.mark.parametrize("camera", [K, RadTanCamera(K, [-0.288, 0.097, 0.001, -0.0003, 0.02])],
+                         ids=["pinhole K", "radial-tangential"])
+def test_a_point_behind_the_camera_gives_the_constant_error_and_no_jacobian(camera):
+    # The camera at the board's plane, tilted: the first rows of junctions are behind it.
+    T = T_from_params([0.2, 0.16, 0.0, 0.3, 0.0, 0.0])
+    behind = to_camera(T, W)[2] <= 0
+    assert 0 < behind.sum() < W.shape[1]
+    uv = np.full((2, W.shape[1]), 320.0)
+    factor = resection_factor(X(0), uv, W, camera, 0.5)
+    values = gtsam.Values()
+    values.insert(X(0), gtsam.Pose3(T))
+    e = factor.unwhitenedError(values).reshape(-1, 2).T
+    np.testing.assert_array_equal(e[:, behind], 2.0 * K[0, 0])
+    P = to_camera(T, W[:, ~behind])
+    expected = (project(K, T, W[:, ~behind]) if camera is K else camera.project(P)) - uv[:, ~behind]
+    np.testing.assert_allclose(e[:, ~behind], expected, rtol=1e-12, atol=1e-9)
+    A, _ = factor.linearize(values).jacobian()
+    rows = np.repeat(behind, 2)
+    assert np.all(A[rows] == 0) and np.all(np.abs(A[~rows]).max(axis=1) > 0)

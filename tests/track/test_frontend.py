@@ -72,7 +72,7 @@ def test_input_errors_of_the_junction_and_pose_code_fail_the_attempt_not_the_seq
         raise InputError("degenerate")
 
     # A refinement that fails once tracking started: each frame falls back to full extraction.
-    monkeypatch.setattr(frontend, "refine_junctions", refuse)
+    monkeypatch.setattr(frontend, "refine_points", refuse)
     track = track_sequence(track_clip.images[:3], K, track_clip.bounds)
     assert list(track.status) == [DETECTED, DETECTED, DETECTED]
     assert all("track failed: degenerate" in f.message for f in track.frames[1:])
@@ -131,3 +131,25 @@ def test_a_noisy_board_is_redetected_after_a_loss_and_tracked_with_more_smoothin
     second = front.measure(1, 1 / 30, frames[1])
     assert second.status == TRACKED and second.ids.size >= 44
     np.testing.assert_allclose(second.fit.T_WC[:3, 3], T[:3, 3], atol=5e-3)
+
+
+def test_the_running_median_of_the_fit_rms_is_numpys_to_the_bit():
+    # The frame-RMS check's median of every frame so far, kept in two heaps instead of
+    # np.median over the growing list (O(n) a frame); ties and both parities.
+    rng = np.random.default_rng(5)
+    values = np.r_[rng.gamma(2.0, 0.01, 300), np.round(rng.normal(0.05, 0.01, 300), 3), [0.0] * 5]
+    rng.shuffle(values)
+    running = frontend.RunningMedian()
+    assert np.isnan(running.median()) and len(running) == 0
+    for k, v in enumerate(values, start=1):
+        running.add(v)
+        assert len(running) == k
+        assert running.median() == np.median(values[:k]), k
+
+
+def test_the_short_median_is_numpys():
+    rng = np.random.default_rng(6)
+    for n in (1, 2, 3, 47, 48):
+        x = np.round(rng.normal(size=n), 2)
+        assert frontend._median(x) == np.median(x), n
+    assert np.isnan(frontend._median(np.array([1.0, np.nan, 2.0])))

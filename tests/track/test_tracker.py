@@ -92,6 +92,21 @@ def test_an_unreadable_frame_file_is_lost_and_the_others_tracked(track_clip, tmp
     assert list(track_sequence(tmp_path, K, track_clip.bounds).status)[:3] == [LOST, DETECTED, TRACKED]
 
 
+def test_every_frame_reports_the_time_of_its_parts(track_clip, tmp_path):
+    for k in range(4):
+        write_png(tmp_path / f"f{k:02d}.png", track_clip.images[k])
+    (tmp_path / "f02.png").write_bytes(b"not an image")
+    track = track_sequence(tmp_path, K, track_clip.bounds, fps=track_clip.fps)
+    assert list(track.status) == [DETECTED, TRACKED, LOST, DETECTED]
+    for f in track.frames:
+        assert f.read_s > 0 and len(f.cpu_s) == 3 and min(f.cpu_s) >= 0
+    for f in (track.frames[k] for k in (0, 1, 3)):
+        assert f.frontend_s > 0 and f.update_s > 0
+    # The unreadable frame reached neither the front end nor the back end.
+    lost = track.frames[2]
+    assert (lost.frontend_s, lost.update_s, lost.cpu_s[1:]) == (0.0, 0.0, (0.0, 0.0))
+
+
 def test_a_missing_or_corrupt_frame_given_in_memory_is_an_input_error(track_clip):
     nan_frame = track_clip.images[1] / 255.0
     nan_frame[100, 100] = np.nan
