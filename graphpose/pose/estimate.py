@@ -235,11 +235,13 @@ def fit_pose(camera, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False)
     """
     camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
     guess = None if guess is None else check_transform(guess, "guess")
-    return _fit(camera, Ipts, Wpts, guess, mask, robust)
+    return fit_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust)
 
 
-def _fit(camera, Ipts, Wpts, guess, mask, robust):
-    """:func:`fit_pose` on a validated camera, points, guess and mask."""
+def fit_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust):
+    """:func:`fit_pose` on inputs already checked at a public edge (a camera object, float
+    arrays of the right shapes, a boolean mask, a checked guess or None): the pipeline's core
+    and the tracker's front end call it on what they checked or made themselves."""
     start = pose_from_homography_unchecked(camera, Ipts[:, mask], Wpts[:, mask]) if guess is None else guess
     gn = gauss_newton_unchecked(camera, start, Ipts, Wpts, mask)
     if robust:
@@ -253,7 +255,7 @@ def estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust) -> PoseEsti
     """The core of :func:`estimate_pose_from_points`, on inputs already checked at a public edge
     (a camera object, float arrays of the right shapes, a boolean mask, a checked guess or None):
     the pipeline calls it after its own checks, so nothing is checked twice."""
-    gn, start = _fit(camera, Ipts, Wpts, guess, mask, robust)
+    gn, start = fit_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust)
     pixel_sigma = gn.sigma_px if robust else None  # the robust fit's own sigma (fit_pose)
     huber_px = None if pixel_sigma is None else HUBER_K * pixel_sigma
     # GTSAM starts where Gauss-Newton ended (from the shared start if it failed): the same

@@ -52,10 +52,11 @@ from ..geometry import to_camera
 from ..camera_models import as_camera
 from ..detect.junctions import board_smoothing, extract_junctions
 from ..detect.refine import MAX_RADIUS, SMOOTH_SIGMA, WINDOW_FRACTION, refine_points
+from ..detect.search import median
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 # fit_pose without its input checks: the front end's junctions and poses are its own, made
 # finite and rigid here (the public fit's checks were a tenth of a tracked frame's front end).
-from ..pose.estimate import _fit as fit_pose_unchecked
+from ..pose.estimate import fit_pose_unchecked
 from .config import TrackerConfig
 from .results import DETECTED, LOST, TRACKED
 
@@ -105,7 +106,7 @@ class FrontEnd:
         self._lens = self.camera if np.any(self.camera.distortion) else None
         self._W = board.world_points()
         self._sheet = board.sheet_corners()
-        n, sq = board.n, board.square_m
+        sq = board.square_m
         # One projection a prediction: the junctions, then each moved one square along x and
         # along y (the local square side, _square_px); one an accepted pose: the junctions, then
         # the sheet's corners.
@@ -227,7 +228,7 @@ class FrontEnd:
         side = _square_px(uv, steps[:, n:2 * n], steps[:, 2 * n:])
         if not np.isfinite(side).all():
             return None, "prediction puts the board where the lens model has no image"
-        speed = _median(np.hypot(*(uv - self._seen)) / side)
+        speed = median(np.hypot(*(uv - self._seen)) / side)
         if speed > cfg.max_speed:
             return None, f"predicted motion {speed:.2f} squares a frame is too fast to track"
         radius = np.clip(cfg.window_fraction * side, *cfg.window_px)
@@ -385,16 +386,6 @@ def _square_px(uv, uv_x, uv_y) -> np.ndarray:
     """Local square side at each junction, pixels: the shorter projected grid step, from the
     junctions' pixels ``uv`` and those of the points one square along x and along y (2, n)."""
     return np.minimum(np.hypot(*(uv_x - uv)), np.hypot(*(uv_y - uv)))
-
-
-def _median(x) -> float:
-    """``np.median`` of a short 1-D array (a tenth of its time): the middle value, the mean of
-    the middle two for an even count, NaN if any is NaN."""
-    s = np.sort(x)
-    h = s.size // 2
-    if s.size == 0 or np.isnan(s[-1]):
-        return float("nan")
-    return float(s[h]) if s.size % 2 else float((s[h - 1] + s[h]) / 2)
 
 
 class RunningMedian:

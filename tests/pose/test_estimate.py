@@ -187,7 +187,7 @@ def test_gtsam_started_at_a_wrong_gauss_newton_answer_moves_off_it(monkeypatch):
         T = T_from_params(gn.params + [1e-3, 0, 0, 0, 0, 1.7e-4])
         return dataclasses.replace(gn, T_WC=T, params=params_from_T(T))
 
-    monkeypatch.setattr(pipeline, "_fit", lambda camera, I, W, guess, mask, robust: (
+    monkeypatch.setattr(pipeline, "fit_pose_unchecked", lambda camera, I, W, guess, mask, robust: (
         off(camera, pipeline.pose_from_homography_unchecked(camera, I[:, mask], W[:, mask]), I, W, mask),
         np.eye(4)))
     T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])

@@ -145,11 +145,3 @@ def test_the_running_median_of_the_fit_rms_is_numpys_to_the_bit():
         running.add(v)
         assert len(running) == k
         assert running.median() == np.median(values[:k]), k
-
-
-def test_the_short_median_is_numpys():
-    rng = np.random.default_rng(6)
-    for n in (1, 2, 3, 47, 48):
-        x = np.round(rng.normal(size=n), 2)
-        assert frontend._median(x) == np.median(x), n
-    assert np.isnan(frontend._median(np.array([1.0, np.nan, 2.0])))
