@@ -115,8 +115,11 @@ def gaussian_smooth(const float[:, ::1] a, const double[::1] taps, float[:, ::1]
     cdef const float *up
     cdef const float *down
     cdef float *o
-    cdef double *acc = &line[0]
+    cdef double *acc
     cdef double *pad
+    if h == 0 or w == 0:
+        return  # nothing to smooth (and no line to reflect about)
+    acc = &line[0]
     with nogil:
         # Down the columns: every output row is a weighted sum of whole input rows.
         for i in range(h):
@@ -233,10 +236,12 @@ cdef double _select(double *v, Py_ssize_t n, Py_ssize_t k) noexcept nogil:
 
 
 def median(const double[::1] x, double[::1] scratch):
-    """The median of ``x`` (n >= 1) as ``np.median`` gives it: the middle value, the mean of
-    the middle two for even n, NaN if any value is NaN. ``scratch`` holds n values."""
+    """The median of ``x`` as ``np.median`` gives it: the middle value, the mean of the middle
+    two for even n, NaN if any value is NaN or n is 0. ``scratch`` holds n values."""
     cdef Py_ssize_t n = x.shape[0], k
     cdef double a, b
+    if n == 0:
+        return float("nan")
     for k in range(n):
         if x[k] != x[k]:
             return float("nan")

@@ -390,6 +390,16 @@ def test_the_median_is_numpys_to_the_bit():
         for x in (rng.normal(size=n), rng.integers(0, 4, n).astype(float), np.round(rng.normal(size=n), 1)):
             assert median(x) == np.median(x), (trial, x)
     assert np.isnan(median([1.0, np.nan, 2.0]))
+    assert np.isnan(median([]))  # as np.median of nothing, and no read past an empty buffer
+
+
+def test_an_image_narrower_than_a_search_block_smooths_to_nothing_and_finds_nothing():
+    # Half resolution of a one-pixel-wide image has no column: the smoothing must return (it
+    # reflects about the line's ends) and the search must find nothing, as SciPy's did.
+    from graphpose.detect.search import smooth
+
+    assert smooth(np.zeros((5, 0), np.float32)).shape == (5, 0)
+    assert find_candidates(np.zeros((40, 1), np.uint8), level=1).points.shape == (2, 0)
 
 
 def test_the_grey_range_of_an_eight_bit_image_is_the_partitions():
