@@ -6,9 +6,9 @@ millisecond a frame that a tracker reading recorded frames pays every frame. Thi
 the one kind of PNG a camera or a recorder writes for a grey sensor: bit depth 8, colour type 0
 (grey), no interlace. Its chunks are walked and their CRCs checked, its IDAT data inflated in one
 call of :mod:`zlib` (capped at the image's size), and its row filters undone in one compiled pass
-(:func:`graphpose._pixels.png_unfilter_grey8`). Any other PNG, and any PNG that is not exactly
+(:func:`graphpose._png_filters.png_unfilter_grey8`). Any other PNG, and any PNG that is not exactly
 what its specification says (a bad CRC, a missing or short IDAT stream, trailing data in it, an
-unknown filter, a chunk cut short), is left to Pillow (:func:`decode_grey8` returns None), which
+unknown filter, a chunk cut short, IDAT chunks not all in one run), is left to Pillow (:func:`decode_grey8` returns None), which
 reads the rest of the format and words the errors.
 
 Ancillary chunks do not change the pixels Pillow gives for such an image (``gAMA``, ``tRNS``,
@@ -24,7 +24,7 @@ import zlib
 
 import numpy as np
 
-from ._pixels import png_unfilter_grey8
+from ._png_filters import png_unfilter_grey8
 
 #: The eight bytes every PNG file starts with.
 SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -50,7 +50,7 @@ def decode_grey8(data: bytes, max_pixels: int | None = None) -> np.ndarray | Non
     if data[:8] != SIGNATURE:
         return None
     view = memoryview(data)
-    header, idat, pos, size = None, [], 8, len(data)
+    header, idat, pos, size, idat_done = None, [], 8, len(data), False
     while True:
         if pos + 12 > size:
             return None  # cut short before IEND
@@ -67,14 +67,19 @@ def decode_grey8(data: bytes, max_pixels: int | None = None) -> np.ndarray | Non
                 return None
             header = struct.unpack_from(">IIBBBBB", data, start)
         elif kind == b"IDAT":
+            if idat_done:
+                return None  # IDAT chunks must be consecutive (section 5.6)
             idat.append(view[start:end])
         elif kind == b"IEND":
             break
         elif not kind[0] & 0x20:  # a critical chunk this reader does not know (PLTE, ...)
             return None
+        idat_done = idat_done or (bool(idat) and kind != b"IDAT")
         pos = end + 4
     width, height, depth, colour, compression, method, interlace = header
-    if (depth, colour, compression, method, interlace) != (8, 0, 0, 0, 0) or not idat or width == 0 or height == 0:
+    if (depth, colour, compression, method, interlace) != (8, 0, 0, 0, 0) or not idat:
+        return None
+    if not (0 < width < 2**31 and 0 < height < 2**31):  # the specification's range (section 11.2.2)
         return None
     if max_pixels is not None and width * height > max_pixels:
         return None

@@ -146,13 +146,17 @@ def _read_eight_bit(path: Path):
     from PIL import Image, UnidentifiedImageError
 
     source = path
-    with open(path, "rb") as f:
-        if f.read(len(SIGNATURE)) == SIGNATURE:  # a PNG: read whole, decoded here if it can be
-            data = SIGNATURE + f.read()
-            grey = decode_grey8(data, Image.MAX_IMAGE_PIXELS)
-            if grey is not None:
-                return grey
-            source = io.BytesIO(data)  # Pillow reads the rest of PNG, from the bytes read
+    try:
+        with open(path, "rb") as f:
+            data = f.read(len(SIGNATURE))
+            if data == SIGNATURE:  # a PNG: read whole, decoded here if it can be
+                data += f.read()
+                grey = decode_grey8(data, Image.MAX_IMAGE_PIXELS)
+                if grey is not None:
+                    return grey
+                source = io.BytesIO(data)  # Pillow reads the rest of PNG, from the bytes read
+    except OSError:
+        return None  # unreadable (permissions, a read error): the general reader says why
     try:
         with Image.open(source) as im:
             if im.mode not in _EIGHT_BIT_MODES:

@@ -18,8 +18,9 @@ PACKAGE = Path(__file__).resolve().parents[1] / "graphpose"
 #: Bottom up. Each layer is a tuple of groups; a group is a module or subpackage (dotted,
 #: below ``graphpose``), and the most specific group containing a module is its own.
 LAYERS = (
-    # errors, and the compiled view of decoded pixels (it imports no graphpose module).
-    ("errors", "_pixels"),
+    # errors, the compiled view of decoded pixels and the PNG row filters (they import no
+    # graphpose module).
+    ("errors", "_pixels", "_png_filters"),
     # The facade: it imports its errors only; every other name loads on first use (PEP 562).
     # _png: the grey-PNG reader, on the compiled pixels.
     ("_checks", "_extras", "__init__", "_png"),

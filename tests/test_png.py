@@ -105,6 +105,21 @@ def test_a_broken_png_is_left_to_pillow_whose_error_the_reader_words(tmp_path):
     stream[19 * 31] = 5
     broken["an unknown filter type"] = (SIGNATURE + chunk(b"IHDR", struct.pack(">IIBBBBB", 30, 20, 8, 0, 0, 0, 0))
                                         + chunk(b"IDAT", zlib.compress(bytes(stream))) + chunk(b"IEND", b""))
+    # The first IDAT chunk's CRC alone wrong: this reader checks it and leaves the file to
+    # Pillow, which does not check an IDAT chunk's CRC and reads the pixels.
+    first_idat = len(SIGNATURE) + 25  # after the signature and the IHDR chunk
+    (n,) = struct.unpack_from(">I", good, first_idat)
+    crc_only = bytearray(good)
+    crc_only[first_idat + 8 + n] ^= 0xFF
+    assert decode_grey8(bytes(crc_only)) is None
+    (tmp_path / "crc.png").write_bytes(bytes(crc_only))
+    np.testing.assert_array_equal(read_image(tmp_path / "crc.png"), grey)
+    # IDAT chunks split by another chunk (the specification wants them consecutive; Pillow
+    # stops at the first run and calls the file truncated).
+    data = zlib.compress(filtered(grey, [0] * 20))
+    broken["IDAT chunks not in one run"] = (
+        SIGNATURE + chunk(b"IHDR", struct.pack(">IIBBBBB", 30, 20, 8, 0, 0, 0, 0)) + chunk(b"IDAT", data[:40])
+        + chunk(b"tEXt", b"a\x00b") + chunk(b"IDAT", data[40:]) + chunk(b"IEND", b""))
     for why, data in broken.items():
         assert decode_grey8(data) is None, why
         path = tmp_path / "broken.png"
@@ -117,3 +132,23 @@ def test_an_image_past_pillows_pixel_limit_is_left_to_its_bomb_check():
     grey = np.zeros((10, 10), np.uint8)
     assert decode_grey8(png(grey, [0] * 10), max_pixels=99) is None
     assert decode_grey8(png(grey, [0] * 10), max_pixels=100) is not None
+
+
+def test_a_header_past_the_specifications_range_is_left_to_pillow():
+    huge = SIGNATURE + chunk(b"IHDR", struct.pack(">IIBBBBB", 2**31, 2**31, 8, 0, 0, 0, 0)) + chunk(b"IDAT", zlib.compress(b"")) + chunk(b"IEND", b"")
+    assert decode_grey8(huge, max_pixels=None) is None
+
+
+def test_an_unreadable_file_is_an_input_error(tmp_path):
+    import os
+
+    path = tmp_path / "locked.png"
+    path.write_bytes(png(np.zeros((4, 4), np.uint8), [0] * 4))
+    path.chmod(0)
+    try:
+        if os.access(path, os.R_OK):
+            pytest.skip("running as a user who can read any file (root)")
+        with pytest.raises(InputError, match="cannot read image"):
+            read_image(path)
+    finally:
+        path.chmod(0o600)
