@@ -77,6 +77,8 @@ def pose_from_homography_unchecked(camera, Ipts, Wpts) -> np.ndarray:
     T = np.empty((4, 4))
     if not homography_pose(K, homography_dlt(Wpts[:2], Ipts), np.ascontiguousarray(Wpts[:2]), T):
         raise DegenerateGeometryError("no pose from the homography puts every target point in front of the camera")
+    if not np.all(np.isfinite(T)):  # r1 and r2 (nearly) parallel: no rotation is near them
+        raise DegenerateGeometryError("the homography gives no rotation (its first two columns are parallel)")
     return T
 
 

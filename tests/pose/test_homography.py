@@ -149,3 +149,14 @@ def test_points_on_both_sides_of_the_camera_are_refused(monkeypatch):
     monkeypatch.setattr(homography, "homography_dlt", lambda src, dst: H)
     with pytest.raises(DegenerateGeometryError, match="in front"):
         pose_from_homography(K, project(K, random_pose(np.random.default_rng(1)), WPTS), WPTS)
+
+
+def test_a_homography_with_parallel_plane_axes_is_refused_not_a_nan_pose(monkeypatch):
+    from graphpose.pose import homography
+
+    # The board's x and y axes imaged along one direction: r1 and r2 parallel, no rotation
+    # near [r1 r2 r1 x r2] (its determinant is 0), so the polar factor is NaN.
+    H = K @ np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    monkeypatch.setattr(homography, "homography_dlt", lambda src, dst: H)
+    with pytest.raises(DegenerateGeometryError, match="no rotation"):
+        pose_from_homography(K, project(K, random_pose(np.random.default_rng(1)), WPTS), WPTS)
