@@ -67,8 +67,8 @@ import time
 
 import numpy as np
 
-from benchmarks._common import (SAMPLES, match_to, mean, median, nees, opencv_classic, opencv_pnp, params_error,
-                                points, rms)
+from benchmarks._common import SAMPLES, match_to, mean, median, opencv_classic, opencv_pnp, points, rms
+from benchmarks.lens_nees import diagnosis, nees_block, nees_parts
 
 SIZE = (640, 480)
 NOISE, BLUR = 2.0, 1.0
@@ -115,30 +115,6 @@ def _opencv_pnp(cv2, camera, Ipts, Wpts):
     return opencv_pnp(cv2, K, Ipts, Wpts, dist=np.array(camera.distortion))
 
 
-def _nees(estimate, T):
-    """NEES of the whole pose, of its translation (3 on average) and of its rotation (3)."""
-    e = params_error(estimate.params, T)
-    C = estimate.cov
-    return nees(C, e), nees(C[:3, :3], e[:3]), nees(C[3:, 3:], e[3:])
-
-
-def _diagnosis(results, bias):
-    """What the NEES of a set of scenes is made of: its mean, its translation and rotation
-    parts (each 3 on average), the junction error per coordinate against truth beside the
-    pixel sigma the covariance used (its reprojection residuals'), and the noise-free junctions'
-    mean radial error (``bias``: per scene, px, positive outward), which a pose absorbs."""
-    solved = [r for r in results if r["solved"]]
-    if not solved:
-        return {"images": 0}
-    err = np.concatenate([r["junction_err"] for r in solved])
-    return {"images": len(solved), "nees_mean": mean([r["nees"] for r in solved]),
-            "nees_translation_mean": mean([r["nees_t"] for r in solved]),
-            "nees_rotation_mean": mean([r["nees_r"] for r in solved]),
-            "junction_error_per_coordinate_px": rms(err) / np.sqrt(2.0),
-            "sigma_px_rms": rms([r["sigma_px"] for r in solved]),
-            "noise_free_radial_error_px": mean([b for b in bias if np.isfinite(b)])}
-
-
 # --------------------------------------------------------------------------- 1, 2: rendered
 
 
@@ -178,7 +154,7 @@ def _ours(image, camera, board, truth, T):
     if np.nanmedian(err) > 5.0:
         return {"solved": False, "why": "mislabelled (junctions > 5 px from the truth)"}
     metres, degrees = pose_difference(est.T_WC, T)
-    whole, translation, rotation = _nees(est, T)
+    whole, translation, rotation = nees_parts(est, T)
     return {"solved": True, "junction_err": err[np.isfinite(err)], "found": int(np.isfinite(err).sum()),
             "pose": (metres, degrees), "nees": whole, "nees_t": translation, "nees_r": rotation,
             "sigma_px": float(est.sigma_px)}
@@ -328,7 +304,7 @@ def rendered(quick):
             "noise_free_junction_rms_px": {"raw": _nan_rms(bias_raw), "pinhole": _nan_rms(bias_pin)},
             "nees_mean": {"raw": mean([r_["nees"] for r_ in raw if r_["solved"]]),
                           "pinhole": mean([r_["nees"] for r_ in pinhole if r_["solved"]])},
-            "nees_diagnosis": {"raw": _diagnosis(raw, radial_raw), "pinhole": _diagnosis(pinhole, radial_pin)},
+            "nees_diagnosis": {"raw": diagnosis(raw, radial_raw), "pinhole": diagnosis(pinhole, radial_pin)},
         }
         # The pose's RMS error over its Cramer-Rao bound, raw against pinhole: how much of the raw
         # images' larger pose error is lost by the method rather than set by the lens.
@@ -359,7 +335,7 @@ def rendered(quick):
         "graphpose_raw": _summary(raw, [k for k in range(n_wide) if raw[k]["solved"]]),
         "on_both": {"scenes": len(both), "graphpose raw": _summary(raw, both), "OpenCV raw": _summary(peer, both)},
         "nees_mean": {"raw": mean([r_["nees"] for r_ in raw if r_["solved"]])},
-        "nees_diagnosis": {"raw": _diagnosis(raw, radial)},
+        "nees_diagnosis": {"raw": diagnosis(raw, radial)},
     }
     failures = {key: {why: value.count(why) for why in sorted(set(value))} for key, value in reasons.items()}
     nees = {"images": len(nees), "mean": mean(nees), "median": median(nees),
@@ -520,25 +496,6 @@ def main(quick: bool = False) -> dict:
     return out
 
 
-def _nees_block(rendered) -> dict:
-    """The NEES of each lens set beside what it is made of (:func:`_diagnosis`)."""
-    rows = []
-    for name in ("radtan", "fisheye", "fisheye whole field"):
-        for image, d in rendered[name]["nees_diagnosis"].items():
-            if d.get("images"):
-                rows.append([name, image, d["images"], d["nees_mean"], d["nees_translation_mean"],
-                             d["nees_rotation_mean"], d["junction_error_per_coordinate_px"], d["sigma_px_rms"],
-                             d["noise_free_radial_error_px"]])
-    return {"title": "NEES by lens set, and what it is made of",
-            "text": ("Translation and rotation parts: 3 each on average. The pixel sigma is the pose's own (from its "
-                     "reprojection residuals); beside it the junctions' error against the truth. The noise-free "
-                     "junctions' mean radial error (positive outward) is a bias the pose absorbs (a scale of the "
-                     "board's image: translation along the axis), which the residuals and so the sigma do not see."),
-            "values": {}, "columns": ["set", "image", "images", "NEES", "translation", "rotation",
-                                      "junction error px / coordinate", "sigma px", "noise-free radial px"],
-            "formats": ["", "", "d", ".2f", ".2f", ".2f", ".4f", ".4f", "+.4f"], "rows": rows}
-
-
 def section(out) -> dict:
     """The figures of :func:`main` as a section of the benchmark (the dict :mod:`benchmarks` describes)."""
     figures = [{"figure": g["figure"], "unit": "", "fmt": ".3g", "graphpose": g["value"], "peer_name": None,
@@ -574,7 +531,7 @@ def section(out) -> dict:
                                        "(chi-square(6): mean 6.00, median 5.35)."),
                "values": {"n": out["nees"]["images"], "mean": out["nees"]["mean"], "median": out["nees"]["median"]},
                "columns": None, "formats": None, "rows": None},
-              _nees_block(out["rendered"])]
+              nees_block(out["rendered"])]
     if isinstance(out["samples"], list):
         rows = [[r["image"], r.get("graphpose_rms_px"), r.get("opencv_rms_px"), r.get("vs_undistort_first_mm"),
                  r.get("vs_undistort_first_deg")] for r in out["samples"]]
