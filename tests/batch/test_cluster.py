@@ -118,13 +118,19 @@ def test_client_stopped_by_sigterm_flushes_its_rows_and_resumes(images, cluster,
 
 
 def kill_a_busy_worker(client, stream):
-    """The stream's first row, after which a worker with tasks in hand is killed (SIGKILL)."""
-    first = next(stream)
+    """The stream's rows up to the first after which a worker has tasks in hand, which is then
+    killed (SIGKILL). The stream keeps a few tasks in flight and submits more only when a row is
+    taken, so the workers are asked after each row: with fast images the few in flight at one
+    row may all be done before the question arrives."""
     pids = client.run(os.getpid)
-    busy = [address for address, keys in client.processing().items() if keys]
-    assert busy, "the run ended before a worker could be killed"
-    os.kill(pids[busy[0]], signal.SIGKILL)
-    return first
+    rows = []
+    for row in stream:
+        rows.append(row)
+        busy = [address for address, keys in client.processing().items() if keys]
+        if busy:
+            os.kill(pids[busy[0]], signal.SIGKILL)
+            return rows
+    raise AssertionError("the run ended before a worker could be killed")
 
 
 def test_a_worker_killed_mid_run_on_the_cluster(images, cluster):
@@ -134,7 +140,7 @@ def test_a_worker_killed_mid_run_on_the_cluster(images, cluster):
         client.wait_for_workers(2, timeout=60)
         stream = estimate_many(images.all_paths, images.K, images.board, bounds=images.bounds, client=client,
                                images_per_task=4)
-        rows = [kill_a_busy_worker(client, stream), *stream]
+        rows = [*kill_a_busy_worker(client, stream), *stream]
         check_rows(rows, images)
         client.wait_for_workers(2, timeout=60)
 
@@ -147,7 +153,7 @@ def test_an_image_whose_own_task_kills_its_worker_gets_a_crashed_row(images, clu
         paths = images.paths[:40]
         stream = estimate_many(paths, images.K, images.board, bounds=images.bounds, client=client,
                                images_per_task=1)
-        rows = [kill_a_busy_worker(client, stream), *stream]
+        rows = [*kill_a_busy_worker(client, stream), *stream]
         crashed = [r["image"] for r in rows if r["status"] == "crashed"]
         assert crashed and all("KilledWorker" in r["message"] for r in rows if r["status"] == "crashed")
         check_rows([r for r in rows if r["status"] != "crashed"], images,
