@@ -171,10 +171,11 @@ def _read_eight_bit(path: Path):
 
 def _pixels_of(im) -> np.ndarray:
     """The decoded pixels of an 8-bit grey (mode L) Pillow image as a read-only (H, W) uint8
-    array (as ``np.asarray`` of an image has always been): its own memory where Pillow exports it (:func:`graphpose._pixels.grey_view`, through
-    the Arrow C data interface: at 12 MP that spares a 10-20 ms copy and its 12 MB), else a
-    copy (``np.asarray``: a Pillow without the export, or an image whose rows Pillow keeps in
-    several memory blocks, over its 16 MB block size)."""
+    array (as ``np.asarray`` of an image has always been): its own memory where Pillow
+    exports it (:func:`graphpose._pixels.grey_view`, through the Arrow C data interface: at
+    12 MP that spares a 10-20 ms copy and its 12 MB), else a copy (``np.asarray``: a Pillow
+    without the export, or an image whose rows Pillow keeps in several memory blocks, over
+    its 16 MB block size)."""
     im.load()
     try:
         view = grey_view(*im.__arrow_c_array__(), im.size[1], im.size[0])

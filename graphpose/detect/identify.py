@@ -144,7 +144,7 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
         their first edge along a row (a quarter turn off, or another corner order). The
         message says which.
     """
-    keys = lattice.keys
+    keys = np.ascontiguousarray(lattice.keys, dtype=np.int64)  # as the kernels read them
     grid = KeyGrid.of(keys, lattice.points)
     step = float(median(lattice.step_lengths()))
     if len(lattice.keys) < board.n and step < MIN_PARTIAL_STEP_PX:
@@ -196,14 +196,15 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
 
 def _square_colours(view, grid, keys):
     """(dark parity of ``i + j`` of a square's upper-left key, mid grey, dark-light contrast),
-    from the squares whose four nodes (``keys`` (M, 2) on their :class:`KeyGrid`) are seen."""
+    from the squares whose four nodes (``keys`` (M, 2), C-contiguous int64, on their
+    :class:`KeyGrid`) are seen."""
     # Each key as a square's upper-left corner: its node, the next along i, along j, and both;
     # the squares with all four seen, their centres, first sides and parities in one compiled
     # call (``_identify.whole_squares``).
     n = len(keys)
     centres, steps, parity = np.empty((2, n)), np.empty(n), np.empty(n, dtype=np.int64)
     m = _identify.whole_squares(grid.array, int(grid.origin[0]), int(grid.origin[1]),
-                                np.ascontiguousarray(keys, dtype=np.int64), centres, steps, parity)
+                                keys, centres, steps, parity)
     if m == 0:
         raise BoardNotFoundError("the junctions found enclose no whole square of the board")
     centres, parity = centres[:, :m], parity[:m]
@@ -218,7 +219,8 @@ def _square_colours(view, grid, keys):
 
 
 def _side(view, grid, keys, side, dark_parity, mid, contrast) -> str:
-    """Evidence on one lattice side (see the module docstring).
+    """Evidence on one lattice side (see the module docstring); ``keys`` (M, 2) C-contiguous
+    int64, as :func:`identify` makes them for the kernels.
 
     Along the side, every outer square is sampled once (it must have the colour the
     lattice's parity gives it), and every square beyond it at several depths. Beyond the
@@ -240,7 +242,7 @@ def _side(view, grid, keys, side, dark_parity, mid, contrast) -> str:
     n = len(keys)
     P, rows, expect, steps = np.empty((n, 2, depths.size)), np.empty(n, np.int64), np.empty(n), np.empty(n)
     m = _identify.side_geometry(grid.array, int(grid.origin[0]), int(grid.origin[1]),
-                                np.ascontiguousarray(keys, dtype=np.int64), axis, direction, depths, FLAT_SIDE,
+                                keys, axis, direction, depths, FLAT_SIDE,
                                 int(dark_parity), P, rows, expect, steps)
     if m < 2:
         return "unknown"

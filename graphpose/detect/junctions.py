@@ -273,14 +273,11 @@ def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None, undis
     """Fit the grid homography to the refined points and decide what to trust.
 
     With a distorting ``lens`` the homography is fitted to, and judged on, the undistorted
-    positions (a planar grid is a homography only through a pinhole): ``undistorted`` (2, seen)
-    where the refinement gave them (:func:`graphpose.detect.refine.refine_points`), else the
-    lens's inversion of the points.
+    positions (a planar grid is a homography only through a pinhole): ``undistorted`` (2, seen),
+    as the refinement gave them (:func:`graphpose.detect.refine.refine_points`).
     """
     flat = points.copy()
     if lens is not None:  # unseen junctions stay NaN
-        if undistorted is None:
-            undistorted = lens.undistort_pixels(points[:, seen])
         # Only the junctions the refinement trusts are judged; each has its ray from its fit.
         flat[:, seen] = np.where(ok[seen], undistorted, np.nan)
     ok = ok & np.all(np.isfinite(flat), axis=0)
