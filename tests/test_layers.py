@@ -27,6 +27,8 @@ LAYERS = (
     ("geometry",),
     ("board", "camera_models", "image"),
     ("camera_params",),
+    # A rig of cameras and its stereo matrices (on the cameras and their parameters).
+    ("rig",),
     ("observations", "io"),
     # Junctions from an image, and a pose from points, know nothing of each other.
     ("detect", "pose", "synth"),
