@@ -165,11 +165,14 @@ def rig_parameter_names(cameras) -> tuple:
 def stereo_rectify(rig: Rig, i=0, j=1, *, zero_disparity: bool = True) -> dict:
     """OpenCV's ``stereoRectify`` of the pair (i, j), computed here (alpha -1: no scaling).
 
-    The steps of OpenCV's own: half of the relative rotation to each camera, then the
+    The steps of OpenCV 4's own: half of the relative rotation to each camera, then the
     rotation that brings the baseline onto x (or y, for a vertical pair); a common focal
-    length (the smaller ``K[1, 1]`` of the horizontal pair, shrunk by a barrel ``k1`` as
-    OpenCV does); each principal point that centres the image's undistorted corners
-    (with ``zero_disparity`` the two equal).
+    length (the mean of the pair's ``K[1, 1]``, ``K[0, 0]`` for a vertical pair); each
+    principal point that puts the mean of the image's undistorted corners ``(0, 0) ..
+    (width - 1, height - 1)`` at the image's centre ``((width - 1) / 2, (height - 1) / 2)``
+    (with ``zero_disparity`` the two equal). The corners are undistorted exactly
+    here; OpenCV stops after five iterations in single precision, so the principal points
+    may differ from its by a fraction of a pixel where the lens is strong.
 
     Returns
     -------
@@ -197,15 +200,10 @@ def stereo_rectify(rig: Rig, i=0, j=1, *, zero_disparity: bool = True) -> dict:
     R1 = wR @ r_r.T
     R2 = wR @ r_r
     t = R2 @ T
-    # The common focal length.
+    # The common focal length: the mean of the two K[1, 1] (K[0, 0] for a vertical pair), as
+    # OpenCV 4 does (new image size = the old).
     width, height = cam1.size if cam1.size is not None else (2 * cam1.cx + 1, 2 * cam1.cy + 1)
-    fc_new = np.inf
-    for cam in (cam1, cam2):
-        fc = cam.K[1 - idx, 1 - idx]
-        k1 = cam.distortion[0] if cam.model == "radtan" and cam.distortion.size else 0.0
-        if k1 < 0:
-            fc *= 1.0 + k1 * (width * width + height * height) / (4.0 * fc * fc)
-        fc_new = min(fc_new, fc)
+    fc_new = 0.5 * (cam1.K[1 - idx, 1 - idx] + cam2.K[1 - idx, 1 - idx])
     # Principal points that centre each image's undistorted corners.
     corners = np.array([[0.0, width - 1, 0.0, width - 1], [0.0, 0.0, height - 1, height - 1]])
     cc = []
