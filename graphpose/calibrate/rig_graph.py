@@ -35,6 +35,7 @@ from ..camera_params import camera_parameters, camera_with_parameters, projectio
 from ..errors import InputError
 
 from ..pose.graph import params_from_tangent_jacobian
+from ..pose.rig import hats, huber
 from .graph import _ABSOLUTE_TOL, _MAX_ITERATIONS, _POLISH_ITERATIONS, _POLISH_STEP, _RELATIVE_TOL
 
 
@@ -65,20 +66,6 @@ class RigGraph:
     message: str
 
 
-def _huber(r, jacobians, k):
-    """Each junction's error ``r`` (2, m) and Jacobians [(m, 2, n)] under Huber's kernel of
-    threshold ``k``: ``e = s r`` with ``s = sqrt(2 rho(a)) / a`` beyond ``k`` (``a = ||r||``), so
-    that ``||e||^2 / 2 = rho(a)``."""
-    a = np.hypot(r[0], r[1])
-    far = a > k
-    safe = np.where(far, a, 1.0)
-    root = np.sqrt(np.where(far, 2.0 * (k * a - 0.5 * k * k), 1.0))
-    s = np.where(far, root / safe, 1.0)
-    ds = np.where(far, (k * k - k * a) / (safe ** 3 * root), 0.0)
-    outer = (r.T[:, :, None] * r.T[:, None, :]) * ds[:, None, None]
-    return r * s, [s[:, None, None] * J + outer @ J for J in jacobians]
-
-
 def _factor(template, views, c, sigma, huber_k):
     """The custom factor of camera c over all its views ``[(v, uv, W)]``: keys ``(K(c)[, E(c)],
     X(v) for each view)``; one Python call per camera and linearisation, its projection in one
@@ -99,7 +86,7 @@ def _factor(template, views, c, sigma, huber_k):
             R, t = T.rotation().matrix(), T.translation()
             q = R.T @ (W - t[:, None])
             p0.append(q)
-            dX.append(np.concatenate([_hats(q), np.broadcast_to(-np.eye(3), (q.shape[1], 3, 3))], axis=2))
+            dX.append(np.concatenate([hats(q), np.broadcast_to(-np.eye(3), (q.shape[1], 3, 3))], axis=2))
         p0, dX = np.hstack(p0), np.concatenate(dX)
         p, dE = p0, None
         if c > 0:
@@ -107,7 +94,7 @@ def _factor(template, views, c, sigma, huber_k):
             Re, te = Te.rotation().matrix(), Te.translation()
             p = Re.T @ (p0 - te[:, None])
             dX = Re.T @ dX
-            dE = np.concatenate([_hats(p), np.broadcast_to(-np.eye(3), (m, 3, 3))], axis=2)
+            dE = np.concatenate([hats(p), np.broadcast_to(-np.eye(3), (m, 3, 3))], axis=2)
         with np.errstate(divide="ignore", invalid="ignore"):
             pred, G = camera.project_jacobian(p)
         if not np.all(np.isfinite(pred)):
@@ -121,7 +108,7 @@ def _factor(template, views, c, sigma, huber_k):
         if dE is not None:
             Js.append(G @ dE / sigma)
         if huber_k is not None:
-            r, Js = _huber(r, Js, huber_k)
+            r, Js = huber(r, Js, huber_k)
         if jacobians is not None:
             jacobians[0] = np.ascontiguousarray(Js[0].reshape(2 * m, -1))
             if dE is not None:
@@ -134,15 +121,6 @@ def _factor(template, views, c, sigma, huber_k):
         return r.T.ravel()
 
     return gtsam.CustomFactor(gtsam.noiseModel.Unit.Create(2 * m), keys, error)
-
-
-def _hats(P):
-    """``[p]_x`` for each column of P (3, m): (m, 3, 3), so that ``hat(p) w = p x w``."""
-    out = np.zeros((P.shape[1], 3, 3))
-    out[:, 0, 1], out[:, 0, 2] = -P[2], P[1]
-    out[:, 1, 0], out[:, 1, 2] = P[2], -P[0]
-    out[:, 2, 0], out[:, 2, 1] = -P[1], P[0]
-    return out
 
 
 def solve_rig_graph(cameras, T_C0_C, poses, observations, sigma: float, huber_k=None) -> RigGraph:

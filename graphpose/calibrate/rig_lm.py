@@ -8,7 +8,7 @@ at ``project_c(T_C0_C[c]^-1 T_WC0^-1 P_W)``; the cost is the one of :mod:`.rig_g
 ``sum_j rho(||r_j||)`` over every (view, camera, junction), ``rho`` Huber's of threshold
 ``huber_px`` (``e^2 / 2`` without one). The Jacobian is analytic (the camera's ``d uv / d P``,
 :func:`graphpose.camera_params.projection_jacobian_intrinsics`, and the Euler angles'
-partials ``dC/droll = C [e_x]``, ``dC/dpitch = C_z C_y [e_y] C_x``, ``dC/dyaw = [e_z] C``) and
+partials, :func:`graphpose.pose.rig.rig_points`) and
 the normal equations solved by the Schur complement of the views' poses (:func:`.lm._step`). Stopping and damping are
 those of :mod:`.lm`: the step below 1e-10 of every unknown's sigma, the cost's rounding
 judged as there.
@@ -22,11 +22,11 @@ import numpy as np
 
 from ..camera_params import camera_parameters, camera_with_parameters, projection_jacobian_intrinsics
 from ..errors import InputError
-from ..geometry import T_from_params, hat, params_from_T, rot_x, rot_y, rot_z
+from ..geometry import T_from_params, params_from_T
+from ..pose.rig import rig_points
 from ..pose.gauss_newton import _weights
 from .lm import _LAMBDA_MAX, _cost, _rounding, _step, _MAX_POLISH_STEPS, _ROUNDINGS, MAX_ITERATIONS, ROUNDING_SIGMAS, STEP_SIGMAS
 
-_E = np.eye(3)
 
 
 @dataclass(frozen=True)
@@ -63,13 +63,6 @@ class RigLM:
     message: str
 
 
-def _rotation_and_partials(rpy):
-    """C (3, 3) and dC/d(roll, pitch, yaw) (3, 3, 3) of C = Cz(yaw) Cy(pitch) Cx(roll)."""
-    Cx, Cy, Cz = rot_x(rpy[0]), rot_y(rpy[1]), rot_z(rpy[2])
-    C = Cz @ Cy @ Cx
-    return C, np.stack([C @ hat(_E[0]), Cz @ Cy @ hat(_E[1]) @ Cx, hat(_E[2]) @ C])
-
-
 def _layout(cameras, n_views):
     """Offsets: each camera's intrinsics, each further camera's extrinsics, each view's pose."""
     sizes = [camera_parameters(c).size for c in cameras]
@@ -84,25 +77,7 @@ def _points_in_camera(x, v, c, W, ext, view0):
     """Camera c's points (3, m) in view v and their derivatives (m, 3, 6) by the view's pose
     and (m, 3, 6) by camera c's extrinsics (None for camera 0)."""
     q = x[view0 + 6 * v: view0 + 6 * v + 6]
-    C, dC = _rotation_and_partials(q[3:])
-    D = W - q[:3, None]
-    p0 = C.T @ D
-    m = W.shape[1]
-    Jq = np.empty((m, 3, 6))
-    Jq[:, :, :3] = -C.T
-    for k in range(3):
-        Jq[:, :, 3 + k] = (dC[k].T @ D).T
-    if c == 0:
-        return p0, Jq, None
-    e = x[ext[c]: ext[c] + 6]
-    Ce, dCe = _rotation_and_partials(e[3:])
-    De = p0 - e[:3, None]
-    p = Ce.T @ De
-    Je = np.empty((m, 3, 6))
-    Je[:, :, :3] = -Ce.T
-    for k in range(3):
-        Je[:, :, 3 + k] = (dCe[k].T @ De).T
-    return p, Ce.T @ Jq, Je
+    return rig_points(q, W, e=x[ext[c]: ext[c] + 6] if c else None)
 
 
 def _evaluate(cameras, x, obs, layout):
