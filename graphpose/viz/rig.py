@@ -67,8 +67,10 @@ def plot_rig(calibration, path) -> None:
         ax.plot([0, T[0, 3]], [0, T[2, 3]], "k:", lw=0.8)
         ax.text(0.5 * T[0, 3], 0.5 * T[2, 3], f"{1000 * e['baseline_m']:.1f} +- {1000 * e['baseline_sigma_m']:.1f} mm",
                 fontsize=7)
+    mid = 0.5 * (centres[:, [0, 2]].min(axis=0) + centres[:, [0, 2]].max(axis=0))
+    ax.set_xlim(mid[0] - 0.8 * span, mid[0] + 0.8 * span)
+    ax.set_ylim(mid[1] - 0.6 * span, mid[1] + 1.0 * span)
     ax.set_aspect("equal")
-    ax.margins(0.3)
     ax.set_xlabel("x in camera 0's frame (m)")
     ax.set_ylabel("z, forward (m)")
     ax.set_title("the rig from above", fontsize=8)
