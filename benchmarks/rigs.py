@@ -224,7 +224,7 @@ def rig_pose(quick):
     from graphpose import Board, estimate_pose
     from graphpose.errors import BoardNotFoundError
     from graphpose.geometry import pose_difference
-    from graphpose.pose.rig import estimate_rig_pose
+    from graphpose.pipeline_rig import estimate_rig_pose
     from graphpose.synth.rig import rig_views
 
     board = Board(9, 6, SQUARE_M)

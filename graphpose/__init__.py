@@ -56,7 +56,7 @@ _EXPORTS = {
     "calibrate_rig": "calibrate.rig",
     "RigCalibration": "calibrate.rig",
     "Rig": "rig",
-    "estimate_rig_pose": "pose.rig",
+    "estimate_rig_pose": "pipeline_rig",
     "RigPoseEstimate": "pose.rig",
     "read_camera": "io.calibration",
     "write_camera": "io.calibration",

@@ -32,7 +32,7 @@ LAYERS = (
     ("observations", "io"),
     # Junctions from an image, and a pose from points, know nothing of each other.
     ("detect", "pose", "synth"),
-    ("pipeline",),
+    ("pipeline", "pipeline_rig"),
     ("io.records",),
     ("calibrate", "track", "batch", "viz"),
     ("cli",),

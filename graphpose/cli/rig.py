@@ -11,7 +11,7 @@ options here and hands the run here when ``--rig`` is given):
   RMS, each extrinsic as a baseline in mm and a rotation in degrees with their 1-sigma) and the
   plot (:func:`graphpose.viz.rig.plot_rig`).
 - ``graphpose estimate --camera rig.yaml --rig IMAGE0 IMAGE1 [...]``: one image per camera,
-  taken together; :func:`graphpose.pose.rig.estimate_rig_pose`, camera 0's pose.
+  taken together; :func:`graphpose.pipeline_rig.estimate_rig_pose`, camera 0's pose.
 """
 
 from __future__ import annotations
@@ -185,7 +185,7 @@ def format_rig_summary(calibration, out, fmt: str) -> str:
 def run_estimate(args) -> int:
     """``graphpose estimate --camera RIG --rig IMAGE0 IMAGE1 ...``; returns the exit code."""
     from ..io.files import dumps_json, write_json
-    from ..pose.rig import estimate_rig_pose
+    from ..pipeline_rig import estimate_rig_pose
     from . import error_line, exit_code
     from .options import check_output_folder
 

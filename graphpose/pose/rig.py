@@ -1,8 +1,8 @@
-"""The pose of a rig of cameras from one image per camera, taken together.
+"""The pose of a rig of cameras from every camera's junctions at once.
 
-:func:`estimate_rig_pose` finds each camera's junctions (:func:`graphpose.detect.junctions.extract_junctions`
-through that camera's lens), and solves for camera 0's pose in the target frame, ``T_WC0``,
-from every camera's junctions at once: a junction seen by camera c is predicted at
+:func:`graphpose.pipeline_rig.estimate_rig_pose` finds each camera's junctions (through that
+camera's lens) and calls :func:`estimate_rig_pose_from_points` here, which solves for camera 0's
+pose in the target frame, ``T_WC0``, from every camera's junctions at once: a junction seen by camera c is predicted at
 ``project_c(T_C0_C[c]^-1 T_WC0^-1 P_W)`` with the rig's cameras and extrinsics held fixed.
 A camera that does not see the board (a blank image, or None) gives nothing and the others go
 on; at least one must see it.
@@ -183,69 +183,6 @@ def _invert(T):
     return out
 
 
-def estimate_rig_pose(images, rig, board: Board = Board(), *, robust: bool = False) -> RigPoseEstimate:
-    """The rig's pose (camera 0's, in the target frame) from one image per camera.
-
-    Parameters
-    ----------
-    images : sequence
-        One raw image per camera of ``rig``, taken together: arrays, image files, or None
-        for a camera without one.
-    rig : Rig
-        The calibrated rig (:class:`graphpose.rig.Rig`, e.g. from
-        :func:`graphpose.io.calibration.read_camera` of a rig file).
-    board : Board
-    robust : bool
-        A Huber kernel (1.345 robust sigmas) in both solvers.
-
-    Returns
-    -------
-    RigPoseEstimate
-
-    Raises
-    ------
-    InputError
-        If ``rig`` is not a Rig, the images are not one per camera, or an image's size is not
-        its camera's.
-    BoardNotFoundError
-        If no camera sees the board.
-    """
-    from ..camera_models import check_image_size
-    from ..detect.junctions import extract_junctions
-    from ..image import read_image
-    from ..rig import Rig
-
-    if not isinstance(rig, Rig):
-        raise InputError(f"rig must be a graphpose Rig (a rig file read by read_camera), got {type(rig).__name__}")
-    check_board(board)
-    images = list(images)
-    if len(images) != len(rig):
-        raise InputError(f"images must give one image per camera of the rig: {len(rig)} cameras, {len(images)} images")
-    found, status, messages = [], [], []
-    W_all = board.world_points()
-    for c, image in enumerate(images):
-        if image is None:
-            found.append(None), status.append("no board"), messages.append("no image")
-            continue
-        name = str(image) if isinstance(image, (str,)) or hasattr(image, "suffix") else f"camera {c}'s image"
-        if not isinstance(image, np.ndarray):
-            image = read_image(image, as_float=False)
-        check_image_size(rig.cameras[c], image, name)
-        try:
-            J = extract_junctions(image, None, board, camera=rig.cameras[c])
-            if np.count_nonzero(J.trusted) < 6:
-                raise BoardNotFoundError(f"only {np.count_nonzero(J.trusted)} trusted junctions")
-        except BoardNotFoundError as exc:
-            found.append(None), status.append("no board"), messages.append(str(exc))
-            continue
-        found.append(J), status.append("used"), messages.append("")
-    if not any(s == "used" for s in status):
-        raise BoardNotFoundError("no camera of the rig sees the board: " + "; ".join(
-            f"camera {c}: {m}" for c, m in enumerate(messages)))
-    obs = [(c, J.points[:, J.trusted], W_all[:, J.trusted]) if J is not None else None for c, J in enumerate(found)]
-    return _solve(rig, obs, found, status, messages, robust, board)
-
-
 def _start(rig, obs, board):
     """The homography start of the camera with most junctions, carried to camera 0; the
     observations, relabelled by the half turn where a symmetric board's labels disagree."""
@@ -377,6 +314,35 @@ def _camera_factor(camera, T_C0_C, uv, W, key, sigma, huber_k):
         return r.T.ravel()
 
     return gtsam.CustomFactor(gtsam.noiseModel.Unit.Create(2 * m), [key], error)
+
+
+def estimate_rig_pose_from_points(rig, observations, board, *, robust: bool = False, junctions=None,
+                                  messages=None) -> RigPoseEstimate:
+    """The rig's pose from each camera's trusted junctions (no extraction).
+
+    Parameters
+    ----------
+    rig : Rig
+    observations : sequence
+        Per camera ``(uv (2, m), W (3, m))`` of its trusted junctions, or None where it saw no
+        board; at least one not None.
+    board : Board
+        The board (its half-turn symmetry decides whether labels may be relabelled).
+    robust : bool
+        A Huber kernel in both solvers.
+    junctions, messages : sequence, optional
+        Per camera, for the result: its Junctions and why it has none.
+
+    Returns
+    -------
+    RigPoseEstimate
+    """
+    obs = [None if o is None else (c, np.asarray(o[0], float), np.asarray(o[1], float))
+           for c, o in enumerate(observations)]
+    status = ["no board" if o is None else "used" for o in obs]
+    messages = list(messages) if messages is not None else ["" if o else "no junctions" for o in obs]
+    found = list(junctions) if junctions is not None else [None] * len(obs)
+    return _solve(rig, obs, found, status, messages, robust, board)
 
 
 def _solve(rig, obs, found, status, messages, robust, board):

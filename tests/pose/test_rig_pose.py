@@ -5,7 +5,8 @@ import pytest
 
 from graphpose import Board, BoardNotFoundError, InputError
 from graphpose.geometry import T_from_params, pose_difference
-from graphpose.pose.rig import estimate_rig_pose, rig_points
+from graphpose.pipeline_rig import estimate_rig_pose
+from graphpose.pose.rig import rig_points
 from graphpose.rig import Rig
 from graphpose.synth.calibration import radtan_camera
 
