@@ -326,8 +326,9 @@ def main(quick: bool = False) -> dict:
         ]
     blocks = [
         {"title": "Rendered rigs: each calibration", "text": (
-            "{solo} views showed the board to one camera only; calibrations that failed: {failed}. "
+            "{solo} views showed the board to one camera only; calibrations that failed: {failed} ({why}). "
             "Load average at the start {load:.2f}."), "values": {"solo": r["solo_views"], "failed": len(r["failed"]),
+                                                                "why": "; ".join(r["failed"])[:600] or "none",
                                                                 "load": load[0]},
          "columns": ["rig", "trial", "images with the board", "observations used", "RMS px", "solvers' difference",
                      "graphpose cam1 t mm", "graphpose cam1 rot deg", "OpenCV cam1 t mm", "OpenCV cam1 rot deg",

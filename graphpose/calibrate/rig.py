@@ -24,7 +24,9 @@ The steps (``docs/rigs.md``):
 
 The covariance is GTSAM's joint marginal of every camera's intrinsics and every extrinsic,
 scaled by the pixel noise the final residuals give, ``sqrt(sum w r^2 / (2M - N - 6n))``
-(N the rig's parameters, n the views).
+(N the rig's parameters, n the views), and by the Huber estimate's variance factor
+(:func:`huber_variance_factor`: the inverse weighted normal matrix alone understates the spread
+where junctions are down-weighted).
 """
 
 from __future__ import annotations
@@ -384,6 +386,28 @@ def calibrate_rig(sources=None, board: Board = Board(), model="radtan", *, frame
     return _result(view_names, views, keys, active, lm, graph, sigma0, status, message, rejected, calibrations)
 
 
+def huber_variance_factor(w, r2) -> float:
+    """The M-estimator's variance factor of the Huber kernel (Huber 1981, section 7.6):
+    ``(sum psi^2 / sum w r^2) / mean(psi')^2`` over the junctions, with ``psi = w r`` and
+    ``psi'`` the kernel's slope, 1 inside the threshold and, beyond it, 0 along the residual and
+    ``w`` across it (``w / 2`` per coordinate). It is 1 without down-weighted junctions; the
+    inverse weighted normal matrix times ``sigma^2`` alone understates the spread of a Huber
+    estimate where junctions are down-weighted.
+
+    Parameters
+    ----------
+    w : (M,) ndarray
+        Each junction's Huber weight.
+    r2 : (M,) ndarray
+        Each junction's squared residual norm, pixels^2.
+    """
+    wr2 = float(np.sum(w * r2))
+    if wr2 <= 0:
+        return 1.0
+    slope = float(np.mean(np.where(w >= 1.0, 1.0, 0.5 * w)))
+    return float(np.sum(w * w * r2) / wr2) / slope ** 2
+
+
 def _pack(obs):
     """The observations in the solvers' form: keys [(v, c)], the active views, and
     [(view index among the active, c, uv, W)]."""
@@ -400,10 +424,12 @@ def _result(view_names, views, keys, active, lm, graph, sigma0, status, message,
     w_all = np.concatenate(lm.weights)
     M = r_all.shape[1]
     dof = 2 * M - p_lm.size - 6 * len(active)
-    sigma = float(np.sqrt(np.sum(w_all * np.sum(r_all * r_all, axis=0)) / max(dof, 1)))
-    cov = graph.cov * (sigma / sigma0) ** 2
+    r2 = np.sum(r_all * r_all, axis=0)
+    sigma = float(np.sqrt(np.sum(w_all * r2) / max(dof, 1)))
+    factor = huber_variance_factor(w_all, r2)
+    cov = graph.cov * (sigma / sigma0) ** 2 * factor
     if not np.all(np.isfinite(cov)):
-        cov = lm.cov * sigma ** 2
+        cov = lm.cov * sigma ** 2 * factor
     sd = np.sqrt(np.abs(np.diag(cov)))
     difference = float(np.max(np.abs(p_g - p_lm) / np.maximum(np.abs(p_lm), sd)))
     converged = bool(graph.converged and lm.converged)
