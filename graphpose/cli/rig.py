@@ -12,6 +12,9 @@ options here and hands the run here when ``--rig`` is given):
   plot (:func:`graphpose.viz.rig.plot_rig`).
 - ``graphpose estimate --camera rig.yaml --rig IMAGE0 IMAGE1 [...]``: one image per camera,
   taken together; :func:`graphpose.pipeline_rig.estimate_rig_pose`, camera 0's pose.
+- ``graphpose track --camera rig.yaml --rig SOURCE0 SOURCE1 [...] [--tum OUT] [--json OUT]``:
+  each frame's rig pose on its own (no motion model or smoothing), in ``track``'s TUM and JSON
+  outputs, naming camera 0's pose.
 """
 
 from __future__ import annotations
@@ -257,5 +260,95 @@ def format_rig_pose(estimate, images, rig) -> str:
     return "\n".join(rows) + "\n"
 
 
-__all__ = ["add_calibrate_options", "add_estimate_options", "run_calibrate", "run_estimate", "rig_record",
+# --- track --rig ----------------------------------------------------------------------------
+
+
+def add_track_options(p) -> None:
+    """``--rig`` of ``graphpose track``."""
+    p.add_argument("--rig", nargs="+", metavar="SOURCE",
+                   help="track a rig: one SOURCE of frames per camera of the --camera rig file (a folder, a quoted "
+                   "glob, or a frame), camera 0 first, matched by the number in their names; each frame's rig pose "
+                   "(camera 0's T_WC) from every camera at once, frame by frame (no motion model or smoothing)")
+
+
+def run_track(args) -> int:
+    """``graphpose track --camera RIG --rig SOURCE0 SOURCE1 ...``: each frame's rig pose,
+    estimated on its own (:func:`graphpose.pipeline_rig.estimate_rig_pose`), written as ``track``
+    writes its trajectory (``--tum``: camera 0's pose; ``--json``: a record per frame)."""
+    from ..calibrate.frames import file_number, match_frames, source_files
+    from ..errors import BoardNotFoundError
+    from ..pipeline_rig import estimate_rig_pose
+    from ..track.frames import frame_timestamps, read_timestamps
+    from . import EXIT_FAILED
+    from .options import Progress, check_output_folder
+    from .track_output import JsonStream, TumStream
+
+    if args.frames:
+        raise UsageError("--rig takes the rig's frames itself (one SOURCE per camera): give no FRAMES")
+    unsupported = [name for name, given in (("--bounds", args.bounds is not None), ("--polygons", args.polygons),
+                                            ("--smooth", args.smooth), ("--plot", args.plot), ("--truth", args.truth),
+                                            ("--camera-name", getattr(args, "camera_name", None)))
+                   if given]
+    if unsupported:
+        raise UsageError(f"{', '.join(unsupported)}: not available with --rig, which estimates each frame's rig pose "
+                         "on its own (no motion model, no smoothing)")
+    for path, name in ((args.tum, "--tum"), (args.json, "--json")):
+        check_output_folder(path, name)
+    rig = rig_from_file(args.camera)
+    if len(args.rig) != len(rig):
+        raise UsageError(f"--rig needs one SOURCE per camera of {args.camera}: it holds {len(rig)} cameras "
+                         f"({', '.join(rig.names)}), got {len(args.rig)}")
+    files = [source_files(s, f"--rig source {c}") for c, s in enumerate(args.rig)]
+    views = match_frames([[file_number(f) for f in fs] for fs in files])
+    timestamps = None if args.timestamps is None else read_timestamps(args.timestamps, len(views))
+    seconds = frame_timestamps(timestamps, args.fps, len(views))
+    from ..board import Board
+
+    board = args.board if args.board is not None else Board()
+    tum = None if args.tum is None else TumStream(args.tum)
+    doc = None
+    progress = Progress(len(views), sys.stderr)
+    found = 0
+    try:
+        doc = None if args.json is None else JsonStream(args.json)
+        for k, group in enumerate(views):
+            images = [None if i is None else files[c][i] for c, i in enumerate(group)]
+            progress.show(k + 1, next(Path(p).name for p in images if p is not None))
+            try:
+                est = estimate_rig_pose(images, rig, board, robust=args.robust)
+                ok = est.ok
+            except BoardNotFoundError as exc:
+                est, ok, why = None, False, str(exc)
+            if ok:
+                found += 1
+                if tum is not None:
+                    tum.add(float(seconds[k]), est.T_WC)
+            if doc is not None:
+                record = {"index": k, "timestamp": float(seconds[k]), "status": "ok" if ok else "lost"}
+                if est is not None:
+                    record.update(rig_pose_record(est, images, rig, str(args.camera)))
+                else:
+                    record.update({"images": [None if p is None else str(p) for p in images], "message": why})
+                doc.add(record)
+        progress.clear()
+        if tum is not None:
+            tum.close(f"graphpose track --rig: the rig's pose (camera 0's T_WC in the target frame), each frame on its "
+                      f"own; {len(views) - found} lost frames have no line")
+        if doc is not None:
+            doc.close({"rig": str(args.camera), "pose_of": rig.names[0], "smoothed": False,
+                       "board": f"{board.cols}x{board.rows}x{board.square_m}"})
+    except BaseException:
+        progress.clear()
+        for out in (tum, doc):
+            if out is not None:
+                out.abort()
+        raise
+    if not args.quiet and args.json != "-":
+        print(f"graphpose track --rig: {found} of {len(views)} frames with the rig's pose ({rig.names[0]}'s T_WC), "
+              f"{len(views) - found} lost")
+    return EXIT_OK if found else EXIT_FAILED
+
+
+__all__ = ["add_calibrate_options", "add_estimate_options", "add_track_options", "run_calibrate", "run_estimate",
+           "run_track", "rig_record",
            "rig_pose_record", "rig_from_file"]

@@ -67,3 +67,18 @@ def test_rig_usage_errors(rig_file, tmp_path):
     done = graphpose("calibrate", "--rig", OPENCV_DIR / "left*.jpg", OPENCV_DIR / "right*.jpg", "--board", "9x6x0.025",
                      "--out", tmp_path / "r.yaml", "--format", "ros")
     assert done.returncode == 2 and "a rig is written as json, opencv, kalibr" in done.stderr
+
+
+def test_track_rig_writes_camera_0s_poses_frame_by_frame(rig_file, tmp_path):
+    out, _ = rig_file
+    done = graphpose("track", "--camera", out / "rig.yml", "--rig", OPENCV_DIR / "left0[1-4].jpg",
+                     OPENCV_DIR / "right0[1-4].jpg", "--board", "9x6x0.025", "--tum", tmp_path / "rig.tum", "--json",
+                     tmp_path / "rig.json")
+    assert done.returncode == 0, done.stderr
+    lines = [line for line in (tmp_path / "rig.tum").read_text().splitlines() if not line.startswith("#")]
+    doc = json.loads((tmp_path / "rig.json").read_text())
+    assert len(lines) == 4 and doc["pose_of"] == "cam0" and [f["status"] for f in doc["frames"]] == ["ok"] * 4
+    assert np.allclose([float(v) for v in lines[0].split()[1:4]], np.array(doc["frames"][0]["T_WC"])[:3, 3], atol=1e-8)
+    done = graphpose("track", "--camera", out / "rig.yml", "--rig", OPENCV_DIR / "left01.jpg", OPENCV_DIR / "right01.jpg",
+                     "--smooth")
+    assert done.returncode == 2 and "not available with --rig" in done.stderr
