@@ -17,7 +17,9 @@ junction). Its Jacobians: the camera's own ``d uv / d P`` and ``d uv / d p``
 (:mod:`graphpose.camera_models`, :mod:`graphpose.camera_params`) chained with GTSAM's right
 perturbations ``T Exp(omega, v)``: ``dP = P x omega - v`` for each pose. A view that only some
 cameras saw gives factors for those alone. No prior: the board's frame and camera 0's fix the
-gauge. After Levenberg-Marquardt, undamped Gauss-Newton steps polish as in :mod:`.graph`.
+gauge. After Levenberg-Marquardt, undamped Gauss-Newton steps polish as in :mod:`.graph`, until the
+step is below 1e-11 of the parameters' scale, or has stayed below :data:`ROUNDING_STEP` for five
+steps (the linearisation's rounding; a rig's extrinsics stall at a few 1e-11).
 The covariance is GTSAM's joint marginal of every ``K(c)`` and ``E(c)``, at ``sigma``, with the
 ``E`` blocks carried from GTSAM's tangent ``(omega, v)`` to ``(x, y, z, roll, pitch, yaw)``
 (:func:`graphpose.pose.graph.params_from_tangent_jacobian`).
@@ -37,6 +39,12 @@ from ..errors import InputError
 from ..pose.graph import params_from_tangent_jacobian
 from ..pose.rig import hats, huber
 from .graph import _ABSOLUTE_TOL, _MAX_ITERATIONS, _POLISH_ITERATIONS, _POLISH_STEP, _RELATIVE_TOL
+
+
+#: Polishing steps (relative for the intrinsics, metres and radians for the extrinsics) below
+#: this for :data:`_STALLED_STEPS` steps in a row count as converged at the rounding.
+ROUNDING_STEP = 1e-9
+_STALLED_STEPS = 5
 
 
 @dataclass(frozen=True)
@@ -168,7 +176,7 @@ def solve_rig_graph(cameras, T_C0_C, poses, observations, sigma: float, huber_k=
     nan = np.full((n, n), np.nan)
     try:
         result = optimizer.optimize()
-        polished = False
+        polished, stalled = False, 0
         for _ in range(_POLISH_ITERATIONS):
             delta = graph.linearize(result).optimize()
             result = result.retract(delta)
@@ -179,6 +187,12 @@ def solve_rig_graph(cameras, T_C0_C, poses, observations, sigma: float, huber_k=
                 if c > 0:
                     worst = max(worst, float(np.max(np.abs(delta.at(E(c))))))
             if worst < _POLISH_STEP:
+                polished = True
+                break
+            # At the linearisation's rounding the steps stop shrinking (a few 1e-11 of the
+            # parameters here): converged once they stay below ROUNDING_STEP.
+            stalled = stalled + 1 if worst < ROUNDING_STEP else 0
+            if stalled >= _STALLED_STEPS:
                 polished = True
                 break
         # 4. The joint marginal of the rig's parameters.
