@@ -17,12 +17,11 @@ The steps (``docs/rigs.md``):
 4. **Solve.** As :func:`graphpose.calibrate` does, on the whole rig: a plain solve, two Huber
    screening solves, and an observation (one camera in one view) whose RMS exceeds
    :data:`~graphpose.calibrate.run.REJECT_RATIO` times the median's is rejected (named) and the
-   rest solved again. Then the robust solve twice: the hand-written Levenberg-Marquardt
-   (:mod:`.rig_lm`) from the screening's fit, and GTSAM's graph (:mod:`.rig_graph`) from its
-   answer, as :func:`graphpose.estimate_pose` starts GTSAM at Gauss-Newton's: GTSAM's own
-   Levenberg-Marquardt and its polishing steps must stay there, every parameter within
-   :data:`~graphpose.calibrate.run.CROSS_CHECK_TOL` of ``max(|p|, sigma_p)``, or the
-   calibration is not ok.
+   rest solved again. Then the robust solve twice, from the screening's fit, as
+   :func:`graphpose.calibrate` does: GTSAM's graph (:mod:`.rig_graph`) and the hand-written
+   Levenberg-Marquardt (:mod:`.rig_lm`), each on its own path; they must land on the same
+   parameters, every one within :data:`~graphpose.calibrate.run.CROSS_CHECK_TOL` of
+   ``max(|p|, sigma_p)``, or the calibration is not ok.
 
 The covariance is GTSAM's joint marginal of every camera's intrinsics and every extrinsic,
 scaled by the pixel noise the final residuals give, ``sqrt(sum w r^2 / (2M - N - 6n))``
@@ -382,10 +381,10 @@ def calibrate_rig(sources=None, board: Board = Board(), model="radtan", *, frame
     keys, active, packed = _pack(obs)
     sigma0 = _mad_sigma(fit.residuals)
     report("solve", 1, 2)
-    # The hand-written solver from the screening's fit; GTSAM from its answer, which it must
-    # keep (as graphpose.estimate_pose holds GTSAM to Gauss-Newton's answer).
+    # Both solvers from the screening's fit, each on its own path (as graphpose.calibrate's):
+    # they must land on the same parameters.
+    graph = solve_rig_graph(fit.cameras, fit.T_C0_C, fit.poses, packed, sigma0, huber_k)
     lm = solve_rig_lm(fit.cameras, fit.T_C0_C, fit.poses, packed, huber_k * sigma0)
-    graph = solve_rig_graph(lm.cameras, lm.T_C0_C, lm.poses, packed, sigma0, huber_k)
     report("solve", 2, 2)
     return _result(view_names, views, keys, active, lm, graph, sigma0, status, message, rejected, calibrations)
 
