@@ -27,10 +27,12 @@ LAYERS = (
     ("geometry",),
     ("board", "camera_models", "image"),
     ("camera_params",),
+    # A rig of cameras and its stereo matrices (on the cameras and their parameters).
+    ("rig",),
     ("observations", "io"),
     # Junctions from an image, and a pose from points, know nothing of each other.
     ("detect", "pose", "synth"),
-    ("pipeline",),
+    ("pipeline", "pipeline_rig"),
     ("io.records",),
     ("calibrate", "track", "batch", "viz"),
     ("cli",),

@@ -62,7 +62,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         epilog=_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("images", nargs="+", type=Path, metavar="IMAGES",
+    p.add_argument("images", nargs="*", type=Path, metavar="IMAGES",
                    help="image files, or folders of them (name order)")
     p.add_argument("--board", type=parse_board, required=True, metavar="COLSxROWSxSQUARE_M",
                    help="inner junctions per row and per column, square side in metres (e.g. 9x6x0.03)")
@@ -81,11 +81,20 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="draw the residuals and the coverage and uncertainty map over the image "
                    "(needs the plot extra, matplotlib)")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary on stdout (errors still on stderr)")
+    from .rig import add_calibrate_options
+
+    add_calibrate_options(p)
     return p
 
 
 def run(args) -> int:
     """Run ``graphpose calibrate`` with parsed ``args``; returns the exit code."""
+    if getattr(args, "rig", None):
+        from .rig import run_calibrate
+
+        return run_calibrate(args)
+    if not args.images:
+        raise UsageError("give the images of the board (IMAGES), or --rig SOURCE0 SOURCE1 ... for a rig")
     from ..calibrate import calibrate
     from ..io.calibration import write_camera
     from ..io.camera_files import covariance_note

@@ -101,6 +101,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="draw junctions, reprojection, axes and pose on the image; a folder "
                    "(created if absent) holds one IMAGE_NAME.overlay.png per image")
     p.add_argument("-q", "--quiet", action="store_true", help="no report on stdout (errors still on stderr)")
+    from .rig import add_estimate_options
+
+    add_estimate_options(p)
     return p
 
 
@@ -121,6 +124,10 @@ class Job:
 
 def run(args) -> int:
     """Run ``graphpose estimate`` with parsed ``args``; returns the exit code."""
+    if getattr(args, "rig", None):
+        from .rig import run_estimate
+
+        return run_estimate(args)
     jobs, cases, source = _jobs(args)
     overlays = _overlay_paths(args.overlay, jobs) or [None] * len(jobs)
     check_output_folder(args.json, "--json")

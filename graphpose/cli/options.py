@@ -110,6 +110,9 @@ def camera_from_args(args, camera=None, board=None, source: str = ""):
             camera = read_camera(args.camera, name=getattr(args, "camera_name", None))
         except InputError as exc:
             raise InputError(f"--camera: {exc}") from None
+        if not hasattr(camera, "K"):  # a rig file (graphpose.rig.Rig): one camera is wanted here
+            raise UsageError(f"--camera {args.camera} holds a rig of {len(camera)} cameras ({', '.join(camera.names)}): "
+                             "pick one with --camera-name, or give the rig's images with --rig")
     elif args.K is not None:
         camera = PinholeCamera(args.K)
     elif camera is None:

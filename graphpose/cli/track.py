@@ -79,7 +79,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         epilog=_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("frames", nargs="+", type=Path, metavar="FRAMES", help="a folder of frames, or frame files in order")
+    p.add_argument("frames", nargs="*", type=Path, metavar="FRAMES", help="a folder of frames, or frame files in order")
     p.add_argument("--bounds", type=parse_bounds, metavar="U1,V1,U2,V2,U3,V3,U4,V4",
                    help="the board's bounding polygon in the first frame, pixels (default: search the "
                    "whole image, which finds a board that does not fill the frame)")
@@ -115,11 +115,22 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="the true trajectory (TUM), drawn by --plot and measured against in the summary "
                    "(default: FRAMES/truth.tum of a folder written by graphpose render-sequence)")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary on stdout")
+    from .rig import add_track_options
+
+    add_track_options(p)
     return p
 
 
 def run(args) -> int:
     """Run ``graphpose track`` with parsed ``args``; returns the exit code."""
+    if getattr(args, "rig", None):
+        from .rig import run_track
+
+        return run_track(args)
+    if not args.frames:
+        from . import UsageError
+
+        raise UsageError("give the frames (FRAMES: a folder or frame files), or --rig SOURCE0 SOURCE1 ... for a rig")
     from ..track.config import MotionPrior, TrackerConfig, default_lag_s
     from ..track.frames import frame_timestamps, list_frames, read_timestamps
     from ..track.tracker import track_frames

@@ -107,10 +107,12 @@ def read_camera(path, name: str | None = None) -> Camera:
 
     Returns
     -------
-    camera : Camera
+    camera : Camera or Rig
         :class:`~graphpose.camera_models.PinholeCamera`, :class:`~graphpose.camera_models.RadTanCamera`
         or :class:`~graphpose.camera_models.FisheyeCamera`, with the file's image size if it
-        gives one.
+        gives one; a :class:`graphpose.rig.Rig` for a rig file without ``name`` (a Kalibr
+        camchain with ``T_cn_cnm1``, an OpenCV stereo file, graphpose's rig JSON:
+        :mod:`graphpose.io.rig_files`), whose camera ``name`` (``cam0``, ``cam1``, ...) picks.
 
     Raises
     ------
@@ -128,7 +130,8 @@ def read_camera(path, name: str | None = None) -> Camera:
         raise InputError(f"cannot read calibration file {path}: {exc}") from None
     head = text.lstrip()
     if head.startswith("<"):
-        return _from_opencv(_parse_xml(text, path), path, name)
+        doc = _parse_xml(text, path)
+        return _rig_or(doc, path, name) or _from_opencv(doc, path, name)
     if head.startswith("{"):
         try:
             doc = json.loads(text)
@@ -139,6 +142,9 @@ def read_camera(path, name: str | None = None) -> Camera:
     if not isinstance(doc, dict):
         raise InputError(f"{path} is not a camera calibration: expected a mapping of keys, "
                          f"got {type(doc).__name__}")
+    rig = _rig_or(doc, path, name)
+    if rig is not None:
+        return rig
     if "model" in doc and "K" in doc:
         _no_name(name, path, "graphpose camera file")
         return camera_from_dict(doc, what=str(path))
@@ -153,6 +159,14 @@ def read_camera(path, name: str | None = None) -> Camera:
         f"{path} is no calibration format graphpose reads (OpenCV FileStorage YAML/XML with "
         f"camera_matrix, ROS camera_info, Kalibr camchain, graphpose JSON with model and K); "
         f"its top-level keys are {sorted(map(str, doc))[:12]}")
+
+
+def _rig_or(doc, path, name):
+    """A rig file's :class:`graphpose.rig.Rig` (or its camera ``name``), None for a camera file
+    (:mod:`graphpose.io.rig_files`)."""
+    from .rig_files import is_rig_document, rig_from_document
+
+    return rig_from_document(doc, path, name) if is_rig_document(doc) else None
 
 
 def _parse_yaml(text: str, path: Path):

@@ -73,8 +73,9 @@ def write_camera(path, camera, format: str = "json", *, name: str | None = None)
     ----------
     path : str or Path
         Destination; its folder must exist.
-    camera : Camera or (3, 3) array_like
-        The camera (a ``K`` is written as a pinhole camera).
+    camera : Camera, Rig or (3, 3) array_like
+        The camera (a ``K`` is written as a pinhole camera), or a rig of cameras in the
+        json, opencv (two cameras) or kalibr format (:mod:`graphpose.io.rig_files`).
     format : {"json", "opencv", "ros", "kalibr"}
         graphpose's JSON (with ``parameters`` and ``covariance`` when the camera carries a
         covariance), OpenCV FileStorage YAML, ROS camera_info YAML, Kalibr camchain YAML
@@ -90,6 +91,13 @@ def write_camera(path, camera, format: str = "json", *, name: str | None = None)
         why: e.g. a Kalibr radtan camera with k3 not zero), the camera is invalid, or the
         file cannot be written.
     """
+    from ..rig import Rig
+
+    if isinstance(camera, Rig):  # a rig's file (graphpose.io.rig_files)
+        from .rig_files import rig_text
+
+        atomic_write(path, rig_text(camera, format))
+        return
     if format not in FORMATS:
         raise InputError(f"unknown calibration file format {format!r}; graphpose writes "
                          f"{', '.join(FORMATS)}")

@@ -1,0 +1,230 @@
+"""The rig calibration's cross-check: a hand-written Levenberg-Marquardt over the rig's cost.
+
+Unknowns, in this order: every camera's intrinsic parameters ``p_c``
+(:func:`graphpose.calibrate.parameter_names`), every further camera's extrinsics ``e_c``
+(``T_C0_C[c]`` as ``(x, y, z, roll, pitch, yaw)``, :mod:`graphpose.geometry`) and every view's
+rig pose ``q_v`` (``T_WC0``, the same six). A junction seen by camera c in view v is predicted
+at ``project_c(T_C0_C[c]^-1 T_WC0^-1 P_W)``; the cost is the one of :mod:`.rig_graph`,
+``sum_j rho(||r_j||)`` over every (view, camera, junction), ``rho`` Huber's of threshold
+``huber_px`` (``e^2 / 2`` without one). The Jacobian is analytic (the camera's ``d uv / d P``,
+:func:`graphpose.camera_params.projection_jacobian_intrinsics`, and the Euler angles'
+partials, :func:`graphpose.pose.rig.rig_points`) and
+the normal equations solved by the Schur complement of the views' poses (:func:`.lm._step`). Stopping and damping are
+those of :mod:`.lm`: the step below 1e-10 of every unknown's sigma, the cost's rounding
+judged as there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..camera_params import camera_parameters, camera_with_parameters, projection_jacobian_intrinsics
+from ..errors import InputError
+from ..geometry import T_from_params, params_from_T
+from ..pose.rig import rig_points
+from ..pose.gauss_newton import _weights
+from .lm import _LAMBDA_MAX, _cost, _rounding, _step, _MAX_POLISH_STEPS, _ROUNDINGS, MAX_ITERATIONS, ROUNDING_SIGMAS, STEP_SIGMAS
+
+
+
+@dataclass(frozen=True)
+class RigLM:
+    """The hand-written solver's solution.
+
+    Attributes
+    ----------
+    cameras : list of Camera
+    T_C0_C : list of (4, 4) ndarray
+        Camera c's pose in camera 0's frame (the first the identity).
+    poses : list of (4, 4) ndarray
+        ``T_WC0`` per view.
+    cov : (N, N) ndarray
+        ``(J^T W J)^-1`` of the intrinsics and extrinsics (the rig's parameters, the views'
+        poses marginalised) at unit pixel noise.
+    residuals : list of (2, m) ndarray
+        Measured minus predicted pixels per observation.
+    weights : list of (m,) ndarray
+        Huber weight of each junction.
+    converged : bool
+    iterations : int
+    message : str
+    """
+
+    cameras: list
+    T_C0_C: list
+    poses: list
+    cov: np.ndarray
+    residuals: list
+    weights: list
+    converged: bool
+    iterations: int
+    message: str
+
+
+def _layout(cameras, n_views):
+    """Offsets: each camera's intrinsics, each further camera's extrinsics, each view's pose."""
+    sizes = [camera_parameters(c).size for c in cameras]
+    starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
+    P = int(starts[-1])
+    ext = {c: P + 6 * (c - 1) for c in range(1, len(cameras))}
+    view0 = P + 6 * (len(cameras) - 1)
+    return starts, ext, view0, view0 + 6 * n_views
+
+
+def _points_in_camera(x, v, c, W, ext, view0):
+    """Camera c's points (3, m) in view v and their derivatives (m, 3, 6) by the view's pose
+    and (m, 3, 6) by camera c's extrinsics (None for camera 0)."""
+    q = x[view0 + 6 * v: view0 + 6 * v + 6]
+    return rig_points(q, W, e=x[ext[c]: ext[c] + 6] if c else None)
+
+
+def _evaluate(cameras, x, obs, layout):
+    """Per observation: residuals (2m,) interleaved per junction, the prediction's Jacobian
+    in the rig's columns ``cols`` (2m, len(cols)) and in its view's pose (2m, 6); and the
+    smallest depth."""
+    starts, ext, view0, N = layout
+    parts = [_points_in_camera(x, v, c, W, ext, view0) for v, c, _, W in obs]
+    depth = min(float(np.min(p[2])) for p, _, _ in parts)
+    out = [None] * len(obs)
+    # One call of each camera's projection over all its views (per view, the calls'
+    # overhead was most of the time).
+    for c, camera in enumerate(cameras):
+        mine = [k for k, o in enumerate(obs) if o[1] == c]
+        if not mine:
+            continue
+        P = np.hstack([parts[k][0] for k in mine])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pred, G = camera.project_jacobian(P)
+            Jp = projection_jacobian_intrinsics(camera, P)
+        at = 0
+        for k in mine:
+            _, Jq, Je = parts[k]
+            uv = obs[k][2]
+            m = uv.shape[1]
+            Gk, Jk = G[at: at + m], Jp[at: at + m]
+            Jr = Jk if Je is None else np.concatenate([Jk, Gk @ Je], axis=2)
+            out[k] = ((uv - pred[:, at: at + m]).T.ravel(), Jr.reshape(2 * m, -1), (Gk @ Jq).reshape(2 * m, 6))
+            at += m
+    return out, depth
+
+
+def _columns(layout, obs):
+    """Each observation's columns among the rig's parameters: its camera's intrinsics, then
+    its extrinsics (cameras >= 1)."""
+    starts, ext, _, _ = layout
+    return [np.r_[starts[c]: starts[c + 1], ext[c]: ext[c] + 6] if c else np.arange(starts[0], starts[1])
+            for _, c, _, _ in obs]
+
+
+def _normal(views, obs, cols, n_rig, n_views, huber_px):
+    """The normal equations by blocks (:func:`.lm._step`'s form): U (n_rig, n_rig),
+    V (n, 6, 6), Wb (n, n_rig, 6), gp (n_rig,), ge (n, 6)."""
+    U, gp = np.zeros((n_rig, n_rig)), np.zeros(n_rig)
+    V, Wb, ge = np.zeros((n_views, 6, 6)), np.zeros((n_views, n_rig, 6)), np.zeros((n_views, 6))
+    for (r, Jr, Jq), (v, _, _, _), k in zip(views, obs, cols):
+        w = _weights(r, huber_px)
+        wr = r if w is None else w * r
+        Jrw = Jr if w is None else Jr * w[:, None]
+        U[np.ix_(k, k)] += Jrw.T @ Jr
+        gp[k] += Jr.T @ wr
+        V[v] += (Jq if w is None else Jq * w[:, None]).T @ Jq
+        Wb[v][k] += Jrw.T @ Jq
+        ge[v] += Jq.T @ wr
+    return U, V, Wb, gp, ge
+
+
+def _cameras(templates, x, starts):
+    return [camera_with_parameters(t, x[starts[c]: starts[c + 1]]) for c, t in enumerate(templates)]
+
+
+def solve_rig_lm(cameras, T_C0_C, poses, observations, huber_px=None,
+                 max_iterations: int = MAX_ITERATIONS) -> RigLM:
+    """Calibrate the rig by the hand-written Levenberg-Marquardt from a start.
+
+    Parameters
+    ----------
+    cameras : list of Camera
+        Starting cameras (models and sizes kept).
+    T_C0_C : list of (4, 4) ndarray
+        Starting extrinsics, the first the identity.
+    poses : list of (4, 4) ndarray
+        Starting ``T_WC0`` per view.
+    observations : list of (view, camera, uv (2, m), W (3, m))
+        Every (view, camera) with the board: its junctions' pixels and board points.
+    huber_px : float, optional
+        Huber threshold on each junction's 2-D error, pixels.
+    max_iterations : int
+
+    Returns
+    -------
+    RigLM
+    """
+    layout = _layout(cameras, len(poses))
+    starts, ext, view0, N = layout
+    cols = _columns(layout, observations)
+    x = np.concatenate([camera_parameters(c) for c in cameras]
+                       + [params_from_T(T) for T in T_C0_C[1:]] + [params_from_T(T) for T in poses])
+    views, _ = _evaluate(cameras, x, observations, layout)
+    cost = _cost(views, huber_px)
+    scale = np.concatenate([np.abs(uv).T.ravel() for _, _, uv, _ in observations])
+    lam, converged, message, it, polish = 0.0, False, "iteration cap reached", 0, 0
+    S = np.full((view0, view0), np.nan)
+    while it < max_iterations:
+        it += 1
+        blocks = _normal(views, observations, cols, view0, len(poses), huber_px)
+        try:
+            delta_gn, S, sd = _step(*blocks, 0.0)
+        except np.linalg.LinAlgError:
+            message = "normal equations singular (the views do not constrain the rig)"
+            break
+        if np.all(np.abs(delta_gn) <= STEP_SIGMAS * sd):
+            converged, message = True, "converged"
+            break
+        g = np.concatenate([blocks[3], blocks[4].ravel()])
+        rounding = _rounding(views, scale, huber_px)
+        polishing = 0.5 * (g @ delta_gn) <= rounding
+        if polishing:
+            polish += 1
+            if polish > _MAX_POLISH_STEPS:
+                converged = bool(np.all(np.abs(delta_gn) <= ROUNDING_SIGMAS * sd))
+                message = ("converged (step at the rounding limit)" if converged
+                           else "the steps at the cost's rounding do not converge")
+                break
+        try:
+            delta = delta_gn if lam == 0.0 or polishing else _step(*blocks, lam)[0]
+        except np.linalg.LinAlgError:
+            message = "damped normal equations singular"
+            break
+        x_new = x + delta
+        try:
+            trial = _cameras(cameras, x_new, starts)
+            views_new, z = _evaluate(trial, x_new, observations, layout)
+            cost_new = _cost(views_new, huber_px) if z > 0 else np.inf
+        except InputError:
+            cost_new = np.inf
+        if not np.isfinite(cost_new):
+            cost_new = np.inf
+        if cost_new < cost or (polishing and cost_new <= cost + rounding):
+            x, views, cost, cameras = x_new, views_new, cost_new, trial
+            lam = 0.0 if lam < 1e-6 else lam / 10.0
+        else:
+            lam = 1e-4 if lam == 0.0 else lam * 10.0
+            if lam > _LAMBDA_MAX:
+                converged = bool(np.all(np.abs(delta_gn) <= ROUNDING_SIGMAS * sd))
+                message = "converged (at the cost's rounding)" if converged else "damped steps cannot lower the cost"
+                break
+    residuals, weights = [], []
+    for r, _, _ in views:
+        m = r.size // 2
+        w = _weights(r, huber_px)
+        residuals.append(r.reshape(m, 2).T)
+        weights.append(np.ones(m) if w is None else w[0::2].copy())
+    try:
+        cov = np.linalg.inv(S)
+    except np.linalg.LinAlgError:
+        cov = np.full_like(S, np.nan)
+    T_out = [np.eye(4)] + [T_from_params(x[ext[c]: ext[c] + 6]) for c in range(1, len(cameras))]
+    poses = [T_from_params(x[view0 + 6 * v: view0 + 6 * v + 6]) for v in range(len(poses))]
+    return RigLM(list(cameras), T_out, poses, cov, residuals, weights, converged, it, message)
