@@ -234,7 +234,7 @@ def main(quick: bool = False) -> dict:
     """Measure the section; returns its goal, headline figures and detail blocks (:mod:`benchmarks`)."""
     import cv2
 
-    from benchmarks import long_track
+    from benchmarks import long_track, startup
 
     cv2.setNumThreads(1)
     rng = np.random.default_rng(11)
@@ -292,6 +292,10 @@ def main(quick: bool = False) -> dict:
         if rows:
             blocks.append(_per_image(f"Per image, in memory, extraction alone: {name} (median ms of {repeats} "
                                      "runs)", rows, subpix))
+    start_figure, start_block = startup.measure(REPO / "graphpose" / "data" / "synthetic_01.png", scaled_K((640, 480)),
+                                                3 if quick else 9)
+    figures.append(start_figure)
+    blocks.append(start_block)
     long_figures, long_block = long_track.measure(quick, cv2)
     figures += long_figures
     blocks.append(long_block)
