@@ -1,8 +1,6 @@
 """``python -m graphpose``: the command line (see :mod:`graphpose.cli`)."""
 
-import sys
-
-from .cli import main
+from .cli import entry
 
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

@@ -6,6 +6,7 @@ Pixel conventions are in :mod:`graphpose.geometry`.
 from __future__ import annotations
 
 import io
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -143,20 +144,20 @@ def _read_eight_bit(path: Path):
     """The file as uint8 grey: an 8-bit grey PNG by :func:`graphpose._png.decode_grey8`, any
     other file through Pillow's decoder; None when it is not 8-bit (or Pillow cannot open it:
     the general reader then says why)."""
-    from PIL import Image, UnidentifiedImageError
-
     source = path
     try:
         with open(path, "rb") as f:
             data = f.read(len(SIGNATURE))
             if data == SIGNATURE:  # a PNG: read whole, decoded here if it can be
                 data += f.read()
-                grey = decode_grey8(data, Image.MAX_IMAGE_PIXELS)
+                grey = decode_grey8(data, _pillow_pixel_limit())
                 if grey is not None:
                     return grey
                 source = io.BytesIO(data)  # Pillow reads the rest of PNG, from the bytes read
     except OSError:
         return None  # unreadable (permissions, a read error): the general reader says why
+    from PIL import Image, UnidentifiedImageError
+
     try:
         with Image.open(source) as im:
             if im.mode not in _EIGHT_BIT_MODES:
@@ -167,6 +168,17 @@ def _read_eight_bit(path: Path):
     except (UnidentifiedImageError, OSError, ValueError, SyntaxError, Image.DecompressionBombError):
         return None  # the general reader says why
     return grey
+
+
+#: Pillow's default decompression-bomb limit (``PIL.Image.MAX_IMAGE_PIXELS``, 1024^3 / 12 pixels).
+_PILLOW_PIXEL_LIMIT = 1024 * 1024 * 1024 // 4 // 3
+
+
+def _pillow_pixel_limit() -> int | None:
+    """``PIL.Image.MAX_IMAGE_PIXELS`` as the caller left it where Pillow is imported, else its
+    default: a grey PNG that graphpose decodes itself needs no Pillow import (30 ms)."""
+    image = sys.modules.get("PIL.Image")
+    return _PILLOW_PIXEL_LIMIT if image is None else image.MAX_IMAGE_PIXELS
 
 
 def _pixels_of(im) -> np.ndarray:

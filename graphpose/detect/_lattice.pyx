@@ -362,3 +362,34 @@ def step_lengths(const double[:, :, ::1] grid, int64_t oi, int64_t oj, const int
                         total = total + hypot(un - u, vn - v)
                         count += 1
             out[k] = total / count if count > 0 else NAN
+
+
+def nearest(const double[:, ::1] points, const int64_t[::1] queries, int64_t[:, ::1] out):
+    """``out[q]``: the ``out.shape[1]`` candidates nearest candidate ``queries[q]`` (among
+    ``points`` (2, N), itself included), nearest first, equal distances in index order; a
+    brute-force pass (a few hundred candidates, a few queries at a time). The squared
+    distances are ``du * du + dv * dv``, as a k-d tree sums them."""
+    cdef Py_ssize_t q, i, s, m = out.shape[1], filled
+    cdef double best[64]
+    cdef double d, du, dv, qu, qv
+    if m > 64:
+        raise ValueError(f"at most 64 neighbours, got {m}")
+    with nogil:
+        for q in range(queries.shape[0]):
+            qu, qv = points[0, queries[q]], points[1, queries[q]]
+            filled = 0
+            for i in range(points.shape[1]):
+                du = points[0, i] - qu
+                dv = points[1, i] - qv
+                d = du * du + dv * dv
+                if filled == m and not d < best[m - 1]:
+                    continue
+                s = filled if filled < m else m - 1
+                while s > 0 and d < best[s - 1]:  # insertion: an equal distance stays after
+                    best[s] = best[s - 1]
+                    out[q, s] = out[q, s - 1]
+                    s -= 1
+                best[s] = d
+                out[q, s] = i
+                if filled < m:
+                    filled += 1

@@ -266,7 +266,7 @@ def board_smoothing(image: np.ndarray, points: np.ndarray, square: np.ndarray, n
         return SMOOTH_SIGMA
     contrast = grey_range(crop, stride=2, tail=5.0)
     noise = estimate_noise(image) if noise is None else noise
-    return noise_smoothing(noise, contrast, float(np.nanmedian(square)))
+    return noise_smoothing(noise, contrast, median(square[~np.isnan(square)]))
 
 
 def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None, undistorted=None) -> Junctions:

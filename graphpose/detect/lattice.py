@@ -20,13 +20,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
-from skimage.measure import points_in_poly
 
 from ..errors import BoardNotFoundError
 from . import _lattice
 from .grid import fit_homography
-from .search import Candidates
+from .search import Candidates, in_polygon
 
 #: Ring-test radius as a fraction of the local lattice step.
 RING_FRACTION = 0.35
@@ -96,7 +94,6 @@ def grow_lattices(cands: Candidates, *, max_seeds: int = 60, max_nodes: int = 20
     """
     if cands.points.shape[1] < 3:
         return
-    tree = cKDTree(cands.points.T)
     buckets = _buckets(cands.points)
     taken = ~cands.seed
     tried = 0
@@ -112,7 +109,8 @@ def grow_lattices(cands: Candidates, *, max_seeds: int = 60, max_nodes: int = 20
         strength = float(cands.strength[k])
         if k not in neighbours:
             ahead = [n for n in order[rank:rank + 4 * _QUERY_AHEAD] if not taken[n]][:_QUERY_AHEAD]
-            _, nb = tree.query(cands.points[:, ahead].T, k=count)
+            nb = np.empty((len(ahead), count), dtype=np.int64)
+            _lattice.nearest(cands.points, np.array(ahead, dtype=np.int64), nb)
             neighbours.update(zip(ahead, nb[:, 1:]))
         cross = _seed_cross(cands, neighbours[k], k)
         if cross is None:
@@ -143,7 +141,7 @@ def _within(P: np.ndarray, points: np.ndarray, keys: np.ndarray) -> tuple:
     q = H @ np.vstack([box, np.ones(4)])
     if not (np.all(q[2] > 0) or np.all(q[2] < 0)):  # the box crosses the horizon
         return np.zeros(P.shape[1], dtype=bool), H
-    return points_in_poly(P.T, (q[:2] / q[2]).T), H
+    return in_polygon(P, q[:2] / q[2]), H
 
 
 def peel(nodes: dict) -> dict:

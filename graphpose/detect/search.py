@@ -187,9 +187,7 @@ def find_candidates(image: np.ndarray, region=None, *, level: int = 1, noise: fl
     points = np.vstack([s * (xs + dx + 1) + 0.5 * (s - 1), s * (ys + dy + 1) + 0.5 * (s - 1)])
     seed = np.ones(points.shape[1], dtype=bool)
     if region is not None and points.shape[1]:
-        from skimage.measure import points_in_poly
-
-        seed = points_in_poly(points.T, np.asarray(region, dtype=float).T)
+        seed = in_polygon(points, region)
     return Candidates(points, theta.astype(float), value.astype(float), seed, SearchImage(S, level, image), limited)
 
 
@@ -383,3 +381,25 @@ def _subpixel(r: np.ndarray, ys: np.ndarray, xs: np.ndarray):
         dx = np.where(dxx < 0, -0.5 * (r[ys, xp] - r[ys, xm]) / dxx, 0.0)
         dy = np.where(dyy < 0, -0.5 * (r[yp, xs] - r[ym, xs]) / dyy, 0.0)
     return np.clip(dx, -0.5, 0.5), np.clip(dy, -0.5, 0.5)
+
+
+def in_polygon(points: np.ndarray, polygon) -> np.ndarray:
+    """Which points lie inside a polygon or on its boundary.
+
+    Parameters
+    ----------
+    points : (2, N) array_like
+        Positions (u, v), pixels.
+    polygon : (2, V) array_like
+        The polygon's corners (u, v) in order (either turn), pixels.
+
+    Returns
+    -------
+    inside : (N,) ndarray of bool
+        True inside, on an edge, or within 1e-12 px of a corner (one compiled pass,
+        ``_search.in_polygon``: the crossing-number test).
+    """
+    P = np.ascontiguousarray(points, dtype=float).reshape(2, -1)
+    out = np.empty(P.shape[1], dtype=np.uint8)
+    _search.in_polygon(P, np.ascontiguousarray(polygon, dtype=float).reshape(2, -1), out)
+    return out.view(bool)

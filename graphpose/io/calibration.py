@@ -34,13 +34,12 @@ fits no model.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from ..camera_params import camera_parameters, parameter_names
 from ..camera_models import Camera, FisheyeCamera, PinholeCamera, RadTanCamera
@@ -63,10 +62,6 @@ _SUPPORTED = ("graphpose supports pinhole, radtan (OpenCV's radial-tangential, R
               "and rational_polynomial) and fisheye (OpenCV's fisheye, ROS/Kalibr equidistant)")
 
 
-class _OpenCVLoader(yaml.SafeLoader):
-    """PyYAML's safe loader with OpenCV's ``!!opencv-matrix`` tags understood."""
-
-
 def _opencv_matrix(loader, node):
     fields = loader.construct_mapping(node, deep=True)
     return _OpenCVMatrix(fields)
@@ -76,9 +71,19 @@ class _OpenCVMatrix(dict):
     """An ``!!opencv-matrix`` node: its mapping (rows, cols, dt, data), kept as it came."""
 
 
-for _tag in ("tag:yaml.org,2002:opencv-matrix", "!opencv-matrix",
-             "tag:yaml.org,2002:opencv-nd-matrix", "!opencv-nd-matrix"):
-    _OpenCVLoader.add_constructor(_tag, _opencv_matrix)
+@functools.lru_cache(maxsize=1)
+def _opencv_loader():
+    """PyYAML's safe loader with OpenCV's ``!!opencv-matrix`` tags understood (made, with
+    PyYAML imported, on the first YAML file: a command given ``--K`` reads none)."""
+    import yaml
+
+    class _OpenCVLoader(yaml.SafeLoader):
+        pass
+
+    for tag in ("tag:yaml.org,2002:opencv-matrix", "!opencv-matrix",
+                "tag:yaml.org,2002:opencv-nd-matrix", "!opencv-nd-matrix"):
+        _OpenCVLoader.add_constructor(tag, _opencv_matrix)
+    return _OpenCVLoader
 
 
 def _number(token) -> float:
@@ -174,13 +179,17 @@ def _parse_yaml(text: str, path: Path):
     if lines and lines[0].startswith("%YAML"):
         # OpenCV writes "%YAML:1.0", which is not YAML's directive syntax ("%YAML 1.1").
         lines = lines[1:]
+    import yaml
+
     try:
-        return yaml.load("\n".join(lines), Loader=_OpenCVLoader)
+        return yaml.load("\n".join(lines), Loader=_opencv_loader())
     except yaml.YAMLError as exc:
         raise InputError(f"cannot parse {path} as YAML: {exc}") from None
 
 
 def _parse_xml(text: str, path: Path) -> dict:
+    import xml.etree.ElementTree as ET
+
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:

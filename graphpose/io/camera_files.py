@@ -29,7 +29,6 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import yaml
 
 from ..camera_params import camera_parameters, parameter_names
 from ..camera_models import as_camera
@@ -185,6 +184,8 @@ def _ros(camera, name) -> str:
 
 def _yaml_string(text: str) -> str:
     """``text`` as one YAML scalar that reads back as that string."""
+    import yaml
+
     return yaml.safe_dump(str(text), default_style=None).splitlines()[0] if text else "''"
 
 

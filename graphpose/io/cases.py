@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -224,7 +223,7 @@ def bundled_cases_path() -> Path:
     :mod:`graphpose.synth.render`) ship as package data, so the example runs from an
     installed wheel as well as from a checkout.
     """
-    return Path(str(resources.files("graphpose") / "data" / "cases.json"))
+    return Path(__file__).resolve().parents[1] / "data" / "cases.json"  # the package is on disk
 
 
 def bundled_cases() -> CaseFile:

@@ -13,13 +13,12 @@ of the board. scikit-image draws no text: the text is written in the 5 x 9 bitma
 from __future__ import annotations
 
 import numpy as np
-from skimage import draw
-from skimage.measure import points_in_poly
 
 from .._checks import as_polygon
 from ..board import Board
 from ..geometry import to_camera
 from ..camera_models import as_camera, check_image_size
+from ..detect.search import in_polygon
 from ..image import as_grey
 from .font import HEIGHT, WIDTH, glyph
 
@@ -122,6 +121,14 @@ def draw_overlay(image, estimate, camera, board: Board = Board(), *, bounds=None
 # --- what is drawn -----------------------------------------------------------------------
 
 
+def _draw():
+    """:mod:`skimage.draw`, imported by the first picture (an estimate without
+    ``--overlay`` needs none of scikit-image)."""
+    from skimage import draw
+
+    return draw
+
+
 def _visible(camera, T, P) -> np.ndarray:
     """Projections (2, m) of the points of P (3, N) that lie in front of the camera and
     that its model images."""
@@ -161,7 +168,7 @@ def _draw_axes(canvas, camera, T, length, size) -> np.ndarray:
     tips = []
     if o.shape[1] == 0:
         return np.zeros((2, 0))
-    rr, cc = draw.disk((o[1, 0], o[0, 0]), 1.2 * size + 2, shape=canvas.shape[:2])
+    rr, cc = _draw().disk((o[1, 0], o[0, 0]), 1.2 * size + 2, shape=canvas.shape[:2])
     _blend(canvas, rr, cc, (255, 255, 255), 1.0)
     # z last: it points away from the camera, is drawn short and must stay on top.
     for axis, name in ((0, "x"), (1, "y"), (2, "z")):
@@ -222,12 +229,12 @@ def _text_box(canvas, lines, avoid, sheet, scale) -> None:
         if sheet is None:
             return points, 0
         gu, gv = np.meshgrid(np.arange(u0, u0 + w, 8.0), np.arange(v0, v0 + h, 8.0))
-        inside = points_in_poly(np.column_stack([gu.ravel(), gv.ravel()]), sheet.T)
+        inside = in_polygon(np.vstack([gu.ravel(), gv.ravel()]), sheet)
         return points, int(inside.sum())
 
     u0, v0 = min(corners, key=covered)
     u0, v0 = max(u0, 0), max(v0, 0)
-    rr, cc = draw.rectangle((v0, u0), extent=(h, w), shape=canvas.shape[:2])
+    rr, cc = _draw().rectangle((v0, u0), extent=(h, w), shape=canvas.shape[:2])
     _blend(canvas, rr, cc, (0, 0, 0), 0.65)
     for i, line in enumerate(lines):
         u = u0 + pad
@@ -277,13 +284,13 @@ def _line(canvas, p0, p1, colour, width, alpha=1.0) -> None:
         return
     (u0, v0), (u1, v1) = seg
     if width <= 1.0:
-        rr, cc, val = draw.line_aa(int(round(v0)), int(round(u0)), int(round(v1)), int(round(u1)))
+        rr, cc, val = _draw().line_aa(int(round(v0)), int(round(u0)), int(round(v1)), int(round(u1)))
         _blend(canvas, rr, cc, colour, alpha * val)
         return
     d = np.array([u1 - u0, v1 - v0])
     n = np.array([-d[1], d[0]]) / max(np.hypot(*d), 1e-9) * width / 2.0
     quad = np.array([[u0, v0] + n, [u1, v1] + n, [u1, v1] - n, [u0, v0] - n])
-    rr, cc = draw.polygon(quad[:, 1], quad[:, 0], shape=canvas.shape[:2])
+    rr, cc = _draw().polygon(quad[:, 1], quad[:, 0], shape=canvas.shape[:2])
     _blend(canvas, rr, cc, colour, 1.0)
 
 
@@ -299,13 +306,13 @@ def _arrow(canvas, p0, p1, colour, width) -> None:
     n = np.array([-d[1], d[0]])
     tri = np.array([p1, p1 - d * head + n * head * 0.45, p1 - d * head - n * head * 0.45])
     if np.all(np.abs(tri) < 1e5):
-        rr, cc = draw.polygon(tri[:, 1], tri[:, 0], shape=canvas.shape[:2])
+        rr, cc = _draw().polygon(tri[:, 1], tri[:, 0], shape=canvas.shape[:2])
         _blend(canvas, rr, cc, colour, 1.0)
 
 
 def _ring(canvas, u, v, radius, width, colour) -> None:
     for k in range(max(1, int(round(width)))):
-        rr, cc, val = draw.circle_perimeter_aa(int(round(v)), int(round(u)), int(round(radius)) - k)
+        rr, cc, val = _draw().circle_perimeter_aa(int(round(v)), int(round(u)), int(round(radius)) - k)
         _blend(canvas, rr, cc, colour, val)
 
 

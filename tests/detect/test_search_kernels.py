@@ -523,3 +523,48 @@ def test_the_noise_median_of_an_eight_bit_image_is_the_partitions(s):
         assert estimate_noise(image, stride=s) == pytest.approx(float(median) * _MAD_TO_SIGMA / 6.0, rel=1e-15)
         # The float path (the same responses, partitioned) agrees with the counted one.
         assert estimate_noise(image.astype(np.float32), stride=s) == estimate_noise(image, stride=s)
+
+
+def test_in_polygon_is_scikit_images_points_in_poly():
+    """The search's polygon test (seeds inside the bounds, candidates inside a lattice's box)
+    replaced scikit-image's ``points_in_poly``: the same verdicts inside, outside, on edges
+    and on corners, for convex and non-convex polygons of either turn."""
+    from skimage.measure import points_in_poly
+
+    from graphpose.detect.search import in_polygon
+
+    rng = np.random.default_rng(3)
+    for trial in range(60):
+        V = int(rng.integers(3, 8))
+        polygon = rng.uniform(0, 100, (2, V))
+        points = rng.uniform(-10, 110, (2, 300))
+        if trial % 2:  # whole numbers: many points on horizontal and vertical edges
+            polygon, points = np.round(polygon / 10) * 10, np.round(points / 10) * 10
+        a, i = rng.uniform(0, 1, 40), rng.integers(0, V, 40)
+        on_edges = polygon[:, i] * (1 - a) + polygon[:, (i + 1) % V] * a
+        points = np.hstack([points, on_edges, polygon])
+        np.testing.assert_array_equal(in_polygon(points, polygon), points_in_poly(points.T, polygon.T))
+    assert in_polygon(np.array([[5.0], [5.0]]), np.array([[0, 10, 10, 0], [0, 0, 10, 10.0]])).tolist() == [True]
+    assert in_polygon(np.array([[15.0], [5.0]]), np.array([[0, 10, 10, 0], [0, 0, 10, 10.0]])).tolist() == [False]
+
+
+def test_nearest_candidates_are_the_k_d_trees():
+    """A seed's neighbours (``_lattice.nearest``, brute force) replaced SciPy's k-d tree: the
+    same neighbours at the same distances, nearest first, equal distances in index order."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(4)
+    for trial in range(40):
+        P = rng.uniform(0, 640, (2, int(rng.integers(3, 600))))
+        if trial % 2:
+            P = np.round(P / 8) * 8  # many equal distances
+        k, queries = min(13, P.shape[1]), np.arange(min(16, P.shape[1]), dtype=np.int64)
+        out = np.empty((len(queries), k), dtype=np.int64)
+        _lattice.nearest(np.ascontiguousarray(P), queries, out)
+        d2 = ((P[:, None, :] - P[:, queries][:, :, None]) ** 2).sum(axis=0)
+        for q in range(len(queries)):
+            np.testing.assert_array_equal(out[q], np.lexsort((np.arange(P.shape[1]), d2[q]))[:k])
+        distance, tree = cKDTree(P.T).query(P[:, queries].T, k=k)
+        np.testing.assert_allclose(np.hypot(*(P[:, out] - P[:, queries][:, :, None])), distance, rtol=1e-14, atol=1e-12)
+        if trial % 2 == 0:
+            np.testing.assert_array_equal(out, tree)
