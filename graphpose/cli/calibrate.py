@@ -28,7 +28,7 @@ from ..errors import GraphposeError, InputError
 from ..io.camera_files import FORMATS
 from . import EXIT_OK, UsageError
 from .estimate import image_paths
-from .options import Progress, check_output_folder, parse_board
+from .options import BOARD_UNITS, Progress, check_output_folder, parse_board
 
 #: The models ``--model`` takes, and the formats of ``--format``.
 MODELS = tuple(CALIBRATION_MODELS)
@@ -65,7 +65,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("images", nargs="+", type=Path, metavar="IMAGES",
                    help="image files, or folders of them (name order)")
     p.add_argument("--board", type=parse_board, required=True, metavar="COLSxROWSxSQUARE_M",
-                   help="inner junctions per row and per column, square side in metres (e.g. 9x6x0.03)")
+                   help=f"inner junctions per row and per column, {BOARD_UNITS}")
     p.add_argument("--model", choices=MODELS, default="radtan",
                    help="the lens model: pinhole (none), radtan (OpenCV's k1, k2, p1, p2, k3) or "
                    "fisheye (OpenCV's k1..k4); default radtan")
