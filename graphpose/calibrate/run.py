@@ -43,7 +43,7 @@ from .._checks import check_number
 from ..board import check_board
 from ..board import Board
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
-from ..camera_params import camera_parameters, camera_with_parameters, model_class, parameter_names
+from ..camera_params import calibration_model, camera_parameters, camera_with_parameters, parameter_names
 from .result import Calibration
 
 #: An image whose RMS exceeds this many times the median image's is rejected.
@@ -144,11 +144,11 @@ def _mad_sigma(residuals):
     return max(1.4826 * float(np.median(np.abs(np.hstack(residuals)))), 1e-6)
 
 
-def _solve(camera, poses, obs, huber_k, final=True, plain=True):
+def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
     """Step 3 on the images ``obs`` (a dict image -> observation): the plain solve, the
     robust screening and the rejections, the robust solve twice (``final``; else only the
     screening's fit, which a pass before the last needs for its camera). Returns what the
-    result needs (``graph`` None when not ``final``)."""
+    result needs (``graph`` None when not ``final``). ``held``: the parameters held at 0."""
     from .graph import solve_graph
     from .lm import solve_lm
 
@@ -158,12 +158,12 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True):
         view = [obs[k] for k in keys]
         # From Zhang's start a plain fit first; from an earlier pass's camera the residuals
         # at the start (no iterations) set the first Huber threshold.
-        fit = solve_lm(camera, [poses[k] for k in keys], view, max_iterations=100 if plain else 0)
+        fit = solve_lm(camera, [poses[k] for k in keys], view, max_iterations=100 if plain else 0, held=held)
         # Robust screening: two Huber solves (the noise from the residuals' median each time)
         # give the majority's fit, against which an image that does not fit stands out (a
         # plain fit spreads one bad image's misfit over all of them).
         for _ in range(2):
-            fit = solve_lm(fit.camera, fit.poses, view, huber_k * _mad_sigma(fit.residuals))
+            fit = solve_lm(fit.camera, fit.poses, view, huber_k * _mad_sigma(fit.residuals), held=held)
         rms = np.array([_rms(r) for r in fit.residuals])
         limit = max(REJECT_RATIO * float(np.median(rms)), REJECT_FLOOR_PX)
         worst = int(np.argmax(rms))
@@ -179,8 +179,8 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True):
     start_poses = fit.poses
     if not final:
         return keys, rejected, None, fit, sigma0
-    graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k)
-    lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0)
+    graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k, held=held)
+    lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0, held=held)
     return keys, rejected, graph, lm, sigma0
 
 
@@ -196,7 +196,9 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
     board : Board
         The board in the images.
     model : str
-        ``"pinhole"``, ``"radtan"`` (OpenCV's five coefficients) or ``"fisheye"``.
+        ``"pinhole"``, ``"radtan"`` (OpenCV's five coefficients), ``"radtan4"`` (k1, k2, p1,
+        p2 with k3 held at 0: Kalibr's pinhole-radtan; the camera has four coefficients, k3's
+        row and column of the covariance are zero) or ``"fisheye"``.
     names : sequence of str, optional
         The images' names in messages; their file names, or ``image i``, by default.
     camera : Camera, optional
@@ -226,7 +228,7 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         the board (each image without one is named), or the views do not constrain the
         focal length (all boards parallel).
     """
-    cls = model_class(model)
+    cls, held = calibration_model(model)
     check_board(board)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
     del rng  # nothing is drawn
@@ -264,7 +266,8 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
 
     keys = sorted(obs)
     camera0, poses0 = start(cls.model, size, [obs[k][:2] for k in keys])
-    keys, rejected, graph, lm, sigma0 = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k, final=False)
+    keys, rejected, graph, lm, sigma0 = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k, final=False,
+                                                 held=held)
     report("solve", 1, 2)
 
     # 4. Passes with the camera: every image again, until no new board is found.
@@ -298,17 +301,18 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         obs = obs2
         last = not grew or pass_number == 1 + MAX_CAMERA_PASSES
         # Only the last pass's solve is the calibration: GTSAM and the cross-check run there.
-        keys, rejected, graph, lm, sigma0 = _solve(camera1, poses1, obs, huber_k, final=last, plain=False)
+        keys, rejected, graph, lm, sigma0 = _solve(camera1, poses1, obs, huber_k, final=last, plain=False,
+                                                     held=held)
         report("solve", pass_number, pass_number)
         if last:
             break
     return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
-                   "no camera" if camera is None else "with the given camera")
+                   "no camera" if camera is None else "with the given camera", held)
 
 
 def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
-            first_camera) -> Calibration:
-    P = len(cls.parameter_names)
+            first_camera, held) -> Calibration:
+    P = len(cls.parameter_names) - int(np.sum(held))  # the parameters estimated
     p_lm, p_g = camera_parameters(lm.camera), camera_parameters(graph.camera)
     r_all = np.hstack(lm.residuals)
     w_all = np.concatenate(lm.weights)
@@ -319,7 +323,7 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
     sd = np.sqrt(np.abs(np.diag(cov)))
     if not np.all(np.isfinite(cov)):
         sd = np.sqrt(np.abs(np.diag(np.linalg.pinv(lm.information)))) * sigma
-    scale = np.maximum(np.abs(p_lm), sd)
+    scale = np.where(held, 1.0, np.maximum(np.abs(p_lm), sd))  # a held parameter: 0 in both, sigma 0
     difference = float(np.max(np.abs(p_g - p_lm) / scale))
     converged = bool(graph.converged and lm.converged)
     ok = converged and difference <= CROSS_CHECK_TOL and np.all(np.isfinite(cov))
@@ -332,6 +336,8 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
             "tilt it by 20-50 degrees in different directions")
     camera = camera_with_parameters(graph.camera if ok else lm.camera, p_g if ok else p_lm,
                                     cov if np.all(np.isfinite(cov)) else None)
+    if np.any(held):  # radtan4: k3 held at 0, the camera written with k1, k2, p1, p2 (Kalibr's)
+        camera = type(camera)(camera.K, camera.distortion[:4], camera.size, camera.covariance)
     n = len(labels)
     status, message, poses, rms = [], [], [], np.full(n, np.nan)
     points, residuals = [], []

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from .._extras import require
+from ..camera_params import HELD_MODELS
 from ..camera_params import MODELS as CALIBRATION_MODELS
 from ..errors import GraphposeError, InputError
 from ..io.camera_files import FORMATS
@@ -31,7 +32,7 @@ from .estimate import image_paths
 from .options import BOARD_UNITS, Progress, check_output_folder, parse_board
 
 #: The models ``--model`` takes, and the formats of ``--format``.
-MODELS = tuple(CALIBRATION_MODELS)
+MODELS = (*CALIBRATION_MODELS, *HELD_MODELS)
 
 _EXAMPLES = """\
 examples:
@@ -39,12 +40,14 @@ examples:
   graphpose calibrate left*.jpg --board 9x6x0.03 --model radtan --out left.yml --format opencv \\
       --json report.json --plot calibration.png
   graphpose calibrate fisheye/ --board 8x6x0.0635 --model fisheye --out cam.yaml --format kalibr
+  graphpose calibrate left*.jpg --board 9x6x25mm --model radtan4 --out camchain.yaml --format kalibr
 
 IMAGES are image files or folders (a folder's image files in name order). --board gives the
 inner junctions per row and per column and the square side in metres. The camera file holds
 the intrinsics, the lens and the image size; the json format also holds the parameters'
 covariance, which 'graphpose estimate --camera FILE' then carries into every pose's sigmas.
-Kalibr's radtan keeps four coefficients, so --format kalibr takes --model pinhole or fisheye.
+Kalibr's radtan keeps four coefficients, so --format kalibr takes --model radtan4 (k1, k2,
+p1, p2 with k3 held at 0), pinhole or fisheye.
 exit codes: 0 calibrated, 1 the calibration failed (solvers not converged or disagreeing),
 2 bad usage or input (fewer than three images with a board, images of different sizes,
 views that do not constrain the focal length, ...)."""
@@ -67,8 +70,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--board", type=parse_board, required=True, metavar="COLSxROWSxSQUARE_M",
                    help=f"inner junctions per row and per column, {BOARD_UNITS}")
     p.add_argument("--model", choices=MODELS, default="radtan",
-                   help="the lens model: pinhole (none), radtan (OpenCV's k1, k2, p1, p2, k3) or "
-                   "fisheye (OpenCV's k1..k4); default radtan")
+                   help="the lens model: pinhole (none), radtan (OpenCV's k1, k2, p1, p2, k3), radtan4 "
+                   "(k1, k2, p1, p2, k3 held at 0: Kalibr's pinhole-radtan) or fisheye (OpenCV's k1..k4); "
+                   "default radtan")
     p.add_argument("--out", type=Path, required=True, metavar="CAMERA_FILE",
                    help="the calibrated camera's file (read by 'graphpose estimate --camera')")
     p.add_argument("--format", choices=FORMATS, default="json",
@@ -135,7 +139,8 @@ def _check_outputs(args) -> None:
     if args.format == "kalibr" and args.model == "radtan":
         raise UsageError("--format kalibr cannot hold --model radtan: Kalibr's radtan keeps four coefficients "
                          "(k1, k2, p1, p2) and graphpose's radtan calibrates k3 as well (OpenCV's five), which is "
-                         "never dropped; write --format json, opencv or ros, or calibrate --model fisheye or pinhole")
+                         "never dropped; calibrate --model radtan4 (k3 held at 0), or write --format json, opencv "
+                         "or ros")
     if args.plot is not None:
         if args.plot.suffix.lower() != ".png":
             raise UsageError(f"--plot: the picture is PNG, so the name must end in .png, got {args.plot}")
