@@ -168,7 +168,8 @@ def _run_one(job, camera, board, target, robust, overlay, report, progress):
         error, code = " ".join(str(exc).split()), exit_code(exc)
         picture = ""
         if overlay is not None and image is not None and estimate is None:
-            picture = _write_failure_overlay(overlay, image, error, job, board, progress)
+            picture = _write_failure_overlay(overlay, image, error, job, board, progress,
+                                             getattr(exc, "junctions_seen", 0))
         progress.clear()
         line = error_line(exc, "" if str(job.path) in str(exc) else job.name)
         print(f"{PROG}: error: {line}{picture}", file=sys.stderr, flush=True)
@@ -189,7 +190,7 @@ def _write_overlay(path: Path, image, estimate, camera, board, job) -> None:
     write_png(path, draw_overlay(image, estimate, camera, board, bounds=job.bounds, label=Path(job.name).name))
 
 
-def _write_failure_overlay(path: Path, image, reason: str, job, board, progress) -> str:
+def _write_failure_overlay(path: Path, image, reason: str, job, board, progress, seen: int = 0) -> str:
     """Draw the picture of an image without a pose: its bounds, what the search found, the
     reason (:func:`graphpose.viz.failure.draw_failure`); returns the words that add its path
     to the image's error line (a failure to write it is one more line, and no words)."""
@@ -197,7 +198,8 @@ def _write_failure_overlay(path: Path, image, reason: str, job, board, progress)
 
     try:
         _make_folder(path)
-        write_png(path, draw_failure(image, reason, bounds=job.bounds, board=board, label=Path(job.name).name))
+        write_png(path, draw_failure(image, reason, bounds=job.bounds, board=board, label=Path(job.name).name,
+                                       seen=seen))
     except GraphposeError as exc:
         progress.clear()
         print_error(exc, job.name)
