@@ -64,18 +64,24 @@ MAX_FOCAL_SIGMA = 0.05
 
 
 def _load(images, names):
-    """The images as arrays and their names; image files are read."""
+    """The images as arrays and their names; image files are read. A file that cannot be read
+    is None among the arrays, with its reason in the third dict (index -> reason): the others
+    go on."""
     from ..image import read_image
     from .._checks import check_image
 
     if isinstance(images, (str, Path)) or (isinstance(images, np.ndarray) and images.ndim == 2):
         raise InputError("images must be a sequence of images (arrays or file paths), not one image")
     images = list(images)
-    out, labels = [], []
+    out, labels, unreadable = [], [], {}
     for i, image in enumerate(images):
         if isinstance(image, (str, Path)):
             labels.append(Path(image).name)
-            out.append(read_image(image, as_float=False))
+            try:
+                out.append(read_image(image, as_float=False))
+            except InputError as exc:  # missing, corrupt, not an image: named, and the others go on
+                out.append(None)
+                unreadable[i] = " ".join(str(exc).split())
         else:
             labels.append(f"image {i}")
             out.append(check_image(image, f"image {i}"))
@@ -85,15 +91,19 @@ def _load(images, names):
             raise InputError(f"names must name every image: {len(out)} images, {len(labels)} names")
     if not out:
         raise InputError(f"calibrate needs images of the board, at least {MIN_IMAGES}; got none")
-    sizes = [(im.shape[1], im.shape[0]) for im in out]
-    if len(set(sizes)) > 1:
-        first = sizes[0]
-        other = next(k for k, s in enumerate(sizes) if s != first)
+    read = [k for k, im in enumerate(out) if im is not None]
+    if not read:
+        raise InputError(f"no image could be read: {labels[0]}: {unreadable[0]}"
+                         + (f" (and {len(out) - 1} more)" if len(out) > 1 else ""))
+    sizes = {k: (out[k].shape[1], out[k].shape[0]) for k in read}
+    if len(set(sizes.values())) > 1:
+        first = sizes[read[0]]
+        other = next(k for k in read if sizes[k] != first)
         raise InputError(
-            f"the images differ in size: {labels[0]} is {first[0]} x {first[1]} but {labels[other]} is "
+            f"the images differ in size: {labels[read[0]]} is {first[0]} x {first[1]} but {labels[other]} is "
             f"{sizes[other][0]} x {sizes[other][1]}; one calibration holds for one image size: give "
             "images of one camera at one resolution")
-    return out, labels, sizes[0]
+    return out, labels, sizes[read[0]], unreadable
 
 
 def _search(image, board):
@@ -232,7 +242,7 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
     check_board(board)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
     del rng  # nothing is drawn
-    images, labels, size = _load(images, names)
+    images, labels, size, unreadable = _load(images, names)
     report = progress or (lambda stage, done, total: None)
     n = len(images)
 
@@ -246,7 +256,7 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
     obs, found_in, why = {}, {}, {}
     searched = []  # each image's search, for every pass (it does not depend on the camera)
     for i, image in enumerate(images):
-        searched.append(_search(image, board))
+        searched.append((None, unreadable[i]) if image is None else _search(image, board))
         o, reason = _detect(searched[i], board, camera)
         if o is None:
             why[i] = reason
@@ -259,7 +269,7 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
                          f"needs at least {MIN_IMAGES} views at different tilts"
                          + (" (a fisheye's boards are found without a camera near the image's centre: "
                             "include views with the board there)" if cls.model == "fisheye" else "")
-                         + f". No board in: {missing}" + (" ..." if len(why) > 5 else ""))
+                         + (f". No board in: {missing}" + (" ..." if len(why) > 5 else "") if why else ""))
 
     # 2-3. Start and solve.
     from .zhang import start
@@ -307,11 +317,11 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         if last:
             break
     return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
-                   "no camera" if camera is None else "with the given camera", held)
+                   "no camera" if camera is None else "with the given camera", held, unreadable)
 
 
 def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
-            first_camera, held) -> Calibration:
+            first_camera, held, unreadable=None) -> Calibration:
     P = len(cls.parameter_names) - int(np.sum(held))  # the parameters estimated
     p_lm, p_g = camera_parameters(lm.camera), camera_parameters(graph.camera)
     r_all = np.hstack(lm.residuals)
@@ -362,7 +372,8 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
             rms[i] = _rms(fit.residuals)
             points.append(uv), residuals.append(fit.residuals)
         else:
-            status.append("no board"), message.append(why.get(i, "no board")), poses.append(None)
+            status.append("unreadable" if i in (unreadable or {}) else "no board")
+            message.append(why.get(i, "no board")), poses.append(None)
             points.append(np.zeros((2, 0))), residuals.append(np.zeros((2, 0)))
     used_r = np.hstack([r for r, s in zip(residuals, status) if s == "used"])
     if ok:

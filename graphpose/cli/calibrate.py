@@ -4,7 +4,7 @@ Turns the arguments into typed values (image files in order, a :class:`Board`, a
 name, an output format), checks every output before the work starts (folders, the ``plot``
 extra, whether the format can hold the model), calls :func:`graphpose.calibrate.calibrate`
 with a progress bar on stderr, and writes the camera file (:func:`graphpose.io.calibration.write_camera`),
-optionally the ``--json`` report (:func:`calibration_record`) and the ``--plot`` picture
+optionally the ``--report`` (alias ``--json``) (:func:`calibration_record`) and the ``--plot`` picture
 (:func:`graphpose.viz.calibration.plot_calibration`), and a summary on stdout.
 
 Exit codes: 0 calibrated; 1 the calibration failed (a solver did not converge, or the two
@@ -27,7 +27,7 @@ from ..camera_params import HELD_MODELS
 from ..camera_params import MODELS as CALIBRATION_MODELS
 from ..errors import GraphposeError, InputError
 from ..io.camera_files import FORMATS
-from . import EXIT_OK, UsageError
+from . import EXIT_OK, PROG, UsageError, exit_codes_help
 from .estimate import image_paths
 from .options import BOARD_UNITS, Progress, check_output_folder, parse_board
 
@@ -38,7 +38,7 @@ _EXAMPLES = """\
 examples:
   graphpose calibrate shots/ --board 9x6x0.03 --out camera.json
   graphpose calibrate left*.jpg --board 9x6x0.03 --model radtan --out left.yml --format opencv \\
-      --json report.json --plot calibration.png
+      --report report.json --plot calibration.png
   graphpose calibrate fisheye/ --board 8x6x0.0635 --model fisheye --out cam.yaml --format kalibr
   graphpose calibrate left*.jpg --board 9x6x25mm --model radtan4 --out camchain.yaml --format kalibr
 
@@ -48,9 +48,10 @@ the intrinsics, the lens and the image size; the json format also holds the para
 covariance, which 'graphpose estimate --camera FILE' then carries into every pose's sigmas.
 Kalibr's radtan keeps four coefficients, so --format kalibr takes --model radtan4 (k1, k2,
 p1, p2 with k3 held at 0), pinhole or fisheye.
-exit codes: 0 calibrated, 1 the calibration failed (solvers not converged or disagreeing),
-2 bad usage or input (fewer than three images with a board, images of different sizes,
-views that do not constrain the focal length, ...)."""
+An image file that cannot be read is named on stderr and left out; the others go on.
+""" + exit_codes_help("the calibration failed (solvers not converged or disagreeing)",
+                      "bad usage or input (fewer than three images with a board, images of different "
+                      "sizes, views that do not constrain the focal length, ...)")
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -78,9 +79,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--format", choices=FORMATS, default="json",
                    help="the camera file's format: graphpose's json (with the covariance; default), "
                    "OpenCV FileStorage YAML, ROS camera_info, Kalibr camchain")
-    p.add_argument("--json", metavar="REPORT.json",
+    p.add_argument("--report", "--json", dest="report", metavar="REPORT.json",
                    help="write the report: the camera, the covariance, the RMS and every image's status, "
-                   "message, RMS and pose ('-': stdout, no summary)")
+                   "message, RMS and pose ('-': stdout, no summary); --json is its old name")
     p.add_argument("--plot", type=Path, metavar="PNG",
                    help="draw the residuals and the coverage and uncertainty map over the image "
                    "(needs the plot extra, matplotlib)")
@@ -107,11 +108,14 @@ def run(args) -> int:
         calibration = calibrate(files, args.board, args.model, names=[str(f) for f in files], progress=show)
     finally:
         progress.clear()
+    for name, status, message in zip(calibration.images, calibration.status, calibration.message):
+        if status == "unreadable":  # named, and the others went on
+            print(f"{PROG} calibrate: warning: {message} (left out)", file=sys.stderr, flush=True)
     record = calibration_record(calibration)
-    if args.json == "-":
+    if args.report == "-":
         sys.stdout.write(dumps_json(record))
-    elif args.json is not None:
-        write_json(args.json, record)
+    elif args.report is not None:
+        write_json(args.report, record)
     if not calibration.ok:
         raise CalibrationFailed(f"{calibration.summary} (no camera file written)")
     write_camera(args.out, calibration.camera, format=args.format)
@@ -121,7 +125,7 @@ def run(args) -> int:
 
         plot_calibration(calibration, args.plot, title=f"graphpose calibrate: {args.model}, "
                          f"{calibration.status.count('used')} images")
-    if not args.quiet and args.json != "-":
+    if not args.quiet and args.report != "-":
         print(format_summary(calibration, args.out, args.format), flush=True)
     if note is not None:
         print(f"graphpose calibrate: note: {note}", file=sys.stderr)
@@ -134,7 +138,7 @@ class CalibrationFailed(GraphposeError):
 
 def _check_outputs(args) -> None:
     """Every output can be written and every option fits, before the work starts."""
-    for path, name in ((args.out, "--out"), (args.plot, "--plot"), (args.json, "--json")):
+    for path, name in ((args.out, "--out"), (args.plot, "--plot"), (args.report, "--report")):
         check_output_folder(path, name)
     if args.format == "kalibr" and args.model == "radtan":
         raise UsageError("--format kalibr cannot hold --model radtan: Kalibr's radtan keeps four coefficients "
@@ -159,12 +163,12 @@ def image_files(paths) -> list:
     files = image_paths(paths)
     missing = [path for path in files if not Path(path).is_file()]
     if missing:
-        raise InputError(f"image not found: {missing[0]}")
+        raise InputError(f"image file not found: {missing[0]}")
     return files
 
 
 def calibration_record(calibration) -> dict:
-    """The ``--json`` report of a calibration, JSON-ready.
+    """The ``--report`` of a calibration, JSON-ready.
 
     Returns
     -------
@@ -173,7 +177,7 @@ def calibration_record(calibration) -> dict:
         ``[width, height]``; ``parameters`` (``{name: value}``, the covariance's order);
         ``covariance`` (P x P); ``rms_px`` (``sqrt(mean(du^2 + dv^2))`` over the junctions
         used); ``images``: per image ``image``, ``status`` (``used``, ``rejected``, ``no
-        board``), ``message`` (null when there is nothing to say), ``rms_px`` (null without a
+        board``, ``unreadable``), ``message`` (null when there is nothing to say), ``rms_px`` (null without a
         board) and ``T_WC`` (4 x 4, the camera in the board's frame; null unless used).
     """
     from ..io.files import to_jsonable
@@ -211,12 +215,13 @@ def format_summary(calibration, out, fmt: str) -> str:
     """The readable summary of a calibration (several lines, no trailing newline)."""
     camera = calibration.camera
     status = list(calibration.status)
-    counts = {s: status.count(s) for s in ("used", "rejected", "no board")}
+    counts = {s: status.count(s) for s in ("used", "rejected", "no board", "unreadable")}
     used = [p for p, s in zip(calibration.points, status) if s == "used"]
     junctions = sum(p.shape[1] for p in used)
     rows = [
         f"{camera.model} camera, {camera.size[0]} x {camera.size[1]} pixels, from {len(status)} images: "
-        f"{counts['used']} used, {counts['rejected']} rejected, {counts['no board']} without a board",
+        f"{counts['used']} used, {counts['rejected']} rejected, {counts['no board']} without a board"
+        + (f", {counts['unreadable']} unreadable" if counts["unreadable"] else ""),
         f"  {'reprojection':16}{calibration.rms_px:.3f} px RMS over {junctions} junctions",
         f"  {'parameter':16}{'value':>14}{'1-sigma':>12}",
     ]

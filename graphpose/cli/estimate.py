@@ -28,7 +28,7 @@ from ..pipeline import estimate_pose
 from ..pose.estimate import pose_difference
 from ..pose.intrinsics import SIGMA_PIXEL
 from ..viz.overlay import draw_overlay
-from . import EXIT_OK, PROG, UsageError, error_line, exit_code, print_error
+from . import EXIT_OK, UsageError, error_line, exit_code, exit_codes_help, prefix, print_error
 from .options import (
     Progress,
     add_camera_option,
@@ -62,8 +62,7 @@ ambiguous (junction 0 is then the corner nearest the image's upper left). --came
 OpenCV YAML/XML, ROS camera_info, Kalibr (cam0) and graphpose's JSON calibrations; --K is
 a camera without distortion. POSE.json holds a 4 x 4 T_WC (camera pose in the target frame)
 as a nested list or as {"T_WC": [...]}.
-exit codes: 0 success, 1 an estimate failed (no board found, no convergence),
-2 bad usage or input."""
+""" + exit_codes_help("an estimate failed (no board found, no convergence; with many images: the worst)")
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -172,7 +171,7 @@ def _run_one(job, camera, board, target, robust, overlay, report, progress):
                                              getattr(exc, "junctions_seen", 0))
         progress.clear()
         line = error_line(exc, "" if str(job.path) in str(exc) else job.name)
-        print(f"{PROG}: error: {line}{picture}", file=sys.stderr, flush=True)
+        print(f"{prefix('estimate')}: error: {line}{picture}", file=sys.stderr, flush=True)
     record = result_record(str(job.path), estimate, error)
     record["vs_truth"] = _difference(estimate, job.true_T_WC)
     record["vs_reference"] = _difference(estimate, job.ref_T_WC)
@@ -202,7 +201,7 @@ def _write_failure_overlay(path: Path, image, reason: str, job, board, progress,
                                        seen=seen))
     except GraphposeError as exc:
         progress.clear()
-        print_error(exc, job.name)
+        print_error(exc, job.name, prog=prefix("estimate"))
         return ""
     return f" (its picture, with what was found: {path})"
 
