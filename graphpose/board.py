@@ -138,7 +138,7 @@ class Board:
             board = (int(cols), int(rows), square)
         except ValueError:
             raise InputError(
-                f"board must look like COLSxROWSxSQUARE with the square's side in metres, or in mm or cm "
+                f"board must look like COLSxROWSxSQUARE_M, the square's side in metres or in mm or cm "
                 f"written after it (e.g. 8x6x0.0635 or 8x6x63.5mm), got {text!r}"
             ) from None
         if square > MAX_SQUARE_M and not allow_large:

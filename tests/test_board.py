@@ -104,5 +104,5 @@ def test_allow_large_takes_a_wall_sized_board_and_is_not_part_of_its_identity():
     assert big.world_points()[0, 1] == 1.5
     assert Board.parse("9x6x1.5", allow_large=True) == big
     assert repr(big) == "Board(cols=9, rows=6, square_m=1.5)"
-    with pytest.raises(InputError, match="board must look like COLSxROWSxSQUARE"):
+    with pytest.raises(InputError, match="board must look like COLSxROWSxSQUARE_M"):
         Board.parse("9x6x25inch")

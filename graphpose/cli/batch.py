@@ -38,7 +38,8 @@ _EXAMPLES = """\
 examples:
   graphpose batch images/ --out results.parquet --camera left.opencv.yml --board 9x6x0.03
   graphpose batch 'campaign/**/*.png' list.txt --out results.jsonl --K 564.9,564.3,337.3,226.5 --workers 2
-  graphpose batch cam1/ --out cam1.parquet --camera camchain.yaml --camera-name cam1 --bounds-file cases.json
+  graphpose batch cam1/ --out cam1.parquet --camera camchain.yaml --camera-name cam1 --board 9x6x0.03 \\
+      --bounds-file bounds.json
   graphpose batch images/ --out /shared/results.parquet --scheduler tcp://HEAD:8786
 
 INPUTS are folders (their image files), glob patterns (quote them; ** crosses folders) or

@@ -40,7 +40,7 @@ examples:
   graphpose calibrate left*.jpg --board 9x6x0.03 --model radtan --out left.yml --format opencv \\
       --report report.json --plot calibration.png
   graphpose calibrate fisheye/ --board 8x6x0.0635 --model fisheye --out cam.yaml --format kalibr
-  graphpose calibrate left*.jpg --board 9x6x25mm --model radtan4 --out camchain.yaml --format kalibr
+  graphpose calibrate left*.jpg --board 9x6x25mm --model radtan4 --out left.camchain.yaml --format kalibr
 
 IMAGES are image files or folders (a folder's image files in name order). --board gives the
 inner junctions per row and per column and the square side in metres. The camera file holds

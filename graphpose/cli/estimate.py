@@ -49,7 +49,7 @@ examples:
   graphpose estimate                                  # the bundled example (data/cases.json)
   graphpose estimate board.png --K 564.9,564.3,337.3,226.5   # the board searched in the whole image
   graphpose estimate raw.jpg --camera left.opencv.yml --board 9x6x0.03   # a raw image, its lens
-  graphpose estimate left/ right01.jpg right02.jpg --camera cam.yml --json poses.json   # folders, images
+  graphpose estimate left/ right01.jpg right02.jpg --camera cam.yml --board 9x6x30mm --json poses.json
   graphpose estimate board.png --bounds 166,254,455,136,541,347,259,477 \\
       --K 564.9,564.3,337.3,226.5 --board 8x6x0.0635 --guess pose.json
   graphpose estimate --cases cases.json --json out.json --overlay overlays/
