@@ -79,7 +79,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--format", choices=FORMATS, default="json",
                    help="the camera file's format: graphpose's json (with the covariance; default), "
                    "OpenCV FileStorage YAML, ROS camera_info, Kalibr camchain")
-    p.add_argument("--report", "--json", dest="report", metavar="REPORT.json",
+    # dest json (the old name's): other code of the command (--rig) reads args.json.
+    p.add_argument("--report", "--json", dest="json", metavar="REPORT.json",
                    help="write the report: the camera, the covariance, the RMS and every image's status, "
                    "message, RMS and pose ('-': stdout, no summary); --json is its old name")
     p.add_argument("--plot", type=Path, metavar="PNG",
@@ -112,10 +113,10 @@ def run(args) -> int:
         if status == "unreadable":  # named, and the others went on
             print(f"{PROG} calibrate: warning: {message} (left out)", file=sys.stderr, flush=True)
     record = calibration_record(calibration)
-    if args.report == "-":
+    if args.json == "-":
         sys.stdout.write(dumps_json(record))
-    elif args.report is not None:
-        write_json(args.report, record)
+    elif args.json is not None:
+        write_json(args.json, record)
     if not calibration.ok:
         raise CalibrationFailed(f"{calibration.summary} (no camera file written)")
     write_camera(args.out, calibration.camera, format=args.format)
@@ -125,7 +126,7 @@ def run(args) -> int:
 
         plot_calibration(calibration, args.plot, title=f"graphpose calibrate: {args.model}, "
                          f"{calibration.status.count('used')} images")
-    if not args.quiet and args.report != "-":
+    if not args.quiet and args.json != "-":
         print(format_summary(calibration, args.out, args.format), flush=True)
     if note is not None:
         print(f"graphpose calibrate: note: {note}", file=sys.stderr)
@@ -138,7 +139,7 @@ class CalibrationFailed(GraphposeError):
 
 def _check_outputs(args) -> None:
     """Every output can be written and every option fits, before the work starts."""
-    for path, name in ((args.out, "--out"), (args.plot, "--plot"), (args.report, "--report")):
+    for path, name in ((args.out, "--out"), (args.plot, "--plot"), (args.json, "--report")):
         check_output_folder(path, name)
     if args.format == "kalibr" and args.model == "radtan":
         raise UsageError("--format kalibr cannot hold --model radtan: Kalibr's radtan keeps four coefficients "
