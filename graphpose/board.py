@@ -6,7 +6,8 @@ The target frame is stated in :mod:`graphpose.geometry`. Junction ``j = cols * r
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import re
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -25,17 +26,33 @@ class Board:
     rows : int
         Junctions along a column (the target's y axis); 6 by default.
     square_m : float
-        Side of one square in metres; 0.0635 by default.
+        Side of one square in metres; 0.0635 by default. Over :data:`MAX_SQUARE_M` (1 m) it is
+        refused as a length in millimetres typed as metres ("did you mean 25 mm (0.025)?"),
+        unless ``allow_large``.
+    allow_large : bool, keyword
+        Accept squares over 1 m (a board painted on a wall or a floor). Not part of the board's
+        identity: it compares, hashes and prints as the board without it.
+
+    Raises
+    ------
+    InputError
+        If ``cols`` or ``rows`` is not an integer >= 2, ``square_m`` not a finite number > 0,
+        or over 1 m without ``allow_large``.
     """
 
     cols: int = 8
     rows: int = 6
     square_m: float = 0.0635
+    allow_large: bool = field(default=False, compare=False, repr=False, kw_only=True)
 
     def __post_init__(self):
         for name in ("cols", "rows"):
             check_count(f"Board {name}", getattr(self, name), 2)
         check_number("Board square_m (metres)", self.square_m, 0.0, strict=True)
+        if self.square_m > MAX_SQUARE_M and not self.allow_large:
+            raise InputError(f"Board square_m is {self.square_m:g} m, over {MAX_SQUARE_M:g} m: "
+                             f"{millimetre_hint(self.square_m)} (for squares over {MAX_SQUARE_M:g} m "
+                             f"give Board(..., allow_large=True))")
 
     @property
     def n(self) -> int:
@@ -92,17 +109,43 @@ class Board:
         return np.vstack([c, r])
 
     @classmethod
-    def parse(cls, text: str) -> "Board":
-        """Read a board from ``"COLSxROWSxSQUARE_M"``, e.g. ``"8x6x0.0635"``."""
-        parts = str(text).lower().split("x")
+    def parse(cls, text: str, *, allow_large: bool = False) -> "Board":
+        """Read a board from ``"COLSxROWSxSQUARE"``.
+
+        The square's side is in metres, or in the unit written after it: ``mm``, ``cm`` or
+        ``m``. ``"9x6x0.025"``, ``"9x6x25mm"``, ``"9x6x2.5cm"`` and ``"9x6x0.025m"`` are the
+        same board.
+
+        Parameters
+        ----------
+        text : str
+            ``COLSxROWSxSQUARE[mm|cm|m]``, e.g. ``"8x6x0.0635"`` or ``"8x6x63.5mm"``.
+        allow_large : bool, keyword
+            Accept squares over 1 m (see :class:`Board`).
+
+        Raises
+        ------
+        InputError
+            If ``text`` is malformed, or a side over 1 m is given without ``allow_large``
+            (the message asks "did you mean 25 mm (0.025)?").
+        """
+        match = _BOARD_TEXT.fullmatch(str(text).strip().lower())
         try:
-            if len(parts) != 3:
+            if match is None:
                 raise ValueError
-            return cls(int(parts[0]), int(parts[1]), float(parts[2]))
+            cols, rows, value, unit = match.groups()
+            square = float(value) / _UNITS[unit]
+            board = (int(cols), int(rows), square)
         except ValueError:
             raise InputError(
-                f"board must look like COLSxROWSxSQUARE_M (e.g. 8x6x0.0635), got {text!r}"
+                f"board must look like COLSxROWSxSQUARE_M, the square's side in metres or in mm or cm "
+                f"written after it (e.g. 8x6x0.0635 or 8x6x63.5mm), got {text!r}"
             ) from None
+        if square > MAX_SQUARE_M and not allow_large:
+            raise InputError(f"board {text!r}: a square of {value} m is over {MAX_SQUARE_M:g} m; "
+                             f"{millimetre_hint(square)} (write {cols}x{rows}x{value}mm or "
+                             f"{cols}x{rows}x{float(value) / 1000:g})")
+        return cls(*board, allow_large=allow_large)
 
     @classmethod
     def from_world_points(cls, Wpts) -> "Board":
@@ -134,6 +177,21 @@ class Board:
                 "Wpts is not a row-major grid (s*c, s*r, 0) starting at the upper-left junction"
             )
         return board
+
+
+#: The largest square side (metres) a :class:`Board` takes without ``allow_large``: a bigger
+#: one is almost always millimetres typed as metres.
+MAX_SQUARE_M = 1.0
+
+#: ``COLSxROWSxSQUARE`` with an optional unit; how many of each unit make a metre (a division
+#: is exact where a product is not: 63.5 / 1000 is 0.0635, 63.5 * 0.001 is not).
+_BOARD_TEXT = re.compile(r"(\d+)x(\d+)x([0-9.eE+-]+)\s*(mm|cm|m)?")
+_UNITS = {None: 1.0, "m": 1.0, "cm": 100.0, "mm": 1000.0}
+
+
+def millimetre_hint(square_m: float) -> str:
+    """``"did you mean 25 mm (0.025)?"`` for a square side ``square_m`` given in metres."""
+    return f"did you mean {square_m:g} mm ({square_m / 1000:g})?"
 
 
 def check_board(board):

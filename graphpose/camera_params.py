@@ -40,6 +40,41 @@ from .errors import InputError
 MODELS = {"pinhole": PinholeCamera, "radtan": RadTanCamera, "fisheye": FisheyeCamera}
 
 
+#: Calibration models that hold some of a camera model's parameters at 0, not estimated: name ->
+#: (the camera model, the parameters held). ``radtan4`` is Kalibr's pinhole-radtan: OpenCV's
+#: radial-tangential camera with ``k1, k2, p1, p2`` and ``k3 = 0``.
+HELD_MODELS = {"radtan4": ("radtan", ("k3",))}
+
+
+def calibration_model(model: str):
+    """The camera class of a calibration model and the mask of its parameters held at 0.
+
+    Parameters
+    ----------
+    model : str
+        A model of :data:`MODELS`, or of :data:`HELD_MODELS` (``"radtan4"``).
+
+    Returns
+    -------
+    cls : type
+        The camera class.
+    held : (P,) ndarray of bool
+        True for each parameter (:func:`parameter_names` order) held at 0; all False for a
+        model of :data:`MODELS`.
+
+    Raises
+    ------
+    InputError
+        For a model graphpose does not know (the message names those it knows).
+    """
+    base, names = HELD_MODELS.get(model, (model, ())) if isinstance(model, str) else (model, ())
+    if not isinstance(base, str) or base not in MODELS:
+        raise InputError(f"unknown camera model {model!r}: graphpose's models are "
+                         f"{', '.join([*MODELS, *HELD_MODELS])}")
+    cls = MODELS[base]
+    return cls, np.isin(cls.parameter_names, names)
+
+
 def model_class(model: str) -> type:
     """The camera class of a model name, or InputError naming the models there are."""
     if not isinstance(model, str) or model not in MODELS:

@@ -79,3 +79,30 @@ def test_real_world_points_match_board(real_cases):
     W = np.asarray(json.loads((REAL_DIR / "cases.json").read_text())["world_points"])
     assert real_cases.board == Board()
     np.testing.assert_allclose(Board.from_world_points(W).world_points(), W, atol=1e-12)
+
+
+# --- units of the square's side (issue 26) ---------------------------------------------------
+
+
+@pytest.mark.parametrize("text", ["9x6x0.025", "9x6x25mm", "9x6x2.5cm", "9x6x0.025m", "9X6X25MM", " 9x6x25 mm "])
+def test_board_spec_takes_metres_millimetres_and_centimetres(text):
+    assert Board.parse(text) == Board(9, 6, 0.025)
+    assert Board.parse(text).square_m == 0.025  # exactly: the unit divides
+    assert Board.parse("8x6x63.5mm").square_m == Board().square_m
+
+
+def test_a_bare_side_over_one_metre_is_taken_for_millimetres_and_refused():
+    with pytest.raises(InputError, match=r"did you mean 25 mm \(0\.025\)\? \(write 9x6x25mm or 9x6x0\.025\)"):
+        Board.parse("9x6x25")
+    with pytest.raises(InputError, match=r"Board square_m is 25 m, over 1 m: did you mean 25 mm \(0\.025\)\?.*allow_large"):
+        Board(9, 6, 25.0)
+    assert Board.parse("9x6x1") == Board(9, 6, 1.0)  # 1 m itself is a (large) board
+
+
+def test_allow_large_takes_a_wall_sized_board_and_is_not_part_of_its_identity():
+    big = Board(9, 6, 1.5, allow_large=True)
+    assert big.world_points()[0, 1] == 1.5
+    assert Board.parse("9x6x1.5", allow_large=True) == big
+    assert repr(big) == "Board(cols=9, rows=6, square_m=1.5)"
+    with pytest.raises(InputError, match="board must look like COLSxROWSxSQUARE_M"):
+        Board.parse("9x6x25inch")

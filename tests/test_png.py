@@ -139,15 +139,26 @@ def test_a_header_past_the_specifications_range_is_left_to_pillow():
     assert decode_grey8(huge, max_pixels=None) is None
 
 
-def test_an_unreadable_file_is_an_input_error(tmp_path):
+def test_an_unreadable_file_is_an_input_error(tmp_path, monkeypatch):
+    import builtins
     import os
+    from pathlib import Path
 
     path = tmp_path / "locked.png"
     path.write_bytes(png(np.zeros((4, 4), np.uint8), [0] * 4))
     path.chmod(0)
     try:
         if os.access(path, os.R_OK):
-            pytest.skip("running as a user who can read any file (root)")
+            # Root reads any file: the read is refused as the system refuses it to another user
+            # (PermissionError from open), so the test runs as root too.
+            real_open = builtins.open
+
+            def refuse(file, *args, **kwargs):
+                if isinstance(file, (str, os.PathLike)) and Path(file) == path:
+                    raise PermissionError(13, "Permission denied", str(file))
+                return real_open(file, *args, **kwargs)
+
+            monkeypatch.setattr(builtins, "open", refuse)
         with pytest.raises(InputError, match="cannot read image"):
             read_image(path)
     finally:

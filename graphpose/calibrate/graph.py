@@ -87,7 +87,7 @@ class GraphCalibration:
     message: str = ""
 
 
-def _radtan_factor(uv, W, cal_key, pose_key, sigma, huber_k):
+def _radtan_factor(uv, W, cal_key, pose_key, sigma, huber_k, held=None):
     """One view's factor on the 9-vector calibration and the pose, vectorised over its m
     junctions; error (2m,) predicted - measured, whitened by ``sigma`` and, with ``huber_k``,
     scaled per junction so that half its squared norm is the Huber loss.
@@ -96,7 +96,8 @@ def _radtan_factor(uv, W, cal_key, pose_key, sigma, huber_k):
     ``e = s(a) r`` with ``s = 1`` up to ``k`` and ``s = sqrt(2 rho(a)) / a`` beyond, ``rho(a)
     = k a - k^2 / 2``: ``|e|^2 / 2 = rho(a)``, GTSAM's robust loss; the Jacobian is the exact
     derivative of ``e`` (``s`` is continuous with its derivative at ``k``), so the
-    stationary point is the Huber cost's.
+    stationary point is the Huber cost's. ``held`` (a (9,) bool mask) zeroes the Jacobian's
+    columns of parameters held at their value (``radtan4``'s k3).
     """
     measured = np.array(uv, dtype=float)
     W = np.array(W, dtype=float)
@@ -126,6 +127,8 @@ def _radtan_factor(uv, W, cal_key, pose_key, sigma, huber_k):
                           fx * (r2 + 2.0 * x * x), fx * x * r4 * r2], axis=1),
                 np.stack([zero, yd, zero, one, fy * y * r2, fy * y * r4, fy * (r2 + 2.0 * y * y),
                           2.0 * fy * x * y, fy * y * r4 * r2], axis=1)], axis=1) / sigma  # (m, 2, 9)
+            if held is not None:
+                Jc[:, :, held] = 0.0
             dr = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
             a00 = radial + 2.0 * x * x * dr + 2.0 * p1 * y + 6.0 * p2 * x
             a01 = 2.0 * x * y * dr + 2.0 * p1 * x + 2.0 * p2 * y
@@ -180,7 +183,7 @@ def _from_gtsam(values, camera):
     return np.array(values.atVector(KEY(0)))
 
 
-def solve_graph(camera, poses, observations, sigma: float, huber_k=None) -> GraphCalibration:
+def solve_graph(camera, poses, observations, sigma: float, huber_k=None, *, held=None) -> GraphCalibration:
     """Calibrate with a GTSAM graph from a start.
 
     Parameters
@@ -195,20 +198,30 @@ def solve_graph(camera, poses, observations, sigma: float, huber_k=None) -> Grap
         Pixel noise of every factor, pixels.
     huber_k : float, optional
         Huber threshold in sigmas; plain least squares when None.
+    held : (P,) array_like of bool, optional
+        Radial-tangential parameters held at the start's value (``radtan4``'s k3 at 0): no
+        factor's Jacobian moves them, a unit prior keeps the graph's system regular, and
+        their rows and columns of the covariance are zero.
 
     Returns
     -------
     GraphCalibration
     """
     p0 = camera_parameters(camera)
+    held = None if held is None or not np.any(held) else np.asarray(held, dtype=bool)
     graph = gtsam.NonlinearFactorGraph()
     initial = gtsam.Values()
     noise = gtsam.noiseModel.Isotropic.Sigma(2, sigma)
     if huber_k is not None:
         noise = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(huber_k), noise)
     cal = _gtsam_calibration(camera, p0)
+    if held is not None and cal is not None:
+        raise InputError(f"only the radtan model's parameters can be held, not the {camera.model}'s")
     if cal is None:
         initial.insert(KEY(0), p0)
+        if held is not None:
+            graph.add(gtsam.PriorFactorVector(KEY(0), p0, gtsam.noiseModel.Diagonal.Sigmas(
+                np.where(held, 1.0, _FREE_SIGMA))))
     else:
         initial.insert(KEY(0), cal)
         sigmas = np.full(cal.dim(), _FREE_SIGMA)
@@ -229,7 +242,7 @@ def solve_graph(camera, poses, observations, sigma: float, huber_k=None) -> Grap
     for i, ((uv, W, index), T) in enumerate(zip(observations, poses)):
         initial.insert(X(i), gtsam.Pose3(T))
         if cal is None:
-            graph.add(_radtan_factor(uv, W, KEY(0), X(i), sigma, huber_k))
+            graph.add(_radtan_factor(uv, W, KEY(0), X(i), sigma, huber_k, held))
             continue
         for k in range(uv.shape[1]):
             graph.add(factor(uv[:, k], noise, X(i), L(int(index[k])), KEY(0)))
@@ -255,6 +268,8 @@ def solve_graph(camera, poses, observations, sigma: float, huber_k=None) -> Grap
         cov = np.asarray(gtsam.Marginals(graph, result).marginalCovariance(KEY(0)))
         if cal is not None:
             cov = np.delete(np.delete(cov, 2, axis=0), 2, axis=1)
+        if held is not None:
+            cov[held, :], cov[:, held] = 0.0, 0.0
     except RuntimeError as exc:
         lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
         return GraphCalibration(camera, list(poses), nan, False, int(optimizer.iterations()),

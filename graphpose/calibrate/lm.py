@@ -163,7 +163,21 @@ def _step(U, V, Wb, gp, ge, lam):
     return np.concatenate([dp, de.ravel()]), S, sd
 
 
-def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = MAX_ITERATIONS) -> LMCalibration:
+def _hold(blocks, held):
+    """The normal equations ``blocks`` (:func:`_normal`) with the ``held`` parameters (a (P,)
+    bool mask, or None) out of them: their rows and columns zero but a unit diagonal, their
+    gradient zero, so that every step leaves them where they are."""
+    if held is None or not np.any(held):
+        return blocks
+    U, V, Wb, gp, ge = blocks
+    U, Wb, gp = U.copy(), Wb.copy(), gp.copy()
+    U[held, :], U[:, held], gp[held], Wb[:, held, :] = 0.0, 0.0, 0.0, 0.0
+    U[held, held] = 1.0
+    return U, V, Wb, gp, ge
+
+
+def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = MAX_ITERATIONS, *,
+             held=None) -> LMCalibration:
     """Calibrate by the hand-written Levenberg-Marquardt from a start.
 
     Parameters
@@ -178,11 +192,15 @@ def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = M
         Huber threshold on each junction's 2-D error, pixels.
     max_iterations : int
         Steps tried (accepted or not).
+    held : (P,) array_like of bool, optional
+        Parameters held at the start's value, not estimated (``radtan4``'s k3 at 0,
+        :func:`graphpose.camera_params.calibration_model`); their information rows are zero.
 
     Returns
     -------
     LMCalibration
     """
+    held = None if held is None else np.asarray(held, dtype=bool)
     P = camera_parameters(camera).size
     x = np.concatenate([camera_parameters(camera)] + [params_from_T(T) for T in poses])
     views, _ = _evaluate(camera, x, observations, P)
@@ -192,7 +210,7 @@ def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = M
     S = np.full((P, P), np.nan)
     while it < max_iterations:
         it += 1
-        blocks = _normal(views, huber_px, P)
+        blocks = _hold(_normal(views, huber_px, P), held)
         gp, ge = blocks[3], blocks[4]
         try:
             delta_gn, S, sd = _step(*blocks, 0.0)
@@ -247,4 +265,7 @@ def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = M
         residuals.append(r.reshape(m, 2).T)
         weights.append(np.ones(m) if w is None else w[0::2].copy())
     poses = [T_from_params(x[P + 6 * i: P + 6 * i + 6]) for i in range(len(observations))]
+    if held is not None and np.any(held):
+        S = S.copy()
+        S[held, :], S[:, held] = 0.0, 0.0  # no information: a held parameter is not estimated
     return LMCalibration(camera, poses, S, residuals, weights, converged, it, message)

@@ -25,7 +25,7 @@ from .._checks import check_number
 from ..camera_params import projection_jacobian_intrinsics
 
 #: Per-image statuses.
-STATUSES = ("used", "rejected", "no board")
+STATUSES = ("used", "rejected", "no board", "unreadable")
 
 
 @dataclass(frozen=True)
@@ -46,10 +46,11 @@ class Calibration:
         The images' names (file names, or ``image 0``, ``image 1``, ...).
     status : tuple of str
         Per image: ``"used"``, ``"rejected"`` (its residuals do not fit the others': see
-        ``message``) or ``"no board"``.
+        ``message``), ``"no board"`` or ``"unreadable"`` (a file that could not be read: the
+        others go on).
     message : tuple of str
-        Per image: in which pass its board was found, why it was rejected, or why no board
-        was found.
+        Per image: in which pass its board was found, why it was rejected, why no board
+        was found, or why the file could not be read.
     poses : tuple
         Per image ``T_WC`` (4, 4) (the camera in the board's frame) for used images, None
         for the others.

@@ -43,7 +43,7 @@ from .._checks import check_number
 from ..board import check_board
 from ..board import Board
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
-from ..camera_params import camera_parameters, camera_with_parameters, model_class, parameter_names
+from ..camera_params import calibration_model, camera_parameters, camera_with_parameters, parameter_names
 from .result import Calibration
 
 #: An image whose RMS exceeds this many times the median image's is rejected.
@@ -64,18 +64,24 @@ MAX_FOCAL_SIGMA = 0.05
 
 
 def _load(images, names):
-    """The images as arrays and their names; image files are read."""
+    """The images as arrays and their names; image files are read. A file that cannot be read
+    is None among the arrays, with its reason in the third dict (index -> reason): the others
+    go on."""
     from ..image import read_image
     from .._checks import check_image
 
     if isinstance(images, (str, Path)) or (isinstance(images, np.ndarray) and images.ndim == 2):
         raise InputError("images must be a sequence of images (arrays or file paths), not one image")
     images = list(images)
-    out, labels = [], []
+    out, labels, unreadable = [], [], {}
     for i, image in enumerate(images):
         if isinstance(image, (str, Path)):
             labels.append(Path(image).name)
-            out.append(read_image(image, as_float=False))
+            try:
+                out.append(read_image(image, as_float=False))
+            except InputError as exc:  # missing, corrupt, not an image: named, and the others go on
+                out.append(None)
+                unreadable[i] = " ".join(str(exc).split())
         else:
             labels.append(f"image {i}")
             out.append(check_image(image, f"image {i}"))
@@ -85,15 +91,19 @@ def _load(images, names):
             raise InputError(f"names must name every image: {len(out)} images, {len(labels)} names")
     if not out:
         raise InputError(f"calibrate needs images of the board, at least {MIN_IMAGES}; got none")
-    sizes = [(im.shape[1], im.shape[0]) for im in out]
-    if len(set(sizes)) > 1:
-        first = sizes[0]
-        other = next(k for k, s in enumerate(sizes) if s != first)
+    read = [k for k, im in enumerate(out) if im is not None]
+    if not read:
+        raise InputError(f"no image could be read: {labels[0]}: {unreadable[0]}"
+                         + (f" (and {len(out) - 1} more)" if len(out) > 1 else ""))
+    sizes = {k: (out[k].shape[1], out[k].shape[0]) for k in read}
+    if len(set(sizes.values())) > 1:
+        first = sizes[read[0]]
+        other = next(k for k in read if sizes[k] != first)
         raise InputError(
-            f"the images differ in size: {labels[0]} is {first[0]} x {first[1]} but {labels[other]} is "
+            f"the images differ in size: {labels[read[0]]} is {first[0]} x {first[1]} but {labels[other]} is "
             f"{sizes[other][0]} x {sizes[other][1]}; one calibration holds for one image size: give "
             "images of one camera at one resolution")
-    return out, labels, sizes[0]
+    return out, labels, sizes[read[0]], unreadable
 
 
 def _search(image, board):
@@ -144,11 +154,11 @@ def _mad_sigma(residuals):
     return max(1.4826 * float(np.median(np.abs(np.hstack(residuals)))), 1e-6)
 
 
-def _solve(camera, poses, obs, huber_k, final=True, plain=True):
+def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
     """Step 3 on the images ``obs`` (a dict image -> observation): the plain solve, the
     robust screening and the rejections, the robust solve twice (``final``; else only the
     screening's fit, which a pass before the last needs for its camera). Returns what the
-    result needs (``graph`` None when not ``final``)."""
+    result needs (``graph`` None when not ``final``). ``held``: the parameters held at 0."""
     from .graph import solve_graph
     from .lm import solve_lm
 
@@ -158,12 +168,12 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True):
         view = [obs[k] for k in keys]
         # From Zhang's start a plain fit first; from an earlier pass's camera the residuals
         # at the start (no iterations) set the first Huber threshold.
-        fit = solve_lm(camera, [poses[k] for k in keys], view, max_iterations=100 if plain else 0)
+        fit = solve_lm(camera, [poses[k] for k in keys], view, max_iterations=100 if plain else 0, held=held)
         # Robust screening: two Huber solves (the noise from the residuals' median each time)
         # give the majority's fit, against which an image that does not fit stands out (a
         # plain fit spreads one bad image's misfit over all of them).
         for _ in range(2):
-            fit = solve_lm(fit.camera, fit.poses, view, huber_k * _mad_sigma(fit.residuals))
+            fit = solve_lm(fit.camera, fit.poses, view, huber_k * _mad_sigma(fit.residuals), held=held)
         rms = np.array([_rms(r) for r in fit.residuals])
         limit = max(REJECT_RATIO * float(np.median(rms)), REJECT_FLOOR_PX)
         worst = int(np.argmax(rms))
@@ -179,8 +189,8 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True):
     start_poses = fit.poses
     if not final:
         return keys, rejected, None, fit, sigma0
-    graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k)
-    lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0)
+    graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k, held=held)
+    lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0, held=held)
     return keys, rejected, graph, lm, sigma0
 
 
@@ -196,7 +206,9 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
     board : Board
         The board in the images.
     model : str
-        ``"pinhole"``, ``"radtan"`` (OpenCV's five coefficients) or ``"fisheye"``.
+        ``"pinhole"``, ``"radtan"`` (OpenCV's five coefficients), ``"radtan4"`` (k1, k2, p1,
+        p2 with k3 held at 0: Kalibr's pinhole-radtan; the camera has four coefficients, k3's
+        row and column of the covariance are zero) or ``"fisheye"``.
     names : sequence of str, optional
         The images' names in messages; their file names, or ``image i``, by default.
     camera : Camera, optional
@@ -226,11 +238,11 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         the board (each image without one is named), or the views do not constrain the
         focal length (all boards parallel).
     """
-    cls = model_class(model)
+    cls, held = calibration_model(model)
     check_board(board)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
     del rng  # nothing is drawn
-    images, labels, size = _load(images, names)
+    images, labels, size, unreadable = _load(images, names)
     report = progress or (lambda stage, done, total: None)
     n = len(images)
 
@@ -244,7 +256,7 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
     obs, found_in, why = {}, {}, {}
     searched = []  # each image's search, for every pass (it does not depend on the camera)
     for i, image in enumerate(images):
-        searched.append(_search(image, board))
+        searched.append((None, unreadable[i]) if image is None else _search(image, board))
         o, reason = _detect(searched[i], board, camera)
         if o is None:
             why[i] = reason
@@ -257,14 +269,15 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
                          f"needs at least {MIN_IMAGES} views at different tilts"
                          + (" (a fisheye's boards are found without a camera near the image's centre: "
                             "include views with the board there)" if cls.model == "fisheye" else "")
-                         + f". No board in: {missing}" + (" ..." if len(why) > 5 else ""))
+                         + (f". No board in: {missing}" + (" ..." if len(why) > 5 else "") if why else ""))
 
     # 2-3. Start and solve.
     from .zhang import start
 
     keys = sorted(obs)
     camera0, poses0 = start(cls.model, size, [obs[k][:2] for k in keys])
-    keys, rejected, graph, lm, sigma0 = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k, final=False)
+    keys, rejected, graph, lm, sigma0 = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k, final=False,
+                                                 held=held)
     report("solve", 1, 2)
 
     # 4. Passes with the camera: every image again, until no new board is found.
@@ -298,17 +311,18 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         obs = obs2
         last = not grew or pass_number == 1 + MAX_CAMERA_PASSES
         # Only the last pass's solve is the calibration: GTSAM and the cross-check run there.
-        keys, rejected, graph, lm, sigma0 = _solve(camera1, poses1, obs, huber_k, final=last, plain=False)
+        keys, rejected, graph, lm, sigma0 = _solve(camera1, poses1, obs, huber_k, final=last, plain=False,
+                                                     held=held)
         report("solve", pass_number, pass_number)
         if last:
             break
     return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
-                   "no camera" if camera is None else "with the given camera")
+                   "no camera" if camera is None else "with the given camera", held, unreadable)
 
 
 def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
-            first_camera) -> Calibration:
-    P = len(cls.parameter_names)
+            first_camera, held, unreadable=None) -> Calibration:
+    P = len(cls.parameter_names) - int(np.sum(held))  # the parameters estimated
     p_lm, p_g = camera_parameters(lm.camera), camera_parameters(graph.camera)
     r_all = np.hstack(lm.residuals)
     w_all = np.concatenate(lm.weights)
@@ -319,7 +333,7 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
     sd = np.sqrt(np.abs(np.diag(cov)))
     if not np.all(np.isfinite(cov)):
         sd = np.sqrt(np.abs(np.diag(np.linalg.pinv(lm.information)))) * sigma
-    scale = np.maximum(np.abs(p_lm), sd)
+    scale = np.where(held, 1.0, np.maximum(np.abs(p_lm), sd))  # a held parameter: 0 in both, sigma 0
     difference = float(np.max(np.abs(p_g - p_lm) / scale))
     converged = bool(graph.converged and lm.converged)
     ok = converged and difference <= CROSS_CHECK_TOL and np.all(np.isfinite(cov))
@@ -332,6 +346,8 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
             "tilt it by 20-50 degrees in different directions")
     camera = camera_with_parameters(graph.camera if ok else lm.camera, p_g if ok else p_lm,
                                     cov if np.all(np.isfinite(cov)) else None)
+    if np.any(held):  # radtan4: k3 held at 0, the camera written with k1, k2, p1, p2 (Kalibr's)
+        camera = type(camera)(camera.K, camera.distortion[:4], camera.size, camera.covariance)
     n = len(labels)
     status, message, poses, rms = [], [], [], np.full(n, np.nan)
     points, residuals = [], []
@@ -356,7 +372,8 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
             rms[i] = _rms(fit.residuals)
             points.append(uv), residuals.append(fit.residuals)
         else:
-            status.append("no board"), message.append(why.get(i, "no board")), poses.append(None)
+            status.append("unreadable" if i in (unreadable or {}) else "no board")
+            message.append(why.get(i, "no board")), poses.append(None)
             points.append(np.zeros((2, 0))), residuals.append(np.zeros((2, 0)))
     used_r = np.hstack([r for r, s in zip(residuals, status) if s == "used"])
     if ok:

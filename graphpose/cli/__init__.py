@@ -7,9 +7,11 @@ exit code. :data:`SUBCOMMANDS` lists them; :func:`main` calls the chosen module'
 ``graphpose`` with no argument at all runs ``graphpose estimate`` on the bundled example.
 
 Exit codes: 0 success; 1 an estimate failed (no board found, no convergence); 2 bad usage or
-input (malformed option, missing or unreadable file); 130 interrupted. Errors that graphpose
-raises on purpose (:class:`graphpose.errors.GraphposeError`) and argument errors become one
-line on stderr; anything else is a bug and keeps its traceback.
+input (malformed option, missing or unreadable file); 130 interrupted (every ``--help``
+says so: :func:`exit_codes_help`). Errors that graphpose raises on purpose
+(:class:`graphpose.errors.GraphposeError`) and argument errors become one line on stderr,
+prefixed ``graphpose COMMAND:`` (:func:`prefix`; ``graphpose:`` before a command is known);
+anything else is a bug and keeps its traceback.
 """
 
 from __future__ import annotations
@@ -29,6 +31,21 @@ SUBCOMMANDS = ("estimate", "track", "render", "batch", "calibrate")
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 PROG = "graphpose"
+
+
+def prefix(command: str | None = None) -> str:
+    """``graphpose COMMAND``, the start of every line a command writes on stderr (``graphpose``
+    before a command is known)."""
+    return f"{PROG} {command}" if command else PROG
+
+
+def exit_codes_help(failed: str | None, usage: str = "bad usage or input") -> str:
+    """The exit codes' paragraph of a command's ``--help``: 0, 1 ``failed`` (none when None:
+    a command that cannot fail), 2 ``usage``, 130."""
+    import textwrap
+
+    one = "" if failed is None else f" 1 {failed},"
+    return textwrap.fill(f"exit codes: 0 success,{one} 2 {usage}, 130 interrupted (Ctrl-C).", 88)
 
 
 class UsageError(InputError):
@@ -70,8 +87,8 @@ def build_parser(commands=SUBCOMMANDS) -> argparse.ArgumentParser:
         prog=PROG,
         description=package_doc.splitlines()[0]
         + " With no argument, runs 'graphpose estimate' on the bundled example.",
-        epilog="Exit codes: 0 success, 1 an estimate failed, 2 bad usage or input. "
-        "Run 'graphpose COMMAND --help' for a command's options.",
+        epilog=exit_codes_help("an estimate failed") + "\nRun 'graphpose COMMAND --help' for a command's options.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action=_VersionAction)
     subparsers = parser.add_subparsers(title="commands", dest="command", metavar="COMMAND", required=True)
@@ -107,7 +124,7 @@ def main(argv=None) -> int:
         print_error(exc, prog=_prog(exc, argv, parser))
         return exit_code(exc)
     except KeyboardInterrupt:
-        print(f"{PROG}: interrupted", file=sys.stderr)
+        print(f"{_prog(None, argv, parser)}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except BrokenPipeError:
         # The reader went away (graphpose ... | head): stop quietly, and keep Python's own
@@ -200,11 +217,10 @@ def print_error(exc: BaseException, context: str = "", prog: str = PROG) -> None
 
 
 def _prog(exc, argv, parser) -> str:
-    """``graphpose COMMAND`` for a usage error of a subcommand's arguments, else ``graphpose``."""
+    """``graphpose COMMAND`` once the command is known (every error of a command's run, its
+    arguments' included), else ``graphpose``."""
     commands = parser.commands if parser is not None else ()
-    if isinstance(exc, UsageError) and argv and argv[0] in commands:
-        return f"{PROG} {argv[0]}"
-    return PROG
+    return prefix(argv[0] if argv and argv[0] in commands else None)
 
 
 def _version() -> str:

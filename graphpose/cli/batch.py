@@ -23,7 +23,7 @@ import time
 from collections import Counter
 
 from ..errors import InputError
-from . import EXIT_FAILED, EXIT_OK
+from . import EXIT_FAILED, EXIT_OK, exit_codes_help, prefix
 from .options import (
     Progress,
     add_camera_option,
@@ -38,7 +38,8 @@ _EXAMPLES = """\
 examples:
   graphpose batch images/ --out results.parquet --camera left.opencv.yml --board 9x6x0.03
   graphpose batch 'campaign/**/*.png' list.txt --out results.jsonl --K 564.9,564.3,337.3,226.5 --workers 2
-  graphpose batch cam1/ --out cam1.parquet --camera camchain.yaml --camera-name cam1 --bounds-file cases.json
+  graphpose batch cam1/ --out cam1.parquet --camera camchain.yaml --camera-name cam1 --board 9x6x0.03 \\
+      --bounds-file bounds.json
   graphpose batch images/ --out /shared/results.parquet --scheduler tcp://HEAD:8786
 
 INPUTS are folders (their image files), glob patterns (quote them; ** crosses folders) or
@@ -50,8 +51,7 @@ Run again with the same --out to do only the images it does not have yet; rows m
 with another camera, board, bounds or --robust are refused (give another --out).
 On a cluster (dask scheduler; dask worker tcp://HOST:8786 on each machine) every worker
 must see the images at the same absolute paths. See docs/batch.md.
-exit codes: 0 every image has a pose, 1 some have not (see their rows), 2 bad usage or
-input, 130 interrupted."""
+""" + exit_codes_help("some images have no pose (see their rows)")
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -146,6 +146,10 @@ def run(args) -> int:
         print(_summary(counts, kept, seconds, args.out))
         print("camera: {}; board: {}".format(*target_words(target)))
     every = counts + kept
+    if every["ok"] != sum(every.values()):  # the failure's reason on stderr, as every command's
+        failed = sum(every.values()) - every["ok"]
+        print(f"{prefix('batch')}: error: {failed} of {sum(every.values())} images have no pose; each row's "
+              f"status and message in {args.out} say why", file=sys.stderr, flush=True)
     return EXIT_OK if every["ok"] == sum(every.values()) else EXIT_FAILED
 
 

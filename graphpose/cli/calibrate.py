@@ -4,7 +4,7 @@ Turns the arguments into typed values (image files in order, a :class:`Board`, a
 name, an output format), checks every output before the work starts (folders, the ``plot``
 extra, whether the format can hold the model), calls :func:`graphpose.calibrate.calibrate`
 with a progress bar on stderr, and writes the camera file (:func:`graphpose.io.calibration.write_camera`),
-optionally the ``--json`` report (:func:`calibration_record`) and the ``--plot`` picture
+optionally the ``--report`` (alias ``--json``) (:func:`calibration_record`) and the ``--plot`` picture
 (:func:`graphpose.viz.calibration.plot_calibration`), and a summary on stdout.
 
 Exit codes: 0 calibrated; 1 the calibration failed (a solver did not converge, or the two
@@ -23,31 +23,35 @@ from pathlib import Path
 import numpy as np
 
 from .._extras import require
+from ..camera_params import HELD_MODELS
 from ..camera_params import MODELS as CALIBRATION_MODELS
 from ..errors import GraphposeError, InputError
 from ..io.camera_files import FORMATS
-from . import EXIT_OK, UsageError
+from . import EXIT_OK, PROG, UsageError, exit_codes_help
 from .estimate import image_paths
-from .options import Progress, check_output_folder, parse_board
+from .options import BOARD_UNITS, Progress, check_output_folder, parse_board
 
 #: The models ``--model`` takes, and the formats of ``--format``.
-MODELS = tuple(CALIBRATION_MODELS)
+MODELS = (*CALIBRATION_MODELS, *HELD_MODELS)
 
 _EXAMPLES = """\
 examples:
   graphpose calibrate shots/ --board 9x6x0.03 --out camera.json
   graphpose calibrate left*.jpg --board 9x6x0.03 --model radtan --out left.yml --format opencv \\
-      --json report.json --plot calibration.png
+      --report report.json --plot calibration.png
   graphpose calibrate fisheye/ --board 8x6x0.0635 --model fisheye --out cam.yaml --format kalibr
+  graphpose calibrate left*.jpg --board 9x6x25mm --model radtan4 --out left.camchain.yaml --format kalibr
 
 IMAGES are image files or folders (a folder's image files in name order). --board gives the
 inner junctions per row and per column and the square side in metres. The camera file holds
 the intrinsics, the lens and the image size; the json format also holds the parameters'
 covariance, which 'graphpose estimate --camera FILE' then carries into every pose's sigmas.
-Kalibr's radtan keeps four coefficients, so --format kalibr takes --model pinhole or fisheye.
-exit codes: 0 calibrated, 1 the calibration failed (solvers not converged or disagreeing),
-2 bad usage or input (fewer than three images with a board, images of different sizes,
-views that do not constrain the focal length, ...)."""
+Kalibr's radtan keeps four coefficients, so --format kalibr takes --model radtan4 (k1, k2,
+p1, p2 with k3 held at 0), pinhole or fisheye.
+An image file that cannot be read is named on stderr and left out; the others go on.
+""" + exit_codes_help("the calibration failed (solvers not converged or disagreeing)",
+                      "bad usage or input (fewer than three images with a board, images of different "
+                      "sizes, views that do not constrain the focal length, ...)")
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -65,18 +69,20 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("images", nargs="*", type=Path, metavar="IMAGES",
                    help="image files, or folders of them (name order)")
     p.add_argument("--board", type=parse_board, required=True, metavar="COLSxROWSxSQUARE_M",
-                   help="inner junctions per row and per column, square side in metres (e.g. 9x6x0.03)")
+                   help=f"inner junctions per row and per column, {BOARD_UNITS}")
     p.add_argument("--model", choices=MODELS, default="radtan",
-                   help="the lens model: pinhole (none), radtan (OpenCV's k1, k2, p1, p2, k3) or "
-                   "fisheye (OpenCV's k1..k4); default radtan")
+                   help="the lens model: pinhole (none), radtan (OpenCV's k1, k2, p1, p2, k3), radtan4 "
+                   "(k1, k2, p1, p2, k3 held at 0: Kalibr's pinhole-radtan) or fisheye (OpenCV's k1..k4); "
+                   "default radtan")
     p.add_argument("--out", type=Path, required=True, metavar="CAMERA_FILE",
                    help="the calibrated camera's file (read by 'graphpose estimate --camera')")
     p.add_argument("--format", choices=FORMATS, default="json",
                    help="the camera file's format: graphpose's json (with the covariance; default), "
                    "OpenCV FileStorage YAML, ROS camera_info, Kalibr camchain")
-    p.add_argument("--json", metavar="REPORT.json",
+    # dest json (the old name's): other code of the command (--rig) reads args.json.
+    p.add_argument("--report", "--json", dest="json", metavar="REPORT.json",
                    help="write the report: the camera, the covariance, the RMS and every image's status, "
-                   "message, RMS and pose ('-': stdout, no summary)")
+                   "message, RMS and pose ('-': stdout, no summary); --json is its old name")
     p.add_argument("--plot", type=Path, metavar="PNG",
                    help="draw the residuals and the coverage and uncertainty map over the image "
                    "(needs the plot extra, matplotlib)")
@@ -112,6 +118,9 @@ def run(args) -> int:
         calibration = calibrate(files, args.board, args.model, names=[str(f) for f in files], progress=show)
     finally:
         progress.clear()
+    for name, status, message in zip(calibration.images, calibration.status, calibration.message):
+        if status == "unreadable":  # named, and the others went on
+            print(f"{PROG} calibrate: warning: {message} (left out)", file=sys.stderr, flush=True)
     record = calibration_record(calibration)
     if args.json == "-":
         sys.stdout.write(dumps_json(record))
@@ -139,12 +148,13 @@ class CalibrationFailed(GraphposeError):
 
 def _check_outputs(args) -> None:
     """Every output can be written and every option fits, before the work starts."""
-    for path, name in ((args.out, "--out"), (args.plot, "--plot"), (args.json, "--json")):
+    for path, name in ((args.out, "--out"), (args.plot, "--plot"), (args.json, "--report")):
         check_output_folder(path, name)
     if args.format == "kalibr" and args.model == "radtan":
         raise UsageError("--format kalibr cannot hold --model radtan: Kalibr's radtan keeps four coefficients "
                          "(k1, k2, p1, p2) and graphpose's radtan calibrates k3 as well (OpenCV's five), which is "
-                         "never dropped; write --format json, opencv or ros, or calibrate --model fisheye or pinhole")
+                         "never dropped; calibrate --model radtan4 (k3 held at 0), or write --format json, opencv "
+                         "or ros")
     if args.plot is not None:
         if args.plot.suffix.lower() != ".png":
             raise UsageError(f"--plot: the picture is PNG, so the name must end in .png, got {args.plot}")
@@ -163,12 +173,12 @@ def image_files(paths) -> list:
     files = image_paths(paths)
     missing = [path for path in files if not Path(path).is_file()]
     if missing:
-        raise InputError(f"image not found: {missing[0]}")
+        raise InputError(f"image file not found: {missing[0]}")
     return files
 
 
 def calibration_record(calibration) -> dict:
-    """The ``--json`` report of a calibration, JSON-ready.
+    """The ``--report`` of a calibration, JSON-ready.
 
     Returns
     -------
@@ -177,7 +187,7 @@ def calibration_record(calibration) -> dict:
         ``[width, height]``; ``parameters`` (``{name: value}``, the covariance's order);
         ``covariance`` (P x P); ``rms_px`` (``sqrt(mean(du^2 + dv^2))`` over the junctions
         used); ``images``: per image ``image``, ``status`` (``used``, ``rejected``, ``no
-        board``), ``message`` (null when there is nothing to say), ``rms_px`` (null without a
+        board``, ``unreadable``), ``message`` (null when there is nothing to say), ``rms_px`` (null without a
         board) and ``T_WC`` (4 x 4, the camera in the board's frame; null unless used).
     """
     from ..io.files import to_jsonable
@@ -215,12 +225,13 @@ def format_summary(calibration, out, fmt: str) -> str:
     """The readable summary of a calibration (several lines, no trailing newline)."""
     camera = calibration.camera
     status = list(calibration.status)
-    counts = {s: status.count(s) for s in ("used", "rejected", "no board")}
+    counts = {s: status.count(s) for s in ("used", "rejected", "no board", "unreadable")}
     used = [p for p, s in zip(calibration.points, status) if s == "used"]
     junctions = sum(p.shape[1] for p in used)
     rows = [
         f"{camera.model} camera, {camera.size[0]} x {camera.size[1]} pixels, from {len(status)} images: "
-        f"{counts['used']} used, {counts['rejected']} rejected, {counts['no board']} without a board",
+        f"{counts['used']} used, {counts['rejected']} rejected, {counts['no board']} without a board"
+        + (f", {counts['unreadable']} unreadable" if counts["unreadable"] else ""),
         f"  {'reprojection':16}{calibration.rms_px:.3f} px RMS over {junctions} junctions",
         f"  {'parameter':16}{'value':>14}{'1-sigma':>12}",
     ]

@@ -28,7 +28,7 @@ from ..pipeline import estimate_pose
 from ..pose.estimate import pose_difference
 from ..pose.intrinsics import SIGMA_PIXEL
 from ..viz.overlay import draw_overlay
-from . import EXIT_OK, PROG, UsageError, error_line, exit_code, print_error
+from . import EXIT_OK, UsageError, error_line, exit_code, exit_codes_help, prefix, print_error
 from .options import (
     Progress,
     add_camera_option,
@@ -49,7 +49,7 @@ examples:
   graphpose estimate                                  # the bundled example (data/cases.json)
   graphpose estimate board.png --K 564.9,564.3,337.3,226.5   # the board searched in the whole image
   graphpose estimate raw.jpg --camera left.opencv.yml --board 9x6x0.03   # a raw image, its lens
-  graphpose estimate left/ right01.jpg right02.jpg --camera cam.yml --json poses.json   # folders, images
+  graphpose estimate left/ right01.jpg right02.jpg --camera cam.yml --board 9x6x30mm --json poses.json
   graphpose estimate board.png --bounds 166,254,455,136,541,347,259,477 \\
       --K 564.9,564.3,337.3,226.5 --board 8x6x0.0635 --guess pose.json
   graphpose estimate --cases cases.json --json out.json --overlay overlays/
@@ -62,8 +62,7 @@ ambiguous (junction 0 is then the corner nearest the image's upper left). --came
 OpenCV YAML/XML, ROS camera_info, Kalibr (cam0) and graphpose's JSON calibrations; --K is
 a camera without distortion. POSE.json holds a 4 x 4 T_WC (camera pose in the target frame)
 as a nested list or as {"T_WC": [...]}.
-exit codes: 0 success, 1 an estimate failed (no board found, no convergence),
-2 bad usage or input."""
+""" + exit_codes_help("an estimate failed (no board found, no convergence; with many images: the worst)")
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -175,10 +174,11 @@ def _run_one(job, camera, board, target, robust, overlay, report, progress):
         error, code = " ".join(str(exc).split()), exit_code(exc)
         picture = ""
         if overlay is not None and image is not None and estimate is None:
-            picture = _write_failure_overlay(overlay, image, error, job, board, progress)
+            picture = _write_failure_overlay(overlay, image, error, job, board, progress,
+                                             getattr(exc, "junctions_seen", 0))
         progress.clear()
         line = error_line(exc, "" if str(job.path) in str(exc) else job.name)
-        print(f"{PROG}: error: {line}{picture}", file=sys.stderr, flush=True)
+        print(f"{prefix('estimate')}: error: {line}{picture}", file=sys.stderr, flush=True)
     record = result_record(str(job.path), estimate, error)
     record["vs_truth"] = _difference(estimate, job.true_T_WC)
     record["vs_reference"] = _difference(estimate, job.ref_T_WC)
@@ -196,7 +196,7 @@ def _write_overlay(path: Path, image, estimate, camera, board, job) -> None:
     write_png(path, draw_overlay(image, estimate, camera, board, bounds=job.bounds, label=Path(job.name).name))
 
 
-def _write_failure_overlay(path: Path, image, reason: str, job, board, progress) -> str:
+def _write_failure_overlay(path: Path, image, reason: str, job, board, progress, seen: int = 0) -> str:
     """Draw the picture of an image without a pose: its bounds, what the search found, the
     reason (:func:`graphpose.viz.failure.draw_failure`); returns the words that add its path
     to the image's error line (a failure to write it is one more line, and no words)."""
@@ -204,10 +204,11 @@ def _write_failure_overlay(path: Path, image, reason: str, job, board, progress)
 
     try:
         _make_folder(path)
-        write_png(path, draw_failure(image, reason, bounds=job.bounds, board=board, label=Path(job.name).name))
+        write_png(path, draw_failure(image, reason, bounds=job.bounds, board=board, label=Path(job.name).name,
+                                       seen=seen))
     except GraphposeError as exc:
         progress.clear()
-        print_error(exc, job.name)
+        print_error(exc, job.name, prog=prefix("estimate"))
         return ""
     return f" (its picture, with what was found: {path})"
 

@@ -34,6 +34,10 @@ NO_CAMERA = ("no camera: give --camera FILE (a calibration with the lens model: 
              "no calibration yet? make one with 'graphpose calibrate' (see 'graphpose calibrate --help')")
 
 
+#: How ``--board``'s square side is written, for every command's help.
+BOARD_UNITS = "square side in metres, or in mm or cm written after it (9x6x0.025 = 9x6x25mm)"
+
+
 def add_target_options(parser: argparse.ArgumentParser, file_note: str = "") -> None:
     """Add ``--K FX,FY,CX,CY`` and ``--board COLSxROWSxSQUARE_M`` to ``parser``.
 
@@ -46,7 +50,7 @@ def add_target_options(parser: argparse.ArgumentParser, file_note: str = "") -> 
                         help="camera intrinsics in pixels (a fifth number is the skew), images "
                         f"undistorted; an image needs this or --camera (no default){note}")
     parser.add_argument("--board", type=parse_board, metavar="COLSxROWSxSQUARE_M",
-                        help=f"inner junctions per row and per column, square side in metres (default: "
+                        help=f"inner junctions per row and per column, {BOARD_UNITS} (default: "
                         f"the project's target, {board.cols}x{board.rows}x{board.square_m}{note})")
 
 
@@ -157,7 +161,8 @@ def parse_K(text: str) -> np.ndarray:
 
 
 def parse_board(text: str) -> Board:
-    """``"COLSxROWSxSQUARE_M"`` -> :class:`Board`; ArgumentTypeError if malformed."""
+    """``"COLSxROWSxSQUARE_M"`` (or ``...mm``, ``...cm``) -> :class:`Board`; ArgumentTypeError if
+    malformed or over 1 m a square (:meth:`graphpose.board.Board.parse`: "did you mean 25 mm (0.025)?")."""
     try:
         return Board.parse(text)
     except InputError as exc:

@@ -13,7 +13,7 @@ import sys
 import textwrap
 from pathlib import Path
 
-from . import EXIT_OK
+from . import EXIT_OK, exit_codes_help
 from .options import (
     Progress,
     add_target_options,
@@ -28,7 +28,9 @@ _EXAMPLES = """\
 examples:
   graphpose render-sequence seq/                       # 300 frames, seed 0
   graphpose render-sequence seq/ --frames 60 --seed 3 --excursions 1 --noise 1
-  graphpose track seq/ --bounds ... --tum est.tum && evo_ape tum seq/truth.tum est.tum"""
+  graphpose track seq/ --tum est.tum && evo_ape tum seq/truth.tum est.tum
+
+""" + exit_codes_help(None)
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:

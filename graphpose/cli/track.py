@@ -25,7 +25,7 @@ from .._checks import as_float_array
 from ..errors import InputError
 from ..io.files import read_json
 from ..track.config import DEFAULT_LAG_S, MOTION_MODELS, TARGET_FORMS
-from . import EXIT_FAILED, EXIT_OK
+from . import EXIT_FAILED, EXIT_OK, exit_codes_help, prefix
 from .options import (
     Progress,
     add_camera_option,
@@ -48,8 +48,9 @@ examples:
   graphpose render-sequence seq/ --frames 120
   graphpose track seq/ --bounds "$(python -c 'import json; b=json.load(open("seq/bounds.json"))["bounds"]; print(",".join(f"{u},{v}" for u, v in zip(*b)))')" \\
       --tum est.tum --json est.json --smooth --plot track.png    # seq/truth.tum is drawn and measured
-  graphpose track frames/*.png --bounds 166,254,455,136,541,347,259,477 --timestamps times.txt --tum est.tum
-  graphpose track frames/ --truth mocap.tum --plot track.png
+  graphpose track frames/*.png --K 564.9,564.3,337.3,226.5 --bounds 166,254,455,136,541,347,259,477 \
+      --timestamps times.txt --tum est.tum
+  graphpose track frames/ --K 564.9,564.3,337.3,226.5 --truth mocap.tum --plot track.png
   graphpose track raw/ --camera camchain.yaml --board 9x6x0.03 --tum est.tum   # raw frames, their lens
   evo_ape tum seq/truth.tum est.tum          # absolute trajectory error (no alignment needed)
 
@@ -63,8 +64,8 @@ frames are raw); --K is a camera without distortion. The TUM file has one line
 'timestamp tx ty tz qx qy qz qw' per frame with a pose (camera in the target frame); a lost
 frame has no line. A frame file that cannot be read is reported lost. --truth poses are matched
 to the frames by timestamp (within 10 ms and half a frame interval); a folder written by
-'graphpose render-sequence' brings its own truth.tum, one pose per frame. exit codes: 0
-success, 1 every frame lost, 2 bad usage or input."""
+'graphpose render-sequence' brings its own truth.tum, one pose per frame.
+""" + exit_codes_help("every frame lost (the reason on stderr)")
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -191,8 +192,11 @@ def run(args) -> int:
         plot_track(Track(kept, kept if args.smooth else None, config), args.plot, board=board, truth=truth,
                    title=f"graphpose track: {len(kept)} frames" + (", truth in grey" if truth is not None else ""))
     if not args.quiet and args.json != "-":
-        print(summary.text(args.smooth, truth_note))
-        print("camera: {}; board: {}".format(*target_words(target)))
+        print(summary.text(args.smooth, truth_note), flush=True)
+        print("camera: {}; board: {}".format(*target_words(target)), flush=True)
+    if not summary.found:  # the failure's reason on stderr, as every command's
+        print(f"{prefix('track')}: error: no pose in any of the {summary.n} frames; the first lost, "
+              f"{summary.first_lost}", file=sys.stderr, flush=True)
     return EXIT_OK if summary.found else EXIT_FAILED
 
 
@@ -271,7 +275,9 @@ def _frame_files(paths, list_frames) -> list:
         return list_frames(paths[0])
     missing = [str(p) for p in paths if not p.is_file()]
     if missing:
-        raise InputError(f"frame file(s) not found: {', '.join(missing[:3])}" + (" ..." if len(missing) > 3 else ""))
+        raise InputError(f"image file not found: {missing[0]}"
+                         + (f" (and {len(missing) - 1} more: {', '.join(missing[1:3])}"
+                            + (" ...)" if len(missing) > 3 else ")") if len(missing) > 1 else ""))
     return list(paths)
 
 

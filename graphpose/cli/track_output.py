@@ -157,6 +157,7 @@ class TrackSummary:
         self.lost = array("q")
         self.unreadable = array("q")
         self.errors = array("d")  # (m, deg) pairs of frames with a pose and a truth
+        self.first_lost = ""  # the first lost frame's message, for the reason of a run without a pose
 
     def add(self, f) -> None:
         """One frame's result (:class:`graphpose.track.results.FrameResult`)."""
@@ -165,6 +166,8 @@ class TrackSummary:
         self.n += 1
         self.counts[f.status] = self.counts.get(f.status, 0) + 1
         if f.status == "lost":
+            if not len(self.lost):
+                self.first_lost = f"frame {f.index}: {f.message}" if f.message else f"frame {f.index}"
             self.lost.append(f.index)
         else:
             self.ms.append(1000 * (f.frontend_s + f.update_s))

@@ -41,6 +41,8 @@ predict the next frame.
 
 from __future__ import annotations
 
+import re
+
 import heapq
 from dataclasses import dataclass
 
@@ -330,21 +332,36 @@ def constant_velocity_prediction(T_WC_0, T_WC_1, ratio: float) -> np.ndarray:
 
 
 def _detection_message(whys) -> str:
-    """One message for the failed detection attempts of a frame: each distinct reason once,
-    with how many search areas gave it, under one ``extraction failed`` (not the same words
-    once per area)."""
+    """One message for the failed detection attempts of a frame, each phrase said once.
+
+    Reasons that differ only in their numbers and in where they looked ("inside the bounds",
+    "in the image") are one phrase, the numbers as ranges and how many search areas gave it:
+    ``extraction failed in 5 search areas: no checkerboard: 224-239 junction-like points but
+    no grid of cross-junctions among them`` rather than the same words five times.
+    """
     prefix = "extraction failed: "
-    counts = {}
+    groups = {}  # the reason with its numbers and area blanked -> the reasons
     for why in whys:
-        counts[why] = counts.get(why, 0) + 1
-    if not counts:
+        why = why[len(prefix):] if why.startswith(prefix) else why
+        groups.setdefault(_NUMBER.sub("#", _AREA.sub("", why)), []).append(why)
+    parts = []
+    for key, members in groups.items():
+        areas = {m.group(0) for why in members for m in _AREA.finditer(why)}
+        text = members[0] if len(areas) <= 1 else _AREA.sub("", members[0])
+        columns = zip(*(_NUMBER.findall(why) for why in members))
+        spans = iter([min(c, key=float) if len(set(c)) == 1 else f"{min(c, key=float)}-{max(c, key=float)}"
+                      for c in columns])
+        text = _NUMBER.sub(lambda _: next(spans), text)
+        parts.append(text + (f" ({len(members)} search areas)" if 1 < len(members) < len(whys) else ""))
+    if not parts:
         return ""
-    parts = [(w[len(prefix):] if w.startswith(prefix) else w) + (f" ({n} search areas)" if n > 1 else "")
-             for w, n in counts.items()]
-    head = "extraction failed: " if all(w.startswith(prefix) for w in counts) else ""
-    if len(whys) > 1:
-        head = f"extraction failed in {len(whys)} search areas: " if head else ""
+    head = f"extraction failed in {len(whys)} search areas: " if len(whys) > 1 else prefix
     return head + "; ".join(parts)
+
+
+#: Where a detection looked, in its reason; and a number in a reason.
+_AREA = re.compile(r" (?:inside the bounds|in the image)")
+_NUMBER = re.compile(r"\d+(?:\.\d+)?")
 
 
 def _attempt(method, *args):

@@ -11,6 +11,7 @@ object API (no pyplot), as :mod:`graphpose.viz.plot`.
 from __future__ import annotations
 
 import io
+from pathlib import Path
 
 import numpy as np
 
@@ -18,7 +19,7 @@ from ..errors import InputError
 from ..io.files import atomic_write
 
 #: Colours of the image statuses.
-_COLOURS = {"used": "tab:blue", "rejected": "tab:red", "no board": "0.6"}
+_COLOURS = {"used": "tab:blue", "rejected": "tab:red", "no board": "0.6", "unreadable": "0.6"}
 
 
 def plot_calibration(calibration, path, *, title: str = "", step: float = 16.0) -> None:
@@ -84,11 +85,13 @@ def _per_image(ax, calibration) -> None:
     k = np.arange(rms.size)
     ax.bar(k, np.where(np.isfinite(rms), rms, 0.0), color=colours)
     for i in np.flatnonzero(~np.isfinite(rms)):
-        ax.text(i, 0, "no board", rotation=90, ha="center", va="bottom", fontsize=7, color="0.4")
+        ax.text(i, 0, calibration.status[i], rotation=90, ha="center", va="bottom", fontsize=7, color="0.4")
     ax.axhline(float(calibration.rms_px), color="k", ls="--", lw=1)
     ax.set(xlabel="image", ylabel="RMS (px)", title="per image (blue used, red rejected)")
     ax.set_xticks(k)
-    ax.set_xticklabels([str(i) for i in k], fontsize=7)
+    # The images by file name (a path's last part), as the summary and the report name them.
+    ax.set_xticklabels([Path(str(name)).name for name in calibration.images], fontsize=7, rotation=60,
+                       ha="right")
     ax.grid(alpha=0.3, axis="y")
 
 

@@ -41,7 +41,7 @@ class FailureEvidence:
     lattice: np.ndarray
 
 
-def failure_evidence(image, bounds=None, board: Board = Board()) -> FailureEvidence:
+def failure_evidence(image, bounds=None, board: Board = Board(), seen: int = 0) -> FailureEvidence:
     """The candidates and the largest lattice the board search finds in ``image``.
 
     Parameters
@@ -52,23 +52,39 @@ def failure_evidence(image, bounds=None, board: Board = Board()) -> FailureEvide
         The polygon the search was given: candidates inside it seed the lattices.
     board : Board
         The board searched for (bounds the lattices' size, as the search does).
+    seen : int
+        Junctions on the lattice the refusal was about
+        (:attr:`graphpose.errors.BoardNotFoundError.junctions_seen`): the search's levels
+        (the fast path's, then the noise-aware ones) are tried until one grows a lattice as
+        large, so that the rings drawn are the grid the reason counts, not a smaller one of
+        the first level. The candidates drawn are the first level's.
     """
     from ..detect.lattice import grow_lattices
+    from ..detect.noise import estimate_noise
+    from ..detect.find import noise_levels
     from ..detect.search import find_candidates, search_levels
 
     grey = image if isinstance(image, np.ndarray) and image.ndim == 2 else as_grey(image)
     region = None if bounds is None else as_polygon(bounds, "bounds")
-    cands = find_candidates(grey, region, level=search_levels(grey.shape)[0])
-    order = np.argsort(cands.strength)[::-1][:400]
+    levels = [(level, None) for level in search_levels(grey.shape)]
+    first = None
     largest = np.zeros((2, 0))
-    for _, lattice in grow_lattices(cands, max_nodes=8 * board.n):
-        if lattice is not None and lattice.points.shape[1] > largest.shape[1]:
-            largest = lattice.points
-    return FailureEvidence(cands.points[:, order], largest)
+    for k, (level, noise) in enumerate(levels):
+        cands = find_candidates(grey, region, level=level, noise=noise)
+        first = cands if first is None else first
+        for _, lattice in grow_lattices(cands, max_nodes=8 * board.n):
+            if lattice is not None and lattice.points.shape[1] > largest.shape[1]:
+                largest = lattice.points
+        if largest.shape[1] >= max(int(seen), 1) or (not seen and k == 0):
+            break
+        if k == len(levels) - 1 and noise is None:  # then the noise-aware levels, as the search
+            levels += [(lv, estimate_noise(grey)) for lv in noise_levels(grey.shape)]
+    order = np.argsort(first.strength)[::-1][:400]
+    return FailureEvidence(first.points[:, order], largest)
 
 
 def draw_failure(image, reason: str, *, bounds=None, found: FailureEvidence | None = None,
-                 board: Board = Board(), label=None) -> np.ndarray:
+                 board: Board = Board(), label=None, seen: int = 0) -> np.ndarray:
     """Draw an image without a pose: bounds, candidates, partial grid and the reason.
 
     Parameters
@@ -85,6 +101,9 @@ def draw_failure(image, reason: str, *, bounds=None, found: FailureEvidence | No
         The board searched for (for :func:`failure_evidence`).
     label : str, optional
         A name (the image's) written above the reason.
+    seen : int
+        Junctions the reason counts (:attr:`graphpose.errors.BoardNotFoundError.junctions_seen`),
+        for :func:`failure_evidence`.
 
     Returns
     -------
@@ -95,7 +114,7 @@ def draw_failure(image, reason: str, *, bounds=None, found: FailureEvidence | No
     if bounds is not None:
         bounds = as_polygon(bounds, "bounds")
     if found is None:
-        found = failure_evidence(image, bounds, board)
+        found = failure_evidence(image, bounds, board, seen)
     canvas = np.repeat((40.0 + 170.0 * np.clip(grey, 0.0, 1.0))[..., None], 3, axis=2)
     size = max(1.0, min(canvas.shape[:2]) / 480.0)
     if bounds is not None:

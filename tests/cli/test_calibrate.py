@@ -227,7 +227,7 @@ def test_a_failed_calibration_exits_1_and_writes_the_report_only(views, tmp_path
                  "--json", str(tmp_path / "r.json")])
     assert code == 1
     line = capsys.readouterr().err.strip()
-    assert line.startswith("graphpose: error: calibration failed:") and "disagree" in line
+    assert line.startswith("graphpose calibrate: error: calibration failed:") and "disagree" in line
     assert line.endswith("(no camera file written)")
     assert not (tmp_path / "c.json").exists()
     assert list(json.loads((tmp_path / "r.json").read_text())) == REPORT_KEYS
@@ -243,9 +243,9 @@ def test_usage_and_input_errors_exit_2_with_one_line(views, tmp_path, capsys, mo
         (["calibrate", view, *board], "the following arguments are required: --out"),
         (["calibrate", view, *board, *out, "--model", "omni"], "argument --model: invalid choice: 'omni'"),
         (["calibrate", view, *board, *out, "--format", "matlab"], "argument --format: invalid choice: 'matlab'"),
-        (["calibrate", str(tmp_path / "none.png"), *board, *out], f"image not found: {tmp_path / 'none.png'}"),
+        (["calibrate", str(tmp_path / "none.png"), *board, *out], f"image file not found: {tmp_path / 'none.png'}"),
         (["calibrate", view, *board, "--out", str(tmp_path / "no" / "c.json")], "--out: folder"),
-        (["calibrate", view, *board, *out, "--json", str(tmp_path / "no" / "r.json")], "--json: folder"),
+        (["calibrate", view, *board, *out, "--json", str(tmp_path / "no" / "r.json")], "--report: folder"),
         (["calibrate", view, *board, *out, "--plot", str(tmp_path / "p.jpg")], "the name must end in .png"),
         (["calibrate", view, *board, *out, "--format", "kalibr"],
          "--format kalibr cannot hold --model radtan: Kalibr's radtan keeps four coefficients"),

@@ -236,7 +236,7 @@ def test_a_folder_without_images_says_so(tmp_path, capsys):
     (tmp_path / "notes.txt").write_text("no image here")
     assert main(["estimate", str(tmp_path), "--bounds", BOUNDS, "--K", K_BUNDLED]) == 2
     line = capsys.readouterr().err.strip()
-    assert line.startswith("graphpose: error: no image files (.png") and str(tmp_path) in line, line
+    assert line.startswith("graphpose estimate: error: no image files (.png") and str(tmp_path) in line, line
 
 
 def test_readme_polygon_over_a_corner_of_the_board(capsys):
@@ -244,7 +244,7 @@ def test_readme_polygon_over_a_corner_of_the_board(capsys):
     image = BUNDLED.parent / "synthetic_03.png"
     assert main(["estimate", str(image), "--bounds", "300,300,400,300,400,400,300,400", "--K", K_BUNDLED]) == 1
     line = capsys.readouterr().err.strip()
-    assert re.fullmatch(rf"graphpose: error: {re.escape(str(image))}: no checkerboard inside the bounds: \d+ "
+    assert re.fullmatch(rf"graphpose estimate: error: {re.escape(str(image))}: no checkerboard inside the bounds: \d+ "
                         r"junction-like points but no grid of cross-junctions among them", line), line
 
 
@@ -277,7 +277,7 @@ def test_no_convergence_exits_1(bundled, tmp_path, monkeypatch, capsys):
     assert code == 1
     assert captured.out == ""  # an unreliable pose is not reported as a result
     (line,) = captured.err.strip().splitlines()
-    assert line.startswith("graphpose: error: ") and case.image.name in line
+    assert line.startswith("graphpose estimate: error: ") and case.image.name in line
     assert "no reliable pose" in line and "iteration cap reached" in line
     (record,) = json.loads(out_json.read_text())
     assert record["message"] and "no reliable pose" in record["message"]
@@ -408,7 +408,7 @@ def test_progress_bar_only_on_a_terminal():
 
 
 @pytest.mark.parametrize("exception, code, message", [
-    (KeyboardInterrupt, 130, "graphpose: interrupted"),
+    (KeyboardInterrupt, 130, "graphpose estimate: interrupted"),
     (BrokenPipeError, 1, ""),
 ])
 def test_interrupt_and_closed_pipe(monkeypatch, capsys, exception, code, message):
@@ -438,7 +438,7 @@ def test_a_case_file_without_cases_is_an_input_error(tmp_path, capsys):
     cases_file = tmp_path / "cases.json"
     cases_file.write_text(json.dumps({"K": np.eye(3).tolist(), "cases": []}))
     assert main(["estimate", "--cases", str(cases_file)]) == 2
-    assert capsys.readouterr().err.strip() == f"graphpose: error: case file {cases_file} has no cases"
+    assert capsys.readouterr().err.strip() == f"graphpose estimate: error: case file {cases_file} has no cases"
 
 
 def test_parse_K_takes_a_fifth_number_as_the_skew():
@@ -545,7 +545,7 @@ def test_a_wrong_camera_name_is_one_clear_error_naming_what_the_file_holds(capsy
     image = opencv_file("right01.jpg")
     assert main(["estimate", str(image), "--camera", str(opencv_file(file)), "--camera-name", name]) == 2
     line = capsys.readouterr().err.strip()
-    assert "\n" not in line and line.startswith("graphpose: error: ")
+    assert "\n" not in line and line.startswith("graphpose estimate: error: ")
     for fragment in fragments:
         assert fragment in line, line
 
@@ -574,7 +574,7 @@ def test_bad_camera_files_are_one_clear_error(tmp_path, capsys, name, text, frag
     (tmp_path / name).write_text(text)
     assert main(["estimate", str(image), "--camera", str(tmp_path / name)]) == 2
     line = capsys.readouterr().err.strip()
-    assert "\n" not in line and line.startswith("graphpose: error: ")
+    assert "\n" not in line and line.startswith("graphpose estimate: error: ")
     for fragment in fragments:
         assert fragment in line, line
 

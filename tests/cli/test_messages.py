@@ -91,7 +91,7 @@ def test_an_empty_or_cut_short_png_is_not_a_readable_image_with_no_advice_to_ins
     path.write_bytes(content)
     assert main(["estimate", str(path), "--K", K_OPTION]) == 2
     line = one_line(capsys)
-    assert line.startswith(f"graphpose: error: cannot read image {path}: not a readable image")
+    assert line.startswith(f"graphpose estimate: error: cannot read image {path}: not a readable image")
     assert "truncated or corrupt" in line and "pip" not in line and "backend" not in line
 
 
@@ -99,7 +99,7 @@ def test_a_truncated_real_png_says_truncated_or_corrupt(tmp_path, capsys):
     path = tmp_path / "cut.png"
     path.write_bytes((BUNDLED / "synthetic_01.png").read_bytes()[:2000])
     assert main(["estimate", str(path), "--K", K_OPTION]) == 2
-    assert one_line(capsys) == f"graphpose: error: cannot read image {path}: not a readable image (truncated or corrupt)"
+    assert one_line(capsys) == f"graphpose estimate: error: cannot read image {path}: not a readable image (truncated or corrupt)"
 
 
 def _bounds_text(poly):
@@ -188,7 +188,7 @@ def test_track_plot_without_matplotlib_fails_before_tracking(monkeypatch, tmp_pa
     frames = [str(BUNDLED / "synthetic_01.png"), str(BUNDLED / "synthetic_02.png")]
     assert main(["track", *frames, "--K", K_OPTION, "--plot", str(tmp_path / "t.png")]) == 2
     line = one_line(capsys)
-    assert line.startswith("graphpose: error: graphpose track --plot needs matplotlib (the plot extra): pip install")
+    assert line.startswith("graphpose track: error: graphpose track --plot needs matplotlib (the plot extra): pip install")
     assert not (tmp_path / "t.png").exists()
 
 

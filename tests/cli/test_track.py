@@ -140,7 +140,7 @@ def test_usage_errors(tmp_path, capsys):
     assert main(["track", str(tmp_path / "a.png"), "--bounds", "1,2,3"]) == 2
     assert "bounds needs 8 numbers" in capsys.readouterr().err
     assert main(["track", str(tmp_path / "a.png"), str(tmp_path / "b.png")]) == 2
-    assert "frame file(s) not found: " in capsys.readouterr().err
+    assert "image file not found: " in capsys.readouterr().err
     assert main(["track", str(tmp_path), "--fps", "0"]) == 2
     assert "--fps: expected a positive number, got '0'" in capsys.readouterr().err
 
