@@ -47,4 +47,4 @@ def test_the_program_ends_with_its_code_and_its_output_whole(tmp_path):
     assert len(json.loads((tmp_path / "out.json").read_text())) == 1
     done = subprocess.run(run[:4] + [str(tmp_path / "missing.png")] + run[5:], cwd=REPO, env=env,
                           capture_output=True, text=True)
-    assert done.returncode == 2 and done.stderr.startswith("graphpose: error: image file not found")
+    assert done.returncode == 2 and done.stderr.startswith("graphpose estimate: error: image file not found")
