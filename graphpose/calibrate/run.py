@@ -303,11 +303,22 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         if last:
             break
     return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
-                   "no camera" if camera is None else "with the given camera")
+                   "no camera" if camera is None else "with the given camera", board, huber_k)
+
+
+def _joint(lm, observations, huber_px, sigma, board):
+    """The joint covariance of the intrinsics and the poses (:mod:`.uncertainty`) and the
+    median distance from the camera to the board's centre."""
+    from .uncertainty import covariance_from_information, joint_information
+
+    joint = covariance_from_information(joint_information(lm.camera, lm.poses, observations, huber_px), sigma)
+    centre = np.mean(board.world_points(), axis=1)
+    distance = float(np.median([np.linalg.norm(T[:3, 3] - centre) for T in lm.poses]))
+    return joint, distance
 
 
 def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
-            first_camera) -> Calibration:
+            first_camera, board, huber_k) -> Calibration:
     P = len(cls.parameter_names)
     p_lm, p_g = camera_parameters(lm.camera), camera_parameters(graph.camera)
     r_all = np.hstack(lm.residuals)
@@ -332,6 +343,7 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
             "tilt it by 20-50 degrees in different directions")
     camera = camera_with_parameters(graph.camera if ok else lm.camera, p_g if ok else p_lm,
                                     cov if np.all(np.isfinite(cov)) else None)
+    joint, distance = _joint(lm, [obs[k] for k in keys], huber_k * sigma0, sigma, board)
     n = len(labels)
     status, message, poses, rms = [], [], [], np.full(n, np.nan)
     points, residuals = [], []
@@ -386,4 +398,6 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
         cross_check={"gtsam": p_g.tolist(), "lm": p_lm.tolist(), "max_difference": difference,
                      "tolerance": CROSS_CHECK_TOL, "converged": {"gtsam": graph.converged, "lm": lm.converged}},
         summary=summary,
+        joint_cov=joint,
+        board_distance_m=distance,
     )

@@ -1,10 +1,13 @@
 """A picture of a calibration: the ``plot`` extra (``pip install -e ".[plot]"``).
 
 Three panels: the residuals of every junction (used images in colour, rejected ones in red),
-the per-image RMS, and the image itself with the projection uncertainty map
-(:meth:`graphpose.calibrate.result.Calibration.uncertainty_map`, 1-sigma pixels) under the
-junctions that were used (the coverage): where no junction was seen, the map shows how far
-the lens model is extrapolated. Only :func:`plot_calibration` imports matplotlib, and only its
+the per-image RMS, and the image itself with the projection uncertainty map under the
+junctions that were used (the coverage). The map is mrcal's projection uncertainty
+(:meth:`graphpose.calibrate.result.Calibration.projection_uncertainty_map`, the worst
+direction's 1-sigma, pixels) at the boards' median distance: the camera frame tied to the
+board poses the calibration saw, so it is smallest where the boards were and grows where the
+lens model is extrapolated (a calibration without the joint covariance falls back to the
+intrinsics-only :meth:`~graphpose.calibrate.result.Calibration.uncertainty_map`). Only :func:`plot_calibration` imports matplotlib, and only its
 object API (no pyplot), as :mod:`graphpose.viz.plot`.
 """
 
@@ -95,7 +98,12 @@ def _per_image(ax, calibration) -> None:
 def _coverage(figure, ax, calibration, step) -> None:
     from matplotlib.colors import LogNorm
 
-    us, vs, sigma = calibration.uncertainty_map(step)
+    if calibration.joint_cov is not None and np.all(np.isfinite(calibration.joint_cov)):
+        us, vs, sigma = calibration.projection_uncertainty_map(step)
+        what = f"at the boards' {calibration.board_distance_m:.2f} m"
+    else:
+        us, vs, sigma = calibration.uncertainty_map(step)
+        what = "intrinsics only"
     width, height = calibration.camera.size
     finite = sigma[np.isfinite(sigma) & (sigma > 0)]
     if finite.size:
@@ -104,8 +112,8 @@ def _coverage(figure, ax, calibration, step) -> None:
         norm = LogNorm(vmin=low, vmax=max(high, 1.01 * low))
         mesh = ax.imshow(np.where(sigma > 0, sigma, np.nan), origin="upper", cmap="viridis", norm=norm,
                          extent=(us[0] - step / 2, us[-1] + step / 2, vs[-1] + step / 2, vs[0] - step / 2))
-        figure.colorbar(mesh, ax=ax, label="projection 1-sigma (px)", shrink=0.85)
-        levels = [v for v in (0.05, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0) if low < v < high]
+        figure.colorbar(mesh, ax=ax, label=f"projection 1-sigma (px), {what}", shrink=0.85)
+        levels = [v for v in (0.01, 0.02, 0.05, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0) if low < v < high]
         if levels:
             lines = ax.contour(us, vs, sigma, levels=levels, colors="w", linewidths=0.8)
             ax.clabel(lines, fmt=lambda v: f"{v:g} px", fontsize=7)
