@@ -42,7 +42,7 @@ class Calibration:
         ``covariance`` (= ``cov``).
     cov : (P, P) ndarray
         Covariance of the intrinsic parameters, in ``parameter_names`` order (pixels,
-        unitless): GTSAM's marginal, scaled by the pixel noise estimated from the residuals.
+        unitless): the intrinsics' block of ``joint_cov``.
     parameter_names : tuple of str
         :func:`graphpose.calibrate.parameter_names` of the model.
     images : tuple of str
@@ -66,7 +66,9 @@ class Calibration:
     rms_px : float
         ``sqrt(mean(du^2 + dv^2))`` over every junction used (OpenCV's definition), pixels.
     sigma_px : float
-        Pixel noise behind ``cov``, estimated from the Huber-weighted residuals.
+        The junctions' pixel noise per coordinate, ``sqrt(sum r^2 / (2M - P - 6n))`` over the
+        used junctions (for the report: ``cov`` carries the noise through the residuals
+        themselves).
     ok : bool
         True when both solvers converged and agree (``cross_check``).
     cross_check : dict
@@ -77,8 +79,9 @@ class Calibration:
         One line: what was found, or why the calibration failed.
     joint_cov : (P + 6 n, P + 6 n) ndarray or None
         The joint covariance of the intrinsics and the n used views' poses (each ``(x, y, z,
-        roll, pitch, yaw)`` of ``T_WC``, in the order of the used images), from the
-        hand-written solver's ``J^T W J`` at ``sigma_px``: what
+        roll, pitch, yaw)`` of ``T_WC``, in the order of the used images): the Huber
+        estimate's covariance by the sandwich rule
+        (:func:`graphpose.calibrate.uncertainty.huber_covariance`), what
         :meth:`projection_uncertainty` propagates.
     board_distance_m : float
         The median distance from the camera to the board's centre over the used views,

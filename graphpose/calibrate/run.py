@@ -27,9 +27,10 @@ The steps (``docs/calibration.md``):
    find those at the rim). The last pass is always one with the final pass's camera
    before the final solve.
 
-The covariance is GTSAM's marginal of the calibration at ``sigma``, scaled by the pixel
-noise the final residuals give, ``sqrt(sum w r^2 / (2M - P - 6n))`` (``w`` the Huber
-weights, M junctions, n images). A focal length whose relative sigma exceeds
+The covariance is the Huber estimate's by the sandwich rule, over the intrinsics and every
+pose jointly (:func:`.uncertainty.huber_covariance`; its intrinsics' block is ``cov``, the
+whole is what the projection uncertainty propagates); the pixel noise reported is
+``sqrt(sum r^2 / (2M - P - 6n))`` (M junctions, n images). A focal length whose relative sigma exceeds
 :data:`MAX_FOCAL_SIGMA` means the views do not constrain it: an error saying so.
 """
 
@@ -306,12 +307,12 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
                    "no camera" if camera is None else "with the given camera", board, huber_k)
 
 
-def _joint(lm, observations, huber_px, sigma, board):
-    """The joint covariance of the intrinsics and the poses (:mod:`.uncertainty`) and the
-    median distance from the camera to the board's centre."""
-    from .uncertainty import covariance_from_information, joint_information
+def _joint(lm, observations, huber_px, board):
+    """The joint covariance of the intrinsics and the poses (:func:`.uncertainty.huber_covariance`)
+    and the median distance from the camera to the board's centre."""
+    from .uncertainty import huber_covariance
 
-    joint = covariance_from_information(joint_information(lm.camera, lm.poses, observations, huber_px), sigma)
+    joint = huber_covariance(lm.camera, lm.poses, observations, huber_px)
     centre = np.mean(board.world_points(), axis=1)
     distance = float(np.median([np.linalg.norm(T[:3, 3] - centre) for T in lm.poses]))
     return joint, distance
@@ -322,11 +323,13 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
     P = len(cls.parameter_names)
     p_lm, p_g = camera_parameters(lm.camera), camera_parameters(graph.camera)
     r_all = np.hstack(lm.residuals)
-    w_all = np.concatenate(lm.weights)
     M = r_all.shape[1]
     dof = 2 * M - P - 6 * len(keys)
-    sigma = float(np.sqrt(np.sum(w_all * np.sum(r_all * r_all, axis=0)) / max(dof, 1)))
-    cov = graph.cov * (sigma / sigma0) ** 2
+    sigma = float(np.sqrt(np.sum(r_all * r_all) / max(dof, 1)))
+    # The Huber estimate's covariance by the sandwich rule (:func:`.uncertainty.huber_covariance`):
+    # the intrinsics' block is ``cov``, the whole is the projection uncertainty's.
+    joint, distance = _joint(lm, [obs[k] for k in keys], huber_k * sigma0, board)
+    cov = joint[:P, :P].copy()
     sd = np.sqrt(np.abs(np.diag(cov)))
     if not np.all(np.isfinite(cov)):
         sd = np.sqrt(np.abs(np.diag(np.linalg.pinv(lm.information)))) * sigma
@@ -343,7 +346,6 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
             "tilt it by 20-50 degrees in different directions")
     camera = camera_with_parameters(graph.camera if ok else lm.camera, p_g if ok else p_lm,
                                     cov if np.all(np.isfinite(cov)) else None)
-    joint, distance = _joint(lm, [obs[k] for k in keys], huber_k * sigma0, sigma, board)
     n = len(labels)
     status, message, poses, rms = [], [], [], np.full(n, np.nan)
     points, residuals = [], []

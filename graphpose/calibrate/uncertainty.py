@@ -101,6 +101,71 @@ def joint_information(camera, poses, observations, huber_px=None) -> np.ndarray:
     return H
 
 
+def huber_covariance(camera, poses, observations, huber_px=None) -> np.ndarray:
+    """The joint covariance of the calibration's Huber estimate, by the sandwich rule.
+
+    The solve minimises ``sum_j rho(|r_j|)`` (Huber on each junction's 2-D error). Its
+    estimate's covariance is ``A^-1 B A^-1`` with ``A = sum_j J_j^T D_j J_j`` (``D_j = d psi /
+    d r`` of the junction's ``psi(r) = w(|r|) r``: the identity inside the threshold,
+    ``(k / a) (I - r r^T / a^2)`` beyond it, ``a = |r|``) and ``B = sum_j (J_j^T psi_j)
+    (J_j^T psi_j)^T``, the score's spread measured on the residuals, scaled by ``2M / (2M - P -
+    6n)`` for the unknowns the residuals absorb. No pixel sigma enters: ``B`` carries the noise
+    itself.
+
+    Why not ``sigma^2 (J^T W J)^-1`` with ``sigma^2 = sum w r^2 / dof`` (the IRLS form used
+    before): with Gaussian noise a 2-D Huber threshold at 1.345 sigma weighs down 40 % of the
+    junctions (``P(|r| > k) = exp(-k^2 / 2)``), so ``sum w r^2`` is 0.745 of ``sum r^2`` and
+    that sigma 0.86 of the noise; the parameter NEES came out 1.34 times too large.
+
+    Parameters
+    ----------
+    camera, poses, observations, huber_px
+        As :func:`joint_information`.
+
+    Returns
+    -------
+    cov : (P + 6 n, P + 6 n) ndarray
+        Pixels and the poses' units; NaN if ``A`` is singular.
+    """
+    from ..camera_params import camera_parameters
+    from .lm import _evaluate
+
+    p = camera_parameters(camera)
+    P, n = p.size, len(poses)
+    K = P + 6 * n
+    x = np.concatenate([p] + [params_from_T(T) for T in poses])
+    views, _ = _evaluate(camera, x, observations, P)
+    M = sum(r.size // 2 for r, _, _ in views)
+    A, G, at = np.zeros((K, K)), np.zeros((M, K)), 0
+    for i, (r, Jp, Je) in enumerate(views):
+        m = r.size // 2
+        J = np.zeros((m, 2, K))
+        J[:, :, :P] = Jp.reshape(m, 2, P)
+        J[:, :, P + 6 * i: P + 6 * i + 6] = Je.reshape(m, 2, 6)
+        rr = r.reshape(m, 2)
+        a = np.hypot(rr[:, 0], rr[:, 1])
+        D = np.broadcast_to(np.eye(2), (m, 2, 2)).copy()
+        if huber_px is not None:
+            far = a > huber_px
+            if far.any():
+                k_a = huber_px / a[far]
+                u = rr[far] / a[far, None]
+                D[far] = k_a[:, None, None] * (np.eye(2) - u[:, :, None] * u[:, None, :])
+                rr = rr.copy()
+                rr[far] *= k_a[:, None]  # psi = w r
+        A += np.einsum("mik,mij,mjl->kl", J, D, J)
+        G[at: at + m] = np.einsum("mik,mi->mk", J, rr)
+        at += m
+    B = G.T @ G * (2 * M / max(2 * M - K, 1))
+    d = np.sqrt(np.abs(np.diag(A)))
+    try:
+        Ai = np.linalg.inv(A / d[:, None] / d[None, :]) / d[:, None] / d[None, :]
+    except np.linalg.LinAlgError:
+        return np.full((K, K), np.nan)
+    C = Ai @ B @ Ai
+    return 0.5 * (C + C.T)
+
+
 def covariance_from_information(H, sigma_px: float) -> np.ndarray:
     """``sigma^2 H^-1``, inverted at unit diagonal (the unknowns' units differ: pixels,
     metres, radians). NaN if ``H`` is singular."""
