@@ -83,6 +83,14 @@ class Calibration:
         estimate's covariance by the sandwich rule
         (:func:`graphpose.calibrate.uncertainty.huber_covariance`), what
         :meth:`projection_uncertainty` propagates.
+    detections : tuple
+        Per image None (no board) or ``(uv (2, m), index (m,))``: every junction the
+        detector gave (outliers included), with its board number; what ``--corners-out``
+        writes.
+    outliers : tuple
+        Per image the board indices (``Board.world_points`` columns) of the junctions left out
+        as single outliers (:data:`graphpose.calibrate.run.OUTLIER_SIGMAS`), (k,) int; empty
+        for an image without any and for images not used. ``message`` names them too.
     board_distance_m : float
         The median distance from the camera to the board's centre over the used views,
         metres (the default distance of :meth:`projection_uncertainty_map`).
@@ -104,6 +112,8 @@ class Calibration:
     cross_check: dict
     summary: str
     joint_cov: np.ndarray | None = None
+    outliers: tuple = ()
+    detections: tuple = ()
     board_distance_m: float = float("nan")
 
     @property

@@ -118,7 +118,7 @@ def test_an_image_that_does_not_fit_is_rejected(radtan_set):
     odd = render(stranger, radtan_set.renderings[7].T_WC, Board(), rng=1).image
     c = graphpose.calibrate(radtan_set.images[:6] + [odd], model="radtan", names=[f"v{i}" for i in range(7)])
     assert c.status == ("used",) * 6 + ("rejected",)
-    assert "rejected: RMS" in c.message[-1] and c.image_rms_px[-1] > 0.2
+    assert "rejected: " in c.message[-1] and c.image_rms_px[-1] > 0.2
     assert c.ok
 
 
