@@ -26,7 +26,7 @@ from .._extras import require
 from ..camera_params import MODELS as CALIBRATION_MODELS
 from ..errors import GraphposeError, InputError
 from ..io.camera_files import FORMATS
-from . import EXIT_OK, UsageError
+from . import EXIT_OK, UsageError, calibrate_extras
 from .estimate import image_paths
 from .options import Progress, check_output_folder, parse_board
 
@@ -62,8 +62,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         epilog=_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("images", nargs="+", type=Path, metavar="IMAGES",
-                   help="image files, or folders of them (name order)")
+    p.add_argument("images", nargs="*", type=Path, metavar="IMAGES",
+                   help="image files, or folders of them (name order); none with --corners")
     p.add_argument("--board", type=parse_board, required=True, metavar="COLSxROWSxSQUARE_M",
                    help="inner junctions per row and per column, square side in metres (e.g. 9x6x0.03)")
     p.add_argument("--model", choices=MODELS, default="radtan",
@@ -81,6 +81,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="draw the residuals and the coverage and uncertainty map over the image "
                    "(needs the plot extra, matplotlib)")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary on stdout (errors still on stderr)")
+    calibrate_extras.add_options(p)
     return p
 
 
@@ -92,15 +93,17 @@ def run(args) -> int:
     from ..io.files import dumps_json, write_json
 
     _check_outputs(args)
-    files = image_files(args.images)
-    progress = Progress(len(files), sys.stderr)
+    calibrate_extras.check(args)
+    files = image_files(args.images) if args.images else []
+    progress = Progress(max(len(files), 1), sys.stderr)
 
     def show(stage, done, total):
         progress.total = max(int(total), 1)
         progress.show(int(done), stage)
 
     try:
-        calibration = calibrate(files, args.board, args.model, names=[str(f) for f in files], progress=show)
+        calibration = (calibrate_extras.calibrate_from_args(args, show)
+                       or calibrate(files, args.board, args.model, names=[str(f) for f in files], progress=show))
     finally:
         progress.clear()
     record = calibration_record(calibration)
@@ -117,8 +120,10 @@ def run(args) -> int:
 
         plot_calibration(calibration, args.plot, title=f"graphpose calibrate: {args.model}, "
                          f"{calibration.status.count('used')} images")
+    extra = calibrate_extras.after(args, calibration)
     if not args.quiet and args.json != "-":
         print(format_summary(calibration, args.out, args.format), flush=True)
+        calibrate_extras.print_lines(extra, args.quiet)
     if note is not None:
         print(f"graphpose calibrate: note: {note}", file=sys.stderr)
     return EXIT_OK
@@ -184,6 +189,7 @@ def calibration_record(calibration) -> dict:
             "message": calibration.message[k] or None,
             "rms_px": rms if np.isfinite(rms) else None,
             "T_WC": None if pose is None else np.asarray(pose),
+            "outliers": np.asarray(calibration.outliers[k]).tolist() if calibration.outliers else [],
         })
     record = {
         "model": camera.model,

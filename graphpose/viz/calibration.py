@@ -124,3 +124,55 @@ def _coverage(figure, ax, calibration, step) -> None:
     ax.set(xlim=(-0.5, width - 0.5), ylim=(height - 0.5, -0.5), xlabel="u (px)", ylabel="v (px)",
            aspect="equal", title=f"junctions used (orange) over the uncertainty; max {np.nanmax(sigma):.3g} px"
            if finite.size else "junctions used")
+
+
+def plot_cross_validation(cross_validation, path) -> None:
+    """Save a PNG of a cross-validation (:func:`graphpose.calibrate.crossval.cross_validate`):
+    the two halves' projection difference over the image after the fitted rotation, beside
+    what their covariances predict for it, on one logarithmic scale.
+
+    Parameters
+    ----------
+    cross_validation : graphpose.calibrate.crossval.CrossValidation
+    path : str or Path
+        Output PNG, written whole or not at all.
+
+    Raises
+    ------
+    InputError
+        If matplotlib is not installed or the file cannot be written.
+    """
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.colors import LogNorm
+        from matplotlib.figure import Figure
+    except ImportError:
+        raise InputError("the cross-validation picture needs matplotlib: pip install -e \".[plot]\"") from None
+    cv = cross_validation
+    d = cv.diff
+    step = float(d.us[1] - d.us[0]) if d.us.size > 1 else 1.0
+    maps = (d.diff_px, cv.predicted_px)
+    finite = np.concatenate([m[np.isfinite(m) & (m > 0)] for m in maps])
+    figure = Figure(figsize=(12, 4.6), layout="constrained")
+    FigureCanvasAgg(figure)
+    axes = figure.subplots(1, 2)
+    norm = LogNorm(vmin=float(finite.min()), vmax=max(float(finite.max()), 1.01 * float(finite.min()))) \
+        if finite.size else None
+    titles = (f"difference after the fitted rotation: median {cv.median_px:.3f} px",
+              f"predicted by the two covariances: median {cv.predicted_median_px:.3f} px")
+    width, height = cv.halves[0].camera.size
+    for ax, m, title in zip(axes, maps, titles):
+        mesh = ax.imshow(np.where(m > 0, m, np.nan), origin="upper", cmap="viridis", norm=norm,
+                         extent=(d.us[0] - step / 2, d.us[-1] + step / 2, d.vs[-1] + step / 2, d.vs[0] - step / 2))
+        levels = [v for v in (0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0) if finite.size and finite.min() < v < finite.max()]
+        if levels:
+            lines = ax.contour(d.us, d.vs, m, levels=levels, colors="w", linewidths=0.8)
+            ax.clabel(lines, fmt=lambda v: f"{v:g} px", fontsize=7)
+        ax.set(xlim=(-0.5, width - 0.5), ylim=(height - 0.5, -0.5), xlabel="u (px)", ylabel="v (px)",
+               aspect="equal", title=title)
+    figure.colorbar(mesh, ax=axes, label="pixels", shrink=0.85)
+    n0, n1 = (h.status.count("used") for h in cv.halves)
+    figure.suptitle(f"cross-validation: the even ({n0}) and odd ({n1}) views calibrated apart, at infinity")
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100)
+    atomic_write(path, buffer.getvalue())
