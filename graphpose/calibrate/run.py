@@ -163,16 +163,19 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True):
     keys = list(obs)
     obs = dict(obs)
     rejected, outliers = {}, {}
+    fit = None
     while True:
         view = [obs[k] for k in keys]
         # From Zhang's start a plain fit first; from an earlier pass's camera the residuals
         # at the start (no iterations) set the first Huber threshold.
-        fit = solve_lm(camera, [poses[k] for k in keys], view, max_iterations=100 if plain else 0)
+        fit = solve_lm(camera, [poses[k] for k in keys], view, max_iterations=100 if plain else 0,
+                       prior_px=_mad_sigma(fit.residuals) if fit is not None else 1.0)
         # Robust screening: two Huber solves (the noise from the residuals' median each time)
         # give the majority's fit, against which an image that does not fit stands out (a
         # plain fit spreads one bad image's misfit over all of them).
         for _ in range(2):
-            fit = solve_lm(fit.camera, fit.poses, view, huber_k * _mad_sigma(fit.residuals))
+            s = _mad_sigma(fit.residuals)
+            fit = solve_lm(fit.camera, fit.poses, view, huber_k * s, prior_px=s)
         camera, poses = fit.camera, dict(zip(keys, fit.poses))
         plain = False
         # Single junctions that do not fit the majority's solution: left out, and solved again.
@@ -213,8 +216,8 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True):
     start_poses = fit.poses
     if not final:
         return keys, rejected, None, fit, sigma0, obs, outliers
-    graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k)
-    lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0)
+    graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k, prior_px=sigma0)
+    lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0, prior_px=sigma0)
     return keys, rejected, graph, lm, sigma0, obs, outliers
 
 
@@ -429,12 +432,12 @@ def calibrate_corners(corners, board: Board = Board(), model: str = "radtan", si
                    "the corners", board, huber_k, inliers, outliers)
 
 
-def _joint(lm, observations, huber_px, board):
+def _joint(lm, observations, huber_px, sigma0, board):
     """The joint covariance of the intrinsics and the poses (:func:`.uncertainty.huber_covariance`)
     and the median distance from the camera to the board's centre."""
     from .uncertainty import huber_covariance
 
-    joint = huber_covariance(lm.camera, lm.poses, observations, huber_px)
+    joint = huber_covariance(lm.camera, lm.poses, observations, huber_px, prior_px=sigma0)
     centre = np.mean(board.world_points(), axis=1)
     distance = float(np.median([np.linalg.norm(T[:3, 3] - centre) for T in lm.poses]))
     return joint, distance
@@ -450,7 +453,7 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
     sigma = float(np.sqrt(np.sum(r_all * r_all) / max(dof, 1)))
     # The Huber estimate's covariance by the sandwich rule (:func:`.uncertainty.huber_covariance`):
     # the intrinsics' block is ``cov``, the whole is the projection uncertainty's.
-    joint, distance = _joint(lm, [inliers[k] for k in keys], huber_k * sigma0, board)
+    joint, distance = _joint(lm, [inliers[k] for k in keys], huber_k * sigma0, sigma0, board)
     cov = joint[:P, :P].copy()
     sd = np.sqrt(np.abs(np.diag(cov)))
     if not np.all(np.isfinite(cov)):

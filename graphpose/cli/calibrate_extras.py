@@ -57,6 +57,9 @@ def add_options(p: argparse.ArgumentParser) -> None:
 
 def check(args) -> None:
     """Usage errors of these options, before any work."""
+    if getattr(args, "format", None) == "kalibr" and args.model == "rational":
+        raise UsageError("--format kalibr cannot hold --model rational: Kalibr has no rational model (its radtan "
+                         "keeps k1, k2, p1, p2); write --format json, opencv or ros (rational_polynomial)")
     if args.corners is not None and args.images:
         raise UsageError("give either IMAGES or --corners FILE, not both")
     if args.corners is None and not args.images:
