@@ -29,6 +29,7 @@ import numpy as np
 import graphpose
 from graphpose import Board
 from graphpose.calibrate import calibrate_corners, camera_parameters
+from graphpose.calibrate.uncertainty import aligned_difference
 from graphpose.synth.calibration import calibration_set, fisheye_camera, radtan_camera
 
 
@@ -48,19 +49,6 @@ def _truth_frame(cal, views, board):
         poses.append(cal.poses[k] if same else F @ cal.poses[k])
         truths.append(views.renderings[k].T_WC)
     return poses, truths
-
-
-def aligned_error(estimate, poses, truth, true_poses, q, distance):
-    """mrcal's alignment (module docstring): the estimate's pixel minus ``q``, (2, N)."""
-    v = truth.unproject(q)
-    p = v if distance is None else v * distance
-    acc = 0.0
-    for Te, Tt in zip(poses, true_poses):
-        if distance is None:
-            acc = acc + Te[:3, :3].T @ (Tt[:3, :3] @ p)
-        else:
-            acc = acc + Te[:3, :3].T @ (Tt[:3, :3] @ p + Tt[:3, 3:4] - Te[:3, 3:4])
-    return estimate.project(acc / len(poses)) - q
 
 
 def _grid(camera, nu=16, nv=12):
@@ -84,14 +72,14 @@ def one_set(camera, n_views, seed, board=Board()):
     q = _grid(camera)
     for key, d in (("boards", cal.board_distance_m), ("infinity", None)):
         U = cal.projection_uncertainty(q, d)
-        err = aligned_error(cal.camera, poses, camera, truths, q, d).T
+        err = aligned_difference(cal.camera, poses, camera, truths, q, d).T
         ok = np.all(np.isfinite(err), axis=1) & np.all(np.isfinite(U.cov.reshape(-1, 4)), axis=1)
         nees = np.einsum("ni,nij,nj->n", err[ok], np.linalg.inv(U.cov[ok]), err[ok])
         out[f"grid_nees_{key}"] = float(np.mean(nees))
         out[f"grid_error_rms_px_{key}"] = float(np.sqrt(np.mean(np.sum(err[ok] ** 2, axis=1))))
         out[f"grid_sigma_median_px_{key}"] = float(np.median(U.sigma_px[ok]))
     centre = np.array([[(camera.size[0] - 1) / 2], [(camera.size[1] - 1) / 2]])
-    out["centre_error_px"] = float(np.hypot(*aligned_error(cal.camera, poses, camera, truths, centre,
+    out["centre_error_px"] = float(np.hypot(*aligned_difference(cal.camera, poses, camera, truths, centre,
                                                            cal.board_distance_m)[:, 0]))
     out["centre_sigma_px"] = float(cal.projection_uncertainty(centre, cal.board_distance_m).sigma_px[0])
     out["centre_sigma_intrinsics_only_px"] = float(_intrinsics_only(cal, centre))

@@ -262,3 +262,41 @@ def worst_direction_sigma(S) -> np.ndarray:
     """``sqrt(largest eigenvalue)`` of each 2 x 2 covariance (N, 2, 2)."""
     tr, det = S[:, 0, 0] + S[:, 1, 1], S[:, 0, 0] * S[:, 1, 1] - S[:, 0, 1] * S[:, 1, 0]
     return np.sqrt(np.maximum(0.5 * tr + np.sqrt(np.maximum(0.25 * tr * tr - det, 0.0)), 0.0))
+
+
+def aligned_difference(camera, poses, reference, reference_poses, points_px, distance_m=None) -> np.ndarray:
+    """What the projection uncertainty describes, measured: the pixel of a point through
+    ``camera`` after mrcal's alignment with a ``reference`` solve of the same views (the truth
+    of a rendered set, say).
+
+    The reference camera's point at each pixel (at ``distance_m`` along its ray; None: at
+    infinity) is carried into every view's board frame through the reference's poses, back
+    through ``poses`` as their mean (at infinity: the rotations only), and projected by
+    ``camera``.
+
+    Parameters
+    ----------
+    camera, reference : Camera
+    poses, reference_poses : sequence of (4, 4) ndarray
+        ``T_WC`` of the same views in the same board frames.
+    points_px : (2, N) array_like
+    distance_m : float, optional
+
+    Returns
+    -------
+    d : (2, N) ndarray
+        ``camera``'s pixel minus ``points_px``.
+    """
+    q = as_points(points_px, 2, "points_px", min_count=0)
+    if len(poses) != len(reference_poses) or not len(poses):
+        raise InputError(f"poses and reference_poses must be the same views, got {len(poses)} and "
+                         f"{len(reference_poses)}")
+    v = reference.unproject(q)
+    p = v if distance_m is None else v * distance_m
+    acc = 0.0
+    for Te, Tt in zip(poses, reference_poses):
+        if distance_m is None:
+            acc = acc + Te[:3, :3].T @ (Tt[:3, :3] @ p)
+        else:
+            acc = acc + Te[:3, :3].T @ (Tt[:3, :3] @ p + Tt[:3, 3:4] - Te[:3, 3:4])
+    return camera.project(acc / len(poses)) - q

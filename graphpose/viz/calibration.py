@@ -43,13 +43,7 @@ def plot_calibration(calibration, path, *, title: str = "", step: float = 16.0) 
     InputError
         If matplotlib is not installed or the file cannot be written.
     """
-    try:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise InputError("the calibration picture needs matplotlib: pip install -e \".[plot]\"") from None
-    figure = Figure(figsize=(14, 5.2), layout="constrained")
-    FigureCanvasAgg(figure)
+    figure = _figure((14, 5.2), "calibration")
     residuals, per_image, image = figure.subplots(1, 3, gridspec_kw={"width_ratios": [1, 1, 1.5]})
     _residuals(residuals, calibration)
     _per_image(per_image, calibration)
@@ -59,6 +53,18 @@ def plot_calibration(calibration, path, *, title: str = "", step: float = 16.0) 
     buffer = io.BytesIO()
     figure.savefig(buffer, format="png", dpi=100)
     atomic_write(path, buffer.getvalue())
+
+
+def _figure(size, what):
+    """A matplotlib figure on the Agg canvas (object API), or InputError without matplotlib."""
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ImportError:
+        raise InputError(f"the {what} picture needs matplotlib: pip install -e \".[plot]\"") from None
+    figure = Figure(figsize=size, layout="constrained")
+    FigureCanvasAgg(figure)
+    return figure
 
 
 def _residuals(ax, calibration) -> None:
@@ -142,19 +148,14 @@ def plot_cross_validation(cross_validation, path) -> None:
     InputError
         If matplotlib is not installed or the file cannot be written.
     """
-    try:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.colors import LogNorm
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise InputError("the cross-validation picture needs matplotlib: pip install -e \".[plot]\"") from None
+    figure = _figure((12, 4.6), "cross-validation")
+    from matplotlib.colors import LogNorm
+
     cv = cross_validation
     d = cv.diff
     step = float(d.us[1] - d.us[0]) if d.us.size > 1 else 1.0
     maps = (d.diff_px, cv.predicted_px)
     finite = np.concatenate([m[np.isfinite(m) & (m > 0)] for m in maps])
-    figure = Figure(figsize=(12, 4.6), layout="constrained")
-    FigureCanvasAgg(figure)
     axes = figure.subplots(1, 2)
     norm = LogNorm(vmin=float(finite.min()), vmax=max(float(finite.max()), 1.01 * float(finite.min()))) \
         if finite.size else None

@@ -7,7 +7,7 @@ import pytest
 
 from graphpose import Board, InputError
 from graphpose.calibrate import lm
-from graphpose.calibrate.uncertainty import (covariance_from_information, joint_information,
+from graphpose.calibrate.uncertainty import (aligned_difference, covariance_from_information, joint_information,
                                              projection_jacobian, projection_uncertainty)
 from graphpose.camera_params import camera_parameters, camera_with_parameters
 from graphpose.geometry import T_from_params, params_from_T, to_camera
@@ -47,20 +47,6 @@ def _chain(camera, poses, b, q, distance):
     return perturbed.project(acc / len(poses))
 
 
-def _aligned_error(estimate, estimate_poses, truth, true_poses, q, distance):
-    """mrcal's alignment: the true camera's point at q into each board's true frame, back through
-    the estimated poses (their mean), projected by the estimate."""
-    v = truth.unproject(q)
-    p = v if distance is None else v * distance
-    acc = 0.0
-    for Te, Tt in zip(estimate_poses, true_poses):
-        if distance is None:
-            acc = acc + Te[:3, :3].T @ (Tt[:3, :3] @ p)
-        else:
-            acc = acc + Te[:3, :3].T @ (Tt[:3, :3] @ p + Tt[:3, 3:4] - Te[:3, 3:4])
-    return estimate.project(acc / len(estimate_poses)) - q
-
-
 @pytest.mark.parametrize("camera", [radtan_camera(), fisheye_camera()], ids=["radtan", "fisheye"])
 @pytest.mark.parametrize("distance", [0.7, None])
 def test_the_derivative_matches_finite_differences(camera, distance):
@@ -98,7 +84,7 @@ def test_nees_against_the_aligned_error_is_two():
         C = covariance_from_information(joint_information(fit.camera, fit.poses, noisy), sigma)
         for d in values:
             U = projection_uncertainty(fit.camera, fit.poses, C, q, d)
-            e = _aligned_error(fit.camera, fit.poses, camera, poses, q, d).T
+            e = aligned_difference(fit.camera, fit.poses, camera, poses, q, d).T
             values[d].append(np.mean(np.einsum("ni,nij,nj->n", e, np.linalg.inv(U.cov), e)))
     for d, nees in values.items():
         assert 1.4 < np.mean(nees) < 2.8, (d, nees)
