@@ -10,6 +10,7 @@ model      parameters
 =========  ==================================================
 pinhole    ``fx, fy, cx, cy``
 radtan     ``fx, fy, cx, cy, k1, k2, p1, p2, k3`` (``calibrateCamera``'s five coefficients)
+rational   ``fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, k5, k6`` (its ``CALIB_RATIONAL_MODEL``)
 fisheye    ``fx, fy, cx, cy, k1, k2, k3, k4`` (``cv::fisheye``'s)
 =========  ==================================================
 
@@ -33,11 +34,11 @@ from __future__ import annotations
 import numpy as np
 
 from ._checks import as_float_array, as_points
-from .camera_models import Camera, FisheyeCamera, PinholeCamera, RadTanCamera, as_camera
+from .camera_models import Camera, FisheyeCamera, PinholeCamera, RadTanCamera, RationalCamera, as_camera
 from .errors import InputError
 
 #: The camera class of each model name.
-MODELS = {"pinhole": PinholeCamera, "radtan": RadTanCamera, "fisheye": FisheyeCamera}
+MODELS = {"pinhole": PinholeCamera, "radtan": RadTanCamera, "rational": RationalCamera, "fisheye": FisheyeCamera}
 
 
 #: Calibration models that hold some of a camera model's parameters at 0, not estimated: name ->
@@ -128,6 +129,8 @@ def camera_parameters(camera) -> np.ndarray:
     """
     camera = _camera(camera)
     head = [camera.fx, camera.fy, camera.cx, camera.cy]
+    if isinstance(camera, RationalCamera):
+        return np.array(head + list(camera.coefficients))
     if isinstance(camera, RadTanCamera):
         return np.array(head + list(camera.coefficients[:5]))
     if isinstance(camera, FisheyeCamera):
@@ -168,6 +171,8 @@ def camera_with_parameters(camera, p, covariance=None) -> Camera:
     if not np.all(np.isfinite(p)):
         raise InputError(f"parameters contain NaN or infinite values: {p.tolist()}")
     K = np.array([[p[0], camera.skew, p[2]], [0.0, p[1], p[3]], [0.0, 0.0, 1.0]])
+    if isinstance(camera, RationalCamera):
+        return RationalCamera(K, p[4:12], camera.size, covariance)
     if isinstance(camera, RadTanCamera):
         full = camera.coefficients
         d = np.r_[p[4:9], full[5:]] if camera.distortion.size == 8 else p[4:9]
@@ -219,8 +224,15 @@ def projection_jacobian_intrinsics(camera, P_C) -> np.ndarray:
         radial = np.stack([r2, r2 * r2, r2 ** 3]) / b  # d g / d(k1, k2, k3)
         dx = np.stack([x * radial[0], x * radial[1], 2.0 * x * y, r2 + 2.0 * x * x, x * radial[2]])
         dy = np.stack([y * radial[0], y * radial[1], r2 + 2.0 * y * y, 2.0 * x * y, y * radial[2]])
-        J[:, 0, 4:] = (camera.fx * dx).T
-        J[:, 1, 4:] = (camera.fy * dy).T
+        J[:, 0, 4:9] = (camera.fx * dx).T
+        J[:, 1, 4:9] = (camera.fy * dy).T
+        if isinstance(camera, RationalCamera):
+            # g = a / b: d g / d(k4, k5, k6) = -a (r^2, r^4, r^6) / b^2.
+            k1, k2, _, _, k3 = camera.coefficients[:5]
+            a = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+            dg = -a * np.stack([r2, r2 * r2, r2 ** 3]) / (b * b)
+            J[:, 0, 9:] = (camera.fx * x * dg).T
+            J[:, 1, 9:] = (camera.fy * y * dg).T
     elif isinstance(camera, FisheyeCamera):
         X, Y, Z = P
         rho = np.hypot(X, Y)

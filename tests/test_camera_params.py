@@ -39,9 +39,11 @@ def test_parameter_names_are_opencvs_order():
     assert parameter_names("pinhole") == ("fx", "fy", "cx", "cy")
     assert parameter_names("radtan") == ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
     assert parameter_names("fisheye") == ("fx", "fy", "cx", "cy", "k1", "k2", "k3", "k4")
+    # An 8-coefficient RadTanCamera keeps k4..k6 fixed; model="rational" estimates them too.
     assert parameter_names(CAMERAS["rational"]) == parameter_names("radtan")
+    assert parameter_names("rational") == parameter_names("radtan") + ("k4", "k5", "k6")
     assert graphpose.calibrate.parameter_names is parameter_names
-    with pytest.raises(InputError, match="unknown camera model 'omni'.*pinhole, radtan, fisheye"):
+    with pytest.raises(InputError, match="unknown camera model 'omni'.*pinhole, radtan, rational, fisheye"):
         parameter_names("omni")
 
 

@@ -26,7 +26,8 @@ from ..camera_params import (  # noqa: F401  (re-exported: listed in __all__)
 )
 
 #: Public name -> the module of this package that defines it (imported lazily, PEP 562).
-_EXPORTS = {"calibrate": "run", "Calibration": "result", "calibrate_rig": "rig", "RigCalibration": "rig"}
+_EXPORTS = {"calibrate": "run", "calibrate_corners": "run", "Calibration": "result",
+            "ProjectionUncertainty": "uncertainty", "calibrate_rig": "rig", "RigCalibration": "rig"}
 
 __all__ = sorted(["camera_parameters", "camera_with_parameters", "parameter_names",
                   "projection_jacobian_intrinsics", *_EXPORTS])

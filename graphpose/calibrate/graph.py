@@ -12,7 +12,8 @@ Variables: the calibration ``K(0)``; the camera pose ``X(i)`` (``T_WC``) of view
   estimate: a prior pins it at 0 (sigma 1e-6 px) and leaves the other entries free (sigma
   1e6).
 - radtan: GTSAM's ``Cal3DS2`` has no ``k3``, so the calibration is a 9-vector
-  ``(fx, fy, cx, cy, k1, k2, p1, p2, k3)`` in OpenCV's order and the factors are
+  ``(fx, fy, cx, cy, k1, k2, p1, p2, k3)`` in OpenCV's order (rational: a 12-vector, ``k4, k5,
+  k6`` after them) and the factors are
   ``gtsam.CustomFactor`` on ``(K(0), X(i))`` whose projection and Jacobians are written out
   here, apart from :mod:`graphpose.camera_models` (the cross-check's other solver uses those). A
   Python callback per junction costs about 0.1 ms a call (some 6 s for 40 views), so there is
@@ -104,32 +105,44 @@ def _radtan_factor(uv, W, cal_key, pose_key, sigma, huber_k, held=None):
     m = measured.shape[1]
 
     def error(factor, values, jacobians):
-        fx, fy, cx, cy, k1, k2, p1, p2, k3 = values.atVector(factor.keys()[0])
+        c = values.atVector(factor.keys()[0])
+        rational = c.size == 12
+        fx, fy, cx, cy, k1, k2, p1, p2, k3 = c[:9]
+        k4, k5, k6 = c[9:] if rational else (0.0, 0.0, 0.0)
+        n = c.size
         T = values.atPose3(factor.keys()[1])
         R = T.rotation().matrix()
         P = R.T @ (W - T.translation()[:, None])  # (3, m)
         Z = P[2]
         if np.any(Z <= 0):
             if jacobians is not None:
-                jacobians[0], jacobians[1] = np.zeros((2 * m, 9)), np.zeros((2 * m, 6))
+                jacobians[0], jacobians[1] = np.zeros((2 * m, n)), np.zeros((2 * m, 6))
             return np.full(2 * m, 2.0 * fx / sigma)
         x, y = P[0] / Z, P[1] / Z
         r2 = x * x + y * y
-        radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        a = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        b = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+        radial = a / b
         xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
         yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
         r = np.stack([fx * xd + cx - measured[0], fy * yd + cy - measured[1]]) / sigma  # (2, m)
         if jacobians is not None:
             r4 = r2 * r2
             zero, one = np.zeros(m), np.ones(m)
-            Jc = np.stack([
-                np.stack([xd, zero, one, zero, fx * x * r2, fx * x * r4, 2.0 * fx * x * y,
-                          fx * (r2 + 2.0 * x * x), fx * x * r4 * r2], axis=1),
-                np.stack([zero, yd, zero, one, fy * y * r2, fy * y * r4, fy * (r2 + 2.0 * y * y),
-                          2.0 * fy * x * y, fy * y * r4 * r2], axis=1)], axis=1) / sigma  # (m, 2, 9)
+            cols_x = [xd, zero, one, zero, fx * x * r2 / b, fx * x * r4 / b, 2.0 * fx * x * y,
+                      fx * (r2 + 2.0 * x * x), fx * x * r4 * r2 / b]
+            cols_y = [zero, yd, zero, one, fy * y * r2 / b, fy * y * r4 / b, fy * (r2 + 2.0 * y * y),
+                      2.0 * fy * x * y, fy * y * r4 * r2 / b]
+            if rational:
+                q = -a / (b * b)
+                cols_x += [fx * x * q * r2, fx * x * q * r4, fx * x * q * r4 * r2]
+                cols_y += [fy * y * q * r2, fy * y * q * r4, fy * y * q * r4 * r2]
+            Jc = np.stack([np.stack(cols_x, axis=1), np.stack(cols_y, axis=1)], axis=1) / sigma  # (m, 2, n)
             if held is not None:
                 Jc[:, :, held] = 0.0
-            dr = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
+            da = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
+            db = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
+            dr = (da * b - a * db) / (b * b)
             a00 = radial + 2.0 * x * x * dr + 2.0 * p1 * y + 6.0 * p2 * x
             a01 = 2.0 * x * y * dr + 2.0 * p1 * x + 2.0 * p2 * y
             a11 = radial + 2.0 * y * y * dr + 6.0 * p1 * y + 2.0 * p2 * x
@@ -157,7 +170,7 @@ def _radtan_factor(uv, W, cal_key, pose_key, sigma, huber_k, held=None):
                 Jc = s[:, None, None] * Jc + outer @ Jc
                 Jp = s[:, None, None] * Jp + outer @ Jp
         if jacobians is not None:
-            jacobians[0], jacobians[1] = Jc.reshape(2 * m, 9), Jp.reshape(2 * m, 6)
+            jacobians[0], jacobians[1] = Jc.reshape(2 * m, n), Jp.reshape(2 * m, 6)
         return e.T.ravel()
 
     noise = gtsam.noiseModel.Unit.Create(2 * m)
@@ -183,7 +196,8 @@ def _from_gtsam(values, camera):
     return np.array(values.atVector(KEY(0)))
 
 
-def solve_graph(camera, poses, observations, sigma: float, huber_k=None, *, held=None) -> GraphCalibration:
+def solve_graph(camera, poses, observations, sigma: float, huber_k=None, prior_px=None, *,
+                held=None) -> GraphCalibration:
     """Calibrate with a GTSAM graph from a start.
 
     Parameters
@@ -198,6 +212,9 @@ def solve_graph(camera, poses, observations, sigma: float, huber_k=None, *, held
         Pixel noise of every factor, pixels.
     huber_k : float, optional
         Huber threshold in sigmas; plain least squares when None.
+    prior_px : float, optional
+        As :func:`graphpose.calibrate.lm.solve_lm`'s: the model's weak prior, its residual in
+        units of this pixel noise (whitened here by ``sigma``).
     held : (P,) array_like of bool, optional
         Radial-tangential parameters held at the start's value (``radtan4``'s k3 at 0): no
         factor's Jacobian moves them, a unit prior keeps the graph's system regular, and
@@ -219,9 +236,22 @@ def solve_graph(camera, poses, observations, sigma: float, huber_k=None, *, held
         raise InputError(f"only the radtan model's parameters can be held, not the {camera.model}'s")
     if cal is None:
         initial.insert(KEY(0), p0)
-        if held is not None:
-            graph.add(gtsam.PriorFactorVector(KEY(0), p0, gtsam.noiseModel.Diagonal.Sigmas(
-                np.where(held, 1.0, _FREE_SIGMA))))
+        from .lm import PRIORS
+
+        has_prior = prior_px is not None and camera.model in PRIORS
+        if held is not None or has_prior:
+            # A held parameter: a unit prior at its start keeps the system regular (no factor
+            # moves it). The model's weak prior: the LM's 0.5 (prior_px / s)^2 p_i^2 in pixel
+            # units is 0.5 (p_i / s_i)^2 in GTSAM's whitened cost (divided by sigma^2):
+            # s_i = s sigma / prior_px, about zero. Every other entry free.
+            sigmas, mean = np.full(p0.size, _FREE_SIGMA), p0.copy()
+            if held is not None:
+                sigmas[held] = 1.0
+            if has_prior:
+                index, prior_sigma = PRIORS[camera.model]
+                sigmas[index] = prior_sigma * sigma / prior_px
+                mean[index] = 0.0
+            graph.add(gtsam.PriorFactorVector(KEY(0), mean, gtsam.noiseModel.Diagonal.Sigmas(sigmas)))
     else:
         initial.insert(KEY(0), cal)
         sigmas = np.full(cal.dim(), _FREE_SIGMA)

@@ -1,16 +1,19 @@
 """What a calibration returns: :class:`Calibration`, and where over the image it holds.
 
-The projection uncertainty map (:meth:`Calibration.uncertainty_map`) follows mrcal's idea
-(how well does the calibration project a ray it has not seen, at each pixel?) in its plain
-form, from the intrinsics' covariance alone: for the ray ``q`` that the calibrated camera
+Two uncertainty figures. :meth:`Calibration.projection_uncertainty` (and its map,
+:meth:`Calibration.projection_uncertainty_map`) is mrcal's: the camera frame tied to the
+board poses the calibration saw, evaluated at a distance or at infinity
+(:mod:`graphpose.calibrate.uncertainty`); it is the one that says where over the image the
+calibration projects well. :meth:`Calibration.uncertainty_map` is the intrinsics' alone,
+what a pose estimated later through this camera inherits (the camera file's covariance): for the ray ``q`` that the calibrated camera
 sees at pixel ``(u, v)``, the pixel covariance of projecting ``q`` under the intrinsics'
 uncertainty is ``Sigma_uv = J cov J^T`` with ``J = d uv / d p`` at ``q``
 (:func:`graphpose.camera_params.projection_jacobian_intrinsics`), and the map is the
 1-sigma along the worst direction, ``sqrt(largest eigenvalue of Sigma_uv)``, pixels. In the
 camera's own frame a ray projects to the same pixel at every distance, so this plain form
 does not depend on the distance; mrcal's full form also carries the uncertainty of the camera
-frame (through the board poses), which makes near points differ from far ones: that part is
-not computed here. Where no junction was seen the map grows with the extrapolation of the
+frame (through the board poses), which makes near points differ from far ones:
+:meth:`Calibration.projection_uncertainty`. Where no junction was seen the map grows with the extrapolation of the
 lens model (the corners of a radial-tangential camera, say): the map says so, and
 :meth:`Calibration.coverage` shows where junctions were.
 """
@@ -39,7 +42,7 @@ class Calibration:
         ``covariance`` (= ``cov``).
     cov : (P, P) ndarray
         Covariance of the intrinsic parameters, in ``parameter_names`` order (pixels,
-        unitless): GTSAM's marginal, scaled by the pixel noise estimated from the residuals.
+        unitless): the intrinsics' block of ``joint_cov``.
     parameter_names : tuple of str
         :func:`graphpose.calibrate.parameter_names` of the model.
     images : tuple of str
@@ -64,7 +67,9 @@ class Calibration:
     rms_px : float
         ``sqrt(mean(du^2 + dv^2))`` over every junction used (OpenCV's definition), pixels.
     sigma_px : float
-        Pixel noise behind ``cov``, estimated from the Huber-weighted residuals.
+        The junctions' pixel noise per coordinate, ``sqrt(sum r^2 / (2M - P - 6n))`` over the
+        used junctions (for the report: ``cov`` carries the noise through the residuals
+        themselves).
     ok : bool
         True when both solvers converged and agree (``cross_check``).
     cross_check : dict
@@ -73,6 +78,23 @@ class Calibration:
         (1e-6); ``converged``: both solvers'.
     summary : str
         One line: what was found, or why the calibration failed.
+    joint_cov : (P + 6 n, P + 6 n) ndarray or None
+        The joint covariance of the intrinsics and the n used views' poses (each ``(x, y, z,
+        roll, pitch, yaw)`` of ``T_WC``, in the order of the used images): the Huber
+        estimate's covariance by the sandwich rule
+        (:func:`graphpose.calibrate.uncertainty.huber_covariance`), what
+        :meth:`projection_uncertainty` propagates.
+    detections : tuple
+        Per image None (no board) or ``(uv (2, m), index (m,))``: every junction the
+        detector gave (outliers included), with its board number; what ``--corners-out``
+        writes.
+    outliers : tuple
+        Per image the board indices (``Board.world_points`` columns) of the junctions left out
+        as single outliers (:data:`graphpose.calibrate.run.OUTLIER_SIGMAS`), (k,) int; empty
+        for an image without any and for images not used. ``message`` names them too.
+    board_distance_m : float
+        The median distance from the camera to the board's centre over the used views,
+        metres (the default distance of :meth:`projection_uncertainty_map`).
     """
 
     camera: object
@@ -90,6 +112,10 @@ class Calibration:
     ok: bool
     cross_check: dict
     summary: str
+    joint_cov: np.ndarray | None = None
+    outliers: tuple = ()
+    detections: tuple = ()
+    board_distance_m: float = float("nan")
 
     @property
     def parameters(self) -> np.ndarray:
@@ -140,6 +166,67 @@ class Calibration:
             tr, det = S[:, 0, 0] + S[:, 1, 1], S[:, 0, 0] * S[:, 1, 1] - S[:, 0, 1] * S[:, 1, 0]
             out[good] = np.sqrt(np.maximum(0.5 * tr + np.sqrt(np.maximum(0.25 * tr * tr - det, 0.0)), 0.0))
         return us, vs, out.reshape(u.shape)
+
+    def projection_uncertainty(self, points_px, distance_m=None):
+        """mrcal's projection uncertainty at pixels: the camera frame tied to the boards.
+
+        Parameters
+        ----------
+        points_px : (2, N) array_like
+            Pixels (u, v).
+        distance_m : float, optional
+            Distance along each pixel's ray, metres; None (default): at infinity.
+
+        Returns
+        -------
+        graphpose.calibrate.uncertainty.ProjectionUncertainty
+            ``cov`` (N, 2, 2) pixels squared and ``sigma_px`` (N,) the worst direction's
+            1-sigma: how far the pixel of a point at that distance along the ray moves with
+            the calibration's noise (intrinsics and board poses jointly,
+            :mod:`graphpose.calibrate.uncertainty`).
+
+        Raises
+        ------
+        InputError
+            If the calibration has no joint covariance (it failed), or an argument is bad.
+        """
+        from ..errors import InputError
+        from .uncertainty import projection_uncertainty
+
+        if self.joint_cov is None or not np.all(np.isfinite(self.joint_cov)):
+            raise InputError("this calibration has no joint covariance (it failed): no projection uncertainty")
+        poses = [T for T, s in zip(self.poses, self.status) if s == "used"]
+        return projection_uncertainty(self.camera, poses, self.joint_cov, points_px, distance_m)
+
+    def projection_uncertainty_map(self, step: float = 16.0, distance_m="boards"):
+        """:meth:`projection_uncertainty` over a grid of the image.
+
+        Parameters
+        ----------
+        step : float
+            Grid spacing, pixels (>= 1); the grid starts at pixel (0, 0).
+        distance_m : float, "boards" or None
+            Metres along each ray; ``"boards"`` (default): :attr:`board_distance_m`; None:
+            at infinity.
+
+        Returns
+        -------
+        us : (W',) ndarray
+        vs : (H',) ndarray
+        sigma : (H', W') ndarray
+            The worst direction's 1-sigma at each grid pixel, pixels; NaN where the camera
+            has no ray.
+        """
+        if isinstance(distance_m, str):
+            if distance_m != "boards":
+                from ..errors import InputError
+
+                raise InputError(f"distance_m must be metres, 'boards' or None, got {distance_m!r}")
+            distance_m = self.board_distance_m
+        us, vs = self._grid(step)
+        u, v = np.meshgrid(us, vs)
+        out = self.projection_uncertainty(np.stack([u.ravel(), v.ravel()]), distance_m)
+        return us, vs, out.sigma_px.reshape(u.shape)
 
     def coverage(self, step: float = 32.0):
         """How many used junctions fell in each cell of a grid over the image.

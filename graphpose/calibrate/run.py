@@ -27,9 +27,10 @@ The steps (``docs/calibration.md``):
    find those at the rim). The last pass is always one with the final pass's camera
    before the final solve.
 
-The covariance is GTSAM's marginal of the calibration at ``sigma``, scaled by the pixel
-noise the final residuals give, ``sqrt(sum w r^2 / (2M - P - 6n))`` (``w`` the Huber
-weights, M junctions, n images). A focal length whose relative sigma exceeds
+The covariance is the Huber estimate's by the sandwich rule, over the intrinsics and every
+pose jointly (:func:`.uncertainty.huber_covariance`; its intrinsics' block is ``cov``, the
+whole is what the projection uncertainty propagates); the pixel noise reported is
+``sqrt(sum r^2 / (2M - P - 6n))`` (M junctions, n images). A focal length whose relative sigma exceeds
 :data:`MAX_FOCAL_SIGMA` means the views do not constrain it: an error saying so.
 """
 
@@ -50,6 +51,13 @@ from .result import Calibration
 REJECT_RATIO = 3.0
 #: ... unless it is below this (pixels): rendered images fit to a few hundredths of a pixel.
 REJECT_FLOOR_PX = 0.1
+#: A junction whose 2-D residual exceeds this many pixel sigmas (1.4826 x the median absolute
+#: residual coordinate of the robust fit) is an outlier: left out, and named in its image's
+#: report. For Gaussian noise P(|r| > c sigma) = exp(-c^2 / 2): 4e-6 of good junctions at 5.
+OUTLIER_SIGMAS = 5.0
+#: An image with more than this fraction of its junctions outliers is rejected whole (a moved
+#: board or a wrong label is no set of single outliers).
+OUTLIER_IMAGE_FRACTION = 0.25
 #: The two solvers must agree on each parameter to this fraction of max(|p|, sigma_p).
 CROSS_CHECK_TOL = 1e-6
 #: Huber threshold, in sigmas (95 % efficiency under Gaussian noise, as the pose's).
@@ -163,17 +171,47 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
     from .lm import solve_lm
 
     keys = list(obs)
-    rejected = {}
+    obs = dict(obs)
+    rejected, outliers = {}, {}
+    fit = None
     while True:
         view = [obs[k] for k in keys]
         # From Zhang's start a plain fit first; from an earlier pass's camera the residuals
         # at the start (no iterations) set the first Huber threshold.
-        fit = solve_lm(camera, [poses[k] for k in keys], view, max_iterations=100 if plain else 0, held=held)
+        fit = solve_lm(camera, [poses[k] for k in keys], view, max_iterations=100 if plain else 0,
+                       prior_px=_mad_sigma(fit.residuals) if fit is not None else 1.0, held=held)
         # Robust screening: two Huber solves (the noise from the residuals' median each time)
         # give the majority's fit, against which an image that does not fit stands out (a
         # plain fit spreads one bad image's misfit over all of them).
         for _ in range(2):
-            fit = solve_lm(fit.camera, fit.poses, view, huber_k * _mad_sigma(fit.residuals), held=held)
+            s = _mad_sigma(fit.residuals)
+            fit = solve_lm(fit.camera, fit.poses, view, huber_k * s, prior_px=s, held=held)
+        camera, poses = fit.camera, dict(zip(keys, fit.poses))
+        plain = False
+        # Single junctions that do not fit the majority's solution: left out, and solved again.
+        limit_px = OUTLIER_SIGMAS * _mad_sigma(fit.residuals)
+        flagged, whole = False, None
+        for k, r in zip(keys, fit.residuals):
+            bad = np.hypot(r[0], r[1]) > limit_px
+            if not bad.any():
+                continue
+            uv, W, index = obs[k]
+            if bad.sum() > OUTLIER_IMAGE_FRACTION * bad.size or bad.size - bad.sum() < MIN_JUNCTIONS:
+                if whole is None or bad.mean() > whole[1]:
+                    whole = (k, bad.mean(), int(bad.sum()), bad.size)
+                continue
+            outliers[k] = np.sort(np.r_[outliers.get(k, np.zeros(0, int)), index[bad]]).astype(int)
+            obs[k] = (uv[:, ~bad], W[:, ~bad], index[~bad])
+            flagged = True
+        if whole is not None and len(keys) > MIN_IMAGES:
+            k, _, nbad, m = whole
+            rejected[k] = (f"rejected: {nbad} of its {m} junctions are more than {OUTLIER_SIGMAS:g} sigmas "
+                           f"({limit_px:.3f} px) off the others' solution (a moved board, a wrong label, "
+                           "a blurred image?)")
+            keys.remove(k)
+            continue
+        if flagged:
+            continue
         rms = np.array([_rms(r) for r in fit.residuals])
         limit = max(REJECT_RATIO * float(np.median(rms)), REJECT_FLOOR_PX)
         worst = int(np.argmax(rms))
@@ -182,16 +220,15 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
         rejected[keys[worst]] = (f"rejected: RMS {rms[worst]:.3f} px, more than {REJECT_RATIO:g} times the "
                                  f"median image's {np.median(rms):.3f} px (a moved board, a wrong label, "
                                  "a blurred image?)")
-        camera, poses = fit.camera, dict(zip(keys, fit.poses))
         keys.pop(worst)
     sigma0 = _mad_sigma(fit.residuals)
     plain = fit
     start_poses = fit.poses
     if not final:
-        return keys, rejected, None, fit, sigma0
-    graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k, held=held)
-    lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0, held=held)
-    return keys, rejected, graph, lm, sigma0
+        return keys, rejected, None, fit, sigma0, obs, outliers
+    graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k, prior_px=sigma0, held=held)
+    lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0, prior_px=sigma0, held=held)
+    return keys, rejected, graph, lm, sigma0, obs, outliers
 
 
 def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=None, camera=None,
@@ -276,8 +313,9 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
 
     keys = sorted(obs)
     camera0, poses0 = start(cls.model, size, [obs[k][:2] for k in keys])
-    keys, rejected, graph, lm, sigma0 = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k, final=False,
-                                                 held=held)
+    keys, rejected, graph, lm, sigma0, inliers, outliers = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k,
+                                                                  final=False,
+                                                                  held=held)
     report("solve", 1, 2)
 
     # 4. Passes with the camera: every image again, until no new board is found.
@@ -311,25 +349,129 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         obs = obs2
         last = not grew or pass_number == 1 + MAX_CAMERA_PASSES
         # Only the last pass's solve is the calibration: GTSAM and the cross-check run there.
-        keys, rejected, graph, lm, sigma0 = _solve(camera1, poses1, obs, huber_k, final=last, plain=False,
-                                                     held=held)
+        keys, rejected, graph, lm, sigma0, inliers, outliers = _solve(camera1, poses1, obs, huber_k, final=last,
+                                                                      plain=False,
+                                                                      held=held)
         report("solve", pass_number, pass_number)
         if last:
             break
     return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
-                   "no camera" if camera is None else "with the given camera", held, unreadable)
+                   "no camera" if camera is None else "with the given camera", board, huber_k, inliers, outliers,
+                   held, unreadable)
+
+
+def calibrate_corners(corners, board: Board = Board(), model: str = "radtan", size=None, *, names=None,
+                      huber_k: float = HUBER_K, progress=None) -> Calibration:
+    """Calibrate a camera from junctions found by any detector (no images).
+
+    Steps 2 and 3 of :func:`calibrate` (Zhang's start, the solves, the single outliers and
+    the rejections) on the given junctions; no pass with the camera (there is no image to
+    search again).
+
+    Parameters
+    ----------
+    corners : graphpose.io.corners.Corners or sequence
+        :func:`graphpose.io.corners.read_corners`' result (mrcal's corners.vnl or
+        graphpose's JSON), or per image None (no board) or ``(uv (2, m), index (m,))``:
+        pixels and the board's junction numbers (``Board.world_points`` columns).
+    board : Board
+    model : str
+        As :func:`calibrate`'s.
+    size : (int, int), optional
+        The images' ``(width, height)``, pixels; required unless ``corners`` says it.
+    names : sequence of str, optional
+        The images' names; the file's (or ``image i``) by default.
+    huber_k : float
+    progress : callable, optional
+        As :func:`calibrate`'s (stage ``"solve"``).
+
+    Returns
+    -------
+    Calibration
+        As :func:`calibrate`'s; each used image's message says its junctions were read.
+
+    Raises
+    ------
+    InputError
+        If the size is missing or bad, a junction set is malformed, or fewer than three
+        images have :data:`MIN_JUNCTIONS` junctions.
+    """
+    from .._checks import check_size
+    from ..io.corners import Corners
+
+    cls, held = calibration_model(model)
+    check_board(board)
+    huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
+    if isinstance(corners, Corners):
+        labels = list(corners.images)
+        size = corners.size if size is None else size
+        corners = list(corners.junctions)
+    else:
+        corners = list(corners)
+        labels = [f"image {i}" for i in range(len(corners))]
+    if names is not None:
+        labels = [str(x) for x in names]
+        if len(labels) != len(corners):
+            raise InputError(f"names must name every image: {len(corners)} junction sets, {len(labels)} names")
+    if size is None:
+        raise InputError("calibrating from corners needs the images' size (width, height): the corners.vnl does "
+                         "not hold it (give --image-size WIDTHxHEIGHT, or the images beside the file)")
+    size = check_size(size)
+    report = progress or (lambda stage, done, total: None)
+    W_all = board.world_points()
+    obs, found_in, why = {}, {}, {}
+    for i, j in enumerate(corners):
+        if j is None:
+            why[i] = "no board in the corners file"
+            continue
+        uv = np.asarray(j[0], float)
+        index = np.asarray(j[1], int).ravel()
+        if uv.ndim != 2 or uv.shape != (2, index.size) or not np.all(np.isfinite(uv)) \
+                or np.any(index < 0) or np.any(index >= board.n):
+            raise InputError(f"{labels[i]}: junctions must be pixels (2, m) with m board junction numbers in "
+                             f"0..{board.n - 1}")
+        if index.size < MIN_JUNCTIONS:
+            why[i] = f"only {index.size} junctions (need {MIN_JUNCTIONS})"
+            continue
+        obs[i], found_in[i] = (uv, W_all[:, index], index), 0
+    if len(obs) < MIN_IMAGES:
+        raise InputError(f"fewer than {MIN_IMAGES} images have a board in the corners ({len(obs)} of {len(corners)}); "
+                         f"a calibration needs at least {MIN_IMAGES} views at different tilts")
+    from .zhang import start
+
+    keys = sorted(obs)
+    camera0, poses0 = start(cls.model, size, [obs[k][:2] for k in keys])
+    keys, rejected, graph, lm, sigma0, inliers, outliers = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k,
+                                                                  held=held)
+    report("solve", 1, 1)
+    return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
+                   "the corners", board, huber_k, inliers, outliers, held)
+
+
+def _joint(lm, observations, huber_px, sigma0, board, held):
+    """The joint covariance of the intrinsics and the poses (:func:`.uncertainty.huber_covariance`)
+    and the median distance from the camera to the board's centre."""
+    from .uncertainty import huber_covariance
+
+    joint = huber_covariance(lm.camera, lm.poses, observations, huber_px, prior_px=sigma0, held=held)
+    centre = np.mean(board.world_points(), axis=1)
+    distance = float(np.median([np.linalg.norm(T[:3, 3] - centre) for T in lm.poses]))
+    return joint, distance
 
 
 def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
-            first_camera, held, unreadable=None) -> Calibration:
-    P = len(cls.parameter_names) - int(np.sum(held))  # the parameters estimated
+            first_camera, board, huber_k, inliers, outliers, held, unreadable=None) -> Calibration:
+    P_all = len(cls.parameter_names)
+    P = P_all - int(np.sum(held))  # the parameters estimated
     p_lm, p_g = camera_parameters(lm.camera), camera_parameters(graph.camera)
     r_all = np.hstack(lm.residuals)
-    w_all = np.concatenate(lm.weights)
     M = r_all.shape[1]
     dof = 2 * M - P - 6 * len(keys)
-    sigma = float(np.sqrt(np.sum(w_all * np.sum(r_all * r_all, axis=0)) / max(dof, 1)))
-    cov = graph.cov * (sigma / sigma0) ** 2
+    sigma = float(np.sqrt(np.sum(r_all * r_all) / max(dof, 1)))
+    # The Huber estimate's covariance by the sandwich rule (:func:`.uncertainty.huber_covariance`):
+    # the intrinsics' block is ``cov``, the whole is the projection uncertainty's.
+    joint, distance = _joint(lm, [inliers[k] for k in keys], huber_k * sigma0, sigma0, board, held)
+    cov = joint[:P_all, :P_all].copy()
     sd = np.sqrt(np.abs(np.diag(cov)))
     if not np.all(np.isfinite(cov)):
         sd = np.sqrt(np.abs(np.diag(np.linalg.pinv(lm.information)))) * sigma
@@ -354,13 +496,18 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
     solved = {k: (T, r) for k, T, r in zip(keys, lm.poses, lm.residuals)}
     for i in range(n):
         k = found_in.get(i)
-        found = ("" if k is None else f"board found in pass 1 ({first_camera})" if k == 1
+        found = ("" if k is None else f"junctions read from {first_camera}" if k == 0
+                 else f"board found in pass 1 ({first_camera})" if k == 1
                  else f"board found in pass {k} (with pass {k - 1}'s camera)")
         if i in solved:
             T, r = solved[i]
+            out = outliers.get(i, np.zeros(0, int))
+            if out.size:
+                found += (f"{'; ' if found else ''}{out.size} junction{'s' if out.size > 1 else ''} left out as "
+                          f"outliers: {', '.join(str(j) for j in out)}")
             status.append("used"), message.append(found), poses.append(T)
             rms[i] = _rms(r)
-            points.append(obs[i][0]), residuals.append(r)
+            points.append(inliers[i][0]), residuals.append(r)
         elif i in rejected:
             # Its residuals against the calibration, for the report.
             from ..pose.gauss_newton import gauss_newton
@@ -403,4 +550,9 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
         cross_check={"gtsam": p_g.tolist(), "lm": p_lm.tolist(), "max_difference": difference,
                      "tolerance": CROSS_CHECK_TOL, "converged": {"gtsam": graph.converged, "lm": lm.converged}},
         summary=summary,
+        joint_cov=joint,
+        detections=tuple(None if i not in obs else (obs[i][0], obs[i][2]) for i in range(n)),
+        outliers=tuple(np.asarray(outliers.get(i, np.zeros(0, int)), dtype=int) if i in solved
+                       else np.zeros(0, int) for i in range(n)),
+        board_distance_m=distance,
     )

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera_models import FisheyeCamera, PinholeCamera, RadTanCamera
+from ..camera_models import FisheyeCamera, PinholeCamera, RadTanCamera, RationalCamera
 from ..errors import DegenerateGeometryError, InputError
 from ..geometry import homography_dlt
 from ..pose.homography import pose_from_homography
@@ -139,6 +139,7 @@ def start(model: str, size, observations):
         Hs = [homography_dlt(W[:2], uv) for uv, W in observations]
         K = zhang_intrinsics(Hs, size)
         camera = (PinholeCamera(K, size) if model == "pinhole"
+                  else RationalCamera(K, np.zeros(8), size) if model == "rational"
                   else RadTanCamera(K, np.zeros(5), size))
     poses = [pose_from_homography(camera, uv, W) for uv, W in observations]
     return camera, poses

@@ -7,6 +7,9 @@ Three models share one interface (:class:`Camera`):
 - :class:`RadTanCamera`: OpenCV's radial-tangential (Brown-Conrady) model, coefficients in
   OpenCV's order ``(k1, k2, p1, p2[, k3[, k4, k5, k6]])`` (4, 5 or 8 of them; 8 is OpenCV's
   rational model); no skew, as in OpenCV;
+- :class:`RationalCamera`: the same equations with all eight coefficients as a model of its own
+  (``"rational"``, OpenCV's ``CALIB_RATIONAL_MODEL``, mrcal's ``OPENCV8``), what a calibration
+  with ``model="rational"`` gives;
 - :class:`FisheyeCamera`: OpenCV's fisheye (equidistant Kannala-Brandt) model, ``(k1, k2,
   k3, k4)``, skew allowed (OpenCV's ``alpha = K[0, 1] / fx``), defined beyond 90 degrees
   off the axis.
@@ -47,7 +50,7 @@ One module per model: :mod:`~graphpose.camera_models.base` (the interface, the p
 
 from .base import MAX_ITERATIONS, UNPROJECT_TOL, Camera, PinholeCamera, as_camera, check_image_size
 from .fisheye import FisheyeCamera
-from .radtan import RadTanCamera
+from .radtan import RadTanCamera, RationalCamera
 
-__all__ = ["Camera", "PinholeCamera", "RadTanCamera", "FisheyeCamera", "as_camera", "check_image_size",
+__all__ = ["Camera", "PinholeCamera", "RadTanCamera", "RationalCamera", "FisheyeCamera", "as_camera", "check_image_size",
            "UNPROJECT_TOL", "MAX_ITERATIONS"]

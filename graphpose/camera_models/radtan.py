@@ -208,3 +208,34 @@ class RadTanCamera(Camera):
 
         k1, k2, p1, p2 = self.coefficients[:4]
         return gtsam.Cal3DS2(self.fx, self.fy, 0.0, self.cx, self.cy, k1, k2, p1, p2)
+
+
+@dataclass(frozen=True, eq=False)
+class RationalCamera(RadTanCamera):
+    """OpenCV's rational model (``CALIB_RATIONAL_MODEL``; mrcal's ``OPENCV8``) as a model of
+    its own: the equations of :class:`RadTanCamera` with all eight coefficients ``(k1, k2, p1,
+    p2, k3, k4, k5, k6)`` estimated by a calibration (``parameter_names`` has twelve).
+
+    A :class:`RadTanCamera` with eight coefficients projects alike and compares equal (the
+    files that cannot name the model, OpenCV's and ROS's ``rational_polynomial``, read it back
+    as one); graphpose's JSON keeps the model ``"rational"``.
+
+    Raises
+    ------
+    InputError
+        As :class:`RadTanCamera`, and if ``distortion`` is not eight coefficients.
+    """
+
+    model: ClassVar[str] = "rational"
+    parameter_names: ClassVar[tuple] = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")
+
+    def __post_init__(self):
+        d = _coefficients(self.distortion)
+        if d.size != 8:
+            raise InputError(f"RationalCamera takes 8 coefficients (k1, k2, p1, p2, k3, k4, k5, k6: OpenCV's "
+                             f"rational model), got {d.size}")
+        super().__post_init__()
+
+    def _key(self) -> tuple:
+        # Equal to the radial-tangential camera with the same eight coefficients: same projection.
+        return ("RadTanCamera",) + super()._key()[1:]

@@ -27,7 +27,7 @@ from ..camera_params import HELD_MODELS
 from ..camera_params import MODELS as CALIBRATION_MODELS
 from ..errors import GraphposeError, InputError
 from ..io.camera_files import FORMATS
-from . import EXIT_OK, PROG, UsageError, exit_codes_help
+from . import EXIT_OK, PROG, UsageError, calibrate_extras, exit_codes_help
 from .estimate import image_paths
 from .options import BOARD_UNITS, Progress, check_output_folder, parse_board
 
@@ -67,7 +67,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("images", nargs="*", type=Path, metavar="IMAGES",
-                   help="image files, or folders of them (name order)")
+                   help="image files, or folders of them (name order); none with --corners")
     p.add_argument("--board", type=parse_board, required=True, metavar="COLSxROWSxSQUARE_M",
                    help=f"inner junctions per row and per column, {BOARD_UNITS}")
     p.add_argument("--model", choices=MODELS, default="radtan",
@@ -90,6 +90,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     from .rig import add_calibrate_options
 
     add_calibrate_options(p)
+    calibrate_extras.add_options(p)
     return p
 
 
@@ -99,23 +100,25 @@ def run(args) -> int:
         from .rig import run_calibrate
 
         return run_calibrate(args)
-    if not args.images:
-        raise UsageError("give the images of the board (IMAGES), or --rig SOURCE0 SOURCE1 ... for a rig")
+    if not args.images and args.corners is None:
+        raise UsageError("give the IMAGES of the board, --corners FILE, or --rig SOURCE0 SOURCE1 ... for a rig")
     from ..calibrate import calibrate
     from ..io.calibration import write_camera
     from ..io.camera_files import covariance_note
     from ..io.files import dumps_json, write_json
 
     _check_outputs(args)
-    files = image_files(args.images)
-    progress = Progress(len(files), sys.stderr)
+    calibrate_extras.check(args)
+    files = image_files(args.images) if args.images else []
+    progress = Progress(max(len(files), 1), sys.stderr)
 
     def show(stage, done, total):
         progress.total = max(int(total), 1)
         progress.show(int(done), stage)
 
     try:
-        calibration = calibrate(files, args.board, args.model, names=[str(f) for f in files], progress=show)
+        calibration = (calibrate_extras.calibrate_from_args(args, show)
+                       or calibrate(files, args.board, args.model, names=[str(f) for f in files], progress=show))
     finally:
         progress.clear()
     for name, status, message in zip(calibration.images, calibration.status, calibration.message):
@@ -135,8 +138,10 @@ def run(args) -> int:
 
         plot_calibration(calibration, args.plot, title=f"graphpose calibrate: {args.model}, "
                          f"{calibration.status.count('used')} images")
+    extra = calibrate_extras.after(args, calibration)
     if not args.quiet and args.json != "-":
         print(format_summary(calibration, args.out, args.format), flush=True)
+        calibrate_extras.print_lines(extra, args.quiet)
     if note is not None:
         print(f"graphpose calibrate: note: {note}", file=sys.stderr)
     return EXIT_OK
@@ -203,6 +208,7 @@ def calibration_record(calibration) -> dict:
             "message": calibration.message[k] or None,
             "rms_px": rms if np.isfinite(rms) else None,
             "T_WC": None if pose is None else np.asarray(pose),
+            "outliers": np.asarray(calibration.outliers[k]).tolist() if calibration.outliers else [],
         })
     record = {
         "model": camera.model,

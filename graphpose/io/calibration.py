@@ -42,12 +42,12 @@ from pathlib import Path
 import numpy as np
 
 from ..camera_params import camera_parameters, parameter_names
-from ..camera_models import Camera, FisheyeCamera, PinholeCamera, RadTanCamera
+from ..camera_models import Camera, FisheyeCamera, PinholeCamera, RadTanCamera, RationalCamera
 from ..errors import InputError
 from .camera_files import FORMATS, camera_to_dict, write_camera  # noqa: F401  (the writers)
 
 #: graphpose's camera models by their JSON names.
-MODELS = {"pinhole": PinholeCamera, "radtan": RadTanCamera, "fisheye": FisheyeCamera}
+MODELS = {"pinhole": PinholeCamera, "radtan": RadTanCamera, "rational": RationalCamera, "fisheye": FisheyeCamera}
 #: ROS camera_info distortion models and graphpose's names for them.
 ROS_MODELS = {"plumb_bob": "radtan", "rational_polynomial": "radtan", "equidistant": "fisheye"}
 #: Kalibr distortion models (of camera_model pinhole) and graphpose's names for them.

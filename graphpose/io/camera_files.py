@@ -199,6 +199,10 @@ def _kalibr(camera, name) -> str:
         raise InputError(f"{why}: Kalibr's camchain needs the image size (resolution), and the "
                          f"camera has none; give the camera its size")
     d = camera.distortion
+    if camera.model == "rational":
+        raise InputError(f"{why}: Kalibr has no rational model (its radtan keeps k1, k2, p1, p2), and this camera is "
+                         "OpenCV's rational model (k1..k6, p1, p2); write the json (keeps the model), opencv or ros "
+                         "(rational_polynomial) format")
     if camera.model == "radtan":
         extra = camera.coefficients[4:]
         if np.any(extra != 0.0):

@@ -69,7 +69,7 @@ def test_estimate_reports_the_kind_of_its_sigmas(raw_view, capsys):
 
 # ---- graphpose calibrate ---------------------------------------------------------------------
 REPORT_KEYS = ["model", "K", "distortion", "size", "parameters", "covariance", "rms_px", "images"]
-IMAGE_KEYS = ["image", "status", "message", "rms_px", "T_WC"]
+IMAGE_KEYS = ["image", "status", "message", "rms_px", "T_WC", "outliers"]
 
 
 @pytest.fixture(scope="module")
