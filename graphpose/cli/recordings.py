@@ -97,3 +97,11 @@ class OverlayVideo:
     def abort(self) -> None:
         self.frames.close()
         self.writer.abort()
+
+
+def add_every_option(parser) -> None:
+    """``--every N``: every N-th frame of a recording."""
+    from .options import parse_count
+
+    parser.add_argument("--every", type=parse_count(1), default=1, metavar="N",
+                        help="with a video or ROS bag: every N-th frame (frames 0, N, 2N, ...; default 1, every frame)")

@@ -16,6 +16,10 @@ import numpy as np
 
 from ...errors import InputError
 
+#: Frames a reader decodes on to reach a frame ahead rather than seeking (a seek decodes from
+#: the key frame before, which may be as far back).
+FORWARD_DECODE = 250
+
 
 class BrokenRecordingError(InputError):
     """A recording that cannot be read past a point (a truncated or corrupt video, a bag cut short).
@@ -103,14 +107,20 @@ class Recording:
         n = len(self)
         if not 0 <= k < n:
             raise InputError(f"frame {k} is not in {self.name} ({n} frames)")
+        if self._reader is not None and self._next < k <= self._next + FORWARD_DECODE:
+            while self._next < k:  # a few frames ahead: decoding on is cheaper than seeking
+                self._advance(self._next)
         if self._reader is None or k != self._next:
             self.seek_reader(k)
+        return self._advance(k)
+
+    def _advance(self, k: int) -> Frame:
         try:
             frame = next(self._reader)
         except StopIteration:
             self._reader = None
             t = self.timestamps[k] if self.timestamps is not None else float("nan")
-            raise BrokenRecordingError(f"{self.name} ended at frame {k} of the {n} its index counted "
+            raise BrokenRecordingError(f"{self.name} ended at frame {k} of the {len(self)} its index counted "
                                        f"(t = {t:.3f} s): the file is cut short or corrupt there", k, t) from None
         self._next = k + 1
         return frame

@@ -52,7 +52,7 @@ class VideoRecording(Recording):
         path = Path(path)
         if not path.is_file():
             raise InputError(f"video file not found: {path}")
-        pts, keys, time_base, self.damage = _index(path)
+        pts, keys, time_base, self.damage, self.by_count = _index(path)
         if not pts:
             raise InputError(f"{path}: no video frame could be read" + (f" ({self.damage})" if self.damage else ""))
         self.pts = np.array(sorted(pts), dtype=np.int64)
@@ -81,8 +81,8 @@ def _open(path):
 
 
 def _index(path):
-    """``(pts of every frame, pts of the key frames, time_base, damage)``: the packets'
-    presentation times, read without decoding; ``damage`` says why the packets stopped early
+    """``(pts of every frame, pts of the key frames, time_base, damage, by_count)``: the packets'
+    presentation times (decoding times for an AVI: ``by_count``), read without decoding; ``damage`` says why the packets stopped early
     ("" when they did not): a demuxer error, or the last packet well before the duration the
     container's header declares (a file cut short). The last packet before damage may be
     incomplete: it is left out."""
@@ -90,12 +90,15 @@ def _index(path):
 
     container, stream = _open(path)
     pts, keys, damage = [], [], ""
+    # An AVI stores frames in decoding order with one time each, their count: FFmpeg's guess of
+    # a presentation time from it is off with B-frames; the count itself is the frame's time.
+    by_count = container.format.name == "avi"
     try:
         try:
             for packet in container.demux(stream):
                 if packet.size == 0 or packet.is_discard:
                     continue  # the flush packet at the end; an edit list's pre-roll
-                t = packet.pts if packet.pts is not None else packet.dts
+                t = packet.dts if by_count or packet.pts is None else packet.pts
                 if t is None:  # a container without times (raw streams): frame counts then
                     t = len(pts)
                 pts.append(int(t))
@@ -118,7 +121,7 @@ def _index(path):
             keys = [k for k in keys if k != last]
     finally:
         container.close()
-    return pts, keys, time_base, damage
+    return pts, keys, time_base, damage, by_count
 
 
 def _decode(video: VideoRecording, k: int):
@@ -143,8 +146,9 @@ def _decode(video: VideoRecording, k: int):
             except av.FFmpegError as exc:
                 raise _broken(video, expected, f"the decoder refused it ({_why(exc)})") from None
             for frame in decoded:
-                if first:  # where the decoder starts (a key frame at or before the one sought)
-                    expected, first = video._where.get(frame.pts, expected), False
+                if first and not video.by_count:  # where the decoder starts (a key frame at or before)
+                    expected = video._where.get(frame.pts, expected)
+                first = False
                 if expected >= len(video):
                     return
                 if frame.is_corrupt:
