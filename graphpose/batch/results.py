@@ -45,6 +45,8 @@ JSONL_SUFFIXES = (".jsonl", ".ndjson")
 #: Column name -> Arrow type name of a Parquet row (see :func:`arrow_schema`).
 SCHEMA = {
     "image": "string",
+    "frame": "int64",       # a recording's frame: its index and time (None for an image file)
+    "timestamp": "double",
     "status": "string",
     "message": "string",
     "T_WC": "list<list<double>>",

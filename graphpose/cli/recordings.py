@@ -105,3 +105,23 @@ def add_every_option(parser) -> None:
 
     parser.add_argument("--every", type=parse_count(1), default=1, metavar="N",
                         help="with a video or ROS bag: every N-th frame (frames 0, N, 2N, ...; default 1, every frame)")
+
+
+def open_recording_input(args):
+    """The video or bag when ``args.inputs`` is one (``graphpose batch``), else None (and
+    ``--topic`` refused)."""
+    from ..io.sources import is_recording
+    from . import UsageError
+
+    if len(args.inputs) == 1 and is_recording(args.inputs[0]):
+        return open_source(args.inputs, args)
+    if getattr(args, "topic", None) is not None:
+        raise UsageError("--topic goes with one ROS bag")
+    return None
+
+
+def frame_keys(recording) -> list:
+    """Every frame of ``recording`` as a batch row's ``image`` (:func:`graphpose.io.sources.frame_key`)."""
+    from ..io.sources import frame_key
+
+    return [frame_key(recording, k) for k in range(len(recording))]

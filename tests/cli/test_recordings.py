@@ -145,3 +145,39 @@ def test_estimate_every_nth_frame_names_index_and_time(clip, tmp_path, capsys):
     assert "camera: from the bag's camera_info" in capsys.readouterr().out
     assert main(["estimate", str(folder / "decoded"), "--K", K_OPTION, "--every", "2"]) == 2
     assert "--every and --topic go with one video or ROS bag" in capsys.readouterr().err
+
+
+def test_batch_rows_name_frame_and_time(clip, tmp_path, capsys):
+    """One task a chunk of frames, each worker opening the video and seeking to its chunk; and a
+    list file of the decoded frames gives the same poses."""
+    pytest.importorskip("distributed")
+    folder, decoded, _ = clip
+    out = tmp_path / "rows.jsonl"
+    assert main(["batch", str(folder / "clip.mkv"), "--K", K_OPTION, "--out", str(out), "--workers", "2",
+                 "--images-per-task", "5", "-q"]) == 0
+    rows = sorted((json.loads(line) for line in out.read_text().splitlines()), key=lambda r: r["frame"])
+    pts = open_frames(folder / "clip.mkv").timestamps
+    assert [r["frame"] for r in rows] == list(range(24))
+    assert [r["timestamp"] for r in rows] == pytest.approx(pts)
+    assert rows[7]["image"].endswith("clip.mkv#7") and all(r["status"] == "ok" for r in rows)
+    listing = tmp_path / "decoded.txt"
+    listing.write_text("".join(f"decoded/frame_{k:03d}.png\n" for k in (7, 19)))
+    listing = listing.rename(folder / "decoded.txt")  # paths relative to the list's folder
+    out2 = tmp_path / "files.jsonl"
+    assert main(["batch", str(listing), "--K", K_OPTION, "--out", str(out2), "--workers", "1", "-q"]) == 0
+    files = {json.loads(line)["image"]: json.loads(line) for line in out2.read_text().splitlines()}
+    for k in (7, 19):  # a frame read from the video is the frame read from its PNG
+        np.testing.assert_allclose(files[str(decoded / f"frame_{k:03d}.png")]["T_WC"], rows[k]["T_WC"], atol=1e-9)
+
+
+def test_calibrate_takes_globs_and_list_files(tmp_path, capsys):
+    from graphpose.synth.calibration import calibration_set, radtan_camera
+
+    views = calibration_set(radtan_camera(), 6, rng=5)
+    for k, image in enumerate(views.images):
+        write_png(tmp_path / f"view_{k}.png", image)
+    (tmp_path / "views.lst").write_text("".join(f"view_{k}.png\n" for k in range(6)))
+    for source in (str(tmp_path / "view_*.png"), str(tmp_path / "views.lst")):
+        assert main(["calibrate", source, "--board", "8x6x0.0635", "--out", str(tmp_path / "cam.json"), "-q",
+                     "--json", str(tmp_path / "report.json")]) == 0
+        assert len(json.loads((tmp_path / "report.json").read_text())["images"]) == 6

@@ -66,3 +66,24 @@ def open_frames(items, *, topic: str | None = None) -> Recording:
     if recordings:
         return VideoRecording(recordings[0])
     return ImageFiles(seq)
+
+
+def frame_key(recording: Recording, k: int) -> str:
+    """One frame of a video or bag as a string (a batch row's ``image``): ``/abs/video.mp4#k``,
+    or ``/abs/bag:/topic#k``; :func:`parse_frame_key` reads it back."""
+    name = os.path.abspath(recording.name)
+    topic = getattr(recording, "topic", None)
+    return f"{name}:{topic}#{k}" if topic else f"{name}#{k}"
+
+
+def parse_frame_key(key: str):
+    """``(recording path, topic or None, k)`` of a :func:`frame_key`, or None for any other string
+    (an image path, even one with a '#' in its name: the recording must exist)."""
+    base, sep, index = str(key).rpartition("#")
+    if not sep or not index.isdigit():
+        return None
+    path, topic = base, None
+    if ":/" in base and not os.path.exists(base):
+        path, topic = base.split(":/", 1)
+        topic = "/" + topic
+    return (path, topic, int(index)) if is_recording(path) and os.path.exists(path) else None
