@@ -28,6 +28,7 @@ from ..errors import GraphposeError, InputError
 from ..io.camera_files import FORMATS
 from . import EXIT_OK, UsageError
 from .estimate import image_paths
+from .recordings import add_view_options, recording_views, views_record, views_text
 from .options import Progress, check_output_folder, parse_board
 
 #: The models ``--model`` takes, and the formats of ``--format``.
@@ -63,7 +64,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("images", nargs="+", type=Path, metavar="IMAGES",
-                   help="image files, or folders of them (name order)")
+                   help="image files, folders of them (name order), quoted globs, list files, or one video or "
+                   "ROS bag (its views chosen: --max-views)")
     p.add_argument("--board", type=parse_board, required=True, metavar="COLSxROWSxSQUARE_M",
                    help="inner junctions per row and per column, square side in metres (e.g. 9x6x0.03)")
     p.add_argument("--model", choices=MODELS, default="radtan",
@@ -81,6 +83,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="draw the residuals and the coverage and uncertainty map over the image "
                    "(needs the plot extra, matplotlib)")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary on stdout (errors still on stderr)")
+    add_view_options(p)
     return p
 
 
@@ -92,18 +95,21 @@ def run(args) -> int:
     from ..io.files import dumps_json, write_json
 
     _check_outputs(args)
-    files = image_files(args.images)
-    progress = Progress(len(files), sys.stderr)
+    progress = Progress(2, sys.stderr)
 
     def show(stage, done, total):
         progress.total = max(int(total), 1)
         progress.show(int(done), stage)
 
     try:
-        calibration = calibrate(files, args.board, args.model, names=[str(f) for f in files], progress=show)
+        views = recording_views(args, show)
+        files, names = (image_files(args.images), None) if views is None else views[:2]
+        calibration = calibrate(files, args.board, args.model, names=names or [str(f) for f in files], progress=show)
     finally:
         progress.clear()
     record = calibration_record(calibration)
+    if views is not None:
+        record["views"] = views_record(views[2])
     if args.json == "-":
         sys.stdout.write(dumps_json(record))
     elif args.json is not None:
@@ -119,6 +125,8 @@ def run(args) -> int:
                          f"{calibration.status.count('used')} images")
     if not args.quiet and args.json != "-":
         print(format_summary(calibration, args.out, args.format), flush=True)
+        if views is not None:
+            print(views_text(views[2]), flush=True)
     if note is not None:
         print(f"graphpose calibrate: note: {note}", file=sys.stderr)
     return EXIT_OK

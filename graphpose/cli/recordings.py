@@ -125,3 +125,60 @@ def frame_keys(recording) -> list:
     from ..io.sources import frame_key
 
     return [frame_key(recording, k) for k in range(len(recording))]
+
+
+def add_view_options(parser) -> None:
+    """``graphpose calibrate``'s options for a recording: ``--max-views`` and ``--topic``."""
+    from .options import parse_count
+
+    parser.add_argument("--max-views", type=parse_count(3), default=40, metavar="N",
+                        help="with a video or ROS bag: the most views chosen from it (sharp, spread over the "
+                        "image, varied tilts and distances, no near-duplicates; default 40)")
+    add_topic_option(parser)
+
+
+def recording_views(args, progress):
+    """``(images, names, choice)`` for ``graphpose calibrate`` when IMAGES is one video or bag:
+    the views :func:`graphpose.calibrate.views.choose_views` picks, read again; else None."""
+    from ..calibrate.views import choose_views
+    from ..io.sources import is_recording
+    from . import UsageError
+
+    if not (len(args.images) == 1 and is_recording(args.images[0])):
+        if getattr(args, "topic", None) is not None:
+            raise UsageError("--topic goes with one ROS bag")
+        return None
+    recording = open_source(args.images, args)
+    choice = choose_views(recording, args.board, max_views=args.max_views,
+                          progress=lambda done, total: progress("choosing views", done, total))
+    images = [recording.read(int(k)).image for k in choice.frames]
+    recording.close()
+    return images, [recording.label(int(k)) for k in choice.frames], choice
+
+
+def views_record(choice) -> dict:
+    """The report's ``views``: how the recording was scanned and, per frame, ``frame``,
+    ``timestamp``, ``status`` (``used`` or why not), ``detail``, ``blur_px``, ``speed_px``
+    (junction motion, pixels a frame), ``junctions``."""
+    import numpy as np
+
+    t = choice.timestamps
+    def number(x):
+        return None if not np.isfinite(x) else round(float(x), 3)
+
+    frames = [{"frame": k, "timestamp": None if t is None else float(t[k]), "status": s, "detail": d,
+               "blur_px": number(b), "speed_px": number(v), "junctions": int(j)}
+              for k, (s, d, b, v, j) in enumerate(zip(choice.status, choice.detail, choice.blur_px, choice.speed_px,
+                                                      choice.junctions))]
+    return {"scan_every": choice.scan_every, "sharp_blur_px": choice.sharp_blur_px, "counts": choice.counts(),
+            "frames": frames}
+
+
+def views_text(choice) -> str:
+    """The summary's lines on the views: the frames used, and how many were not, by reason."""
+    used = ", ".join(f"#{k}" for k in choice.frames)
+    others = "; ".join(f"{n} {s}" for s, n in choice.counts().items() if s != "used")
+    scanned = "every frame" if choice.scan_every == 1 else f"every {choice.scan_every}th frame"
+    return (f"views: {len(choice.frames)} of {len(choice.status)} frames chosen ({scanned} searched; sharp frames' "
+            f"blur {choice.sharp_blur_px:.2f} px): {used}\n  not used: {others or 'none'} "
+            f"(each frame's reason: --json REPORT.json, 'views')")
