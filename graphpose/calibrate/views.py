@@ -9,7 +9,8 @@ but not searched) and keeps, up to ``max_views``:
    :data:`MIN_JUNCTIONS` junctions).
 2. **Still and sharp ones**: the board's junctions may move at most :data:`MAX_SPEED_PX` pixels a
    frame (their 90th percentile, from the scanned frames before and after): a faster frame is
-   smeared over its exposure and, from a rolling shutter, skewed. And a frame's blur is the edge width at its junctions, ``sigma = C^2 L /
+   smeared over its exposure and, from a rolling shutter, skewed; a frame neither of whose
+   neighbours shows the board has no measured motion and is left out too. And a frame's blur is the edge width at its junctions, ``sigma = C^2 L /
    (2 sqrt(pi) sum |g|^2)`` for a patch of side ``L`` with contrast ``C`` (an edge blurred by a
    Gaussian of ``sigma`` pixels has ``integral g^2 = C^2 / (2 sqrt(pi) sigma)`` across it), the
    noise's share of ``sum |g|^2`` taken off, the median over the junctions. A frame whose blur
@@ -38,7 +39,7 @@ from ..errors import BoardNotFoundError, InputError
 #: Fewest junctions a view must show to be a candidate.
 MIN_JUNCTIONS = 12
 #: A frame is blurred when its blur exceeds this many times the recording's sharp frames'.
-BLUR_TOLERANCE = 1.35
+BLUR_TOLERANCE = 1.6
 #: Fastest junction motion of a view, pixels a frame (half of it is the smear over an exposure of
 #: half a frame interval).
 MAX_SPEED_PX = 2.0
@@ -160,6 +161,9 @@ def choose_views(recording, board: Board = Board(), *, max_views: int = 40, scan
     for k in list(seen):
         if speed[k] > MAX_SPEED_PX:
             status[k], detail[k] = MOVING, f"{speed[k]:.1f} px a frame (smeared, skewed), more than {MAX_SPEED_PX:g}"
+            del seen[k]
+        elif not np.isfinite(speed[k]):  # its neighbours lost the board: most often a fast move
+            status[k], detail[k] = MOVING, "its motion unknown: neither scanned neighbour shows the board"
             del seen[k]
     sharp = _sharp_blur(blur, seen)
     for k in list(seen):

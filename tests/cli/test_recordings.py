@@ -181,3 +181,45 @@ def test_calibrate_takes_globs_and_list_files(tmp_path, capsys):
         assert main(["calibrate", source, "--board", "8x6x0.0635", "--out", str(tmp_path / "cam.json"), "-q",
                      "--json", str(tmp_path / "report.json")]) == 0
         assert len(json.loads((tmp_path / "report.json").read_text())["images"]) == 6
+
+
+@pytest.fixture(scope="module")
+def waved(tmp_path_factory):
+    """A rendered clip of the board waved before a small radtan camera (8 s at 10 frames a
+    second, fast moves between key poses, some boards partly out of view), as H.264."""
+    from graphpose import RadTanCamera
+    from graphpose.synth.clip import calibration_clip
+
+    camera = RadTanCamera([[265.0, 0, 161.0], [0, 264.0, 120.5], [0, 0, 1]], [-0.3, 0.11, 0.0008, -0.0005, -0.02],
+                          size=(320, 240))
+    clip = calibration_clip(camera, 8.0, 10.0, rng=2, key_every_s=1.0, partial_share=0.3, max_subframes=4)
+    path = tmp_path_factory.mktemp("waved") / "waved.mp4"
+    with VideoWriter(path, 10) as w:
+        for image in clip.frames():
+            w.add(image)
+    return path, clip
+
+
+def test_calibrate_chooses_views_from_a_video(waved, tmp_path, capsys):
+    path, clip = waved
+    report = tmp_path / "report.json"
+    assert main(["calibrate", str(path), "--board", "8x6x0.0635", "--out", str(tmp_path / "cam.json"),
+                 "--json", str(report), "--max-views", "6"]) == 0
+    out = capsys.readouterr().out
+    doc = json.loads(report.read_text())
+    frames = doc["views"]["frames"]
+    assert len(frames) == len(clip) == 80
+    used = [f["frame"] for f in frames if f["status"] == "used"]
+    assert len(used) == 6 and [Path_name(i["image"]) for i in doc["images"]] == [f"waved.mp4#{k}" for k in used]
+    assert all(clip.subframes[k] == 1 for k in used)  # no motion-blurred frame among them
+    reasons = {f["status"] for f in frames} - {"used"}
+    assert reasons <= {"no board", "too few junctions", "moving fast", "blurred", "near-duplicate",
+                       "beyond max_views"} and "beyond max_views" in reasons
+    assert all(f["detail"] for f in frames if f["status"] != "used")  # each reason in words
+    assert f"views: 6 of 80 frames chosen" in out and ", ".join(f"#{k}" for k in used) in out
+
+
+def Path_name(text):
+    from pathlib import Path
+
+    return Path(text).name
