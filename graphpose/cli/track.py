@@ -64,8 +64,10 @@ examples:
   graphpose track raw/ --camera camchain.yaml --board 9x6x0.03 --tum est.tum   # raw frames, their lens
   evo_ape tum seq/truth.tum est.tum          # absolute trajectory error (no alignment needed)
 
-FRAMES is one folder (its image files in name order; other files are ignored) or image files
-in the order given. Frames need their camera: --camera FILE or --K (no calibration yet:
+FRAMES is one folder (its image files in name order; other files are ignored), image files
+in the order given, a quoted glob, a list file (one path a line), a video (its presentation
+times are the frames' times) or a ROS bag (--topic; header stamps; its camera_info is the
+camera when neither --camera nor --K is given): docs/recordings.md. Frames need their camera: --camera FILE or --K (no calibration yet:
 'graphpose calibrate'); a folder written by 'graphpose render-sequence' brings its own. --bounds (optional) is the board's polygon in the FIRST frame, (u, v)
 pixels, clockwise from the corner nearest junction 0; without it the first frame is searched
 whole, and a board unchanged by a half turn is labelled from the image's upper left, then
