@@ -151,8 +151,13 @@ class FrameSource:
         if isinstance(frames, Recording):
             self.recording = frames
         elif isinstance(frames, (str, Path)):
-            if isinstance(frames, Path) and frames.is_dir() or isinstance(frames, str) and Path(frames).is_dir():
+            from ..io.sources.paths import is_pattern
+
+            if Path(frames).is_dir():
                 list_frames(frames)  # its own message for a folder without images
+            elif not Path(frames).exists() and not is_pattern(str(frames)):
+                raise InputError(f"frames not found: {frames} (a folder, an image, a glob, a list file, a video "
+                                 f"or a ROS bag)")
             self.recording = open_frames(frames, topic=topic)
         elif isinstance(frames, np.ndarray) and frames.ndim in (2, 3, 4) and frames.dtype != object:
             if frames.ndim == 2:

@@ -205,7 +205,7 @@ def test_globs_list_files_and_folders(tmp_path, frames):
     with pytest.raises(InputError, match="matches no file"):
         expand_paths(str(tmp_path / "g*.png"))
     (tmp_path / "empty.txt").write_text("# nothing\n")
-    with pytest.raises(InputError, match="names no image"):
+    with pytest.raises(InputError, match="names no images"):
         expand_paths(tmp_path / "empty.txt")
     with pytest.raises(InputError, match="is read on its own"):
         open_frames([tmp_path / "a.mp4", tmp_path / "f0.png"])

@@ -83,7 +83,7 @@ def list_file(path) -> list:
     lines = [line.strip() for line in text.splitlines()]
     names = [line for line in lines if line and not line.startswith("#")]
     if not names:
-        raise InputError(f"the list file {path} names no image (one path a line)")
+        raise InputError(f"the list file {path} names no images (one path a line)")
     return [Path(name) if os.path.isabs(name) else path.parent / name for name in names]
 
 
