@@ -147,7 +147,8 @@ def run(args) -> int:
     progress.clear()
     if report and len(jobs) > 1:
         failed = sum(c != EXIT_OK for c in codes)
-        print(f"{len(jobs)} images: {len(jobs) - failed} estimated, {failed} failed")
+        what = "images" if jobs[0].recording is None else f"frames of {jobs[0].recording.name}"
+        print(f"{len(jobs)} {what}: {len(jobs) - failed} estimated, {failed} failed")
     if args.json == "-":
         sys.stdout.write(dumps_json(records))
     elif args.json is not None:
