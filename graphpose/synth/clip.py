@@ -63,9 +63,9 @@ class CalibrationClip:
         rng = np.random.default_rng(self.seed)
         fps = 1.0 / float(np.median(np.diff(self.timestamps)))
         for k in range(len(self)):
-            yield self.frame(k, fps, rng)
+            yield self.frame(k, fps, rng=rng)
 
-    def frame(self, k: int, fps: float, rng) -> np.ndarray:
+    def frame(self, k: int, fps: float, *, rng) -> np.ndarray:
         """Frame ``k``: the mean of its renders over the exposure, with noise, quantised."""
         m = int(self.subframes[k])
         poses = [self.T_WC[k]] if m == 1 else _exposure(self, k, m, fps)
