@@ -6,7 +6,8 @@
     python -m benchmarks.<section> [--quick]          # the same as: python -m benchmarks SECTION [--quick]
     python -m benchmarks.compare OLD.json NEW.json    # accuracy figures of two runs side by side
 
-SECTION is any of: junctions, detect, noise, pose, lens, calibration, speed, tracking, batch
+SECTION is any of: junctions, detect, noise, pose, lens, calibration, speed, tracking, batch,
+recordings
 (default: all). Each section lives in ``benchmarks/<section>.py``; its ``main(quick)`` measures
 and returns its figures as a dict (below). :mod:`benchmarks.cli` adds the run's header (date,
 machine, versions, commit), writes everything to ``docs/benchmarks.json`` and renders

@@ -8,7 +8,6 @@ file are taken relative to that file's folder, as in a case file.
 
 from __future__ import annotations
 
-import glob
 import os
 from pathlib import Path
 
@@ -18,10 +17,8 @@ from .._checks import as_float_array
 from ..errors import InputError
 from ..io.files import read_json
 
-#: Image file name endings taken from a folder (case-insensitive); as ``graphpose track``'s.
-IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm")
-#: Endings of a text file that lists image paths, one a line.
-LIST_SUFFIXES = (".txt", ".lst", ".list")
+from ..image import IMAGE_SUFFIXES  # noqa: F401  (the endings taken from a folder, re-exported)
+from ..io.sources.paths import LIST_SUFFIXES, expand_paths  # noqa: F401  (one home for the expansion)
 
 
 def collect_images(inputs) -> list:
@@ -47,46 +44,8 @@ def collect_images(inputs) -> list:
         If a folder has no image, a pattern matches no file, a list file cannot be read,
         or nothing at all is named.
     """
-    paths, seen = [], set()
-
-    def add(path):
-        path = os.path.abspath(path)
-        if path not in seen:
-            seen.add(path)
-            paths.append(path)
-
-    for item in inputs:
-        text = os.fspath(item)
-        path = Path(text)
-        if path.is_dir():
-            files = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
-            if not files:
-                raise InputError(f"no image files ({', '.join(IMAGE_SUFFIXES)}) in folder {text}")
-            for p in files:
-                add(p)
-        elif path.is_file() and path.suffix.lower() in LIST_SUFFIXES:
-            for line in _list_lines(path):
-                add(path.parent / line)
-        elif not path.exists() and any(c in text for c in "*?["):
-            matches = sorted(m for m in glob.glob(text, recursive=True) if os.path.isfile(m))
-            if not matches:
-                raise InputError(f"the pattern {text!r} matches no file")
-            for m in matches:
-                add(m)
-        else:
-            add(path)
-    if not paths:
-        raise InputError("no images given")
-    return paths
-
-
-def _list_lines(path: Path) -> list:
-    try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read the list file {path}: {exc}") from None
-    lines = (line.strip() for line in text.splitlines())
-    return [line for line in lines if line and not line.startswith("#")]
+    # graphpose.io.sources.expand_paths expands them, as every command does; each once, in order.
+    return list(dict.fromkeys(os.path.abspath(p) for p in expand_paths(list(inputs))))
 
 
 def read_bounds_file(path) -> dict:

@@ -45,6 +45,8 @@ JSONL_SUFFIXES = (".jsonl", ".ndjson")
 #: Column name -> Arrow type name of a Parquet row (see :func:`arrow_schema`).
 SCHEMA = {
     "image": "string",
+    "frame": "int64",       # a recording's frame: its index and time (None for an image file)
+    "timestamp": "double",
     "status": "string",
     "message": "string",
     "T_WC": "list<list<double>>",
@@ -74,6 +76,8 @@ SCHEMA = {
     "robust": "bool",
 }
 _CROSS_CHECK = ("translation_m", "rotation_deg", "agree")
+#: Columns only a recording's frame has (its index and time); absent from an image file's record.
+_FRAME_COLUMNS = ("frame", "timestamp")
 #: Keys held in Parquet as JSON text (objects of their own).
 _JSON_COLUMNS = ("camera", "board")
 
@@ -130,6 +134,9 @@ def nested_record(row: dict) -> dict:
     check = {k: row.get(f"cross_check_{k}") for k in _CROSS_CHECK}
     record["cross_check"] = None if all(v is None for v in check.values()) else check
     record.update({k: json.loads(record[k]) for k in _JSON_COLUMNS if record.get(k) is not None})
+    for key in _FRAME_COLUMNS:  # an image file's row has no frame of a recording
+        if record.get(key) is None:
+            record.pop(key, None)
     return record
 
 

@@ -26,6 +26,7 @@ import time
 
 from ..board import Board, board_hint
 from ..io.records import result_record, target_keys
+from ..io.sources import parse_frame_key
 from ..errors import BoardNotFoundError, GraphposeError
 
 #: Status words of a row, from best to worst.
@@ -72,16 +73,17 @@ def estimate_images(items, camera, board: Board = Board(), robust: bool = False)
 
     worker = _worker_address()
     target = target_keys(camera, board)
-    records = []
+    records, opened = [], {}  # opened: the recordings this task reads frames of, each opened once
     for path, bounds in items:
         start = time.perf_counter()
-        estimate, status, message = None, OK, None
+        estimate, status, message, frame = None, OK, None, parse_frame_key(path)
         try:
-            if not os.path.isfile(path):
+            if frame is None and not os.path.isfile(path):
                 status, message = MISSING, f"image file not found: {path}"
             else:
                 try:
-                    image = read_image(path, as_float=False)
+                    image, frame = (read_image(path, as_float=False), None) if frame is None else \
+                        _read_frame(opened, *frame)
                 except GraphposeError as exc:
                     status, message = UNREADABLE, _one_line(exc)
                 else:
@@ -95,11 +97,26 @@ def estimate_images(items, camera, board: Board = Board(), robust: bool = False)
         except Exception as exc:  # noqa: BLE001  (one image's bug must not stop the batch)
             status, message = ERROR, f"{type(exc).__name__}: {_one_line(exc)}"
         record = result_record(path, estimate, message)
+        if frame is not None:  # a recording's frame: its index and time
+            record["frame"], record["timestamp"] = frame
         record["status"] = status
         record.update(target, bounds=None if bounds is None else bounds.tolist(), robust=bool(robust),
                       time_s=time.perf_counter() - start, worker=worker)
         records.append(record)
+    for recording in opened.values():
+        recording.close()
     return records
+
+
+def _read_frame(opened, path, topic, k):
+    """Frame ``k`` of the recording ``path`` (opened once a task, then read forward or seeking)
+    and ``(k, its timestamp)``."""
+    from ..io.sources import open_frames
+
+    if (path, topic) not in opened:
+        opened[path, topic] = open_frames(path, topic=topic)
+    frame = opened[path, topic].read(k)
+    return frame.image, (k, frame.timestamp)
 
 
 def warm_up() -> None:

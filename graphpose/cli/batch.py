@@ -24,6 +24,7 @@ from collections import Counter
 
 from ..errors import InputError
 from . import EXIT_FAILED, EXIT_OK, exit_codes_help, prefix
+from .recordings import add_topic_option, camera_note, frame_keys, open_recording_input, recording_camera
 from .options import (
     Progress,
     add_camera_option,
@@ -66,7 +67,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         epilog=_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("inputs", nargs="+", metavar="INPUTS", help="folders, glob patterns or list files of images")
+    p.add_argument("inputs", nargs="+", metavar="INPUTS",
+                   help="folders, glob patterns or list files of images, or one video or ROS bag (one row a frame, "
+                   "named by index and time; each task's worker opens the recording and seeks)")
+    add_topic_option(p)
     p.add_argument("--out", required=True, metavar="RESULTS",
                    help="results: NAME.parquet (a Parquet data set, a folder) or NAME.jsonl (JSON lines)")
     add_target_options(p)
@@ -112,12 +116,13 @@ def run(args) -> int:
     from ..io.records import target_keys, target_words
 
     kind = results_format(args.out)  # a wrong ending fails before anything is read
-    camera, board = camera_from_args(args)
+    recording = open_recording_input(args)
+    camera, board, info = recording_camera(args, recording) if recording else (*camera_from_args(args), None)
     distributed_module()  # a missing extra is found before any image is looked at
     if kind == "parquet":
         require("pyarrow.parquet", "batch", "Parquet results")
-    target = target_keys(camera, board, *camera_file(args))
-    paths = collect_images(args.inputs)
+    target = target_keys(camera, board, *camera_file(args, info))
+    paths = collect_images(args.inputs) if recording is None else frame_keys(recording)
     bounds = args.bounds
     if args.bounds_file is not None:
         bounds = read_bounds_file(args.bounds_file)
@@ -145,6 +150,8 @@ def run(args) -> int:
     if not args.quiet:
         print(_summary(counts, kept, seconds, args.out))
         print("camera: {}; board: {}".format(*target_words(target)))
+        if info:
+            print(camera_note(info))
     every = counts + kept
     if every["ok"] != sum(every.values()):  # the failure's reason on stderr, as every command's
         failed = sum(every.values()) - every["ok"]

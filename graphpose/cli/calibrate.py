@@ -30,6 +30,7 @@ from ..io.camera_files import FORMATS
 from . import EXIT_OK, PROG, UsageError, calibrate_extras, exit_codes_help
 from .estimate import image_paths
 from .options import BOARD_UNITS, Progress, check_output_folder, parse_board
+from .recordings import add_view_options, recording_views, views_record, views_text
 
 #: The models ``--model`` takes, and the formats of ``--format``.
 MODELS = (*CALIBRATION_MODELS, *HELD_MODELS)
@@ -67,7 +68,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("images", nargs="*", type=Path, metavar="IMAGES",
-                   help="image files, or folders of them (name order); none with --corners")
+                   help="image files, folders of them (name order), quoted globs, list files, or one video or "
+                   "ROS bag (its views chosen: --max-views); none with --corners or --rig")
     p.add_argument("--board", type=parse_board, required=True, metavar="COLSxROWSxSQUARE_M",
                    help=f"inner junctions per row and per column, {BOARD_UNITS}")
     p.add_argument("--model", choices=MODELS, default="radtan",
@@ -91,6 +93,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
     add_calibrate_options(p)
     calibrate_extras.add_options(p)
+    add_view_options(p)
     return p
 
 
@@ -109,22 +112,28 @@ def run(args) -> int:
 
     _check_outputs(args)
     calibrate_extras.check(args)
-    files = image_files(args.images) if args.images else []
-    progress = Progress(max(len(files), 1), sys.stderr)
+    progress = Progress(2, sys.stderr)
+    views = None
 
     def show(stage, done, total):
         progress.total = max(int(total), 1)
         progress.show(int(done), stage)
 
     try:
-        calibration = (calibrate_extras.calibrate_from_args(args, show)
-                       or calibrate(files, args.board, args.model, names=[str(f) for f in files], progress=show))
+        calibration = calibrate_extras.calibrate_from_args(args, show)
+        if calibration is None:
+            views = recording_views(args, show)
+            files, names = (image_files(args.images), None) if views is None else views[:2]
+            calibration = calibrate(files, args.board, args.model, names=names or [str(f) for f in files],
+                                    progress=show)
     finally:
         progress.clear()
     for name, status, message in zip(calibration.images, calibration.status, calibration.message):
         if status == "unreadable":  # named, and the others went on
             print(f"{PROG} calibrate: warning: {message} (left out)", file=sys.stderr, flush=True)
     record = calibration_record(calibration)
+    if views is not None:
+        record["views"] = views_record(views[2])
     if args.json == "-":
         sys.stdout.write(dumps_json(record))
     elif args.json is not None:
@@ -141,6 +150,8 @@ def run(args) -> int:
     extra = calibrate_extras.after(args, calibration)
     if not args.quiet and args.json != "-":
         print(format_summary(calibration, args.out, args.format), flush=True)
+        if views is not None:
+            print(views_text(views[2]), flush=True)
         calibrate_extras.print_lines(extra, args.quiet)
     if note is not None:
         print(f"graphpose calibrate: note: {note}", file=sys.stderr)

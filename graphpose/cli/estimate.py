@@ -28,9 +28,10 @@ from ..pipeline import estimate_pose
 from ..pose.estimate import pose_difference
 from ..pose.intrinsics import SIGMA_PIXEL
 from ..viz.overlay import draw_overlay
+from ..io.sources import BrokenRecordingError, is_recording
 from . import EXIT_OK, UsageError, error_line, exit_code, exit_codes_help, prefix, print_error
+from .recordings import RateProgress, add_every_option, add_topic_option, camera_note, open_source, recording_camera
 from .options import (
-    Progress,
     add_camera_option,
     add_target_options,
     camera_file,
@@ -79,8 +80,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("images", nargs="*", type=Path, metavar="IMAGE_OR_FOLDER",
-                   help="images of the board (any format scikit-image reads; colour is made grey), or folders "
-                   "of them (their image files in name order)")
+                   help="images of the board (any format scikit-image reads; colour is made grey), folders "
+                   "of them (their image files in name order), quoted globs, list files (one path a line), "
+                   "or one video or ROS bag (every frame, or every N-th with --every)")
     p.add_argument("--bounds", type=parse_bounds, metavar="U1,V1,U2,V2,U3,V3,U4,V4",
                    help="the board's bounding polygon in the images, pixels, clockwise from the corner nearest "
                    "junction 0 (default: search the whole image)")
@@ -103,6 +105,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     from .rig import add_estimate_options
 
     add_estimate_options(p)
+    add_topic_option(p)
+    add_every_option(p)
     return p
 
 
@@ -119,6 +123,8 @@ class Job:
     guess: np.ndarray | None = None
     true_T_WC: np.ndarray | None = None
     ref_T_WC: np.ndarray | None = None
+    recording: object = None  # a video or bag (graphpose.io.sources) whose frame ``frame`` this is
+    frame: int | None = None
 
 
 def run(args) -> int:
@@ -130,23 +136,32 @@ def run(args) -> int:
     jobs, cases, source = _jobs(args)
     overlays = _overlay_paths(args.overlay, jobs) or [None] * len(jobs)
     check_output_folder(args.json, "--json")
-    camera, board, target = _target(args, cases, source)
+    camera, board, target = _target(args, cases, source, jobs)
     report = not (args.quiet or args.json == "-")
-    progress = Progress(len(jobs), sys.stderr)
-    records, codes = [], []
-    for i, (job, overlay) in enumerate(zip(jobs, overlays)):
-        progress.show(i, Path(job.name).name)
-        record, code = _run_one(job, camera, board, target, args.robust, overlay, report, progress)
-        records.append(record)
-        codes.append(code)
+    progress = RateProgress(len(jobs), sys.stderr)
+    records, codes, broken = [], [], None
+    try:
+        for i, (job, overlay) in enumerate(zip(jobs, overlays)):
+            progress.show(i, Path(job.name).name)
+            record, code = _run_one(job, camera, board, target, args.robust, overlay, report, progress)
+            records.append(record)
+            codes.append(code)
+        if jobs and jobs[0].recording is not None:
+            broken = jobs[0].recording.end_error()
+    except BrokenRecordingError as exc:  # the frames before the damage are reported and written
+        broken = exc
     progress.clear()
     if report and len(jobs) > 1:
         failed = sum(c != EXIT_OK for c in codes)
-        print(f"{len(jobs)} images: {len(jobs) - failed} estimated, {failed} failed")
+        what = "images" if jobs[0].recording is None else f"frames of {jobs[0].recording.name}"
+        print(f"{len(jobs)} {what}: {len(jobs) - failed} estimated, {failed} failed")
     if args.json == "-":
         sys.stdout.write(dumps_json(records))
     elif args.json is not None:
         write_json(args.json, records)
+    if broken is not None:
+        print_error(broken, prog=prefix("estimate"))
+        return exit_code(broken)
     return max(codes)
 
 
@@ -159,8 +174,8 @@ def _run_one(job, camera, board, target, robust, overlay, report, progress):
     """
     estimate, error, code, image = None, None, EXIT_OK, None
     try:
-        image = read_image(job.path, as_float=False)  # 8-bit stays uint8: the detector reads it as it is
-        check_image_size(camera, image.shape, str(job.path))
+        image = _read(job)
+        check_image_size(camera, image.shape, job.name)
         try:
             estimate = estimate_pose(image, job.bounds, camera, board, guess=job.guess, robust=robust)
         except BoardNotFoundError as exc:
@@ -170,6 +185,8 @@ def _run_one(job, camera, board, target, robust, overlay, report, progress):
             _write_overlay(overlay, image, estimate, camera, board, job)
         if not estimate.ok:
             raise _NotConverged(f"no reliable pose: {estimate.message}")
+    except BrokenRecordingError:
+        raise
     except GraphposeError as exc:
         error, code = " ".join(str(exc).split()), exit_code(exc)
         picture = ""
@@ -180,6 +197,9 @@ def _run_one(job, camera, board, target, robust, overlay, report, progress):
         line = error_line(exc, "" if str(job.path) in str(exc) else job.name)
         print(f"{prefix('estimate')}: error: {line}{picture}", file=sys.stderr, flush=True)
     record = result_record(str(job.path), estimate, error)
+    if job.recording is not None:  # the frame by index and time
+        record = {"image": record.pop("image"), "frame": job.frame,
+                  "timestamp": float(job.recording.timestamps[job.frame]), **record}
     record["vs_truth"] = _difference(estimate, job.true_T_WC)
     record["vs_reference"] = _difference(estimate, job.ref_T_WC)
     record.update(target)
@@ -188,6 +208,14 @@ def _run_one(job, camera, board, target, robust, overlay, report, progress):
         progress.clear()
         print(format_report(job.name, estimate, record), flush=True)
     return record, code
+
+
+def _read(job):
+    """The job's grey image: its file (8-bit stays uint8: the detector reads it as it is), or
+    its frame of a recording."""
+    if job.recording is not None:
+        return job.recording.read(job.frame).image
+    return read_image(job.path, as_float=False)
 
 
 def _write_overlay(path: Path, image, estimate, camera, board, job) -> None:
@@ -234,6 +262,12 @@ def _jobs(args):
         if args.no_guess and args.guess is not None:
             raise UsageError("--guess and --no-guess contradict each other")
         guess = load_pose(args.guess) if args.guess is not None else None
+        recording = open_source(args.images, args) if len(args.images) == 1 and is_recording(args.images[0]) else None
+        if recording is not None:
+            return [Job(recording.label(k), Path(recording.name), args.bounds, guess, recording=recording, frame=k)
+                    for k in range(0, len(recording), args.every)], None, None
+        if args.every != 1 or getattr(args, "topic", None) is not None:
+            raise UsageError("--every and --topic go with one video or ROS bag")
         return [Job(str(path), path, args.bounds, guess) for path in image_paths(args.images)], None, None
     if args.bounds is not None:
         raise UsageError("--bounds goes with IMAGE (images or folders); a case file gives each image its bounds")
@@ -250,10 +284,15 @@ def _jobs(args):
     return jobs, cases, _display(path)
 
 
-def _target(args, cases, source):
+def _target(args, cases, source, jobs=()):
     """The camera, the board and the records' ``camera`` and ``board`` keys: from the
-    options, else the case file's; no camera at all is :data:`graphpose.cli.options.NO_CAMERA`."""
-    if cases is None:
+    options, else the case file's, else a bag's camera_info; no camera at all is
+    :data:`graphpose.cli.options.NO_CAMERA`."""
+    if cases is None and jobs and jobs[0].recording is not None:
+        camera, board, source = recording_camera(args, jobs[0].recording)
+        if source and not (args.quiet or args.json == "-"):
+            print(camera_note(source))
+    elif cases is None:
         camera, board = camera_from_args(args)
     else:
         camera, board = camera_from_args(args, cases.camera, cases.board,
@@ -263,13 +302,16 @@ def _target(args, cases, source):
 
 def image_paths(items) -> list:
     """The images named by ``items`` (paths, as typed): a folder stands for its image files in
-    name order (:func:`graphpose.track.frames.list_frames`), any other path for itself."""
+    name order (:func:`graphpose.track.frames.list_frames`), a quoted glob for its matches, a
+    list file (``.txt``, ``.lst``, ``.list``) for the paths it lists, any other path for itself
+    (:func:`graphpose.io.sources.expand_paths`)."""
+    from ..io.sources import expand_paths
     from ..track.frames import list_frames
 
-    paths = []
     for item in items:
-        paths += list_frames(item) if Path(item).is_dir() else [Path(item)]
-    return paths
+        if Path(item).is_dir():
+            list_frames(item)  # its own message for a folder without images
+    return expand_paths(items)
 
 
 def _display(path: Path) -> str:

@@ -25,9 +25,20 @@ from .._checks import as_float_array
 from ..errors import InputError
 from ..io.files import read_json
 from ..track.config import DEFAULT_LAG_S, MOTION_MODELS, TARGET_FORMS
-from . import EXIT_FAILED, EXIT_OK, exit_codes_help, prefix
+from ..io.sources.bags import is_bag
+from ..io.sources.base import BrokenRecordingError
+from ..io.sources.paths import is_pattern
+from . import EXIT_FAILED, EXIT_OK, exit_code, exit_codes_help, prefix, print_error
+from .recordings import (
+    OverlayVideo,
+    RateProgress,
+    add_overlay_video_option,
+    add_topic_option,
+    camera_note,
+    open_source,
+    recording_camera,
+)
 from .options import (
-    Progress,
     add_camera_option,
     add_target_options,
     camera_file,
@@ -54,8 +65,10 @@ examples:
   graphpose track raw/ --camera camchain.yaml --board 9x6x0.03 --tum est.tum   # raw frames, their lens
   evo_ape tum seq/truth.tum est.tum          # absolute trajectory error (no alignment needed)
 
-FRAMES is one folder (its image files in name order; other files are ignored) or image files
-in the order given. Frames need their camera: --camera FILE or --K (no calibration yet:
+FRAMES is one folder (its image files in name order; other files are ignored), image files
+in the order given, a quoted glob, a list file (one path a line), a video (its presentation
+times are the frames' times) or a ROS bag (--topic; header stamps; its camera_info is the
+camera when neither --camera nor --K is given): docs/recordings.md. Frames need their camera: --camera FILE or --K (no calibration yet:
 'graphpose calibrate'); a folder written by 'graphpose render-sequence' brings its own. --bounds (optional) is the board's polygon in the FIRST frame, (u, v)
 pixels, clockwise from the corner nearest junction 0; without it the first frame is searched
 whole, and a board unchanged by a half turn is labelled from the image's upper left, then
@@ -80,7 +93,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         epilog=_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("frames", nargs="*", type=Path, metavar="FRAMES", help="a folder of frames, or frame files in order")
+    p.add_argument("frames", nargs="*", type=Path, metavar="FRAMES",
+                   help="a folder of frames, frame files in order, a quoted glob, a list file (one path a line), "
+                   "a video or a ROS bag (see docs/recordings.md); none with --rig")
     p.add_argument("--bounds", type=parse_bounds, metavar="U1,V1,U2,V2,U3,V3,U4,V4",
                    help="the board's bounding polygon in the first frame, pixels (default: search the "
                    "whole image, which finds a board that does not fill the frame)")
@@ -119,6 +134,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     from .rig import add_track_options
 
     add_track_options(p)
+    add_topic_option(p)
+    add_overlay_video_option(p)
     return p
 
 
@@ -133,7 +150,7 @@ def run(args) -> int:
 
         raise UsageError("give the frames (FRAMES: a folder or frame files), or --rig SOURCE0 SOURCE1 ... for a rig")
     from ..track.config import MotionPrior, TrackerConfig, default_lag_s
-    from ..track.frames import frame_timestamps, list_frames, read_timestamps
+    from ..track.frames import frame_timestamps, read_timestamps
     from ..track.tracker import track_frames
     from .track_output import JsonStream, TrackSummary, TumStream
 
@@ -142,35 +159,45 @@ def run(args) -> int:
 
         require("matplotlib", "plot", "graphpose track --plot")
     check_camera_options(args)
-    files = _frame_files(args.frames, list_frames)
-    timestamps = None if args.timestamps is None else read_timestamps(args.timestamps, len(files))
+    files = _frame_files(args.frames, args)
+    n = len(files)
+    timestamps = files.timestamps if args.timestamps is None else read_timestamps(args.timestamps, n)
     polygons = None if args.polygons is None else _read_polygons(args.polygons)
-    for path, name in ((args.tum, "--tum"), (args.json, "--json"), (args.plot, "--plot")):
+    for path, name in ((args.tum, "--tum"), (args.json, "--json"), (args.plot, "--plot"),
+                       (args.overlay_video, "--overlay-video")):
         check_output_folder(path, name)
-    seconds = frame_timestamps(timestamps, args.fps, len(files))
-    truth, truth_note = _truth(args, len(files), seconds)
-    camera, board, source = _camera(args)  # after the other inputs: each says first what is wrong with it
-    progress = Progress(len(files), sys.stderr)
+    seconds = frame_timestamps(timestamps, args.fps, n)
+    truth, truth_note = _truth(args, n, seconds)
+    camera, board, source = _camera(args, files)  # after the other inputs: each says first what is wrong with it
+    progress = RateProgress(n, sys.stderr)
     lag = default_lag_s(args.motion, seconds) if args.lag == AUTO_LAG else args.lag
     config = TrackerConfig(motion=MotionPrior(args.motion), target=args.target, robust=args.robust, lag_s=lag)
     stream = track_frames(files, camera, args.bounds, board=board, timestamps=timestamps, fps=args.fps,
                           polygons=polygons, config=config, smooth=args.smooth,
-                          progress=lambda k, n: progress.show(k + 1, files[k].name))
+                          progress=lambda k, n: progress.show(k + 1, Path(files.label(k)).name))
     target = target_keys(camera, board, *camera_file(args, source))
     summary, kept = TrackSummary(truth), []  # kept: the picture's few numbers a frame
     tum = None if args.tum is None else TumStream(args.tum)
-    doc = None
+    doc = video = broken = None
     try:
         doc = None if args.json is None else JsonStream(args.json)
-        for f in stream:
-            summary.add(f)
-            if tum is not None and f.T_WC is not None:
-                tum.add(f.timestamp, f.T_WC)
-            if doc is not None:
-                doc.add(_frame_record(f, files[f.index]))
-            if args.plot is not None:
-                kept.append(replace(f, cov=None, cov_pixel=None, single_T_WC=None, points=None, ids=None))
+        video = None if args.overlay_video is None else OverlayVideo(args.overlay_video, args.frames, args, camera, board)
+        try:
+            for f in stream:
+                summary.add(f)
+                if tum is not None and f.T_WC is not None:
+                    tum.add(f.timestamp, f.T_WC)
+                if doc is not None:
+                    doc.add(_frame_record(f, files.label(f.index)))
+                if video is not None:
+                    video.add(f)
+                if args.plot is not None:
+                    kept.append(replace(f, cov=None, cov_pixel=None, single_T_WC=None, points=None, ids=None))
+        except BrokenRecordingError as exc:  # what came before the damage is written, then the one line
+            broken = exc
         progress.clear()
+        if video is not None:
+            video.close()
         if tum is not None:
             tum.close(f"graphpose track: camera pose T_WC in the target frame; {summary.n - summary.found} "
                       f"lost frames have no line")
@@ -194,9 +221,15 @@ def run(args) -> int:
     if not args.quiet and args.json != "-":
         print(summary.text(args.smooth, truth_note), flush=True)
         print("camera: {}; board: {}".format(*target_words(target)), flush=True)
+        if files.camera_source and source == files.camera_source:
+            print(camera_note(source), flush=True)
+    if broken is not None:
+        print_error(broken, prog=prefix("track"))
+        return exit_code(broken)
     if not summary.found:  # the failure's reason on stderr, as every command's
         print(f"{prefix('track')}: error: no pose in any of the {summary.n} frames; the first lost, "
-              f"{summary.first_lost}", file=sys.stderr, flush=True)
+              f"{summary.first_lost} (no frame of the {n} in {files.name} shows the board {board.cols}x{board.rows}"
+              f"{'' if args.bounds is None else ' inside --bounds'})", file=sys.stderr, flush=True)
     return EXIT_OK if summary.found else EXIT_FAILED
 
 
@@ -212,15 +245,16 @@ def _frame_record(f, path) -> dict:
     return record
 
 
-def _camera(args):
+def _camera(args, recording):
     """``(Camera, Board, source)``: as :func:`graphpose.cli.options.camera_from_args`; a folder
     written by ``graphpose render-sequence`` brings its own K and board (its ``bounds.json``,
-    then the ``source``), as the bundled example's case file does; None otherwise."""
+    then the ``source``), as the bundled example's case file does, and a bag its camera_info
+    (:func:`graphpose.cli.recordings.recording_camera`); None otherwise."""
     check_camera_options(args)
     folder = args.frames[0] if len(args.frames) == 1 and args.frames[0].is_dir() else None
     meta = folder / "bounds.json" if folder is not None else None
     if args.camera is not None or args.K is not None or meta is None or not meta.is_file():
-        return (*camera_from_args(args), None)
+        return recording_camera(args, recording)
     from ..board import Board
     from ..camera_models import PinholeCamera
 
@@ -270,15 +304,31 @@ def _truth(args, n, timestamps):
     return poses, f"{path} ({matched} of {n} frames matched by timestamp)"
 
 
-def _frame_files(paths, list_frames) -> list:
-    if len(paths) == 1 and paths[0].is_dir():
-        return list_frames(paths[0])
-    missing = [str(p) for p in paths if not p.is_file()]
+def _frame_files(paths, args):
+    """The frames (:func:`graphpose.cli.recordings.open_source`); image files named one by one
+    must exist (a folder's, a glob's or a list's are found by looking)."""
+    from ..io.sources import ImageFiles
+    from ..track.frames import list_frames
+
+    if len(paths) == 1 and paths[0].is_dir() and not is_bag(paths[0]):
+        list_frames(paths[0])  # its own message for a folder without images
+    missing = [str(p) for p in paths if not p.exists() and not is_pattern(str(p))]
     if missing:
-        raise InputError(f"image file not found: {missing[0]}"
-                         + (f" (and {len(missing) - 1} more: {', '.join(missing[1:3])}"
-                            + (" ...)" if len(missing) > 3 else ")") if len(missing) > 1 else ""))
-    return list(paths)
+        raise _not_found(missing)
+    recording = open_source(paths, args)
+    if isinstance(recording, ImageFiles):
+        missing = [str(p) for p in recording.files if not p.is_file()]
+        if missing:
+            raise _not_found(missing)
+    return recording
+
+
+def _not_found(missing) -> InputError:
+    """The one error for frame files that are not there, naming the first few."""
+    more = ""
+    if len(missing) > 1:
+        more = f" (and {len(missing) - 1} more: {', '.join(missing[1:3])}" + (" ...)" if len(missing) > 3 else ")")
+    return InputError(f"image file not found: {missing[0]}{more}")
 
 
 def _read_polygons(path: Path) -> list:

@@ -441,3 +441,10 @@ def _with_covariance(camera: Camera, doc: dict, what: str) -> Camera:
         return dataclasses.replace(camera, covariance=cov)
     except InputError as exc:
         raise InputError(f"{what}: {exc}") from None
+
+
+def camera_from_ros_info(doc: dict, what: str) -> Camera:
+    """A camera from a ROS camera_info mapping (the file's keys: ``camera_matrix``,
+    ``distortion_model``, ``distortion_coefficients``, ``image_width``, ``image_height``),
+    e.g. a bag's ``sensor_msgs/CameraInfo`` message; ``what`` names it in errors."""
+    return _from_ros(doc, what, None)

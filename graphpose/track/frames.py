@@ -1,7 +1,8 @@
 """The frames of a sequence and their times: folders, file lists or images, read one at a time.
 
-A sequence comes as a folder (its image files in name order, :func:`list_frames`), a list of
-image files, or images in memory (a list of arrays or one ``(N, H, W)`` array).
+A sequence comes as a recording (:mod:`graphpose.io.sources`: a folder, its image files in name
+order (:func:`list_frames`), image files, a glob, a list file, a video, a ROS bag), or images in
+memory (a list of arrays or one ``(N, H, W)`` array).
 :class:`FrameSource` reads frame ``k`` only when the tracker reaches it, converted once for
 every junction call of the frame. Times are seconds per frame, from a list, a text file
 (:func:`read_timestamps`) or a frame rate (:func:`frame_timestamps`).
@@ -128,38 +129,75 @@ class FrameSource:
 
     Parameters
     ----------
-    frames : str, Path, or sequence of images or paths
-        A folder (its image files in name order, :func:`list_frames`), a list of image
-        files, images ``(H, W)`` / ``(H, W, 3|4)`` arrays, or an ``(N, H, W)`` array.
+    frames : str, Path, Recording, or sequence of images or paths
+        A recording (:func:`graphpose.io.sources.open_frames`: a folder, image files, a glob
+        pattern, a list file, a video, a ROS bag, or an open
+        :class:`~graphpose.io.sources.base.Recording`), images ``(H, W)`` / ``(H, W, 3|4)``
+        arrays, or an ``(N, H, W)`` array.
+    topic : str, optional
+        A bag's image topic (:func:`graphpose.io.sources.open_frames`).
 
     Raises
     ------
     InputError
         If ``frames`` is none of these (one 2-D image, a number), or a folder that does not
-        exist or holds no image.
+        exist or holds no image, or a recording that cannot be opened.
     """
 
-    def __init__(self, frames):
-        if isinstance(frames, (str, Path)):
-            self._items = list_frames(frames)
+    def __init__(self, frames, topic=None):
+        from ..io.sources import Recording, open_frames
+
+        self.recording = None
+        if isinstance(frames, Recording):
+            self.recording = frames
+        elif isinstance(frames, (str, Path)):
+            from ..io.sources.paths import is_pattern
+
+            if Path(frames).is_dir():
+                list_frames(frames)  # its own message for a folder without images
+            elif not Path(frames).exists() and not is_pattern(str(frames)):
+                raise InputError(f"frames not found: {frames} (a folder, an image, a glob, a list file, a video "
+                                 f"or a ROS bag)")
+            self.recording = open_frames(frames, topic=topic)
         elif isinstance(frames, np.ndarray) and frames.ndim in (2, 3, 4) and frames.dtype != object:
             if frames.ndim == 2:
                 raise InputError(f"frames must be a sequence of images, got one array of shape {frames.shape}")
             self._items = frames
         else:
             try:
-                self._items = list(frames)
+                items = list(frames)
             except TypeError:
-                raise InputError(f"frames must be a folder, a list of files or of images, "
+                raise InputError(f"frames must be a folder, a recording, a list of files or of images, "
                                  f"got {type(frames).__name__}") from None
+            if items and all(isinstance(item, (str, Path)) for item in items):
+                self.recording = open_frames(items, topic=topic)
+            else:
+                self._items = items
+        if topic is not None and self.recording is None:
+            raise InputError(f"topic {topic} chooses a ROS bag's image topic, and frames is not a bag")
 
     def __len__(self) -> int:
-        return len(self._items)
+        return len(self.recording) if self.recording is not None else len(self._items)
+
+    @property
+    def timestamps(self):
+        """(N,) seconds the recording carries (a video's presentation times, a bag's header
+        stamps), or None (image files, images in memory)."""
+        return None if self.recording is None else self.recording.timestamps
 
     def path(self, k: int) -> Path | None:
-        """The file of frame ``k``, or None for an image given in memory."""
+        """The file of frame ``k`` (a video's or bag's own path), or None for an image given in memory."""
+        if self.recording is not None:
+            return self.recording.path(k)
         item = self._items[k]
         return Path(item) if isinstance(item, (str, Path)) else None
+
+    def label(self, k: int) -> str:
+        """Frame ``k``'s name in messages: its file, ``VIDEO#k``, ``BAG:TOPIC#k`` or ``frame k``."""
+        if self.recording is not None:
+            return self.recording.label(k)
+        path = self.path(k)
+        return f"frame {k}" if path is None else str(path)
 
     def load(self, k: int) -> np.ndarray:
         """Frame ``k`` as a grey image, converted once for every junction call of the frame.
@@ -171,16 +209,22 @@ class FrameSource:
             anything else float64 grey (:func:`graphpose.image.as_grey`: integers scaled to
             [0, 1], floats kept) checked finite; a file is read by
             :func:`graphpose.image.read_image` with ``as_float=False``, as ``graphpose
-            estimate`` reads it (an 8-bit file stays uint8).
+            estimate`` reads it (an 8-bit file stays uint8); a video or bag frame is decoded
+            in order (:meth:`graphpose.io.sources.base.Recording.read`).
 
         Raises
         ------
         InputError
             If the file is missing or cannot be decoded, or the image is not a finite grey or
             colour image; the message names the frame.
+        BrokenRecordingError
+            If a video or bag cannot be read at frame ``k`` (the frames before could be).
         """
+        if self.recording is not None:
+            image = self.recording.read(k).image
+            return image if image.dtype == np.uint8 else as_grey(image)
         item = self._items[k]
-        if isinstance(item, (str, Path)):
+        if isinstance(item, (str, Path)):  # a file among images in memory
             return read_image(item, as_float=False)
         try:
             image = np.asarray(item)

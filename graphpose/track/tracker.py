@@ -35,6 +35,7 @@ from ..board import check_board
 from ..board import Board
 from ..camera_models import as_camera, check_image_size
 from ..errors import InputError
+from ..io.sources.base import BrokenRecordingError
 from .backend import make_backend
 from .config import MOTION_SPAN_FRAMES, TrackerConfig, default_lag_s, shortest_lag_s
 from .frames import FrameSource, frame_timestamps
@@ -45,7 +46,7 @@ from .uncertainty import frame_covariance
 
 def track_frames(frames, camera, bounds=None, *, board: Board = Board(), timestamps=None, fps: float = 30.0,
                  polygons=None, config: TrackerConfig = TrackerConfig(), smooth: bool = False,
-                 progress=None) -> Iterator[FrameResult]:
+                 progress=None, topic: str | None = None) -> Iterator[FrameResult]:
     """Track the camera pose over a sequence of frames, one :class:`FrameResult` at a time.
 
     The stream of :func:`track_sequence`: the same frames, the same results, in input order,
@@ -58,7 +59,7 @@ def track_frames(frames, camera, bounds=None, *, board: Board = Board(), timesta
 
     Parameters
     ----------
-    frames, camera, bounds, board, timestamps, fps, polygons, config, progress
+    frames, camera, bounds, board, timestamps, fps, polygons, config, progress, topic
         As :func:`track_sequence`. ``progress(k, n_frames)`` is called after frame ``k`` is
         tracked (before its result is given, without ``smooth``).
     smooth : bool
@@ -76,28 +77,32 @@ def track_frames(frames, camera, bounds=None, *, board: Board = Board(), timesta
         When called, for malformed inputs (as :func:`track_sequence`); while iterating, for
         a frame given in memory that is not an image, a frame's size that differs from the
         camera's, or a polygon that fails its check against the first frame read.
+    BrokenRecordingError
+        While iterating, after the results of every frame before the damage of a truncated or
+        corrupt video or bag (the message names the frame and time where it broke).
 
     Examples
     --------
     >>> for f in track_frames("seq/", K, bounds):            # doctest: +SKIP
     ...     print(f.index, f.status, f.T_WC)
     """
-    run = _Run(frames, camera, bounds, board, timestamps, fps, polygons, config, smooth, progress)
-    return _smoothed_stream(run) if smooth else run.online()
+    run = _Run(frames, camera, bounds, board, timestamps, fps, polygons, config, smooth, progress, topic)
+    return _then_damage(run, _smoothed_stream(run) if smooth else run.online())
 
 
 def track_sequence(frames, camera, bounds=None, *, board: Board = Board(), timestamps=None, fps: float = 30.0,
                    polygons=None, config: TrackerConfig = TrackerConfig(), smooth: bool = False,
-                   progress=None) -> Track:
+                   progress=None, topic: str | None = None) -> Track:
     """Track the camera pose over a sequence of frames of the target (every result kept:
     :func:`track_frames` streams them).
 
     Parameters
     ----------
-    frames : str, Path, or sequence of images or paths
+    frames : str, Path, Recording, or sequence of images or paths
         A folder (its image files in name order, see
-        :func:`graphpose.track.frames.list_frames`), a list of image files, or images
-        (H, W) / (H, W, 3|4) arrays, or an (N, H, W) array. Files are read one at a time.
+        :func:`graphpose.track.frames.list_frames`), a list of image files, a glob pattern, a
+        list file, a video or a ROS bag (:func:`graphpose.io.sources.open_frames`), or images
+        (H, W) / (H, W, 3|4) arrays, or an (N, H, W) array. Frames are read one at a time.
     camera : Camera or (3, 3) array_like
         The camera model (:mod:`graphpose.camera_models`; the frames are raw, with its lens
         distortion), or pinhole intrinsics ``K``, pixels, for frames without distortion. A
@@ -113,7 +118,8 @@ def track_sequence(frames, camera, bounds=None, *, board: Board = Board(), times
     board : Board
         The target.
     timestamps : (N,) array_like, optional
-        Seconds per frame, strictly increasing; default ``index / fps``.
+        Seconds per frame, strictly increasing; default: a video's presentation times or a
+        bag's header stamps, else ``index / fps``.
     fps : float
         Frame rate used when ``timestamps`` is None.
     polygons : sequence of ((2, 4) array_like or None), optional
@@ -128,6 +134,8 @@ def track_sequence(frames, camera, bounds=None, *, board: Board = Board(), times
         Levenberg-Marquardt and the marginal covariances.
     progress : callable, optional
         Called as ``progress(k, n_frames)`` after every frame.
+    topic : str, optional
+        A ROS bag's image topic (a bag with one image topic needs none).
 
     Returns
     -------
@@ -144,26 +152,34 @@ def track_sequence(frames, camera, bounds=None, *, board: Board = Board(), times
         ``bounds`` or a polygon is not a clockwise convex quadrilateral on the image
         (:func:`graphpose._checks.check_bounds`, checked against the first frame read,
         before any is tracked). A frame without a usable board is NOT an error: it is lost.
+    BrokenRecordingError
+        If a video or bag breaks (truncated, corrupt): its ``track`` attribute holds the
+        :class:`Track` of the frames before the damage.
     """
-    run = _Run(frames, camera, bounds, board, timestamps, fps, polygons, config, smooth, progress)
+    run = _Run(frames, camera, bounds, board, timestamps, fps, polygons, config, smooth, progress, topic)
     online = tuple(run.online())
-    return Track(online, tuple(run.smoothed(online)) if smooth else None, config)
+    track = Track(online, tuple(run.smoothed(online)) if smooth else None, config)
+    if run.broken is not None:
+        run.broken.track = track
+        raise run.broken
+    return track
 
 
 class _Run:
     """One tracking run: the inputs checked (at once), the front end and the back end, and
     the generators of its results (:meth:`online`, then :meth:`smoothed`)."""
 
-    def __init__(self, frames, camera, bounds, board, timestamps, fps, polygons, config, smooth, progress):
+    def __init__(self, frames, camera, bounds, board, timestamps, fps, polygons, config, smooth, progress, topic):
         self.camera = as_camera(camera)
         self.board = check_board(board)
         if not isinstance(config, TrackerConfig):
             raise InputError(f"config must be a TrackerConfig, got {type(config).__name__}")
-        self.source = FrameSource(frames)
+        self.source = FrameSource(frames, topic)
         n = len(self.source)
         if n == 0:
             raise InputError("frames is empty")
-        self.t = frame_timestamps(timestamps, fps, n)
+        self.broken = None  # the BrokenRecordingError that ended the frames early, if any
+        self.t = frame_timestamps(self.source.timestamps if timestamps is None else timestamps, fps, n)
         shortest = shortest_lag_s(config.motion.model, self.t)
         if config.lag_s is not None and config.lag_s < shortest * (1 + 1e-9):
             raise InputError(
@@ -183,15 +199,19 @@ class _Run:
         source, t, n, checked = self.source, self.t, len(self.t), False
         for k in range(n):
             wall, cpu = time.perf_counter(), time.process_time()
-            image, unreadable = _read(source, k)
+            try:
+                image, unreadable = _read(source, k)
+            except BrokenRecordingError as exc:
+                self.broken = exc  # the frames before it are given; the error comes after them
+                return
             if image is None:
                 self.front.lose()
                 self.graph.break_segment()
                 read = (time.perf_counter() - wall, time.process_time() - cpu)
                 result = FrameResult(k, t[k], LOST, message=unreadable, read_s=read[0], cpu_s=(read[1], 0.0, 0.0))
             else:
-                path = source.path(k)
-                check_image_size(self.camera, image.shape, f"frame {k}" + ("" if path is None else f" ({path})"))
+                label = source.label(k)
+                check_image_size(self.camera, image.shape, label if label.startswith("frame") else f"frame {k} ({label})")
                 if not checked:
                     self.polys, checked = _check_polygons(self.polys, self.names, image.shape[:2]), True
                 read = (time.perf_counter() - wall, time.process_time() - cpu)
@@ -200,6 +220,8 @@ class _Run:
             if self.progress is not None:
                 self.progress(k, n)
             yield result
+        if source.recording is not None:
+            self.broken = source.recording.end_error()  # a file cut short after its last frame
 
     def smoothed(self, frames) -> Iterator[FrameResult]:
         """The frames again with the batch-smoothed poses and covariances of the whole graph
@@ -217,6 +239,13 @@ class _Run:
                               f.points, f.ids, f.frontend_s, f.update_s, f.message, b.cov, kind, f.read_s, f.cpu_s)
 
 
+def _then_damage(run, stream) -> Iterator[FrameResult]:
+    """``stream``, then the recording's BrokenRecordingError if it broke."""
+    yield from stream
+    if run.broken is not None:
+        raise run.broken
+
+
 def _smoothed_stream(run) -> Iterator[FrameResult]:
     """The online pass keeping each frame's result without its online pose and covariances
     (the measurements are the back end's), then the smoothed results."""
@@ -229,6 +258,8 @@ def _read(source, k):
     given in memory that is not an image stays an InputError (the caller's mistake)."""
     try:
         return source.load(k), ""
+    except BrokenRecordingError:
+        raise
     except InputError as exc:
         if source.path(k) is None:
             raise
