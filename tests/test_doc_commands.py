@@ -24,6 +24,7 @@ import re
 import shlex
 import shutil
 
+import numpy as np
 import pytest
 
 from tests.conftest import OPENCV_DIR, REAL_DIR, REPO
@@ -152,7 +153,45 @@ def sandbox(tmp_path_factory):
         shutil.copy(path, s / "frames" / path.name)
     (s / "times.txt").write_text("".join(f"{k / 30:.6f}\n" for k in range(FRAMES)))
     shutil.copy(s / "seq" / "truth.tum", s / "mocap.tum")
+    _recordings(s)
     return s
+
+
+def _recordings(s):
+    """docs/recordings.md's inputs: a rendered calibration clip of OpenCV's left camera (cam.yml)
+    waving the 9 x 6 board, as wave.mp4 and clip.mp4, its first frames as a ROS 1 bag, a ROS 2
+    bag of PNG messages (both with the camera_info) and a list file; the rendered sequence's
+    frames again as left_*.png for the glob."""
+    from graphpose.board import Board
+    from graphpose.io.calibration import read_camera
+    from graphpose.io.files import write_png
+    from graphpose.io.sources.bag_writer import write_bag
+    from graphpose.io.sources.video_out import VideoWriter
+    from graphpose.synth.clip import calibration_clip
+
+    camera = read_camera(s / "cam.yml")
+    with VideoWriter(s / "wave.mp4", 10) as w:
+        for image in calibration_clip(camera, seconds=8.0, fps=10.0, rng=1, board=Board(9, 6, 0.025)).frames():
+            w.add(image)
+    # The tracking examples give no --board: the default board, its sharp whole views only (batch
+    # wants a pose of every frame).
+    clip = calibration_clip(camera, seconds=8.0, fps=10.0, rng=2, partial_share=0.0)
+    rng = np.random.default_rng(3)
+    images = [clip.frame(k, 10.0, rng=rng) for k in range(len(clip))
+              if clip.subframes[k] == 1 and clip.visible[k] == 1.0][:FRAMES]
+    with VideoWriter(s / "clip.mp4", 10) as w:
+        for image in images:
+            w.add(image)
+    stamps = 100.0 + 0.1 * np.arange(FRAMES)
+    write_bag(s / "run.bag", images[:FRAMES], stamps, fmt="ros1", topic="/cam0/image_raw", camera=camera)
+    write_bag(s / "run_ros2", images[:FRAMES], stamps, fmt="ros2-sqlite3", topic="/camera/image_raw",
+              compressed=True, camera=camera)
+    (s / "clipframes").mkdir()
+    for k, image in enumerate(images[:FRAMES]):
+        write_png(s / "clipframes" / f"c{k:03d}.png", image)
+    (s / "frames.txt").write_text("".join(f"clipframes/c{k:03d}.png\n" for k in range(FRAMES)))
+    for k, path in enumerate(sorted((s / "seq").glob("frame_*.png"))):
+        shutil.copy(path, s / "frames" / f"left_{k:03d}.png")
 
 
 def _in_process(paths, camera, board, *, bounds=None, robust=False, **cluster):
