@@ -148,9 +148,9 @@ def sandbox(tmp_path_factory):
         write_png(s / "fisheye" / f"f{k}.png", image)
     with contextlib.redirect_stdout(io.StringIO()):
         assert main(["render-sequence", str(s / "seq"), "--frames", str(FRAMES), "-q"]) == 0
-    (s / "frames").mkdir()
-    for path in sorted((s / "seq").glob("frame_*.png")):
-        shutil.copy(path, s / "frames" / path.name)
+    (s / "frames").mkdir()  # named left_*.png, for docs/recordings.md's glob
+    for k, path in enumerate(sorted((s / "seq").glob("frame_*.png"))):
+        shutil.copy(path, s / "frames" / f"left_{k:03d}.png")
     (s / "times.txt").write_text("".join(f"{k / 30:.6f}\n" for k in range(FRAMES)))
     shutil.copy(s / "seq" / "truth.tum", s / "mocap.tum")
     _recordings(s)
@@ -160,8 +160,7 @@ def sandbox(tmp_path_factory):
 def _recordings(s):
     """docs/recordings.md's inputs: a rendered calibration clip of OpenCV's left camera (cam.yml)
     waving the 9 x 6 board, as wave.mp4 and clip.mp4, its first frames as a ROS 1 bag, a ROS 2
-    bag of PNG messages (both with the camera_info) and a list file; the rendered sequence's
-    frames again as left_*.png for the glob."""
+    bag of PNG messages (both with the camera_info) and a list file."""
     from graphpose.board import Board
     from graphpose.io.calibration import read_camera
     from graphpose.io.files import write_png
@@ -190,8 +189,6 @@ def _recordings(s):
     for k, image in enumerate(images[:FRAMES]):
         write_png(s / "clipframes" / f"c{k:03d}.png", image)
     (s / "frames.txt").write_text("".join(f"clipframes/c{k:03d}.png\n" for k in range(FRAMES)))
-    for k, path in enumerate(sorted((s / "seq").glob("frame_*.png"))):
-        shutil.copy(path, s / "frames" / f"left_{k:03d}.png")
 
 
 def _in_process(paths, camera, board, *, bounds=None, robust=False, **cluster):
