@@ -98,7 +98,7 @@ def _load(images, names):
 
 def _search(image, board):
     """The board's search in one image, which does not depend on the camera (done once for
-    every pass): ``((grey, scale, found, noise), "")`` or ``(None, reason)``."""
+    every pass): ``((grey, scale, found, noise), "", None)`` or ``(None, reason, refusal)``."""
     from ..detect.find import find_board
     from ..detect.junctions import MIN_SIDE
     from ..detect.noise import estimate_noise
@@ -107,9 +107,9 @@ def _search(image, board):
     grey, scale = grey_and_scale(image, MIN_SIDE)
     noise = estimate_noise(grey)
     try:
-        return (grey, scale, find_board(grey, board, None, noise=noise), noise), ""
+        return (grey, scale, find_board(grey, board, None, noise=noise), noise), "", None
     except BoardNotFoundError as exc:
-        return None, str(exc)
+        return None, str(exc), exc
 
 
 def _detect(searched, board, camera):
@@ -119,7 +119,7 @@ def _detect(searched, board, camera):
     from ..detect.junctions import refine_found
     from ..detect.refine import WINDOW_FRACTION
 
-    found, reason = searched
+    found, reason = searched[:2]
     if found is None:
         return None, reason
     grey, scale, board_found, noise = found
@@ -251,6 +251,7 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         else:
             obs[i], found_in[i] = o, 1
         report("first pass", i + 1, n)
+    _check_spec(board, labels, searched)
     if len(obs) < MIN_IMAGES:
         missing = "; ".join(f"{labels[i]}: {why[i]}" for i in sorted(why)[:5])
         raise InputError(f"fewer than {MIN_IMAGES} images show the board ({len(obs)} of {n}); a calibration "
@@ -304,6 +305,16 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
             break
     return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
                    "no camera" if camera is None else "with the given camera")
+
+
+def _check_spec(board, labels, searched) -> None:
+    """Refuse a board spec the first pass's searches contradict (:func:`graphpose.calibrate.agreement.check_agreement`)."""
+    from ..errors import BoardMismatchError
+    from .agreement import board_size_px, check_agreement
+
+    found = {i: board_size_px(s[0][2]) for i, s in enumerate(searched) if s[0] is not None}
+    mismatched = {i: s[2] for i, s in enumerate(searched) if isinstance(s[2], BoardMismatchError)}
+    check_agreement(board, labels, found, mismatched)
 
 
 def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
