@@ -98,7 +98,13 @@ def _load(images, names):
 
 def _search(image, board):
     """The board's search in one image, which does not depend on the camera (done once for
-    every pass): ``((grey, scale, found, noise), "", None)`` or ``(None, reason, refusal)``."""
+    every pass): ``((grey, scale, found, noise), "")`` or ``(None, reason)``."""
+    return _search_refusal(image, board)[:2]
+
+
+def _search_refusal(image, board):
+    """:func:`_search`, and the refusal itself (None where the board was found):
+    ``(found or None, reason, BoardNotFoundError or None)``."""
     from ..detect.find import find_board
     from ..detect.junctions import MIN_SIDE
     from ..detect.noise import estimate_noise
@@ -119,7 +125,7 @@ def _detect(searched, board, camera):
     from ..detect.junctions import refine_found
     from ..detect.refine import WINDOW_FRACTION
 
-    found, reason = searched[:2]
+    found, reason = searched
     if found is None:
         return None, reason
     grey, scale, board_found, noise = found
@@ -243,15 +249,17 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         check_image_size(camera, images[0], labels[0])
     obs, found_in, why = {}, {}, {}
     searched = []  # each image's search, for every pass (it does not depend on the camera)
+    refusals = {}  # image -> the search's refusal, for the spec's check
     for i, image in enumerate(images):
-        searched.append(_search(image, board))
+        found_i, reason_i, refusals[i] = _search_refusal(image, board)
+        searched.append((found_i, reason_i))
         o, reason = _detect(searched[i], board, camera)
         if o is None:
             why[i] = reason
         else:
             obs[i], found_in[i] = o, 1
         report("first pass", i + 1, n)
-    _check_spec(board, labels, searched)
+    _check_spec(board, labels, searched, refusals)
     if len(obs) < MIN_IMAGES:
         missing = "; ".join(f"{labels[i]}: {why[i]}" for i in sorted(why)[:5])
         raise InputError(f"fewer than {MIN_IMAGES} images show the board ({len(obs)} of {n}); a calibration "
@@ -307,13 +315,14 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
                    "no camera" if camera is None else "with the given camera")
 
 
-def _check_spec(board, labels, searched) -> None:
-    """Refuse a board spec the first pass's searches contradict (:func:`graphpose.calibrate.agreement.check_agreement`)."""
+def _check_spec(board, labels, searched, refusals) -> None:
+    """Refuse a board spec the first pass's searches (and their ``refusals``, per image) contradict
+    (:func:`graphpose.calibrate.agreement.check_agreement`)."""
     from ..errors import BoardMismatchError
     from .agreement import board_size_px, check_agreement
 
     found = {i: board_size_px(s[0][2]) for i, s in enumerate(searched) if s[0] is not None}
-    mismatched = {i: s[2] for i, s in enumerate(searched) if isinstance(s[2], BoardMismatchError)}
+    mismatched = {i: e for i, e in refusals.items() if isinstance(e, BoardMismatchError)}
     check_agreement(board, labels, found, mismatched)
 
 
