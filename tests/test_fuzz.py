@@ -26,6 +26,7 @@ def test_no_ok_answer_is_wrong_on_a_fixed_seed():
     assert answered >= 40  # the seed answers most inputs: the verdicts above are about real answers
 
 
+@pytest.mark.slow  # up to 15 s: the seed's cases are drawn in turn (95 renders for index 94)
 @pytest.mark.parametrize("index", [4, 7, 22, 94])
 def test_a_rolled_outline_of_a_partly_seen_board_gives_no_pose_a_quarter_turn_off(index):
     """Before, each of these gave an ok pose 90 degrees off (the outline rolled by a vertex names
@@ -36,6 +37,7 @@ def test_a_rolled_outline_of_a_partly_seen_board_gives_no_pose_a_quarter_turn_of
     assert verdict["verdict"] in ("refused", "right", "input"), verdict
 
 
+@pytest.mark.slow  # about 15 s: the seed's cases are drawn in turn (95 renders)
 def test_a_rolled_outline_through_estimate_pose_is_refused_or_right():
     for index in (4, 7, 94):
         case = _case(1, index, polygon="rolled", partial=True)
