@@ -26,7 +26,7 @@ from benchmarks.page import render_section, write_page
 
 JSON_PATH = REPO / "docs" / "benchmarks.json"
 PAGE_PATH = REPO / "docs" / "benchmarks.md"
-SECTIONS = ("junctions", "detect", "noise", "pose", "lens", "calibration", "speed", "tracking", "batch", "recordings", "rigs")
+SECTIONS = ("junctions", "detect", "fuzz", "noise", "pose", "lens", "calibration", "speed", "tracking", "batch", "recordings", "rigs")
 #: Version of the JSON layout described in the docstring of :mod:`benchmarks`.
 FORMAT = 1
 #: Distributions whose versions move the figures; OpenCV ships under several names.

@@ -10,7 +10,13 @@ cell. The cells:
 - rows for low contrast (black 100, white 135, noise 6), motion blur (4 px during the exposure,
   sub-frame renders), shot noise (1 grey level per electron, read noise 2), JPEG (quality 50,
   noise 3), defocus (a 3 px disc, noise 3) and a dark image (a fifth of the exposure, shot and
-  read noise, amplified 5 x, vignetting 40 %), blur 1 px unless said.
+  read noise, amplified 5 x, vignetting 40 %), blur 1 px unless said;
+- uneven light (issue 26): 1280 x 720 images of boards with squares of 60-80 px (8 x 6),
+  80-100 (7 x 5) and 100-120 (6 x 4), lit by a lamp over one corner junction so that the light
+  falls to a quarter at the opposite one (:func:`falling_light`, the cos^4 law), a dark
+  exposure with shot and read noise brightened by a gain, JPEG 90: "noise 2" (read noise 1.5,
+  exposure 0.4) and "noise 5" (read noise 4, exposure 0.3), blur 1 px; tilts to 30 degrees and
+  in-plane rotations to 5 (the sheet of 100-120 px squares fills most of the image's height).
 
 Every image is rendered once and given, 8-bit, to each tool:
 
@@ -42,10 +48,10 @@ import sys
 import numpy as np
 
 from benchmarks._common import K_REAL as K
-from benchmarks._common import rms
+from benchmarks._common import rms, scaled_K
 from benchmarks.detect import best_errors, run_opencv, run_ours, symmetries
 from graphpose import Board
-from graphpose.synth import Degradation, degrade, motion_blur_ideal
+from graphpose.synth import Degradation, degrade, motion_blur_ideal, vignette
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render, render_ideal
 from graphpose.track.frontend import board_symmetries
@@ -66,6 +72,17 @@ ROWS = {
     "dark: exposure 0.2, gain 5, vignetting 0.4": (1.0, None, Degradation(noise_sigma=1.0, shot_gain=0.25,
                                                                           exposure=0.2, vignetting=0.4)),
 }
+#: Uneven light (issue 26: a dark, noisy 1280 x 720 image of a plain board with squares of about
+#: 90 px, the light falling to a quarter across it): boards and their squares' range (px);
+#: boards large enough for the squares' range whose sheet fits the image.
+UNEVEN_SIZE = (1280, 720)
+UNEVEN_BANDS = ((Board(8, 6, 0.0635), (60.0, 80.0)), (Board(7, 5, 0.0635), (80.0, 100.0)),
+                (Board(6, 4, 0.0635), (100.0, 120.0)))
+#: ... their noise: a dark exposure brightened by a digital gain, with shot and read noise, JPEG.
+UNEVEN_NOISE = {"noise 2": Degradation(noise_sigma=1.5, shot_gain=0.3, exposure=0.4, jpeg_quality=90),
+                "noise 5": Degradation(noise_sigma=4.0, shot_gain=0.5, exposure=0.3, jpeg_quality=90)}
+#: ... and the light at the board's far corner junction, a fraction of the light at its near one.
+UNEVEN_TO = 0.25
 TOOLS = ("graphpose, polygon", "graphpose, no polygon", "OpenCV classic", "OpenCV SB")
 #: A found board's junctions lie within this distance of the truth, pixels.
 TOLERANCE_PX = 2.0
@@ -82,6 +99,39 @@ def poses(count: int, rng) -> list:
         R = render(K, T, board, SIZE, noise_sigma=0.0, quantize=False, blur_sigma=0.0)  # the truth only
         out.append((board, T, R, loose_polygon(R, inset=bool(k % 2), rng=rng)))
     return out
+
+
+def uneven_scenes(count: int, rng) -> dict:
+    """Per square band of :data:`UNEVEN_BANDS`: ``count`` (board, noise-free image lit unevenly
+    (:func:`falling_light`), truth Rendering, polygon) at 1280 x 720, random poses."""
+    K2 = scaled_K(UNEVEN_SIZE)
+    out = {}
+    for board, (lo, hi) in UNEVEN_BANDS:
+        rows = []
+        for k in range(count):
+            depth = K2[0, 0] * board.square_m / rng.uniform(lo, hi)
+            T = random_pose(K2, board, UNEVEN_SIZE, distance=(depth, depth), max_tilt_deg=30.0, max_roll_deg=5.0,
+                            margin=0.15, rng=rng)
+            R = render(K2, T, board, UNEVEN_SIZE, noise_sigma=0.0, quantize=False, blur_sigma=0.0, margin=0.15)
+            ideal = render_ideal(K2, T, board, UNEVEN_SIZE, blur_sigma=1.0, margin=0.15)
+            corners = R.junctions[:, [0, board.cols - 1, board.n - 1, board.n - board.cols]]
+            near = int(rng.integers(4))
+            lit = falling_light(ideal, corners[:, near], corners[:, (near + 2) % 4], UNEVEN_TO)
+            rows.append((board, lit, R, loose_polygon(R, inset=bool(k % 2), rng=rng)))
+        out[f"{lo:g}-{hi:g}"] = rows
+    return out
+
+
+def falling_light(image, bright, dark, to: float) -> np.ndarray:
+    """``image`` lit by a lamp over the point ``bright`` (u, v): the cos^4 law about it
+    (:func:`graphpose.synth.vignette`), the light at ``dark`` the fraction ``to`` of that at
+    ``bright``."""
+    bright = np.asarray(bright, dtype=float)
+    h, w = np.shape(image)
+    d2 = float(np.sum((np.asarray(dark, dtype=float) - bright) ** 2))
+    corner2 = max((x - bright[0]) ** 2 + (y - bright[1]) ** 2 for x in (0, w - 1) for y in (0, h - 1))
+    inv_f2 = (to ** -0.5 - 1.0) / d2  # (1 + d2 / f^2)^-2 == to
+    return vignette(image, 1.0 - (1.0 + corner2 * inv_f2) ** -2, centre=bright)
 
 
 def score(result, truth, orders):
@@ -157,6 +207,16 @@ def measure(count: int, progress=None) -> dict:
         return ideal[key]
 
     cells = {}
+    uneven = uneven_scenes(count, np.random.default_rng([SEED, 26]))
+    for band, scenes_band in uneven.items():
+        for noise_name, degradation in UNEVEN_NOISE.items():
+            name = f"uneven light to {UNEVEN_TO:g}, squares {band} px, {noise_name}, 1280 x 720"
+            noise_rng = np.random.default_rng([SEED, 26, len(cells)])
+            results = [run_tools(cv2, degrade(lit, degradation, rng=noise_rng), board, polygon, R.junctions)
+                       for board, lit, R, polygon in scenes_band]
+            cells[name] = summarise(results)
+            if progress is not None:
+                progress(name, cells[name])
     plan = [(f"noise {n:g}, blur {b:g}", b, None, Degradation(noise_sigma=n)) for b in BLUR for n in NOISE]
     plan += [(name, b, levels, d) for name, (b, levels, d) in ROWS.items()]
     for index, (name, blur, levels, degradation) in enumerate(plan):

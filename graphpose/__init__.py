@@ -27,6 +27,7 @@ from __future__ import annotations
 import importlib
 
 from .errors import (  # noqa: F401  (re-exported: listed in __all__)
+    BoardMismatchError,
     BoardNotFoundError,
     ConvergenceError,
     DegenerateGeometryError,
@@ -100,7 +101,7 @@ _EXPORTS = {
 }
 
 __all__ = sorted(
-    ["BoardNotFoundError", "ConvergenceError", "DegenerateGeometryError", "GraphposeError", "InputError", "SaddleError",
+    ["BoardMismatchError", "BoardNotFoundError", "ConvergenceError", "DegenerateGeometryError", "GraphposeError", "InputError", "SaddleError",
      *_PACKAGES, *_EXPORTS],
     key=str.lower,
 )

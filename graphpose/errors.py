@@ -37,6 +37,30 @@ class BoardNotFoundError(GraphposeError):
         self.two_boards = bool(two_boards)
 
 
+class BoardMismatchError(BoardNotFoundError):
+    """A board was seen, but of another size than the spec: the spec is wrong, or the grid
+    found is part of a larger one.
+
+    A :class:`BoardNotFoundError` (callers that skip a view without a board skip this one
+    too, and the command line exits 1), told apart so that a caller can say what was seen
+    over several views (``graphpose calibrate`` refuses a spec that its views contradict).
+
+    Attributes
+    ----------
+    found : (int, int) or None
+        Inner junctions ``(cols, rows)`` of the board seen, in the spec's orientation, when
+        the board was seen whole; else the extent of the grid seen (at least that large).
+    size_px : float
+        The grid's size in the image, pixels: its median step times the square root of its
+        junction count (so that it can be compared with another grid's).
+    """
+
+    def __init__(self, message: str = "", *, found=None, size_px: float = 0.0, junctions_seen: int = 0):
+        super().__init__(message, junctions_seen=junctions_seen)
+        self.found = None if found is None else (int(found[0]), int(found[1]))
+        self.size_px = float(size_px)
+
+
 class DegenerateGeometryError(GraphposeError, ValueError):
     """Valid input whose geometry admits no answer: a failed result, not bad usage (exit 1).
 

@@ -117,6 +117,12 @@ def _load(images, names):
 def _search(image, board):
     """The board's search in one image, which does not depend on the camera (done once for
     every pass): ``((grey, scale, found, noise), "")`` or ``(None, reason)``."""
+    return _search_refusal(image, board)[:2]
+
+
+def _search_refusal(image, board):
+    """:func:`_search`, and the refusal itself (None where the board was found):
+    ``(found or None, reason, BoardNotFoundError or None)``."""
     from ..detect.find import find_board
     from ..detect.junctions import MIN_SIDE
     from ..detect.noise import estimate_noise
@@ -125,9 +131,9 @@ def _search(image, board):
     grey, scale = grey_and_scale(image, MIN_SIDE)
     noise = estimate_noise(grey)
     try:
-        return (grey, scale, find_board(grey, board, None, noise=noise), noise), ""
+        return (grey, scale, find_board(grey, board, None, noise=noise), noise), "", None
     except BoardNotFoundError as exc:
-        return None, str(exc)
+        return None, str(exc), exc
 
 
 def _detect(searched, board, camera):
@@ -292,14 +298,20 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         check_image_size(camera, images[0], labels[0])
     obs, found_in, why = {}, {}, {}
     searched = []  # each image's search, for every pass (it does not depend on the camera)
+    refusals = {}  # image -> the search's refusal, for the spec's check
     for i, image in enumerate(images):
-        searched.append((None, unreadable[i]) if image is None else _search(image, board))
+        if image is None:
+            searched.append((None, unreadable[i]))
+        else:
+            found_i, reason_i, refusals[i] = _search_refusal(image, board)
+            searched.append((found_i, reason_i))
         o, reason = _detect(searched[i], board, camera)
         if o is None:
             why[i] = reason
         else:
             obs[i], found_in[i] = o, 1
         report("first pass", i + 1, n)
+    _check_spec(board, labels, searched, refusals)
     if len(obs) < MIN_IMAGES:
         missing = "; ".join(f"{labels[i]}: {why[i]}" for i in sorted(why)[:5])
         raise InputError(f"fewer than {MIN_IMAGES} images show the board ({len(obs)} of {n}); a calibration "
@@ -457,6 +469,17 @@ def _joint(lm, observations, huber_px, sigma0, board, held):
     centre = np.mean(board.world_points(), axis=1)
     distance = float(np.median([np.linalg.norm(T[:3, 3] - centre) for T in lm.poses]))
     return joint, distance
+
+
+def _check_spec(board, labels, searched, refusals) -> None:
+    """Refuse a board spec the first pass's searches (and their ``refusals``, per image) contradict
+    (:func:`graphpose.calibrate.agreement.check_agreement`)."""
+    from ..errors import BoardMismatchError
+    from .agreement import board_size_px, check_agreement
+
+    found = {i: board_size_px(s[0][2]) for i, s in enumerate(searched) if s[0] is not None}
+    mismatched = {i: e for i, e in refusals.items() if isinstance(e, BoardMismatchError)}
+    check_agreement(board, labels, found, mismatched)
 
 
 def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,

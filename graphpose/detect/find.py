@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..board import Board
-from ..errors import BoardNotFoundError, InputError
+from ..errors import BoardMismatchError, BoardNotFoundError, InputError
 from .identify import identify
 from .lattice import grow_lattices
 from .noise import bounding_window, estimate_noise, grey_range
@@ -116,7 +116,7 @@ def find_board(image: np.ndarray, board: Board, bounds=None, *, noise: float | N
         if best is not None and (best.seen.all() or level <= 1):
             break
     if best is not None and best.seen.all():
-        return best
+        return _unrivalled(best, refusals, bounds)
     # The noise-aware search, where the fast path found no board or part of one in an
     # image whose noise is at least NOISY of the grey range where the board is searched for
     # (inside the bounds when given): every level from the coarsest
@@ -132,9 +132,57 @@ def find_board(image: np.ndarray, board: Board, bounds=None, *, noise: float | N
             best = _keep(best, refusals, image, board, bounds, region, level, sigma, level in searched)
             if best is not None and best.seen.all():
                 break
+    if best is None:
+        # Large squares under uneven light: at the fast path's levels a large square's
+        # neighbouring junctions lie far beyond the many weak candidates that texture, noise
+        # and the light's falloff make around each junction, and no seed finds its cross; at
+        # a coarser level the same board's squares are a few pixels, its junctions each
+        # other's nearest candidates. Where nothing was found, the coarser levels the fast
+        # path skipped are searched too (coarsest first, as the noise-aware search's).
+        for level in coarse_levels(image.shape):
+            best = _keep(best, refusals, image, board, bounds, region, level, None)
+            if best is not None and best.seen.all():
+                break
     if best is not None:
-        return best
+        return _unrivalled(best, refusals, bounds)
     raise max(refusals, key=lambda e: e.junctions_seen) from None
+
+
+def coarse_levels(shape) -> list:
+    """Levels coarser than the fast path's first (:func:`graphpose.detect.search.search_levels`)
+    where a board of a few squares still fits (:func:`noise_levels`), coarsest first; empty for
+    images too small to have any."""
+    first = search_levels(shape)[0]
+    return [level for level in noise_levels(shape) if level > first]
+
+
+def _unrivalled(best: FoundBoard, refusals: list, bounds) -> FoundBoard:
+    """``best``, unless, without bounds, a grid of another size than the spec larger than it
+    was seen at any level (:func:`_rival`): then that grid's refusal."""
+    if bounds is None:
+        rival = _rival(refusals, _size_px(best.step_px[best.seen], int(best.seen.sum())))
+        if rival is not None:
+            raise rival
+    return best
+
+
+def _rival(refusals, size_px: float):
+    """The largest :class:`graphpose.errors.BoardMismatchError` among ``refusals`` whose grid
+    is larger in the image than ``size_px`` (a board's :func:`_size_px`), or None.
+
+    A board of another size than the spec, seen whole and larger than the board that fits
+    it, is what the image is of: the one that fits is a picture of a board in the
+    background, a smaller pattern, or part of the larger grid (a spec too small), and its
+    pose would be another board's. As with two boards, only bounds can say which is meant.
+    """
+    larger = [e for e in refusals if isinstance(e, BoardMismatchError) and e.size_px > size_px]
+    return max(larger, key=lambda e: e.size_px) if larger else None
+
+
+def _size_px(step_px, count: int) -> float:
+    """A grid's size in the image, pixels: its median step times the square root of its
+    junction count (as :attr:`graphpose.errors.BoardMismatchError.size_px`)."""
+    return float(np.median(step_px)) * float(np.sqrt(count))
 
 
 def noise_levels(shape, *, side: int = MIN_LEVEL_SIDE) -> range:
@@ -181,6 +229,9 @@ def _search(image, board, bounds, region, level, noise=None, again=False) -> Fou
             continue
         try:
             identity = identify(lattice, cands.view, board, bounds)
+        except BoardMismatchError as exc:
+            refused.append(exc)  # it counts its junctions and its size itself
+            continue
         except BoardNotFoundError as exc:
             refused.append(BoardNotFoundError(str(exc), junctions_seen=len(lattice.keys)))
             continue
@@ -202,6 +253,10 @@ def _search(image, board, bounds, region, level, noise=None, again=False) -> Fou
                                  f"({b[0]:.0f}, {b[1]:.0f}) px; give bounds to say which one",
                                  junctions_seen=board.n, two_boards=True)
     lattice, identity = labelled[0]
+    if bounds is None:
+        rival = _rival(refused, _size_px(lattice.step_lengths(), len(lattice.keys)))
+        if rival is not None:
+            raise rival
     return _found(lattice, identity, board)
 
 

@@ -48,10 +48,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..board import Board
-from ..errors import BoardNotFoundError
-from . import _identify
+from ..errors import BoardMismatchError, BoardNotFoundError
+from . import _identify, _lattice
 from .grid import fit_homography
-from .lattice import KeyGrid, Lattice
+from .lattice import MIN_SCORE, PARITY_COS, RING_FRACTION, KeyGrid, Lattice
 from .search import SearchImage, median
 
 #: Proper rotations M of lattice keys to board (c, r) = M (i, j) + t.
@@ -72,6 +72,10 @@ PLAIN = 0.35
 MIN_PARTIAL_STEP_PX = 12.0
 #: Fraction of the lattice's lines that must reach a side for it to be an edge.
 FLAT_SIDE = 0.75
+#: A side the labels put on the board's border, not seen as its edge, goes on (the grid is
+#: part of a larger one) when at least this fraction of the next line's junctions, predicted
+#: beyond it, pass the lattice's ring test with the parity their keys demand (at least two).
+CONTINUES_FRACTION = 0.5
 #: Sides, as (lattice axis, direction).
 SIDES = ((0, -1), (0, 1), (1, -1), (1, 1))
 #: Every depth a side is sampled at, in squares outwards from it.
@@ -171,13 +175,18 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
             continue
         found.append((M, t))
     if not found:
-        raise BoardNotFoundError(_refusal(reasons, extent, board, sides))
+        message, seen_board = _refusal(reasons, extent, board, sides)
+        if seen_board is None:
+            raise BoardNotFoundError(message)
+        raise BoardMismatchError(message, found=seen_board, size_px=step * np.sqrt(len(keys)),
+                                 junctions_seen=len(keys))
     # The growth's fit when it made one (the same fit of the same nodes), else fitted here
     # (collinear nodes: the fit's own refusal).
     H = lattice.homography if lattice.homography is not None else fit_homography(keys.T.astype(float), lattice.points)
     if bounds is not None:
         M, t = min(found, key=lambda f: _bounds_mismatch(f, H, board, bounds))
         _check_bounds_order((M, t), H, board, bounds)
+        _check_bounds_fit((M, t), found, H, board, bounds, extent)
         ambiguous = False
     else:
         if len(found) > 1 and not all(_symmetric_pair(found[0], f, board) for f in found[1:]):
@@ -187,6 +196,7 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
                 "or show more of the board (two opposite edges of each axis)")
         M, t = min(found, key=lambda f: _corner_distance(f, H, board))
         ambiguous = len(found) > 1
+    _check_border(lattice, view, grid, keys, H, M, t, sides, board, step)
     cr = keys @ M.T + t
     return Identity(cr[:, 1] * board.cols + cr[:, 0], M, t, ambiguous, sides, _junction0_square(M, t, dark_parity))
 
@@ -272,6 +282,111 @@ def _grey(view, points, step) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- labelling
+
+
+def _check_border(lattice, view, grid, keys, H, M, t, sides, board, step) -> None:
+    """Refuse a labelling whose board border the image shows the grid going on across.
+
+    A side of the lattice that the labels put on the board's border (its outermost line of
+    junctions) is looked at again. Where it was not seen as an edge and its bands alternate
+    on (``"continues"``), or the next line of junctions beyond it is there (predicted along
+    the lattice lines, :data:`CONTINUES_FRACTION` of them passing the ring test,
+    :func:`graphpose.detect.search.ring_test`), the grid is part of a larger one: a bigger
+    board, or a spec too small (:class:`graphpose.errors.BoardMismatchError`). Where, on any
+    border side, an edge included, junctions of the lattice come back two to
+    :data:`BEYOND_LINES` lines out (through the lattice's homography ``H``), something lies
+    across the board there and the border is not its edge: the labels cannot be fixed.
+    Sides inside the board (the labels count from the opposite edge) may go on, as a partly
+    seen board's do.
+    """
+    lo, hi = keys.min(axis=0), keys.max(axis=0)
+    counts = (board.cols, board.rows)
+    for axis, direction in SIDES:
+        verdict = sides[(axis, direction)]
+        row = 0 if M[0, axis] != 0 else 1  # the board axis the lattice axis runs along
+        line = hi[axis] if direction > 0 else lo[axis]
+        beyond = int(M[row, axis]) * (line + direction) + int(t[row])
+        if 0 <= beyond < counts[row]:
+            continue  # the board goes on there under these labels
+        if verdict != "edge" and (verdict == "continues"
+                                  or _line_continues(lattice, view, grid, keys, axis, direction, line, step)):
+            extent = hi - lo + 1
+            grown = [int(extent[0 if M[k, 0] != 0 else 1]) for k in (0, 1)]
+            grown[row] += 1
+            raise BoardMismatchError(
+                f"found a grid of at least {grown[0]} x {grown[1]} junctions: it goes on beyond the edge of "
+                f"the {board.cols} x {board.rows} board spec (a bigger board, or the spec is wrong)",
+                found=grown, size_px=step * np.sqrt(len(keys)), junctions_seen=len(keys))
+        for out in range(2, BEYOND_LINES + 1):
+            if _line_passes(lattice, view, H, keys, axis, line, line + out * direction):
+                raise BoardNotFoundError(
+                    f"the junctions seen ({hi[0] - lo[0] + 1} x {hi[1] - lo[1] + 1}) end at a line that the "
+                    f"board's junctions come back beyond, {out} squares out: something lies across the board "
+                    "there, and its labels cannot be fixed; show the board unobstructed, or more of it")
+
+
+#: Lines of junctions beyond a border side looked at for the board coming back past something
+#: lying across it (:func:`_check_border`).
+BEYOND_LINES = 4
+
+
+def _line_passes(lattice, view, H, keys, axis, line, at) -> bool:
+    """Do two neighbouring keys of line ``at`` (parallel to the lattice's ``line`` along
+    ``axis``, over the same span) pass the ring test at their positions through ``H``, with
+    the parity their keys demand?"""
+    span = np.unique(keys[keys[:, axis] == line][:, 1 - axis])
+    K = np.empty((2, span.size))
+    K[axis], K[1 - axis] = at, span
+    q = H @ np.vstack([K, np.ones(span.size)])
+    if np.any(q[2] * np.sign(np.median(q[2])) <= 0):
+        return False  # beyond the board's horizon
+    P = q[:2] / q[2]
+    # The local step there: the distance to the next line's predictions.
+    K2 = K.copy()
+    K2[axis] -= np.sign(at - line)
+    q2 = H @ np.vstack([K2, np.ones(span.size)])
+    step = np.hypot(*(P - q2[:2] / q2[2]))
+    height, width = view.shape
+    margin = RING_FRACTION * step + 1.0
+    inside = (P[0] >= margin) & (P[1] >= margin) & (P[0] <= width - 1 - margin) & (P[1] <= height - 1 - margin)
+    inside &= step >= 4.0
+    if inside.sum() < 2:
+        return False
+    score, theta, _ = view.ring_test(np.ascontiguousarray(P[:, inside]), RING_FRACTION * step[inside])
+    turn = np.cos(2 * (theta - lattice.theta0))
+    parity = (K[0, inside] + K[1, inside]).astype(int) % 2
+    passed = np.zeros(span.size, dtype=bool)
+    passed[inside] = (score > MIN_SCORE) & np.where(parity == 0, turn > PARITY_COS, turn < -PARITY_COS)
+    return bool(np.any(passed[1:] & passed[:-1] & (np.diff(span) == 1)))
+
+
+def _line_continues(lattice, view, grid, keys, axis, direction, line, step) -> bool:
+    """Do the junctions of the line of keys beyond ``line`` (on side ``(axis, direction)``)
+    pass the ring test at their predicted positions, as :data:`CONTINUES_FRACTION` of the
+    predictions inside the image (and at least two) must?"""
+    on = keys[keys[:, axis] == line]
+    points, parity, steps = [], [], []
+    for key in on:
+        nxt = key.copy()
+        nxt[axis] += direction
+        guess = _lattice.predict_one(grid.array, int(grid.origin[0]), int(grid.origin[1]), int(nxt[0]), int(nxt[1]))
+        if guess is not None:
+            points.append(guess[0])
+            steps.append(guess[1])
+            parity.append(int(nxt[0] + nxt[1]) % 2)
+    if len(points) < 2:
+        return False
+    P = np.array(points, dtype=float).T
+    height, width = view.shape
+    margin = RING_FRACTION * step + 1.0
+    inside = (P[0] >= margin) & (P[1] >= margin) & (P[0] <= width - 1 - margin) & (P[1] <= height - 1 - margin)
+    if inside.sum() < 2:
+        return False
+    score, theta, _ = view.ring_test(P[:, inside], RING_FRACTION * np.array(steps)[inside])
+    turn = np.cos(2 * (theta - lattice.theta0))
+    parity = np.array(parity)[inside]
+    passed = (score > MIN_SCORE) & np.where(parity == 0, turn > PARITY_COS, turn < -PARITY_COS)
+    return passed.sum() >= 2 and passed.mean() >= CONTINUES_FRACTION
 
 
 def _fit_rotation(M, lo, hi, extent, sides, board):
@@ -368,8 +483,61 @@ def _check_bounds_order(fit, H, board, bounds) -> None:
             "junction 0, its first edge along a row")
 
 
-def _refusal(reasons, extent, board, sides) -> str:
-    """The most telling reason no rotation fits, in words.
+def _check_bounds_fit(fit, found, H, board, bounds, extent) -> None:
+    """Refuse bounds that choose between labellings the visible part cannot tell apart, unless
+    they outline the board under the chosen one and under no other.
+
+    Where the visible part of a board fits several labellings that no symmetry of the grid
+    relates (a quarter turn of a board that is not square, a shift), the bounds alone choose.
+    Bounds started at the wrong corner (rolled by a vertex) then choose a labelling a quarter
+    turn off, and a pose 90 degrees off would follow. So the bounds must outline the board
+    under the chosen labelling (:func:`_outlines`), and not under any other: else the
+    refusal says to show more of the board or to start the bounds at junction 0's corner.
+    """
+    others = [f for f in found if f is not fit and not _symmetric_pair(fit, f, board)]
+    if not others:
+        return
+    if _outlines(fit, H, board, bounds) and not any(_outlines(f, H, board, bounds) for f in others):
+        return
+    raise BoardNotFoundError(
+        f"the visible part of the board ({extent[0]} x {extent[1]} junctions) fits {len(others) + 1} places "
+        f"on the {board.cols} x {board.rows} board, and the bounds do not outline it under one of them alone "
+        "(are they started at junction 0's corner, their first edge along a row?); show more of the board "
+        "(two opposite edges of each axis)")
+
+
+#: Bounds outline a board under a labelling when each vertex lies beyond its corner junction by
+#: more than this (squares, on both board axes: bounds clicked on the corner junctions pass) ...
+_OUTLINE_INSIDE = -0.5
+#: ... and the bounds' margins on opposite sides differ by at most this (squares): a quarter turn of a
+#: board one junction longer than wide makes them differ by one square; a loose outline (a few
+#: pixels) or one clicked inside the margin, by less than half a square.
+_OUTLINE_SKEW = 0.75
+
+
+def _outlines(fit, H, board, bounds) -> bool:
+    """Do ``bounds`` outline the board under labelling ``fit``: in board coordinates (squares,
+    through the lattice's homography ``H``), each vertex beyond its corner junction on both
+    axes, by margins that agree on opposite sides (a margin of the sheet is about even)?"""
+    M, t = fit
+    q = np.linalg.solve(H, np.vstack([np.asarray(bounds, dtype=float), np.ones(4)]))
+    if np.any(q[2] * np.sign(q[2, 0]) <= 0):  # a vertex beyond the board's horizon
+        return False
+    c, r = M @ (q[:2] / q[2]) + t[:, None]
+    right, low = board.cols - 1, board.rows - 1
+    out_c = np.array([-c[0], c[1] - right, c[2] - right, -c[3]])  # excess beyond the corner junctions
+    out_r = np.array([-r[0], -r[1], r[2] - low, r[3] - low])
+    if min(out_c.min(), out_r.min()) <= _OUTLINE_INSIDE:
+        return False
+    skew_c = abs((out_c[0] + out_c[3]) - (out_c[1] + out_c[2])) / 2
+    skew_r = abs((out_r[0] + out_r[1]) - (out_r[2] + out_r[3])) / 2
+    return max(skew_c, skew_r) <= _OUTLINE_SKEW
+
+
+def _refusal(reasons, extent, board, sides) -> tuple:
+    """The most telling reason no rotation fits, in words, and the board seen ``(cols, rows)``
+    in the spec's orientation where the reason is a board (or a grid) of another size (else
+    None).
 
     ``reasons`` holds ``(M, kind, board axis)`` per rotation: a lattice larger than the
     board along an axis (``"too large"``), edges seen on both sides of an axis at the wrong
@@ -381,11 +549,11 @@ def _refusal(reasons, extent, board, sides) -> str:
     if (a > b) != (board.cols > board.rows):
         a, b = b, a  # say it in the spec's orientation
     if all(sides[s] == "edge" for s in SIDES):
-        return f"found a {a} x {b} board of junctions; the board spec says {spec}"
+        return f"found a {a} x {b} board of junctions; the board spec says {spec}", (a, b)
     fitting = [r for r in reasons if r[1] != "too large"]
     if not fitting:
         return (f"found a grid of {a} x {b} junctions, larger than the {spec} board spec "
-                "(a bigger board, or the spec is wrong)")
+                "(a bigger board, or the spec is wrong)"), (a, b)
     for kind in ("size", "hidden", "colour"):
         hit = [r for r in fitting if r[1] == kind]
         if not hit:
@@ -397,10 +565,10 @@ def _refusal(reasons, extent, board, sides) -> str:
         along = along((M,))
         if kind == "size":
             return (f"found a board of {along[0]} x {along[1]} junctions between its edges; "
-                    f"the board spec says {spec}")
+                    f"the board spec says {spec}"), (along[0], along[1])
         if kind == "hidden":
             name = "columns" if row == 0 else "rows"
             return (f"two opposite edges of the board are hidden (off the image, covered or blurred), "
-                    f"so its {name} cannot be labelled ({along[0]} x {along[1]} junctions seen)")
-        return "the board's square colours do not fit the spec's pattern at any orientation"
-    return f"the junctions seen cannot be placed on the {spec} board"
+                    f"so its {name} cannot be labelled ({along[0]} x {along[1]} junctions seen)"), None
+        return "the board's square colours do not fit the spec's pattern at any orientation", None
+    return f"the junctions seen cannot be placed on the {spec} board", None
