@@ -27,7 +27,7 @@ from ..errors import BoardMismatchError, BoardNotFoundError, InputError
 from .identify import identify
 from .lattice import grow_lattices
 from .noise import bounding_window, estimate_noise, grey_range
-from .search import find_candidates, search_levels
+from .search import find_candidates, median, search_levels
 
 #: Bounds are grown by this fraction of their size (and 4 px) before they select seeds.
 BOUNDS_SLACK = 0.1
@@ -182,7 +182,7 @@ def _rival(refusals, size_px: float):
 def _size_px(step_px, count: int) -> float:
     """A grid's size in the image, pixels: its median step times the square root of its
     junction count (as :attr:`graphpose.errors.BoardMismatchError.size_px`)."""
-    return float(np.median(step_px)) * float(np.sqrt(count))
+    return median(step_px) * float(np.sqrt(count))
 
 
 def noise_levels(shape, *, side: int = MIN_LEVEL_SIDE) -> range:

@@ -334,11 +334,12 @@ def _line_passes(lattice, view, H, keys, axis, line, at) -> bool:
     """Do two neighbouring keys of line ``at`` (parallel to the lattice's ``line`` along
     ``axis``, over the same span) pass the ring test at their positions through ``H``, with
     the parity their keys demand?"""
-    span = np.unique(keys[keys[:, axis] == line][:, 1 - axis])
+    span = np.sort(keys[keys[:, axis] == line][:, 1 - axis])
+    span = span[np.r_[True, span[1:] != span[:-1]]] if span.size else span  # np.unique's, without numpy.ma
     K = np.empty((2, span.size))
     K[axis], K[1 - axis] = at, span
     q = H @ np.vstack([K, np.ones(span.size)])
-    if np.any(q[2] * np.sign(np.median(q[2])) <= 0):
+    if np.any(q[2] * np.sign(median(q[2])) <= 0):
         return False  # beyond the board's horizon
     P = q[:2] / q[2]
     # The local step there: the distance to the next line's predictions.
@@ -568,7 +569,7 @@ def _refusal(reasons, extent, board, sides) -> tuple:
                     f"the board spec says {spec}"), (along[0], along[1])
         if kind == "hidden":
             name = "columns" if row == 0 else "rows"
-            return (f"two opposite edges of the board are hidden (off the image, covered or blurred), "
-                    f"so its {name} cannot be labelled ({along[0]} x {along[1]} junctions seen)"), None
+            return (f"two opposite edges of the board are hidden: its {name} cannot be labelled "
+                    f"({along[0]} x {along[1]} junctions seen)"), None
         return "the board's square colours do not fit the spec's pattern at any orientation", None
     return f"the junctions seen cannot be placed on the {spec} board", None
