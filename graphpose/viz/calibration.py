@@ -51,21 +51,26 @@ def plot_calibration(calibration, path, *, title: str = "", step: float = 16.0) 
     _coverage(figure, image, calibration, step)
     if title:
         figure.suptitle(title)
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100)
-    atomic_write(path, buffer.getvalue())
+    _save_png(figure, path)
 
 
-def _figure(size, what):
+def _figure(size, what, layout="constrained"):
     """A matplotlib figure on the Agg canvas (object API), or InputError without matplotlib."""
     try:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
     except ImportError:
         raise InputError(f"the {what} picture needs matplotlib: pip install -e \".[plot]\"") from None
-    figure = Figure(figsize=size, layout="constrained")
+    figure = Figure(figsize=size, layout=layout)
     FigureCanvasAgg(figure)
     return figure
+
+
+def _save_png(figure, path) -> None:
+    """``figure`` as a PNG at ``path``, written whole or not at all."""
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100)
+    atomic_write(path, buffer.getvalue())
 
 
 def _residuals(ax, calibration) -> None:
@@ -177,6 +182,4 @@ def plot_cross_validation(cross_validation, path) -> None:
     figure.colorbar(mesh, ax=axes, label="pixels", shrink=0.85)
     n0, n1 = (h.status.count("used") for h in cv.halves)
     figure.suptitle(f"cross-validation: the even ({n0}) and odd ({n1}) views calibrated apart, at infinity")
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100)
-    atomic_write(path, buffer.getvalue())
+    _save_png(figure, path)

@@ -9,12 +9,9 @@ object API, as :mod:`graphpose.viz.calibration`.
 
 from __future__ import annotations
 
-import io
-
 import numpy as np
 
-from ..errors import InputError
-from ..io.files import atomic_write
+from .calibration import _figure, _save_png
 
 
 def plot_rig(calibration, path) -> None:
@@ -31,15 +28,9 @@ def plot_rig(calibration, path) -> None:
     InputError
         If matplotlib is not installed or the file cannot be written.
     """
-    try:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise InputError("the rig picture needs matplotlib: pip install -e \".[plot]\"") from None
     rig = calibration.rig
     n = len(rig)
-    figure = Figure(figsize=(4.2 * (n + 1), 4.0))
-    FigureCanvasAgg(figure)
+    figure = _figure((4.2 * (n + 1), 4.0), "rig", layout=None)  # laid out by tight_layout below
     for c, (camera, cal) in enumerate(zip(rig.cameras, calibration.calibrations)):
         ax = figure.add_subplot(1, n + 1, c + 1)
         w, h = camera.size
@@ -75,6 +66,4 @@ def plot_rig(calibration, path) -> None:
     ax.set_ylabel("z, forward (m)")
     ax.set_title("the rig from above", fontsize=8)
     figure.tight_layout()
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100)
-    atomic_write(path, buffer.getvalue())
+    _save_png(figure, path)
