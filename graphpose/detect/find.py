@@ -45,20 +45,36 @@ NOISY = 0.015
 
 @dataclass(frozen=True)
 class FoundBoard:
-    """A board found and labelled, before sub-pixel refinement.
+    """A board found and labelled in an image, before sub-pixel refinement.
+
+    What :func:`graphpose.detect.find_board` returns and :func:`graphpose.detect.refine`
+    takes: the search's coarse junctions, each labelled with its board index (row-major from
+    junction 0), from the image alone: no camera is needed (the labels come from the board's
+    edges). Coordinates follow :mod:`graphpose.geometry`: ``(u, v)`` pixels, 0-based.
 
     Attributes
     ----------
     points : (2, n) ndarray of float64
-        Coarse positions (u, v) of the board's junctions, row-major; NaN where unseen.
+        Coarse positions (u, v) of the board's n junctions, pixels, row-major (column
+        ``k`` is junction ``k``); NaN where unseen. Within a pixel or two of the junctions:
+        :func:`graphpose.detect.refine` makes them sub-pixel.
     seen : (n,) ndarray of bool
-        Junctions on the lattice.
+        Junctions on the lattice found (the others are hidden or off the image).
     step_px : (n,) ndarray of float64
         Local lattice step (pixels) at each seen junction; NaN elsewhere.
     orientation_ambiguous : bool
-        See :class:`graphpose.detect.identify.Identity`.
+        True when the board's pattern is unchanged by a half (or quarter) turn and no
+        bounds said which corner is junction 0 (see :class:`graphpose.detect.Junctions`).
     junction0_square : str or None
-        ``"dark"`` or ``"light"``, see :class:`graphpose.detect.identify.Identity`.
+        ``"dark"`` or ``"light"``: the colour of junction 0's outer corner square (see
+        :class:`graphpose.detect.Junctions`).
+    board : Board or None
+        The board spec searched for (n is its ``board.n``); None only for one made by hand.
+    noise : float or None
+        The image's pixel noise, grey units of the image as given (0-255 for 8-bit grey,
+        else [0, 1] as :func:`graphpose.image.as_grey`), as the search measured it
+        (:func:`graphpose.detect.estimate_noise`); the refinement's smoothing reads it.
+        None when it was not measured (the refinement then measures it).
     """
 
     points: np.ndarray
@@ -66,10 +82,20 @@ class FoundBoard:
     step_px: np.ndarray
     orientation_ambiguous: bool
     junction0_square: str | None = None
+    board: Board | None = None
+    noise: float | None = None
+
+    @property
+    def labels(self) -> np.ndarray:
+        """(m,) ndarray of int: the board indices (row-major) of the junctions seen, ascending;
+        ``points[:, labels]`` are their coarse positions."""
+        return np.flatnonzero(self.seen)
 
 
 def find_board(image: np.ndarray, board: Board, bounds=None, *, noise: float | None = None) -> FoundBoard:
-    """Find and label the board's junctions in a grey image.
+    """Find and label the board's junctions in a grey image: the search behind
+    :func:`graphpose.detect.find_board` (which checks the image and bounds, and measures the
+    noise), on a grey image and checked bounds.
 
     Parameters
     ----------
@@ -269,7 +295,7 @@ def _found(lattice, identity, board) -> FoundBoard:
     step[identity.index] = lattice.step_lengths()
     seen = np.zeros(board.n, dtype=bool)
     seen[identity.index] = True
-    return FoundBoard(points, seen, step, identity.orientation_ambiguous, identity.junction0_square)
+    return FoundBoard(points, seen, step, identity.orientation_ambiguous, identity.junction0_square, board)
 
 
 def _grow(bounds) -> np.ndarray:

@@ -1,10 +1,13 @@
 """Cross-junctions of the checkerboard, to sub-pixel accuracy, in row-major order.
 
-The board is found and labelled anywhere in the image, or inside optional bounds
-(:mod:`.find`: candidates, lattices, and labels from the board's edges); refinement
-(:mod:`.refine`) fits a saddle at every junction seen; this module decides which junctions
-to trust and returns them as :class:`Junctions`. Junctions the image does not show (off
-the image, covered) are NaN and untrusted: never guessed.
+Two stages a caller can stop between, as scikit-image's ``corner_harris`` ->
+``corner_peaks`` -> ``corner_subpix``: :func:`find_board` finds and labels the board
+anywhere in the image, or inside optional bounds (:mod:`.find`: candidates, lattices, and
+labels from the board's edges; no camera needed), as a :class:`FoundBoard`; :func:`refine`
+fits a saddle at every junction seen (:mod:`.refine`, through the lens when a camera is
+given) and decides which junctions to trust, as :class:`Junctions`.
+:func:`extract_junctions` is the two in a row. Junctions the image does not show (off the
+image, covered) are NaN and untrusted: never guessed.
 
 Coordinates follow :mod:`graphpose.geometry`: ``(u, v)`` pixels, 0-based, 2 x N arrays.
 """
@@ -16,11 +19,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .._checks import check_bounds, check_number
-from ..board import Board
-from ..errors import BoardNotFoundError
+from ..board import Board, check_board
+from ..errors import BoardNotFoundError, InputError
 from ..geometry import apply_homography
 from ..observations import MIN_JUNCTIONS
-from .find import find_board
+from .find import FoundBoard
+from .find import find_board as _search
 from .noise import bounding_window, estimate_noise, grey_range
 from .grid import fit_homography, square_sides
 from .search import median
@@ -142,6 +146,8 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
                       smooth_sigma: float | None = None) -> Junctions:
     """Find, label and refine the cross-junctions of a checkerboard.
 
+    :func:`find_board`, then :func:`refine`, with every argument checked before the search.
+
     Parameters
     ----------
     I : (H, W) or (H, W, 3|4) array_like
@@ -193,52 +199,166 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
     """
     image, scale = grey_and_scale(I, MIN_SIDE)
     poly = None if bounds is None else check_bounds(bounds, image.shape)
-    window = check_number("window (a fraction of the square)", window, 0.0, strict=True, maximum=0.7)
-    if smooth_sigma is not None:
-        smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
-    lens = None
-    if camera is not None:
-        from ..camera_models import as_camera, check_image_size
-
-        lens = as_camera(camera)
-        check_image_size(lens, image.shape)
-        lens = None if not np.any(lens.distortion) else lens
+    # refine's arguments are checked before the search, so that a bad one costs no search.
+    window, smooth_sigma = _check_refinement(window, smooth_sigma)
+    lens = _lens(camera, image.shape)
     noise = estimate_noise(image) if smooth_sigma is None else None
-    found = find_board(image, board, poly, noise=noise)
-    return refine_found(image, scale, found, board, lens, window, smooth_sigma, noise)
+    return _refine(image, scale, _find(image, board, poly, noise), lens, window, smooth_sigma)
 
 
-def refine_found(image, scale, found, board, lens, window, smooth_sigma, noise) -> Junctions:
-    """The refinement and the verdict of :func:`extract_junctions`, from what the search found.
+def find_board(image, board: Board, *, bounds=None) -> FoundBoard:
+    """Find the board in an image and label its junctions: the first stage of
+    :func:`extract_junctions`, with no camera.
 
-    The search does not depend on the lens: a caller that refines one image through several
-    cameras (a calibration's passes) searches it once and calls this for each camera. The
-    arguments are trusted (checked by the caller, as :func:`extract_junctions` checks its own).
+    The labels (each junction's board index, row-major from junction 0) come from the
+    board's edges in the image, so a raw image through a lens is searched as it is. The
+    result is what :func:`refine` makes sub-pixel, once or through several cameras (a
+    calibration searches each image once and refines it at every pass).
 
     Parameters
     ----------
-    image : (H, W) ndarray
-        The image, grey as :func:`graphpose.detect.refine.grey_and_scale` makes it.
-    scale : float
-        Its grey unit (the residuals' scale).
-    found : FoundBoard
-        What :func:`graphpose.detect.find.find_board` found in ``image``.
+    image : (H, W) or (H, W, 3|4) array_like
+        The image (uint8, uint16, bool or float; colour converted to grey as by
+        :func:`graphpose.image.as_grey`; 8-bit grey is used as it is), at least 5 x 5 pixels.
     board : Board
-        The target.
-    lens : Camera or None
-        The lens to refine through (:func:`graphpose.detect.refine.refine_points`), or None.
+        The board spec: ``cols x rows`` inner junctions.
+    bounds : (2, 4) array_like, optional
+        The board's outline, pixels, clockwise from the corner nearest junction 0 (as
+        :func:`extract_junctions` takes it): it narrows the search and fixes which corner
+        is junction 0. Without it the whole image is searched.
+
+    Returns
+    -------
+    FoundBoard
+        Coarse positions (2, n) row-major (NaN where unseen), the seen mask, the local
+        lattice steps, the orientation flag, the board and the image's measured noise.
+
+    Raises
+    ------
+    InputError
+        If the image, ``board`` or ``bounds`` is malformed (as :func:`extract_junctions`).
+    BoardNotFoundError
+        With the reason: no board; a board of another size than the spec
+        (:class:`graphpose.errors.BoardMismatchError`); two boards and no bounds; a partial
+        board whose labels its visible edges cannot fix.
+
+    Examples
+    --------
+    >>> from graphpose import Board, bundled_cases, read_image
+    >>> from graphpose.detect import find_board
+    >>> found = find_board(read_image(bundled_cases().cases[0].image), Board())
+    >>> found.points.shape, found.labels.size, found.orientation_ambiguous
+    ((2, 48), 48, True)
+    """
+    grey, _ = grey_and_scale(image, MIN_SIDE)
+    board = check_board(board)
+    poly = None if bounds is None else check_bounds(bounds, grey.shape)
+    return _find(grey, board, poly, estimate_noise(grey))
+
+
+def refine(image, found: FoundBoard, *, camera=None, window: float = WINDOW_FRACTION,
+           smooth_sigma: float | None = None) -> Junctions:
+    """Refine a found board's junctions to sub-pixel and judge which to trust: the second
+    stage of :func:`extract_junctions`.
+
+    Every seen junction is refined by the re-centred saddle fit (:mod:`graphpose.detect.refine`),
+    in a window of ``window`` times its local square; the verdict then keeps the junctions
+    whose fits converged, look like cross-junctions, fit about as well as the board's
+    others, and lie on the board's planar grid (:class:`Junctions`).
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, 3|4) array_like
+        The image ``found`` was found in (converted as :func:`find_board` converts it).
+    found : FoundBoard
+        What :func:`find_board` found in ``image``.
+    camera : Camera or (3, 3) array_like, optional
+        The camera (:mod:`graphpose.camera_models`) when the image is raw, with lens
+        distortion: each junction is then fitted where the lens straightens the board's
+        edges, the planar-grid check is made on undistorted positions, and
+        :attr:`Junctions.homography` maps the grid to undistorted pixels. A camera without
+        distortion (or none) refines on the image as it is. Its size, if known, must be the
+        image's.
     window : float
-        Window radius as a fraction of the local square side.
-    smooth_sigma : float or None
-        Refinement smoothing, pixels; from the image's noise over the board's contrast when None.
-    noise : float or None
-        The image's noise, grey levels (measured when None).
+        Refinement window radius as a fraction of the local square side, in (0, 0.7].
+    smooth_sigma : float, optional
+        Gaussian smoothing of refinement patches, pixels (>= 0). By default it follows the
+        image's noise (``found.noise``) over the board's contrast (:func:`board_smoothing`).
 
     Returns
     -------
     Junctions
-        As :func:`extract_junctions` returns them.
+        As :func:`extract_junctions` returns them: ``refine(image, find_board(image, board,
+        bounds=bounds), camera=camera)`` equals ``extract_junctions(image, bounds, board,
+        camera=camera)`` exactly.
+
+    Raises
+    ------
+    InputError
+        If the image is malformed, ``found`` is not a :class:`FoundBoard` of a board with
+        the image's junctions, ``camera`` is not a camera or K, its size is not the image's,
+        or ``window`` or ``smooth_sigma`` is out of range.
+    BoardNotFoundError
+        If fewer than six junctions (or half of those seen) are refined and trusted, or too
+        few lie on a planar grid (the message says a lens's distortion may be why).
+
+    Examples
+    --------
+    >>> from graphpose import Board, bundled_cases, read_image
+    >>> from graphpose.detect import find_board, refine
+    >>> image = read_image(bundled_cases().cases[0].image)
+    >>> J = refine(image, find_board(image, Board()))
+    >>> J.points.shape, bool(J.trusted.all())
+    ((2, 48), True)
     """
+    grey, scale = grey_and_scale(image, MIN_SIDE)
+    _check_found(found, grey.shape)
+    window, smooth_sigma = _check_refinement(window, smooth_sigma)
+    return _refine(grey, scale, found, _lens(camera, grey.shape), window, smooth_sigma)
+
+
+def _check_found(found, shape) -> None:
+    """Refuse a ``found`` that is not a :class:`FoundBoard` of its board's junctions."""
+    if not isinstance(found, FoundBoard):
+        raise InputError(f"found must be a FoundBoard (what find_board returns), got {type(found).__name__}")
+    if not isinstance(found.board, Board):
+        raise InputError("found must name its board (found.board, as find_board sets it), got None")
+    n = found.board.n
+    if np.shape(found.points) != (2, n) or np.shape(found.seen) != (n,) or np.shape(found.step_px) != (n,):
+        raise InputError(f"found must hold the {n} junctions of its {found.board.cols} x {found.board.rows} board: "
+                         f"points (2, {n}), seen and step_px ({n},); got points {np.shape(found.points)}")
+
+
+def _check_refinement(window, smooth_sigma):
+    """``window`` and ``smooth_sigma`` checked, as :func:`refine` takes them."""
+    window = check_number("window (a fraction of the square)", window, 0.0, strict=True, maximum=0.7)
+    if smooth_sigma is not None:
+        smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
+    return window, smooth_sigma
+
+
+def _lens(camera, shape):
+    """The camera to refine through: ``camera`` (checked against the image ``shape``) when it
+    distorts, else None."""
+    if camera is None:
+        return None
+    from ..camera_models import as_camera, check_image_size
+
+    lens = as_camera(camera)
+    check_image_size(lens, shape)
+    return None if not np.any(lens.distortion) else lens
+
+
+def _find(image, board, poly, noise) -> FoundBoard:
+    """:func:`find_board`'s search on the grey ``image`` with checked bounds ``poly``, the
+    image's ``noise`` (None: measured only if the noise-aware search runs) kept in the result."""
+    return replace(_search(image, board, poly, noise=noise), noise=noise)
+
+
+def _refine(image, scale, found, lens, window, smooth_sigma) -> Junctions:
+    """:func:`refine` on checked arguments: the grey ``image`` and its grey unit ``scale`` (the
+    residuals' scale), the distorting ``lens`` or None (:func:`_lens`)."""
+    board, noise = found.board, found.noise
     seen = found.seen
     grid = board.grid_indices().astype(float)
     square = np.full(board.n, np.nan)
@@ -257,10 +377,31 @@ def refine_found(image, scale, found, board, lens, window, smooth_sigma, noise) 
 
 
 def board_smoothing(image: np.ndarray, points: np.ndarray, square: np.ndarray, noise: float | None = None) -> float:
-    """Refinement smoothing for the board at ``points`` (2, m) with squares ``square`` (m,)
-    px: :func:`graphpose.detect.refine.noise_smoothing` of the image's ``noise`` (measured
-    when None) over the grey range of the board's bounding box (5th to 95th percentile: its
-    black and white squares)."""
+    """The refinement's Gaussian smoothing for a board in an image, pixels.
+
+    :func:`graphpose.detect.refine.noise_smoothing` of the image's ``noise`` over the grey
+    range of the board's bounding box (5th to 95th percentile: its black and white squares):
+    :data:`graphpose.detect.refine.SMOOTH_SIGMA` on clean images, more under noise. What
+    :func:`refine` uses by default; a tracker that refines predicted junctions
+    (:func:`graphpose.detect.refine_junctions`) sets its smoothing from it at each detection.
+
+    Parameters
+    ----------
+    image : (H, W) ndarray
+        Grey image (8-bit as it is, else as :func:`graphpose.image.as_grey` makes it).
+    points : (2, m) ndarray
+        The board's junctions seen, pixels (u, v).
+    square : (m,) ndarray
+        Their local square sides, pixels (NaN ignored).
+    noise : float, optional
+        The image's pixel noise, grey units (:func:`graphpose.detect.estimate_noise`);
+        measured when None.
+
+    Returns
+    -------
+    float
+        Smoothing sigma, pixels.
+    """
     crop = bounding_window(image, points)
     if min(crop.shape) < 3:
         return SMOOTH_SIGMA

@@ -44,11 +44,13 @@ SMOOTH_SQUARE_FRACTION = 0.1
 MAX_RADIUS = 12.0
 
 
-def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGMA, camera=None):
+def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGMA, camera=None,
+                     check: bool = True):
     """Refine predicted junction positions with the re-centred saddle fit.
 
-    The same refinement :func:`extract_junctions` applies after finding the grid; the tracker
-    uses it on positions predicted from the previous frame.
+    The same refinement :func:`graphpose.detect.refine` applies to a found board; the tracker
+    uses it on positions predicted from the previous frame (with ``check=False``: it checked
+    each frame once, at its edge).
 
     Parameters
     ----------
@@ -65,7 +67,13 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
     camera : Camera or (3, 3) array_like, optional
         The camera when the image is raw, with lens distortion: the saddle is then fitted
         with each pixel where the lens straightens the edges, in the patch's own pinhole
-        frame (as :func:`extract_junctions` does).
+        frame (as :func:`graphpose.detect.refine` does).
+    check : bool
+        Whether to check the arguments (pytransform3d's ``check``). With False they are
+        trusted: ``I`` a grey (H, W) image as :func:`graphpose.image.as_grey` leaves it (or
+        8-bit), ``points`` (2, m) finite, ``half_width`` >= 2, ``smooth_sigma`` >= 0,
+        ``camera`` a camera or None; the refinement is the same, without the checks' passes
+        over the image.
 
     Returns
     -------
@@ -85,21 +93,24 @@ def refine_junctions(I, points, half_width, *, smooth_sigma: float = SMOOTH_SIGM
         If the image or points are malformed, or ``half_width`` is not >= 2 (scalar or one
         per point).
     """
-    image, scale = grey_and_scale(I)
-    P = as_points(points, 2, "points")
-    radius = as_float_array(half_width, "half_width")
-    if radius.ndim > 1 or radius.size not in (1, P.shape[1]) or not np.all(np.isfinite(radius)) \
-            or np.any(radius < 2):
-        raise InputError(f"half_width must be >= 2 px, a scalar or one per point ({P.shape[1]}), "
-                         f"got {radius!r}")
-    radius = np.broadcast_to(radius, P.shape[1:]).astype(float)
-    smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
-    lens = None
-    if camera is not None:
-        from ..camera_models import as_camera
+    if check:
+        image, scale = grey_and_scale(I)
+        P = as_points(points, 2, "points")
+        radius = as_float_array(half_width, "half_width")
+        if radius.ndim > 1 or radius.size not in (1, P.shape[1]) or not np.all(np.isfinite(radius)) \
+                or np.any(radius < 2):
+            raise InputError(f"half_width must be >= 2 px, a scalar or one per point ({P.shape[1]}), "
+                             f"got {radius!r}")
+        smooth_sigma = check_number("smooth_sigma", smooth_sigma, 0.0)
+        if camera is not None:
+            from ..camera_models import as_camera
 
-        lens = as_camera(camera)
-        lens = lens if np.any(lens.distortion) else None
+            camera = as_camera(camera)
+    else:
+        image, P, radius = I, points, np.asarray(half_width, dtype=float)
+        scale = 1.0 / 255.0 if image.dtype == np.uint8 else 1.0  # grey_and_scale's
+    radius = np.broadcast_to(radius, P.shape[1:]).astype(float)
+    lens = camera if camera is not None and np.any(camera.distortion) else None
     points, trusted, residual = refine_points(image, P, radius, smooth_sigma, lens=lens)
     return points, trusted, residual * scale
 

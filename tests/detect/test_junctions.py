@@ -403,3 +403,126 @@ def test_refine_junctions_takes_the_camera_as_extract_junctions_does():
         points, trusted, _ = refine_junctions(R.image, start, np.clip(half, 2, 12), camera=cam)
         errors[name] = np.sqrt(np.mean(np.hypot(*(points - R.junctions))[trusted] ** 2))
     assert errors["lens"] < 0.011 < errors["raw grid"], errors
+
+
+# ------------------------------------------------- the two stages: find_board, then refine
+
+
+def assert_same_junctions(A, B):
+    """Two Junctions equal to the bit (NaN where NaN), every field."""
+    for name in ("points", "trusted", "residual", "square_px", "homography", "seen"):
+        np.testing.assert_array_equal(getattr(A, name), getattr(B, name), err_msg=name)
+    assert (A.orientation_ambiguous, A.junction0_square) == (B.orientation_ambiguous, B.junction0_square)
+
+
+def test_find_board_then_refine_is_extract_junctions_on_real_images(real_images):
+    from graphpose.detect import find_board, refine
+    from graphpose.image import read_image
+
+    for case, image in real_images[:3]:
+        for bounds in (case.bounds, None):
+            found = find_board(image, Board(), bounds=bounds)
+            assert_same_junctions(refine(image, found), extract_junctions(image, bounds))
+    # 8-bit, as the command line reads it (its residuals in [0, 1] grey units too).
+    case = real_images[0][0]
+    image = read_image(case.image, as_float=False)
+    assert_same_junctions(refine(image, find_board(image, Board(), bounds=case.bounds)),
+                          extract_junctions(image, case.bounds))
+
+
+def test_find_board_then_refine_is_extract_junctions_on_rendered_images():
+    from graphpose.detect import find_board, refine
+
+    for seed, noise in ((41, 2.0), (42, 12.0)):  # clean, and noisy (the smoothing from the noise)
+        R, poly = synthetic(seed, noise=noise)
+        for bounds in (poly, None):
+            assert_same_junctions(refine(R.image, find_board(R.image, Board(), bounds=bounds)),
+                                  extract_junctions(R.image, bounds))
+    R, poly = synthetic(43)
+    found = find_board(R.image, Board(), bounds=poly)
+    assert_same_junctions(refine(R.image, found, window=0.4, smooth_sigma=1.0),
+                          extract_junctions(R.image, poly, window=0.4, smooth_sigma=1.0))
+
+
+def test_refine_with_a_camera_is_the_lens_path():
+    # A raw render through a strong fisheye: the board found once, with no camera, and refined
+    # through the camera equals extract_junctions through it; without the lens it is no grid.
+    from graphpose import K_from_params
+    from graphpose.camera_models import FisheyeCamera
+    from graphpose.detect import find_board, refine
+
+    camera = FisheyeCamera(K_from_params(203.0, 203.0, 321.0, 241.0), [-0.013, -0.004, 0.0035, -0.001],
+                           size=(640, 480))
+    board = Board()
+    rng = np.random.default_rng(7)
+    R = render(camera, random_pose(camera, board, distance=(0.45, 0.7), rng=rng), board, noise_sigma=1.0, rng=rng)
+    found = find_board(R.image, board, bounds=R.outline)
+    lens = refine(R.image, found, camera=camera)
+    assert_same_junctions(lens, extract_junctions(R.image, R.outline, board, camera=camera))
+    assert lens.trusted.sum() >= 44
+    # Without the lens (no camera, or only its K) the rim's curved grid is no planar grid.
+    for no_lens in (None, np.asarray(camera.K)):
+        with pytest.raises(BoardNotFoundError, match="a lens with distortion"):
+            refine(R.image, found, camera=no_lens)
+    error = np.hypot(*(lens.points - R.junctions))[lens.trusted]
+    assert np.sqrt(np.mean(error ** 2)) < 0.05
+
+
+def test_found_board_labels_need_no_camera():
+    # The same raw fisheye render: find_board takes no camera, and its labels are the truth's
+    # (each coarse junction within a pixel and a half of the junction of its board index).
+    import inspect
+
+    from graphpose import K_from_params
+    from graphpose.camera_models import FisheyeCamera
+    from graphpose.detect import FoundBoard, find_board
+
+    assert "camera" not in inspect.signature(find_board).parameters
+    camera = FisheyeCamera(K_from_params(203.0, 203.0, 321.0, 241.0), [-0.013, -0.004, 0.0035, -0.001],
+                           size=(640, 480))
+    board = Board()
+    rng = np.random.default_rng(8)
+    R = render(camera, random_pose(camera, board, distance=(0.45, 0.7), rng=rng), board, noise_sigma=1.0, rng=rng)
+    found = find_board(R.image, board, bounds=R.outline)
+    assert isinstance(found, FoundBoard) and found.board == board and found.noise > 0
+    assert found.points.shape == (2, board.n) and found.seen.all()
+    np.testing.assert_array_equal(found.labels, np.arange(board.n))
+    assert np.hypot(*(found.points - R.junctions)).max() < 1.5
+
+
+def test_find_board_and_refine_refuse_bad_input(small_case):
+    from graphpose.detect import FoundBoard, find_board, refine
+
+    R, poly = small_case
+    found = find_board(R.image, Board(), bounds=poly)
+    with pytest.raises(InputError, match="board must be a graphpose.Board"):
+        find_board(R.image, (8, 6))
+    with pytest.raises(InputError, match="clockwise"):
+        find_board(R.image, Board(), bounds=poly[:, ::-1])
+    with pytest.raises(InputError, match="found must be a FoundBoard"):
+        refine(R.image, found.points)
+    with pytest.raises(InputError, match="found must name its board"):
+        refine(R.image, FoundBoard(found.points, found.seen, found.step_px, False))
+    from dataclasses import replace
+
+    with pytest.raises(InputError, match=r"the 63 junctions of its 9 x 7 board"):
+        refine(R.image, replace(found, board=Board(9, 7)))
+    with pytest.raises(InputError, match="window"):
+        refine(R.image, found, window=0.9)
+    with pytest.raises(InputError, match="calibrated for 320 x 240"):
+        from graphpose.camera_models import RadTanCamera
+
+        refine(R.image, found, camera=RadTanCamera(K, [0.1, 0, 0, 0, 0], size=(320, 240)))
+
+
+def test_refine_junctions_unchecked_is_the_checked_refinement():
+    # The tracker's call (check=False, on frames it checked once) refines as the checked call.
+    R, _ = synthetic(44)
+    rng = np.random.default_rng(45)
+    start = R.junctions + rng.uniform(-1.0, 1.0, R.junctions.shape)
+    half = rng.uniform(6.0, 10.0, start.shape[1])
+    for image in (R.image, np.round(R.image * 255).astype(np.uint8)):
+        checked = refine_junctions(image, start, half, smooth_sigma=0.8)
+        unchecked = refine_junctions(image, start, half, smooth_sigma=0.8, check=False)
+        for a, b in zip(checked, unchecked):
+            np.testing.assert_array_equal(a, b)
