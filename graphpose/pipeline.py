@@ -1,7 +1,7 @@
 """The image-to-pose pipeline: cross-junctions from the image, then the cross-checked pose.
 
 :func:`estimate_pose` is the one function that knows both steps: the junctions
-(:func:`graphpose.detect.junctions.extract_junctions`: the board found, labelled and refined)
+(:func:`graphpose.detect.extract_junctions`: the board found, labelled and refined)
 and the pose from the trusted ones (:mod:`graphpose.pose.estimate`: Gauss-Newton and the GTSAM
 graph, held against each other). The detector knows nothing of poses and the solvers nothing
 of images; this module, above both, joins them, and checks its inputs once, at its edge, before
@@ -17,7 +17,7 @@ import numpy as np
 from ._checks import check_transform
 from .board import Board, check_board
 from .camera_models import as_camera
-from .detect.junctions import extract_junctions
+from .detect import extract_junctions
 from .errors import BoardNotFoundError
 from .observations import MIN_JUNCTIONS
 from .pose.estimate import PoseEstimate, estimate_pose_unchecked
@@ -34,7 +34,7 @@ def estimate_pose(image, bounds, camera, board: Board = Board(), guess=None, *,
         lens distortion ``camera`` describes.
     bounds : (2, 4) array_like or None
         Bounding polygon of the board, pixels, clockwise from the corner nearest junction 0
-        (see :func:`graphpose.detect.junctions.extract_junctions`): it only narrows the
+        (see :func:`graphpose.detect.extract_junctions`): it only narrows the
         search and names junction 0's corner. None searches the whole image.
     camera : Camera or (3, 3) array_like
         The camera model (:mod:`graphpose.camera_models`, e.g. from

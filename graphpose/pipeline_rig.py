@@ -1,7 +1,7 @@
 """A rig's pose from its images: each camera's junctions, then the rig's pose from them all.
 
 :func:`estimate_rig_pose` is the rig's twin of :func:`graphpose.pipeline.estimate_pose`: it finds
-each camera's junctions (:func:`graphpose.detect.junctions.extract_junctions`, through that
+each camera's junctions (:func:`graphpose.detect.extract_junctions`, through that
 camera's lens) and hands them to :func:`graphpose.pose.rig.estimate_rig_pose_from_points`
 (Gauss-Newton and GTSAM over camera 0's pose, ``docs/rigs.md``).
 """
@@ -43,7 +43,7 @@ def estimate_rig_pose(images, rig, board: Board = Board(), *, robust: bool = Fal
         If no camera sees the board.
     """
     from .camera_models import check_image_size
-    from .detect.junctions import extract_junctions
+    from .detect import extract_junctions
     from .image import read_image
     from .rig import Rig
 

@@ -3,8 +3,9 @@
 The steps (``docs/calibration.md``):
 
 1. **First pass.** Every image's junctions, found as :func:`graphpose.estimate_pose` finds
-   them (:func:`graphpose.detect.junctions.extract_junctions`, no camera: the board and its
-   labels come from the image; or through a ``camera`` given), the trusted ones only. An image without a board is named
+   them (:func:`graphpose.detect.find_board`, no camera: the board and its labels come from
+   the image, searched once; then :func:`graphpose.detect.refine`, through a ``camera`` if
+   given), the trusted ones only. An image without a board is named
    and the others go on; at least three images must have one. A fisheye hides most boards
    from a search without its camera (only those near the image's centre are found): the
    error says so. (An equidistant camera fitted to one or two boards, or guessed from the
@@ -116,40 +117,33 @@ def _load(images, names):
 
 def _search(image, board):
     """The board's search in one image, which does not depend on the camera (done once for
-    every pass): ``((grey, scale, found, noise), "")`` or ``(None, reason)``."""
+    every pass): ``((image, found), "")`` or ``(None, reason)``."""
     return _search_refusal(image, board)[:2]
 
 
 def _search_refusal(image, board):
     """:func:`_search`, and the refusal itself (None where the board was found):
-    ``(found or None, reason, BoardNotFoundError or None)``."""
-    from ..detect.find import find_board
-    from ..detect.junctions import MIN_SIDE
-    from ..detect.noise import estimate_noise
-    from ..detect.refine import grey_and_scale
+    ``((image, found) or None, reason, BoardNotFoundError or None)``."""
+    from ..detect import find_board
 
-    grey, scale = grey_and_scale(image, MIN_SIDE)
-    noise = estimate_noise(grey)
     try:
-        return (grey, scale, find_board(grey, board, None, noise=noise), noise), "", None
+        return (image, find_board(image, board)), "", None
     except BoardNotFoundError as exc:
         return None, str(exc), exc
 
 
 def _detect(searched, board, camera):
     """The trusted junctions (uv (2, m), W (3, m), index (m,)) of a searched image
-    (:func:`_search`), refined and judged through ``camera`` as
-    :func:`graphpose.detect.junctions.extract_junctions` does, or the reason there are none."""
-    from ..detect.junctions import refine_found
-    from ..detect.refine import WINDOW_FRACTION
+    (:func:`_search`), refined and judged through ``camera`` (:func:`graphpose.detect.refine`,
+    as :func:`graphpose.detect.extract_junctions` does), or the reason there are none."""
+    from ..detect import refine
 
     found, reason = searched
     if found is None:
         return None, reason
-    grey, scale, board_found, noise = found
-    lens = camera if camera is not None and np.any(camera.distortion) else None
+    image, board_found = found
     try:
-        J = refine_found(grey, scale, board_found, board, lens, WINDOW_FRACTION, None, noise)
+        J = refine(image, board_found, camera=camera)
     except BoardNotFoundError as exc:
         return None, str(exc)
     index = np.flatnonzero(J.trusted)
@@ -477,7 +471,7 @@ def _check_spec(board, labels, searched, refusals) -> None:
     from ..errors import BoardMismatchError
     from .agreement import board_size_px, check_agreement
 
-    found = {i: board_size_px(s[0][2]) for i, s in enumerate(searched) if s[0] is not None}
+    found = {i: board_size_px(s[0][1]) for i, s in enumerate(searched) if s[0] is not None}
     mismatched = {i: e for i, e in refusals.items() if isinstance(e, BoardMismatchError)}
     check_agreement(board, labels, found, mismatched)
 

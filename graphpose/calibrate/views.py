@@ -5,7 +5,7 @@ scans it (every frame, or every ``scan_every``-th of a long one: the frames betw
 but not searched) and keeps, up to ``max_views``:
 
 1. **Frames with the board**: the board search of the calibration (no camera yet,
-   :func:`graphpose.detect.find.find_board`), whole or partly in view (at least
+   :func:`graphpose.detect.find_board`), whole or partly in view (at least
    :data:`MIN_JUNCTIONS` junctions).
 2. **Still and sharp ones**: the board's junctions may move at most :data:`MAX_SPEED_PX` pixels a
    frame (their 90th percentile, from the scanned frames before and after): a faster frame is
@@ -186,11 +186,15 @@ def choose_views(recording, board: Board = Board(), *, max_views: int = 40, scan
 
 def _scan(image, board):
     """``(status, detail, points (2, J) or None, blur px)`` of one frame."""
-    from ..detect.find import find_board
+    from ..detect import find_board
 
     grey = np.asarray(image)
+    # The frame's own grey levels, as the scan has always searched them: 8-bit as it is, a
+    # 16-bit frame as float64 of its integer levels (find_board keeps float grey as it is;
+    # scaled to [0, 1] the search's float32 roundings would move its junctions by 1e-6 px).
+    levels = grey if grey.dtype == np.uint8 else grey.astype(float)
     try:
-        found = find_board(grey, board)
+        found = find_board(levels, board)
     except BoardNotFoundError as exc:
         return NO_BOARD, " ".join(str(exc).split())[:160], None, np.nan
     points = np.where(found.seen, found.points, np.nan)
@@ -202,7 +206,7 @@ def _scan(image, board):
 
 def _blur(grey, points, step) -> float:
     """The median edge sigma (pixels) at ``points`` (2, m): see the module docstring."""
-    from ..detect.noise import estimate_noise
+    from ..detect import estimate_noise
 
     I = np.asarray(grey, dtype=float)
     noise = estimate_noise(I)

@@ -5,10 +5,10 @@ projection through the sequence's camera, :mod:`graphpose.camera_models`, on the
 
 1. **Predict** the pose from the last two frames with a constant body-frame twist
    (:func:`constant_velocity_prediction`), and every junction's pixel position from it.
-2. **Refine** the predictions with the saddle fit (:func:`graphpose.detect.refine.refine_junctions`'s
-   core, :func:`~graphpose.detect.refine.refine_points`: the frame was checked at the tracker's edge),
+2. **Refine** the predictions with the saddle fit (:func:`graphpose.detect.refine_junctions`,
+   ``check=False``: the frame was checked at the tracker's edge),
    its smoothing set from the image's noise over the board's contrast as measured at the
-   last detection (:func:`graphpose.detect.junctions.board_smoothing`: as on single images,
+   last detection (:func:`graphpose.detect.board_smoothing`: as on single images,
    more smoothing on noisy frames, so that the fits converge and pass the ring test there);
    drop the untrusted fits and the fits that wandered more than ``gate_px`` from their
    prediction.
@@ -17,7 +17,7 @@ projection through the sequence's camera, :mod:`graphpose.camera_models`, on the
    ``robust``, its Huber gate on outlying junctions. Its input checks are not repeated: the
    junctions are the refinement's (finite), the start the prediction (rigid), and the frame
    itself was checked once, at the tracker's edge.
-4. **Fall back** to full extraction (:func:`graphpose.detect.junctions.extract_junctions`, with
+4. **Fall back** to full extraction (:func:`graphpose.detect.extract_junctions`, with
    its noise-aware search on noisy frames, then
    ``fit_pose`` from the homography) when too few junctions survive, when the motion is too
    fast to predict, or after a loss. Polygons are tried in turn: the caller's polygon for the
@@ -52,9 +52,7 @@ import numpy as np
 from ..board import Board
 from ..geometry import to_camera
 from ..camera_models import as_camera
-from ..detect.junctions import board_smoothing, extract_junctions
-from ..detect.refine import MAX_RADIUS, SMOOTH_SIGMA, WINDOW_FRACTION, refine_points
-from ..detect.search import median
+from ..detect import MAX_RADIUS, SMOOTH_SIGMA, WINDOW_FRACTION, board_smoothing, extract_junctions, refine_junctions
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 # fit_pose without its input checks: the front end's junctions and poses are its own, made
 # finite and rigid here (the public fit's checks were a tenth of a tracked frame's front end).
@@ -104,8 +102,6 @@ class FrontEnd:
 
     def __init__(self, camera, board: Board, config: TrackerConfig):
         self.camera, self.board, self.config = as_camera(camera), board, config
-        # The refinement's lens: the camera when it distorts (refine_junctions' rule).
-        self._lens = self.camera if np.any(self.camera.distortion) else None
         self._W = board.world_points()
         self._sheet = board.sheet_corners()
         sq = board.square_m
@@ -230,7 +226,7 @@ class FrontEnd:
         side = _square_px(uv, steps[:, n:2 * n], steps[:, 2 * n:])
         if not np.isfinite(side).all():
             return None, "prediction puts the board where the lens model has no image"
-        speed = median(np.hypot(*(uv - self._seen)) / side)
+        speed = float(np.median(np.hypot(*(uv - self._seen)) / side))
         if speed > cfg.max_speed:
             return None, f"predicted motion {speed:.2f} squares a frame is too fast to track"
         radius = np.clip(cfg.window_fraction * side, *cfg.window_px)
@@ -242,9 +238,10 @@ class FrontEnd:
         ids = np.flatnonzero(inside)
         if ids.size < cfg.min_junctions:
             return None, f"only {ids.size} predicted junctions in the image"
-        # refine_junctions' core: the frame was checked once, at the tracker's edge (a float
-        # frame's finiteness check alone is a pass over every pixel), the windows are >= 2 px.
-        points, trusted, _ = refine_points(image, uv[:, ids], radius[ids], self._smooth, lens=self._lens)
+        # Unchecked: the frame was checked once, at the tracker's edge (a float frame's
+        # finiteness check alone is a pass over every pixel), the windows are >= 2 px.
+        points, trusted, _ = refine_junctions(image, uv[:, ids], radius[ids], smooth_sigma=self._smooth,
+                                              camera=self.camera, check=False)
         keep = trusted & (np.hypot(*(points - uv[:, ids])) < cfg.gate_px)
         if np.count_nonzero(keep) < cfg.min_junctions:
             return None, (f"only {np.count_nonzero(keep)} of {ids.size} junctions refined within "
