@@ -1,6 +1,6 @@
 """The conventions that every module of graphpose uses, and the geometry on them: rotations,
-poses and their parameters, the SE(3) toolkit (:func:`hat`, :func:`se3_exp`, :func:`se3_log`,
-:func:`pose_difference`), the pinhole projection, plane-to-image homographies.
+poses and their parameters, the SE(3) toolkit (:func:`hat`, :func:`so3_exp`, :func:`se3_exp`,
+:func:`se3_log`, :func:`invert_transform`, :func:`pose_difference`), the pinhole projection, plane-to-image homographies.
 
 Lens models (radial-tangential, fisheye) are in :mod:`graphpose.camera_models`; this module
 is the distortion-free geometry under them.
@@ -162,6 +162,16 @@ def so3_log(R) -> np.ndarray:
     return s * (theta / sin)
 
 
+def so3_exp(w) -> np.ndarray:
+    """The rotation matrix (3, 3) of a rotation vector ``w`` (3,), radians (Rodrigues'
+    formula; ``so3_log`` inverts it)."""
+    theta = float(np.linalg.norm(w))
+    if theta < 1e-12:
+        return np.eye(3) + hat(w)
+    W = hat(np.asarray(w) / theta)
+    return np.eye(3) + np.sin(theta) * W + (1.0 - np.cos(theta)) * (W @ W)
+
+
 def _se3_coefficients(theta):
     """``sin(t)/t``, ``(1 - cos t)/t^2``, ``(t - sin t)/t^3`` (series near 0)."""
     if theta < 1e-4:
@@ -206,6 +216,14 @@ def relative_pose(T_a, T_b) -> np.ndarray:
     D[:3, :3] = R_a.T @ T_b[:3, :3]
     D[:3, 3] = R_a.T @ (T_b[:3, 3] - T_a[:3, 3])
     return D
+
+
+def invert_transform(T) -> np.ndarray:
+    """The inverse (4, 4) of a rigid transform ``T`` (4, 4, trusted), without a general inverse."""
+    out = np.eye(4)
+    out[:3, :3] = T[:3, :3].T
+    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
+    return out
 
 
 def pose_difference(T_a, T_b):

@@ -20,18 +20,10 @@ import numpy as np
 from ._checks import check_covariance, check_transform
 from .camera_models import Camera
 from .errors import InputError
-from .geometry import hat, so3_log
+from .geometry import hat, invert_transform, so3_exp, so3_log
 
 #: The extrinsic parameters of each camera after the first, in the rig's covariance.
 EXTRINSIC_NAMES = ("x", "y", "z", "roll", "pitch", "yaw")
-
-
-def _invert(T: np.ndarray) -> np.ndarray:
-    """The inverse of a rigid transform (4, 4)."""
-    out = np.eye(4)
-    out[:3, :3] = T[:3, :3].T
-    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
-    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,7 +109,7 @@ class Rig:
     def T_Ci_Cj(self, i, j) -> np.ndarray:
         """Camera j's pose in camera i's frame (4, 4): takes a point from j's frame into i's."""
         i, j = self.index(i), self.index(j)
-        return _invert(self.T_C0_C[i]) @ self.T_C0_C[j]
+        return invert_transform(self.T_C0_C[i]) @ self.T_C0_C[j]
 
     def T_cn_cnm1(self, n) -> np.ndarray:
         """Kalibr's ``T_cn_cnm1`` of camera n (>= 1): the transform that takes a point from
@@ -187,7 +179,7 @@ def stereo_rectify(rig: Rig, i=0, j=1, *, zero_disparity: bool = True) -> dict:
     R, T = pair["R"], pair["T"]
     # Half the rotation to each camera.
     om = -0.5 * so3_log(R)
-    r_r = _rodrigues(om)
+    r_r = so3_exp(om)
     t = r_r @ T
     idx = 0 if abs(t[0]) > abs(t[1]) else 1
     uu = np.zeros(3)
@@ -196,7 +188,7 @@ def stereo_rectify(rig: Rig, i=0, j=1, *, zero_disparity: bool = True) -> dict:
     nw = np.linalg.norm(ww)
     if nw > 0:
         ww *= np.arccos(abs(t[idx]) / np.linalg.norm(t)) / nw
-    wR = _rodrigues(ww)
+    wR = so3_exp(ww)
     R1 = wR @ r_r.T
     R2 = wR @ r_r
     t = R2 @ T
@@ -223,12 +215,3 @@ def stereo_rectify(rig: Rig, i=0, j=1, *, zero_disparity: bool = True) -> dict:
     Q = np.array([[1.0, 0.0, 0.0, -cc[0][0]], [0.0, 1.0, 0.0, -cc[0][1]], [0.0, 0.0, 0.0, fc_new],
                   [0.0, 0.0, -1.0 / t[idx], (cc[0][idx] - cc[1][idx]) / t[idx]]])
     return {"R1": R1, "R2": R2, "P1": P1, "P2": P2, "Q": Q}
-
-
-def _rodrigues(w) -> np.ndarray:
-    """The rotation matrix of a rotation vector (3,), radians."""
-    theta = float(np.linalg.norm(w))
-    if theta < 1e-12:
-        return np.eye(3) + hat(w)
-    W = hat(np.asarray(w) / theta)
-    return np.eye(3) + np.sin(theta) * W + (1.0 - np.cos(theta)) * (W @ W)

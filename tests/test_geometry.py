@@ -50,3 +50,18 @@ def test_project_centre_of_fronto_parallel_camera():
     uv = project(K, T, [[0.1, 0.2], [0.2, 0.2], [0.0, 0.0]])
     np.testing.assert_allclose(uv, [[320, 370], [240, 240]])
     assert to_camera(T, [[0.1], [0.2], [0.0]])[2, 0] == pytest.approx(1.0)
+
+
+def test_so3_exp_inverts_so3_log_and_invert_transform_inverts():
+    from graphpose.geometry import invert_transform, se3_exp, so3_exp, so3_log
+
+    rng = np.random.default_rng(12)
+    for angle in (0.0, 1e-13, 1e-6, 0.3, 2.0, np.pi - 1e-4):
+        axis = rng.standard_normal(3)
+        w = angle * axis / np.linalg.norm(axis)
+        R = so3_exp(w)
+        np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-14)
+        np.testing.assert_allclose(so3_log(R), w, atol=1e-9)
+        T = se3_exp(np.r_[w, rng.standard_normal(3)])
+        np.testing.assert_allclose(so3_exp(w), T[:3, :3], atol=1e-14)
+        np.testing.assert_allclose(invert_transform(T) @ T, np.eye(4), atol=1e-14)

@@ -31,8 +31,7 @@ import numpy as np
 
 from ..geometry import T_from_params, params_from_T
 from ..errors import InputError
-from ..pose._gauss_newton import camera_points, chain_jacobians
-from ..pose.gauss_newton import _weights, reprojection_cost
+from ..pose.gauss_newton import camera_points, chain_jacobians, reprojection_cost, stacked_huber_weights
 from ..camera_params import camera_parameters, camera_with_parameters, projection_jacobian_intrinsics
 
 MAX_ITERATIONS = 200
@@ -129,7 +128,7 @@ def _rounding(views, scale, huber_px) -> float:
     Huber weights ``w``). A bound, not an estimate: the roundings do not all add up.
     """
     r = np.concatenate([r for r, _, _ in views])
-    w = _weights(r, huber_px)
+    w = stacked_huber_weights(r, huber_px)
     return float(_ROUNDINGS * np.finfo(float).eps * np.sum(np.abs(r if w is None else w * r) * scale))
 
 
@@ -139,7 +138,7 @@ def _normal(views, huber_px, P):
     U, gp = np.zeros((P, P)), np.zeros(P)
     V, Wb, ge = np.empty((n, 6, 6)), np.empty((n, P, 6)), np.empty((n, 6))
     for i, (r, Jp, Je) in enumerate(views):
-        w = _weights(r, huber_px)
+        w = stacked_huber_weights(r, huber_px)
         wr = r if w is None else w * r
         Jpw = Jp if w is None else Jp * w[:, None]
         U += Jpw.T @ Jp
@@ -289,7 +288,7 @@ def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = M
     residuals, weights = [], []
     for r, _, _ in views:
         m = r.size // 2
-        w = _weights(r, huber_px)
+        w = stacked_huber_weights(r, huber_px)
         residuals.append(r.reshape(m, 2).T)
         weights.append(np.ones(m) if w is None else w[0::2].copy())
     poses = [T_from_params(x[P + 6 * i: P + 6 * i + 6]) for i in range(len(observations))]

@@ -41,8 +41,8 @@ from .._checks import check_number
 from ..board import Board, check_board
 from ..camera_params import camera_parameters, camera_with_parameters, model_class
 from ..errors import InputError
-from ..geometry import T_from_params, params_from_T, relative_pose, so3_log
-from ..rig import Rig, _invert, _rodrigues, rig_parameter_names
+from ..geometry import T_from_params, invert_transform, params_from_T, relative_pose, so3_exp, so3_log
+from ..rig import Rig, rig_parameter_names
 from .frames import file_number, match_frames, source_files
 from .run import CROSS_CHECK_TOL, HUBER_K, MIN_IMAGES, REJECT_FLOOR_PX, REJECT_RATIO, _mad_sigma, _rms
 
@@ -218,7 +218,7 @@ def _median_pose(Ts):
     R0 = Ts[0][:3, :3]
     omega = np.median([so3_log(R0.T @ T[:3, :3]) for T in Ts], axis=0)
     out = np.eye(4)
-    out[:3, :3] = R0 @ _rodrigues(omega)
+    out[:3, :3] = R0 @ so3_exp(omega)
     out[:3, 3] = np.median([T[:3, 3] for T in Ts], axis=0)
     return out
 
@@ -344,7 +344,7 @@ def calibrate_rig(sources=None, board: Board = Board(), model="radtan", *, frame
     poses = {}
     for (v, c), T in sorted(poses_c.items()):
         if v not in poses:
-            poses[v] = T @ _invert(Ts[c])
+            poses[v] = T @ invert_transform(Ts[c])
 
     # 4. Solve, reject, solve twice.
     from .rig_graph import solve_rig_graph

@@ -24,7 +24,7 @@ from ..camera_params import camera_parameters, camera_with_parameters, projectio
 from ..errors import InputError
 from ..geometry import T_from_params, params_from_T
 from ..pose.rig import rig_points
-from ..pose.gauss_newton import _weights
+from ..pose.gauss_newton import stacked_huber_weights
 from .lm import _LAMBDA_MAX, _cost, _rounding, _step, _MAX_POLISH_STEPS, _ROUNDINGS, MAX_ITERATIONS, ROUNDING_SIGMAS, STEP_SIGMAS
 
 
@@ -124,7 +124,7 @@ def _normal(views, obs, cols, n_rig, n_views, huber_px):
     U, gp = np.zeros((n_rig, n_rig)), np.zeros(n_rig)
     V, Wb, ge = np.zeros((n_views, 6, 6)), np.zeros((n_views, n_rig, 6)), np.zeros((n_views, 6))
     for (r, Jr, Jq), (v, _, _, _), k in zip(views, obs, cols):
-        w = _weights(r, huber_px)
+        w = stacked_huber_weights(r, huber_px)
         wr = r if w is None else w * r
         Jrw = Jr if w is None else Jr * w[:, None]
         U[np.ix_(k, k)] += Jrw.T @ Jr
@@ -218,7 +218,7 @@ def solve_rig_lm(cameras, T_C0_C, poses, observations, huber_px=None,
     residuals, weights = [], []
     for r, _, _ in views:
         m = r.size // 2
-        w = _weights(r, huber_px)
+        w = stacked_huber_weights(r, huber_px)
         residuals.append(r.reshape(m, 2).T)
         weights.append(np.ones(m) if w is None else w[0::2].copy())
     try:

@@ -21,7 +21,7 @@ is the joint covariance of the solve (:func:`joint_information`; ``W`` the Huber
 ``sigma`` the pixel noise the residuals give). The derivative is analytic: the intrinsics'
 through :func:`graphpose.camera_params.projection_jacobian_intrinsics`, the poses' through
 the camera's ``d uv / d p_C`` and the derivative of ``T_WC^-1`` (the pose's compiled kernel
-:func:`graphpose.pose._gauss_newton.camera_points`). Evaluated where the boards were, the
+:func:`graphpose.pose.gauss_newton.camera_points`). Evaluated where the boards were, the
 frames' share cancels most of the intrinsics' (the two are strongly correlated); at infinity
 only the rotations' part of it does.
 """
@@ -36,7 +36,7 @@ from .._checks import as_points
 from ..camera_params import projection_jacobian_intrinsics
 from ..errors import InputError
 from ..geometry import params_from_T
-from ..pose._gauss_newton import camera_points
+from ..pose.gauss_newton import camera_points
 
 
 @dataclass(frozen=True)

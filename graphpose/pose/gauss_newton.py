@@ -39,6 +39,9 @@ from ..observations import check_observations
 from ..geometry import T_from_params, params_from_T
 from ..camera_models import PinholeCamera, as_camera
 from ..errors import ConvergenceError, InputError
+# The compiled kernels (pose's own, private module): camera_points (target points into each
+# camera's frame) and chain_jacobians (the projection's chain rule) are shared with the
+# calibration's solvers, which import them from here, the module that documents them.
 from ._gauss_newton import camera_points, chain_jacobians, pinhole_normal_equations, pinhole_residuals
 
 #: Default iteration cap (damped and undamped steps both count).
@@ -259,8 +262,25 @@ def gauss_newton_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, huber_px=None, 
     return _solve(camera, params_from_T(T_WC_guess), Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
 
 
-def _weights(r, huber_px):
-    """Per-residual weights (2m,) of the Huber kernel on each point's 2-D error norm."""
+def stacked_huber_weights(r, huber_px):
+    """:func:`huber_weights` of residuals already stacked, as the solvers hold them.
+
+    Shared by this module's Gauss-Newton, the rig's pose fit and the calibration's
+    Levenberg-Marquardt solvers (:mod:`graphpose.calibrate.lm`, :mod:`graphpose.calibrate.rig_lm`).
+
+    Parameters
+    ----------
+    r : (2m,) ndarray
+        Residuals in the stacked order ``(u0, v0, u1, v1, ...)``, pixels.
+    huber_px : float or None
+        Huber threshold on each point's 2-D error norm, pixels; None for no kernel.
+
+    Returns
+    -------
+    w : (2m,) ndarray or None
+        1 up to the threshold, ``huber_px / e`` beyond, each point's weight twice; None
+        without a kernel.
+    """
     if huber_px is None:
         return None
     e = np.hypot(r[0::2], r[1::2])
@@ -284,7 +304,7 @@ def huber_weights(residuals, huber_px) -> np.ndarray:
         In the stacked order ``(u0, v0, u1, v1, ...)`` of :func:`projection_jacobians`' rows:
         1 up to the threshold, ``huber_px / e`` beyond.
     """
-    return _weights(np.asarray(residuals).T.ravel(), huber_px)
+    return stacked_huber_weights(np.asarray(residuals).T.ravel(), huber_px)
 
 
 def reprojection_cost(residuals, huber_px=None) -> float:
@@ -353,7 +373,7 @@ def _normal(camera, p, I, W, huber_px):
                                               np.empty((4, 3, 3)), np.empty((12, n)), r, z, H, g)
         return r, z, cost, chi2, H, g
     r, z, J = _residual(camera, p, I, W, True)
-    w = _weights(r, huber_px)
+    w = stacked_huber_weights(r, huber_px)
     Jw = J if w is None else J * w[:, None]
     chi2 = float(r @ r) if w is None else float(r @ (w * r))
     return r, z, _cost(r, huber_px), chi2, Jw.T @ J, Jw.T @ r

@@ -31,9 +31,9 @@ import numpy as np
 
 from ..board import Board, check_board
 from ..errors import BoardNotFoundError, InputError
-from ..geometry import T_from_params, hat, params_from_T, pose_difference, rot_x, rot_y, rot_z
+from ..geometry import T_from_params, hat, invert_transform, params_from_T, pose_difference, rot_x, rot_y, rot_z
 from .estimate import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck
-from .gauss_newton import _weights
+from .gauss_newton import stacked_huber_weights
 from .graph import HUBER_K, params_cov_from_tangent
 
 _E = np.eye(3)
@@ -176,13 +176,6 @@ def hats(P):
     return out
 
 
-def _invert(T):
-    out = np.eye(4)
-    out[:3, :3] = T[:3, :3].T
-    out[:3, 3] = -T[:3, :3].T @ T[:3, 3]
-    return out
-
-
 def _start(rig, obs, board):
     """The homography start of the camera with most junctions, carried to camera 0; the
     observations, relabelled by the half turn where a symmetric board's labels disagree."""
@@ -191,7 +184,7 @@ def _start(rig, obs, board):
     used = [o for o in obs if o is not None]
     best = max(used, key=lambda o: o[1].shape[1])
     c, uv, W = best
-    T0 = pose_from_homography(rig.cameras[c], uv, W) @ _invert(rig.T_C0_C[c])
+    T0 = pose_from_homography(rig.cameras[c], uv, W) @ invert_transform(rig.T_C0_C[c])
     notes = []
     out = list(obs)
     if _half_turn_symmetric(board):
@@ -199,7 +192,7 @@ def _start(rig, obs, board):
         for k, o in enumerate(obs):
             if o is None or o[0] == c:
                 continue
-            Tk = pose_from_homography(rig.cameras[k], o[1], o[2]) @ _invert(rig.T_C0_C[k])
+            Tk = pose_from_homography(rig.cameras[k], o[1], o[2]) @ invert_transform(rig.T_C0_C[k])
             if pose_difference(Tk, T0)[1] > 90.0:
                 out[k] = (k, o[1], turned[:, _indices(board, o[2])])
                 notes.append(f"camera {k}'s junctions relabelled by the board's half turn (its labels disagreed "
@@ -231,7 +224,7 @@ def _gauss_newton(rig, q, obs, huber_px):
     while it < MAX_ITERATIONS:
         it += 1
         r, J = _linearise(rig, q, obs)
-        w = _weights(r, huber_px)
+        w = stacked_huber_weights(r, huber_px)
         Jw = J if w is None else J * w[:, None]
         H = Jw.T @ J
         g = Jw.T @ r
@@ -245,7 +238,7 @@ def _gauss_newton(rig, q, obs, huber_px):
             converged = True
             break
     r, J = _linearise(rig, q, obs)
-    w = _weights(r, huber_px)
+    w = stacked_huber_weights(r, huber_px)
     Jw = J if w is None else J * w[:, None]
     return q, r, w, Jw.T @ J, converged, it
 
