@@ -6,6 +6,17 @@ from its own layer's group and from the layers below it, never from a layer abov
 one layer may not import each other. The package's facade (``graphpose/__init__.py``) imports
 its errors only and loads every other name on first use, so it sits low; ``__main__`` and the
 old top-level ``saddle`` module sit above everything.
+
+Privacy runs by subpackage (:func:`private_imports`): a name with a leading underscore, and
+every name of a private module (``graphpose.detect._refine``), is private to the subpackage
+that holds it (a top-level module, ``graphpose.rig``, is a unit of its own): no other
+subpackage imports it. The package's own top-level private modules (``graphpose._checks``,
+``_extras``, ``_pixels``, ``_png``, ``_png_filters``) are the package's shared internals:
+private to graphpose, not to one subpackage (they are underscored because they are not the
+user's API: the validators every public edge calls, the optional-dependency guard, the
+compiled pixel kernels), so any graphpose module may import their public names. And
+detection has one seam (:func:`detect_seam_imports`): the pipeline, calibration and tracking
+import from ``graphpose.detect`` itself, only the names of its ``__all__``.
 """
 
 from __future__ import annotations
@@ -64,12 +75,17 @@ def _module_name(path: Path, package: Path = PACKAGE) -> str:
     return ".".join(parts)
 
 
+def _package(path: Path, root: Path = PACKAGE) -> list:
+    """The package (dotted parts below graphpose) that relative imports in ``path`` start from."""
+    module = _module_name(path, root)
+    if module == "__init__":
+        return []
+    return module.split(".") if path.name == "__init__.py" else module.split(".")[:-1]
+
+
 def imports(path: Path, root: Path = PACKAGE):
     """``(imported module below graphpose, line)`` for every graphpose import in ``path``."""
-    module = _module_name(path, root)
-    package = module.split(".") if path.name == "__init__.py" else module.split(".")[:-1]
-    if module == "__init__":
-        package = []
+    package = _package(path, root)
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
         if isinstance(node, ast.ImportFrom):
             if node.level:
@@ -127,3 +143,142 @@ def test_the_check_finds_a_backward_import(tmp_path):
     geometry.write_text(geometry.read_text() + "\n\ndef _planted():\n    from .pose import estimate  # noqa: F401\n")
     found = violations(copy)
     assert len(found) == 1 and "geometry.py" in found[0] and "imports pose (layer" in found[0], found
+
+
+#: A name's unit for privacy: the subpackage (or top-level module) below graphpose.
+def _unit(module: str) -> str:
+    return module.split(".")[0]
+
+
+def _binds(init: Path, name: str) -> bool:
+    """Does the package ``__init__.py`` at ``init`` bind ``name`` at its top level?"""
+    if not init.is_file():
+        return False
+    for node in ast.parse(init.read_text()).body:
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            if any((a.asname or a.name) == name for a in node.names):
+                return True
+        elif isinstance(node, (ast.FunctionDef, ast.ClassDef)) and node.name == name:
+            return True
+        elif isinstance(node, ast.Assign) and any(getattr(t, "id", None) == name for t in node.targets):
+            return True
+    return False
+
+
+def imported_names(path: Path, root: Path = PACKAGE):
+    """``(module below graphpose, name or None, line)`` for every graphpose import in ``path``:
+    the name imported from the module (None where a module itself is imported)."""
+    package = _package(path, root)
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[: len(package) - (node.level - 1)]
+                target = base + (node.module.split(".") if node.module else [])
+            elif node.module and (node.module == "graphpose" or node.module.startswith("graphpose.")):
+                target = node.module.split(".")[1:]
+            else:
+                continue
+            for alias in node.names:
+                sub = root.joinpath(*target, alias.name)
+                if _binds(root.joinpath(*target, "__init__.py"), alias.name):
+                    # ``from ..detect import refine``: the package's own name first (as Python looks it up)
+                    yield ".".join(target) or "__init__", alias.name, node.lineno
+                elif sub.is_dir() or sub.with_suffix(".py").is_file() or sub.with_suffix(".pyx").is_file():
+                    yield ".".join(target + [alias.name]), None, node.lineno
+                else:
+                    yield ".".join(target) or "__init__", alias.name, node.lineno
+        elif isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name.startswith("graphpose."):
+                    yield alias.name.partition(".")[2], None, node.lineno
+
+
+def _private(module: str, name) -> bool:
+    """Is ``name`` of ``module`` (or the module itself, for None) private to its subpackage?"""
+    parts = module.split(".")
+    if name is not None and name.startswith("_") and not (name.startswith("__") and name.endswith("__")):
+        return True
+    # A top-level private module (graphpose._checks) is the package's shared internals.
+    inner = parts[1:] if len(parts) > 1 else []
+    return any(p.startswith("_") and p != "__init__" for p in inner)
+
+
+def private_imports(package: Path = PACKAGE) -> list:
+    """Every import of a name private to another subpackage, as ``"file:line: a imports b.name"``."""
+    found = []
+    for path in sorted(package.rglob("*.py")):
+        source = _module_name(path, package)
+        for target, name, line in imported_names(path, package):
+            if _unit(target) != _unit(source) and _private(target, name):
+                rel = path.relative_to(package.parent)
+                found.append(f"{rel}:{line}: {source} imports {target}" + (f".{name}" if name else "")
+                             + f", private to {_unit(target)}")
+    return found
+
+
+#: The subpackages and modules that use detection through its public seam only.
+SEAM_USERS = ("pipeline", "pipeline_rig", "calibrate", "track")
+
+
+def _detect_all(package: Path) -> set:
+    tree = ast.parse((package / "detect" / "__init__.py").read_text())
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "__all__" for t in node.targets):
+            return set(ast.literal_eval(node.value))
+    return set()
+
+
+def detect_seam_imports(package: Path = PACKAGE) -> list:
+    """Every import by :data:`SEAM_USERS` of detection other than a name of ``graphpose.detect.__all__``."""
+    public = _detect_all(package)
+    found = []
+    for path in sorted(package.rglob("*.py")):
+        source = _module_name(path, package)
+        if _unit(source) not in SEAM_USERS:
+            continue
+        for target, name, line in imported_names(path, package):
+            if _unit(target) == "detect" and not (target == "detect" and name in public):
+                rel = path.relative_to(package.parent)
+                found.append(f"{rel}:{line}: {source} imports {target}" + (f".{name}" if name else "")
+                             + ", not a name of graphpose.detect.__all__")
+    return found
+
+
+def test_no_subpackage_imports_another_ones_private_names():
+    assert private_imports() == []
+
+
+def test_pipeline_calibration_and_tracking_use_detections_public_seam():
+    assert detect_seam_imports() == []
+
+
+def _copy(tmp_path):
+    import shutil
+
+    copy = tmp_path / "graphpose"
+    shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__", "*.so", "*.c"))
+    return copy
+
+
+def test_the_check_finds_a_private_import_across_subpackages(tmp_path):
+    """A copy of the package with a planted import of another subpackage's private name (and
+    one of a private module's name) fails the check; within a subpackage, and from the
+    package's shared top-level internals, they pass."""
+    copy = _copy(tmp_path)
+    lm = copy / "calibrate" / "lm.py"
+    lm.write_text(lm.read_text() + "\n\ndef _planted():\n    from ..detect.junctions import _judge  # noqa: F401\n"
+                  "    from ..pose._homography import nothing  # noqa: F401\n"
+                  "    from .run import _mad_sigma  # noqa: F401\n    from .._checks import check_number  # noqa: F401\n")
+    found = private_imports(copy)
+    assert len(found) == 2, found
+    assert "calibrate.lm imports detect.junctions._judge, private to detect" in found[0]
+    assert "calibrate.lm imports pose._homography.nothing, private to pose" in found[1]
+
+
+def test_the_check_finds_an_import_past_detections_seam(tmp_path):
+    copy = _copy(tmp_path)
+    frontend = copy / "track" / "frontend.py"
+    frontend.write_text(frontend.read_text() + "\n\ndef _planted():\n    from ..detect.search import median  # noqa: F401\n"
+                        "    from ..detect import refine  # noqa: F401\n")
+    found = detect_seam_imports(copy)
+    assert len(found) == 1 and "track.frontend imports detect.search.median, not a name" in found[0], found

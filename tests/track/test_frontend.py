@@ -72,7 +72,7 @@ def test_input_errors_of_the_junction_and_pose_code_fail_the_attempt_not_the_seq
         raise InputError("degenerate")
 
     # A refinement that fails once tracking started: each frame falls back to full extraction.
-    monkeypatch.setattr(frontend, "refine_points", refuse)
+    monkeypatch.setattr(frontend, "refine_junctions", refuse)
     track = track_sequence(track_clip.images[:3], K, track_clip.bounds)
     assert list(track.status) == [DETECTED, DETECTED, DETECTED]
     assert all("track failed: degenerate" in f.message for f in track.frames[1:])
