@@ -415,6 +415,19 @@ def assert_same_junctions(A, B):
     assert (A.orientation_ambiguous, A.junction0_square) == (B.orientation_ambiguous, B.junction0_square)
 
 
+def fisheye_render(seed):
+    """(camera, board, rendering): a raw render through a strong fisheye (190 degrees), noise 1."""
+    from graphpose import K_from_params
+    from graphpose.camera_models import FisheyeCamera
+
+    camera = FisheyeCamera(K_from_params(203.0, 203.0, 321.0, 241.0), [-0.013, -0.004, 0.0035, -0.001],
+                           size=(640, 480))
+    board = Board()
+    rng = np.random.default_rng(seed)
+    R = render(camera, random_pose(camera, board, distance=(0.45, 0.7), rng=rng), board, noise_sigma=1.0, rng=rng)
+    return camera, board, R
+
+
 def test_find_board_then_refine_is_extract_junctions_on_real_images(real_images):
     from graphpose.detect import find_board, refine
     from graphpose.image import read_image
@@ -447,15 +460,9 @@ def test_find_board_then_refine_is_extract_junctions_on_rendered_images():
 def test_refine_with_a_camera_is_the_lens_path():
     # A raw render through a strong fisheye: the board found once, with no camera, and refined
     # through the camera equals extract_junctions through it; without the lens it is no grid.
-    from graphpose import K_from_params
-    from graphpose.camera_models import FisheyeCamera
     from graphpose.detect import find_board, refine
 
-    camera = FisheyeCamera(K_from_params(203.0, 203.0, 321.0, 241.0), [-0.013, -0.004, 0.0035, -0.001],
-                           size=(640, 480))
-    board = Board()
-    rng = np.random.default_rng(7)
-    R = render(camera, random_pose(camera, board, distance=(0.45, 0.7), rng=rng), board, noise_sigma=1.0, rng=rng)
+    camera, board, R = fisheye_render(7)
     found = find_board(R.image, board, bounds=R.outline)
     lens = refine(R.image, found, camera=camera)
     assert_same_junctions(lens, extract_junctions(R.image, R.outline, board, camera=camera))
@@ -473,16 +480,10 @@ def test_found_board_labels_need_no_camera():
     # (each coarse junction within a pixel and a half of the junction of its board index).
     import inspect
 
-    from graphpose import K_from_params
-    from graphpose.camera_models import FisheyeCamera
     from graphpose.detect import FoundBoard, find_board
 
     assert "camera" not in inspect.signature(find_board).parameters
-    camera = FisheyeCamera(K_from_params(203.0, 203.0, 321.0, 241.0), [-0.013, -0.004, 0.0035, -0.001],
-                           size=(640, 480))
-    board = Board()
-    rng = np.random.default_rng(8)
-    R = render(camera, random_pose(camera, board, distance=(0.45, 0.7), rng=rng), board, noise_sigma=1.0, rng=rng)
+    _, board, R = fisheye_render(8)
     found = find_board(R.image, board, bounds=R.outline)
     assert isinstance(found, FoundBoard) and found.board == board and found.noise > 0
     assert found.points.shape == (2, board.n) and found.seen.all()
