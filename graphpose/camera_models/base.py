@@ -246,9 +246,7 @@ class Camera:
         """
         P = as_points(P_C, 3, "P_C", min_count=0)
         uv = self.project(P)
-        # The lens's normalised coordinates from the pixels: u = fx x_d + s y_d + cx, v = fy y_d + cy.
-        yd = (uv[1] - self.cy) / self.fy
-        xd = (uv[0] - self.cx - self.skew * yd) / self.fx
+        xd, yd = self._from_pixels(uv)  # the lens's normalised coordinates: d uv / d(fx, fy)
         n = P.shape[1]
         J = np.zeros((n, 2, len(self.parameter_names)))
         J[:, 0, 0], J[:, 1, 1] = xd, yd
