@@ -58,7 +58,7 @@ from benchmarks._common import SAMPLES, T_WC_from_opencv, opencv_classic, opencv
 from benchmarks.calibration_pose_nees import pose_nees
 from benchmarks.calibration_uncertainty import corners_roundtrip, outliers, rendered_nees, samples_uncertainty
 from graphpose import Board, read_camera
-from graphpose.calibrate import camera_parameters, parameter_names
+from graphpose.camera_models import MODELS
 from graphpose.synth.calibration import calibration_set, fisheye_camera, radtan_camera
 
 SAMPLE_BOARD = Board(9, 6, 0.03)
@@ -143,7 +143,7 @@ def rendered(cv2, quick):
                                                        camera.size)
         theirs = [(T, views_set.renderings[i].junctions) for i, _, T in cv_found]
         whole = _whole_image(camera)
-        z = (cal.parameters - camera_parameters(camera)) / cal.sigmas
+        z = (cal.parameters - camera.parameters) / cal.sigmas
         out[name] = {
             "views": views, "graphpose_used": cal.status.count("used"), "opencv_used": len(cv_found),
             "ok": cal.ok, "seconds": seconds, "summary": cal.summary,
@@ -157,8 +157,8 @@ def rendered(cv2, quick):
             "opencv_projection_whole_px": _projection_error(cv_camera, camera, whole),
             "graphpose_rms_px": cal.rms_px, "opencv_rms_px": cv_rms,
             "z": dict(zip(cal.parameter_names, z.tolist())), "max_abs_z": float(np.max(np.abs(z))),
-            "truth": camera_parameters(camera).tolist(), "graphpose": cal.parameters.tolist(),
-            "sigmas": cal.sigmas.tolist(), "opencv": camera_parameters(cv_camera).tolist(),
+            "truth": camera.parameters.tolist(), "graphpose": cal.parameters.tolist(),
+            "sigmas": cal.sigmas.tolist(), "opencv": cv_camera.parameters.tolist(),
             "cross_check": cal.cross_check["max_difference"],
         }
         o = out[name]
@@ -181,7 +181,7 @@ def samples(cv2, quick):
             "images": len(files), "graphpose_used": cal.status.count("used"), "opencv_used": len(cv_found),
             "ok": cal.ok, "graphpose_rms_px": cal.rms_px, "opencv_rms_px": cv_rms,
             "names": list(cal.parameter_names), "graphpose": cal.parameters.tolist(), "sigmas": cal.sigmas.tolist(),
-            "opencv": camera_parameters(cv_camera).tolist(), "published": camera_parameters(pub).tolist(),
+            "opencv": cv_camera.parameters.tolist(), "published": pub.parameters.tolist(),
             **extra,
         }
     return out
@@ -309,7 +309,7 @@ def section(out) -> dict:
                "rows": rows}]
     for name in ("radtan", "fisheye"):
         r = out["rendered"][name]
-        names = parameter_names(name)
+        names = MODELS[name].parameter_names
         blocks.append({"title": f"{name}: parameters (truth, graphpose +- sigma, OpenCV)", "text": None, "values": {},
                        "columns": ["parameter", "truth", "graphpose", "sigma", "z", "OpenCV"],
                        "formats": ["", ".6g", ".6g", ".2g", ".2f", ".6g"],

@@ -28,7 +28,7 @@ import numpy as np
 
 import graphpose
 from graphpose import Board
-from graphpose.calibrate import calibrate_corners, camera_parameters
+from graphpose.calibrate import calibrate_corners
 from graphpose.calibrate.uncertainty import aligned_difference
 from graphpose.synth.calibration import calibration_set, fisheye_camera, radtan_camera
 
@@ -64,7 +64,7 @@ def one_set(camera, n_views, seed, board=Board()):
     cal = graphpose.calibrate(views.images, board, camera.model)
     if not cal.ok:
         return {"seed": seed, "ok": False, "summary": cal.summary}
-    e = cal.parameters - camera_parameters(camera)
+    e = cal.parameters - camera.parameters
     out = {"seed": seed, "ok": True, "used": cal.status.count("used"), "parameter_nees": float(e @ np.linalg.solve(cal.cov, e)),
            "z": (e / cal.sigmas).tolist(), "sigma_px": cal.sigma_px, "distance_m": cal.board_distance_m,
            "outliers": int(sum(o.size for o in cal.outliers))}
@@ -87,10 +87,9 @@ def one_set(camera, n_views, seed, board=Board()):
 
 
 def _intrinsics_only(cal, q):
-    from graphpose.calibrate import projection_jacobian_intrinsics
     from graphpose.calibrate.uncertainty import worst_direction_sigma
 
-    J = projection_jacobian_intrinsics(cal.camera, cal.camera.unproject(q))
+    J = cal.camera.parameter_jacobian(cal.camera.unproject(q))
     return worst_direction_sigma(J @ cal.cov @ J.transpose(0, 2, 1))[0]
 
 
@@ -107,7 +106,7 @@ def rendered_nees(quick, progress=print):
                 if key in rows[-1]))
         good = [r for r in rows if r["ok"]]
         out[name] = {"views": n_views, "sets": sets, "failed": sets - len(good), "rows": rows,
-                     "parameters": len(camera_parameters(camera)),
+                     "parameters": len(camera.parameters),
                      **{f"{key}_mean": float(np.mean([r[key] for r in good])) if good else float("nan")
                         for key in ("parameter_nees", "grid_nees_boards", "grid_nees_infinity", "centre_error_px",
                                     "centre_sigma_px", "centre_sigma_intrinsics_only_px")}}
@@ -123,10 +122,9 @@ def samples_uncertainty(files, board):
     q = np.array([[(w - 1) / 2, 0, w - 1, 0, w - 1], [(h - 1) / 2, 0, 0, h - 1, h - 1]], float)
     at = cal.projection_uncertainty(q, cal.board_distance_m).sigma_px
     far = cal.projection_uncertainty(q).sigma_px
-    from graphpose.calibrate import projection_jacobian_intrinsics
     from graphpose.calibrate.uncertainty import worst_direction_sigma
 
-    J = projection_jacobian_intrinsics(cal.camera, cal.camera.unproject(q))
+    J = cal.camera.parameter_jacobian(cal.camera.unproject(q))
     plain = worst_direction_sigma(J @ cal.cov @ J.transpose(0, 2, 1))
     cv = cross_validate(cal, board)
     rational = graphpose.calibrate(files, board, "rational")

@@ -147,9 +147,7 @@ class Rig:
 def rig_parameter_names(cameras) -> tuple:
     """The names of a rig calibration's parameters: ``camI.<intrinsic>`` for every camera,
     then ``camJ.x`` ... ``camJ.yaw`` for every camera J >= 1."""
-    from .camera_params import parameter_names
-
-    names = [f"cam{i}.{n}" for i, c in enumerate(cameras) for n in parameter_names(c)]
+    names = [f"cam{i}.{n}" for i, c in enumerate(cameras) for n in c.parameter_names]
     names += [f"cam{i}.{n}" for i in range(1, len(cameras)) for n in EXTRINSIC_NAMES]
     return tuple(names)
 

@@ -37,7 +37,6 @@ LAYERS = (
     ("_checks", "_extras", "__init__", "_png"),
     ("geometry",),
     ("board", "camera_models", "image"),
-    ("camera_params",),
     # A rig of cameras and its stereo matrices (on the cameras and their parameters).
     ("rig",),
     ("observations", "io"),

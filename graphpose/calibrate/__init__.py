@@ -1,8 +1,8 @@
 """Camera calibration from images of the board: intrinsics, lens and their covariance.
 
-One module per idea, beside :mod:`graphpose.camera_params` (the parameter vectors and the
-projection's derivative in them, which the camera files and the pose covariance share too):
-:mod:`.zhang` (the closed-form start), :mod:`.graph` (the GTSAM graph), :mod:`.lm` (the hand-written
+One module per idea, on the cameras of :mod:`graphpose.camera_models` (each answers for its
+parameter vector, their names and the projection's derivative in them, which the camera files
+and the pose covariance use too): :mod:`.zhang` (the closed-form start), :mod:`.graph` (the GTSAM graph), :mod:`.lm` (the hand-written
 Levenberg-Marquardt that cross-checks it), :mod:`.result` (:class:`Calibration` and the
 uncertainty map) and :mod:`.run` (:func:`calibrate`, the steps from images to the result).
 
@@ -18,19 +18,11 @@ import importlib
 import sys
 import types
 
-from ..camera_params import (  # noqa: F401  (re-exported: listed in __all__)
-    camera_parameters,
-    camera_with_parameters,
-    parameter_names,
-    projection_jacobian_intrinsics,
-)
-
 #: Public name -> the module of this package that defines it (imported lazily, PEP 562).
 _EXPORTS = {"calibrate": "run", "calibrate_corners": "run", "Calibration": "result",
             "ProjectionUncertainty": "uncertainty", "calibrate_rig": "rig", "RigCalibration": "rig"}
 
-__all__ = sorted(["camera_parameters", "camera_with_parameters", "parameter_names",
-                  "projection_jacobian_intrinsics", *_EXPORTS])
+__all__ = sorted(_EXPORTS)
 
 
 def __getattr__(name: str):

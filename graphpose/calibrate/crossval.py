@@ -140,7 +140,6 @@ def predicted_diff(camera, cov, step: float = 16.0, focus_radius_px=None) -> np.
     """The RMS length of the projection difference that the intrinsics' covariance ``cov``
     of the difference ``p_1 - p_0`` predicts after the rotation fit (module docstring), at
     :func:`projection_diff`'s grid pixels (flattened, row by row); NaN where no ray."""
-    from ..camera_params import projection_jacobian_intrinsics
 
     _, _, q = _grid(camera, step)
     width, height = camera.size
@@ -148,7 +147,7 @@ def predicted_diff(camera, cov, step: float = 16.0, focus_radius_px=None) -> np.
     v = camera.unproject(q)
     good = np.all(np.isfinite(v), axis=0)
     vg = v[:, good]
-    J = projection_jacobian_intrinsics(camera, vg)  # (N, 2, P)
+    J = camera.parameter_jacobian(vg)  # (N, 2, P)
     _, Gp = camera.project_jacobian(vg)  # (N, 2, 3)
     # d (R v) / d omega at R = I is -[v]_x.
     skew = np.zeros((vg.shape[1], 3, 3))

@@ -40,7 +40,6 @@ from gtsam.symbol_shorthand import L, X
 
 from ..camera_models import FisheyeCamera, PinholeCamera
 from ..errors import InputError
-from ..camera_params import camera_parameters, camera_with_parameters
 
 #: Standard deviation (metres) of the priors that pin the target points. Tighter than the
 #: pose graph's 1e-8 m: the points are shared by every view, and at 1e-8 m their slack moved
@@ -70,7 +69,7 @@ class GraphCalibration:
     poses : list of (4, 4) ndarray
         ``T_WC`` per view.
     cov : (P, P) ndarray
-        Marginal covariance of the parameters (:func:`graphpose.calibrate.parameter_names`
+        Marginal covariance of the parameters (the camera's ``parameter_names``
         order) at the factors' ``sigma``; NaN if GTSAM could not compute it.
     converged : bool
         LM stopped on its tolerances and the polishing steps shrank below their tolerance.
@@ -224,7 +223,7 @@ def solve_graph(camera, poses, observations, sigma: float, huber_k=None, prior_p
     -------
     GraphCalibration
     """
-    p0 = camera_parameters(camera)
+    p0 = camera.parameters
     held = None if held is None or not np.any(held) else np.asarray(held, dtype=bool)
     graph = gtsam.NonlinearFactorGraph()
     initial = gtsam.Values()
@@ -308,7 +307,7 @@ def solve_graph(camera, poses, observations, sigma: float, huber_k=None, prior_p
     out = [result.atPose3(X(i)).matrix() for i in range(len(observations))]
     converged = bool(optimizer.iterations() < _MAX_ITERATIONS and polished and np.isfinite(optimizer.error()))
     try:
-        solved = camera_with_parameters(camera, p)
+        solved = camera.with_parameters(p)
     except InputError as exc:  # an invalid camera (a focal length <= 0): a failed solve
         return GraphCalibration(camera, out, nan, False, int(optimizer.iterations()), str(exc))
     return GraphCalibration(solved, out, 0.5 * (cov + cov.T), converged, int(optimizer.iterations()),

@@ -1,11 +1,11 @@
 """The calibration's cross-check: a hand-written Levenberg-Marquardt over the same cost.
 
-Unknowns: the intrinsic parameters ``p`` (:func:`graphpose.calibrate.parameter_names`) and
+Unknowns: the intrinsic parameters ``p`` (the camera's ``parameter_names``) and
 each view's pose as ``(x, y, z, roll, pitch, yaw)`` (:mod:`graphpose.geometry`). The cost is
 the one of :mod:`.graph`: ``sum_j rho(||r_j||)`` over the junctions, ``r_j`` the raw pixel
 residual, ``rho`` the Huber function of threshold ``huber_px`` (``e^2 / 2`` without one).
 Each step solves the dense normal equations with the exact analytic Jacobian: in ``p`` from
-:func:`graphpose.camera_params.projection_jacobian_intrinsics`, in the pose from
+the camera's ``parameter_jacobian``, in the pose from
 :mod:`graphpose.pose.gauss_newton` (the chain of the Euler angles' partials with the camera's
 ``d uv / d p_C``). Huber weights are reweighted at every step (iteratively reweighted least
 squares, which lowers the Huber cost at each accepted step). The plain Gauss-Newton step is
@@ -32,7 +32,6 @@ import numpy as np
 from ..geometry import T_from_params, params_from_T
 from ..errors import InputError
 from ..pose.gauss_newton import camera_points, chain_jacobians, reprojection_cost, stacked_huber_weights
-from ..camera_params import camera_parameters, camera_with_parameters, projection_jacobian_intrinsics
 
 MAX_ITERATIONS = 200
 #: Weak priors (mrcal's regularisation) per model: the parameters' indices and the prior's
@@ -103,7 +102,7 @@ def _evaluate(camera, x, observations, P):
     A = np.hstack(chains)
     with np.errstate(divide="ignore", invalid="ignore"):
         pred, G = camera.project_jacobian(A[:3])
-        Jp = projection_jacobian_intrinsics(camera, A[:3])
+        Jp = camera.parameter_jacobian(A[:3])
     G = np.ascontiguousarray(G, dtype=float)
     out, at = [], 0
     for (uv, _, _), R, Ai in zip(observations, rotations, chains):
@@ -218,15 +217,15 @@ def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = M
         prior.
     held : (P,) array_like of bool, optional
         Parameters held at the start's value, not estimated (``radtan4``'s k3 at 0,
-        :func:`graphpose.camera_params.calibration_model`); their information rows are zero.
+        :func:`graphpose.camera_models.calibration_model`); their information rows are zero.
 
     Returns
     -------
     LMCalibration
     """
     held = None if held is None else np.asarray(held, dtype=bool)
-    P = camera_parameters(camera).size
-    x = np.concatenate([camera_parameters(camera)] + [params_from_T(T) for T in poses])
+    P = camera.parameters.size
+    x = np.concatenate([camera.parameters] + [params_from_T(T) for T in poses])
     views, _ = _evaluate(camera, x, observations, P)
     cost = _cost(views, huber_px) + prior_terms(camera, x[:P], prior_px)[0]
     scale = np.concatenate([np.abs(uv).T.ravel() for uv, _, _ in observations])
@@ -264,7 +263,7 @@ def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = M
             break
         x_new = x + delta
         try:
-            trial = camera_with_parameters(camera, x_new[:P])
+            trial = camera.with_parameters(x_new[:P])
             views_new, z_new = _evaluate(trial, x_new, observations, P)
             cost_new = (_cost(views_new, huber_px) + prior_terms(trial, x_new[:P], prior_px)[0]
                         if z_new > 0 else np.inf)

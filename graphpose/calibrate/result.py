@@ -8,7 +8,7 @@ calibration projects well. :meth:`Calibration.uncertainty_map` is the intrinsics
 what a pose estimated later through this camera inherits (the camera file's covariance): for the ray ``q`` that the calibrated camera
 sees at pixel ``(u, v)``, the pixel covariance of projecting ``q`` under the intrinsics'
 uncertainty is ``Sigma_uv = J cov J^T`` with ``J = d uv / d p`` at ``q``
-(:func:`graphpose.camera_params.projection_jacobian_intrinsics`), and the map is the
+(the camera's ``parameter_jacobian``), and the map is the
 1-sigma along the worst direction, ``sqrt(largest eigenvalue of Sigma_uv)``, pixels. In the
 camera's own frame a ray projects to the same pixel at every distance, so this plain form
 does not depend on the distance; mrcal's full form also carries the uncertainty of the camera
@@ -25,7 +25,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import check_number
-from ..camera_params import projection_jacobian_intrinsics
 
 #: Per-image statuses.
 STATUSES = ("used", "rejected", "no board", "unreadable")
@@ -44,7 +43,7 @@ class Calibration:
         Covariance of the intrinsic parameters, in ``parameter_names`` order (pixels,
         unitless): the intrinsics' block of ``joint_cov``.
     parameter_names : tuple of str
-        :func:`graphpose.calibrate.parameter_names` of the model.
+        The camera model's own ``parameter_names``.
     images : tuple of str
         The images' names (file names, or ``image 0``, ``image 1``, ...).
     status : tuple of str
@@ -120,9 +119,8 @@ class Calibration:
     @property
     def parameters(self) -> np.ndarray:
         """The intrinsic parameters, (P,), in ``parameter_names`` order."""
-        from ..camera_params import camera_parameters
 
-        return camera_parameters(self.camera)
+        return self.camera.parameters
 
     @property
     def sigmas(self) -> np.ndarray:
@@ -161,7 +159,7 @@ class Calibration:
         good = np.all(np.isfinite(rays), axis=0)
         out = np.full(u.size, np.nan)
         if good.any():
-            J = projection_jacobian_intrinsics(self.camera, rays[:, good])
+            J = self.camera.parameter_jacobian(rays[:, good])
             S = J @ self.cov @ J.transpose(0, 2, 1)  # (N, 2, 2)
             tr, det = S[:, 0, 0] + S[:, 1, 1], S[:, 0, 0] * S[:, 1, 1] - S[:, 0, 1] * S[:, 1, 0]
             out[good] = np.sqrt(np.maximum(0.5 * tr + np.sqrt(np.maximum(0.25 * tr * tr - det, 0.0)), 0.0))

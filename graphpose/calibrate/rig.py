@@ -39,7 +39,7 @@ import numpy as np
 
 from .._checks import check_number
 from ..board import Board, check_board
-from ..camera_params import camera_parameters, camera_with_parameters, model_class
+from ..camera_models import model_class
 from ..errors import InputError
 from ..geometry import T_from_params, invert_transform, params_from_T, relative_pose, so3_exp, so3_log
 from ..rig import Rig, rig_parameter_names
@@ -168,7 +168,7 @@ class RigCalibration:
 
 
 def _vector(cameras, T_C0_C) -> np.ndarray:
-    return np.concatenate([camera_parameters(c) for c in cameras] + [params_from_T(T) for T in T_C0_C[1:]])
+    return np.concatenate([c.parameters for c in cameras] + [params_from_T(T) for T in T_C0_C[1:]])
 
 
 def _views(sources, frames):
@@ -439,8 +439,8 @@ def _result(view_names, views, keys, active, lm, graph, sigma0, status, message,
     ok = bool(converged and difference <= CROSS_CHECK_TOL and np.all(np.isfinite(cov)))
     best = graph if ok else lm
     names = rig_parameter_names(best.cameras)
-    starts = np.concatenate([[0], np.cumsum([camera_parameters(c).size for c in best.cameras])]).astype(int)
-    cameras = [camera_with_parameters(cam, camera_parameters(cam), cov[starts[c]: starts[c + 1], starts[c]: starts[c + 1]])
+    starts = np.concatenate([[0], np.cumsum([c.parameters.size for c in best.cameras])]).astype(int)
+    cameras = [cam.with_parameters(cam.parameters, cov[starts[c]: starts[c + 1], starts[c]: starts[c + 1]])
                for c, cam in enumerate(best.cameras)]
     rig = Rig(cameras, best.T_C0_C, cov=cov, parameter_names=names)
     solved = dict(zip(keys, lm.residuals))

@@ -3,7 +3,7 @@
 Variables (GTSAM's keys):
 
 - ``K(c)``: camera c's intrinsic parameters, a vector in
-  :func:`graphpose.calibrate.parameter_names` order (any model);
+  the camera's ``parameter_names`` order (any model);
 - ``X(v)``: the rig's pose in view v, camera 0's ``T_WC0`` (``Pose3``);
 - ``E(c)``: camera c's pose in camera 0's frame, ``T_C0_C[c]`` (``Pose3``), for c >= 1.
 
@@ -14,7 +14,7 @@ junction; the factor's cost is the sum of the junctions'): each junction's 2-D e
 ``(project_c(T_C0_C^-1 T_WC0^-1 P_W) - uv) / sigma``, under a Huber kernel of ``huber_k``
 sigmas applied per junction inside the factor (the same cost as one robust factor per
 junction). Its Jacobians: the camera's own ``d uv / d P`` and ``d uv / d p``
-(:mod:`graphpose.camera_models`, :mod:`graphpose.camera_params`) chained with GTSAM's right
+(:mod:`graphpose.camera_models`: ``project_jacobian``, ``parameter_jacobian``) chained with GTSAM's right
 perturbations ``T Exp(omega, v)``: ``dP = P x omega - v`` for each pose. A view that only some
 cameras saw gives factors for those alone. No prior: the board's frame and camera 0's fix the
 gauge. After Levenberg-Marquardt, undamped Gauss-Newton steps polish as in :mod:`.graph`, until the
@@ -33,7 +33,6 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import E, K, X
 
-from ..camera_params import camera_parameters, camera_with_parameters, projection_jacobian_intrinsics
 from ..errors import InputError
 
 from ..pose.graph import params_from_tangent_jacobian
@@ -87,7 +86,7 @@ def _factor(template, views, c, sigma, huber_k):
 
     def error(factor, values, jacobians):
         ks = factor.keys()
-        camera = camera_with_parameters(template, values.atVector(ks[0]))
+        camera = template.with_parameters(values.atVector(ks[0]))
         p0, dX = [], []
         for k, (_, _, W) in enumerate(views):
             T = values.atPose3(ks[first + k])
@@ -112,7 +111,7 @@ def _factor(template, views, c, sigma, huber_k):
                     jacobians[i] = np.zeros((2 * m, 6))
             return np.full(2 * m, 2.0 * camera.fx / sigma)
         r = (pred - uv_all) / sigma
-        Js = [projection_jacobian_intrinsics(camera, p) / sigma, G @ dX / sigma]
+        Js = [camera.parameter_jacobian(p) / sigma, G @ dX / sigma]
         if dE is not None:
             Js.append(G @ dE / sigma)
         if huber_k is not None:
@@ -161,7 +160,7 @@ def solve_rig_graph(cameras, T_C0_C, poses, observations, sigma: float, huber_k=
     # 2. The start: intrinsics as vectors, the rig's and the cameras' poses.
     initial = gtsam.Values()
     for c, camera in enumerate(cameras):
-        initial.insert(K(c), camera_parameters(camera))
+        initial.insert(K(c), camera.parameters)
         if c > 0:
             initial.insert(E(c), gtsam.Pose3(np.asarray(T_C0_C[c])))
     for v, T in enumerate(poses):
@@ -172,7 +171,7 @@ def solve_rig_graph(cameras, T_C0_C, poses, observations, sigma: float, huber_k=
     params.setAbsoluteErrorTol(_ABSOLUTE_TOL)
     params.setMaxIterations(_MAX_ITERATIONS)
     optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
-    n = sum(camera_parameters(c).size for c in cameras) + 6 * (len(cameras) - 1)
+    n = sum(c.parameters.size for c in cameras) + 6 * (len(cameras) - 1)
     nan = np.full((n, n), np.nan)
     try:
         result = optimizer.optimize()
@@ -203,7 +202,7 @@ def solve_rig_graph(cameras, T_C0_C, poses, observations, sigma: float, huber_k=
         return RigGraph(list(cameras), list(T_C0_C), list(poses), nan, False, int(optimizer.iterations()),
                         lines[0] if lines else type(exc).__name__)
     try:
-        solved = [camera_with_parameters(t, result.atVector(K(c))) for c, t in enumerate(cameras)]
+        solved = [t.with_parameters(result.atVector(K(c))) for c, t in enumerate(cameras)]
     except InputError as exc:
         return RigGraph(list(cameras), list(T_C0_C), list(poses), nan, False, int(optimizer.iterations()), str(exc))
     T_out = [np.eye(4)] + [result.atPose3(E(c)).matrix() for c in range(1, len(cameras))]

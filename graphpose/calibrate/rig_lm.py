@@ -1,13 +1,13 @@
 """The rig calibration's cross-check: a hand-written Levenberg-Marquardt over the rig's cost.
 
 Unknowns, in this order: every camera's intrinsic parameters ``p_c``
-(:func:`graphpose.calibrate.parameter_names`), every further camera's extrinsics ``e_c``
+(the camera's ``parameter_names``), every further camera's extrinsics ``e_c``
 (``T_C0_C[c]`` as ``(x, y, z, roll, pitch, yaw)``, :mod:`graphpose.geometry`) and every view's
 rig pose ``q_v`` (``T_WC0``, the same six). A junction seen by camera c in view v is predicted
 at ``project_c(T_C0_C[c]^-1 T_WC0^-1 P_W)``; the cost is the one of :mod:`.rig_graph`,
 ``sum_j rho(||r_j||)`` over every (view, camera, junction), ``rho`` Huber's of threshold
 ``huber_px`` (``e^2 / 2`` without one). The Jacobian is analytic (the camera's ``d uv / d P``,
-:func:`graphpose.camera_params.projection_jacobian_intrinsics`, and the Euler angles'
+the camera's ``parameter_jacobian``, and the Euler angles'
 partials, :func:`graphpose.pose.rig.rig_points`) and
 the normal equations solved by the Schur complement of the views' poses (:func:`.lm._step`). Stopping and damping are
 those of :mod:`.lm`: the step below 1e-10 of every unknown's sigma, the cost's rounding
@@ -20,7 +20,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..camera_params import camera_parameters, camera_with_parameters, projection_jacobian_intrinsics
 from ..errors import InputError
 from ..geometry import T_from_params, params_from_T
 from ..pose.rig import rig_points
@@ -65,7 +64,7 @@ class RigLM:
 
 def _layout(cameras, n_views):
     """Offsets: each camera's intrinsics, each further camera's extrinsics, each view's pose."""
-    sizes = [camera_parameters(c).size for c in cameras]
+    sizes = [c.parameters.size for c in cameras]
     starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
     P = int(starts[-1])
     ext = {c: P + 6 * (c - 1) for c in range(1, len(cameras))}
@@ -97,7 +96,7 @@ def _evaluate(cameras, x, obs, layout):
         P = np.hstack([parts[k][0] for k in mine])
         with np.errstate(divide="ignore", invalid="ignore"):
             pred, G = camera.project_jacobian(P)
-            Jp = projection_jacobian_intrinsics(camera, P)
+            Jp = camera.parameter_jacobian(P)
         at = 0
         for k in mine:
             _, Jq, Je = parts[k]
@@ -136,7 +135,7 @@ def _normal(views, obs, cols, n_rig, n_views, huber_px):
 
 
 def _cameras(templates, x, starts):
-    return [camera_with_parameters(t, x[starts[c]: starts[c + 1]]) for c, t in enumerate(templates)]
+    return [t.with_parameters(x[starts[c]: starts[c + 1]]) for c, t in enumerate(templates)]
 
 
 def solve_rig_lm(cameras, T_C0_C, poses, observations, huber_px=None,
@@ -164,7 +163,7 @@ def solve_rig_lm(cameras, T_C0_C, poses, observations, huber_px=None,
     layout = _layout(cameras, len(poses))
     starts, ext, view0, N = layout
     cols = _columns(layout, observations)
-    x = np.concatenate([camera_parameters(c) for c in cameras]
+    x = np.concatenate([c.parameters for c in cameras]
                        + [params_from_T(T) for T in T_C0_C[1:]] + [params_from_T(T) for T in poses])
     views, _ = _evaluate(cameras, x, observations, layout)
     cost = _cost(views, huber_px)

@@ -45,7 +45,7 @@ from .._checks import check_number
 from ..board import check_board
 from ..board import Board
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
-from ..camera_params import calibration_model, camera_parameters, camera_with_parameters, parameter_names
+from ..camera_models import calibration_model
 from .result import Calibration
 
 #: An image whose RMS exceeds this many times the median image's is rejected.
@@ -480,7 +480,7 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
             first_camera, board, huber_k, inliers, outliers, held, unreadable=None) -> Calibration:
     P_all = len(cls.parameter_names)
     P = P_all - int(np.sum(held))  # the parameters estimated
-    p_lm, p_g = camera_parameters(lm.camera), camera_parameters(graph.camera)
+    p_lm, p_g = lm.camera.parameters, graph.camera.parameters
     r_all = np.hstack(lm.residuals)
     M = r_all.shape[1]
     dof = 2 * M - P - 6 * len(keys)
@@ -503,8 +503,8 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
             f"{focal[0]:.2g}, {focal[1]:.2g}): the board must be seen at different tilts (boards "
             "all parallel to each other leave the focal length and the distance indistinguishable); "
             "tilt it by 20-50 degrees in different directions")
-    camera = camera_with_parameters(graph.camera if ok else lm.camera, p_g if ok else p_lm,
-                                    cov if np.all(np.isfinite(cov)) else None)
+    camera = (graph.camera if ok else lm.camera).with_parameters(p_g if ok else p_lm,
+                                                                  cov if np.all(np.isfinite(cov)) else None)
     if np.any(held):  # radtan4: k3 held at 0, the camera written with k1, k2, p1, p2 (Kalibr's)
         camera = type(camera)(camera.K, camera.distortion[:4], camera.size, camera.covariance)
     n = len(labels)
@@ -553,7 +553,7 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
     return Calibration(
         camera=camera,
         cov=cov,
-        parameter_names=parameter_names(cls.model),
+        parameter_names=cls.parameter_names,
         images=tuple(labels),
         status=tuple(status),
         message=tuple(message),

@@ -19,7 +19,7 @@ With ``b`` the intrinsics and every pose (each as ``(x, y, z, roll, pitch, yaw)`
 ``T_WC``), ``Var(q) = (dq'/db) Var(b) (dq'/db)^T``, where ``Var(b) = sigma^2 (J^T W J)^-1``
 is the joint covariance of the solve (:func:`joint_information`; ``W`` the Huber weights,
 ``sigma`` the pixel noise the residuals give). The derivative is analytic: the intrinsics'
-through :func:`graphpose.camera_params.projection_jacobian_intrinsics`, the poses' through
+through the camera's ``parameter_jacobian``, the poses' through
 the camera's ``d uv / d p_C`` and the derivative of ``T_WC^-1`` (the pose's compiled kernel
 :func:`graphpose.pose.gauss_newton.camera_points`). Evaluated where the boards were, the
 frames' share cancels most of the intrinsics' (the two are strongly correlated); at infinity
@@ -33,7 +33,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._checks import as_points
-from ..camera_params import projection_jacobian_intrinsics
 from ..errors import InputError
 from ..geometry import params_from_T
 from ..pose.gauss_newton import camera_points
@@ -80,13 +79,12 @@ def joint_information(camera, poses, observations, huber_px=None) -> np.ndarray:
     Returns
     -------
     H : (P + 6 n, P + 6 n) ndarray
-        Unknowns in order: the intrinsics (:func:`graphpose.calibrate.parameter_names`),
+        Unknowns in order: the intrinsics (the camera's ``parameter_names``),
         then each view's ``(x, y, z, roll, pitch, yaw)``.
     """
-    from ..camera_params import camera_parameters
     from .lm import _evaluate, _normal
 
-    p = camera_parameters(camera)
+    p = camera.parameters
     P, n = p.size, len(poses)
     x = np.concatenate([p] + [params_from_T(T) for T in poses])
     views, _ = _evaluate(camera, x, observations, P)
@@ -140,11 +138,10 @@ def huber_covariance(camera, poses, observations, huber_px=None, prior_px=None, 
     cov : (P + 6 n, P + 6 n) ndarray
         Pixels and the poses' units; NaN if ``J^T J`` is singular.
     """
-    from ..camera_params import camera_parameters
     from .lm import _evaluate, prior_terms
 
     H = joint_information(camera, poses, observations, None)
-    p = camera_parameters(camera)
+    p = camera.parameters
     H[:p.size, :p.size] += prior_terms(camera, p, prior_px)[1]
     P, n = p.size, len(poses)
     free = np.ones(P + 6 * n, dtype=bool)
@@ -235,7 +232,7 @@ def projection_jacobian(camera, poses, points_px, distance_m=None):
             dpc[:, :, 6 * i + 3 + k] = A[3 * k + 3: 3 * k + 6].T / n
     with np.errstate(divide="ignore", invalid="ignore"):
         _, G = camera.project_jacobian(p_cam)
-        Jp = projection_jacobian_intrinsics(camera, p_cam)
+        Jp = camera.parameter_jacobian(p_cam)
     J = np.concatenate([Jp, np.asarray(G) @ dpc], axis=2)
     J[~good] = np.nan
     return J, p_cam

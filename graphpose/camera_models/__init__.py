@@ -36,6 +36,18 @@ Every camera offers
 - ``gtsam_calibration()``: the matching GTSAM calibration (Cal3_S2, Cal3DS2, Cal3Fisheye)
   or None where GTSAM has none (a radial-tangential camera with k3..k6 not all zero).
 
+Every camera answers for the intrinsic parameters a calibration estimates (the table of names
+is in ``docs/cameras.md``; OpenCV's order, pixels and unitless):
+
+- ``parameter_names`` (a class attribute): their names, ``fx, fy, cx, cy`` and the model's
+  coefficients;
+- ``parameters``: the (P,) vector;
+- ``from_parameters(params, size=None, covariance=None, *, skew=0.0)`` (a classmethod) and
+  ``with_parameters(params, covariance=None)``: the camera of those parameters (the latter
+  keeps this camera's model, size, and what is not a parameter: the skew, an eight-coefficient
+  radial-tangential camera's ``k4, k5, k6``);
+- ``parameter_jacobian(P_C)``: ``d uv / d params``, (N, 2, P), analytic, for camera-frame points.
+
 A camera may carry the ``covariance`` of its intrinsic parameters (a calibration's, see
 :mod:`graphpose.calibrate`): (P, P) in the order of the class's ``parameter_names``, pixels and
 unitless, None (unknown) by default; symmetric positive semi-definite, read-only. It is not
@@ -45,12 +57,15 @@ coefficients, size), so a camera read back from a file format that cannot hold a
 
 One module per model: :mod:`~graphpose.camera_models.base` (the interface, the pinhole camera,
 :func:`as_camera`, :func:`check_image_size`), :mod:`~graphpose.camera_models.radtan`,
-:mod:`~graphpose.camera_models.fisheye`; every name is imported from here.
+:mod:`~graphpose.camera_models.fisheye`; and the one registry of model names,
+:mod:`~graphpose.camera_models.registry` (:data:`MODELS`, :data:`HELD_MODELS`,
+:func:`model_class`, :func:`calibration_model`); every name is imported from here.
 """
 
 from .base import MAX_ITERATIONS, UNPROJECT_TOL, Camera, PinholeCamera, as_camera, check_image_size
 from .fisheye import FisheyeCamera
 from .radtan import RadTanCamera, RationalCamera
+from .registry import HELD_MODELS, MODELS, calibration_model, model_class
 
 __all__ = ["Camera", "PinholeCamera", "RadTanCamera", "RationalCamera", "FisheyeCamera", "as_camera", "check_image_size",
-           "UNPROJECT_TOL", "MAX_ITERATIONS"]
+           "UNPROJECT_TOL", "MAX_ITERATIONS", "MODELS", "HELD_MODELS", "model_class", "calibration_model"]

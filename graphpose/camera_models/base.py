@@ -84,10 +84,11 @@ class Camera:
         The image size ``(width, height)`` the calibration holds for, pixels; None when
         unknown (then :func:`check_image_size` accepts any image).
     model : str
-        ``"pinhole"``, ``"radtan"`` or ``"fisheye"`` (the names of the JSON camera file).
+        ``"pinhole"``, ``"radtan"``, ``"rational"`` or ``"fisheye"`` (the names of the JSON
+        camera file and of :data:`graphpose.camera_models.MODELS`).
     parameter_names : tuple of str
-        The intrinsic parameters a calibration estimates, in the order of ``covariance``
-        (:func:`graphpose.calibrate.parameter_names`).
+        The names of the intrinsic parameters a calibration estimates, in the order of
+        :attr:`parameters` and ``covariance``; a class attribute.
     covariance : (P, P) ndarray or None
         Covariance of those parameters (pixels, unitless), read-only; None when unknown. Not
         part of equality (see the module docstring).
@@ -128,6 +129,134 @@ class Camera:
     def pinhole(self) -> PinholeCamera:
         """The distortion-free camera with the same ``K`` and size."""
         return PinholeCamera(self.K, self.size)
+
+    # ---- the intrinsic parameters a calibration estimates -------------------------------
+    @property
+    def parameters(self) -> np.ndarray:
+        """The intrinsic parameters, (P,), in :attr:`parameter_names` order.
+
+        ``fx, fy, cx, cy`` (pixels), then the model's coefficients (unitless) in OpenCV's
+        order. What is not a parameter stays as the camera has it: the skew ``K[0, 1]``, and
+        the ``k4, k5, k6`` of an eight-coefficient :class:`RadTanCamera`. A new array each time.
+        """
+        return np.array([self.fx, self.fy, self.cx, self.cy] + self._coefficient_parameters())
+
+    def _coefficient_parameters(self) -> list:
+        """The model's coefficients among the parameters, in order (none for the pinhole)."""
+        return []
+
+    @classmethod
+    def _parameter_vector(cls, parameters) -> np.ndarray:
+        """``parameters`` as a finite (P,) vector of this model's, or InputError."""
+        names = cls.parameter_names
+        p = as_float_array(parameters, "parameters").ravel()
+        if p.size != len(names):
+            raise InputError(f"a {cls.model} camera has {len(names)} parameters "
+                             f"({', '.join(names)}), got {p.size}")
+        if not np.all(np.isfinite(p)):
+            raise InputError(f"parameters contain NaN or infinite values: {p.tolist()}")
+        return p
+
+    @staticmethod
+    def _parameter_K(p: np.ndarray, skew: float) -> np.ndarray:
+        """``K`` of the parameters ``fx, fy, cx, cy`` and a skew that is not one of them."""
+        return np.array([[p[0], skew, p[2]], [0.0, p[1], p[3]], [0.0, 0.0, 1.0]])
+
+    @classmethod
+    def from_parameters(cls, parameters, size=None, covariance=None, *, skew: float = 0.0) -> Camera:
+        """The camera of this model with the given intrinsic parameters.
+
+        Parameters
+        ----------
+        parameters : (P,) array_like
+            In :attr:`parameter_names` order: ``fx, fy, cx, cy`` (pixels), then the model's
+            coefficients.
+        size : (int, int), optional
+            Image ``(width, height)``, pixels.
+        covariance : (P, P) array_like, optional
+            The parameters' covariance, carried by the camera; None: unknown.
+        skew : float
+            ``K[0, 1]``, pixels: not a parameter (a calibration holds it at 0, as OpenCV does);
+            the radial-tangential models take 0 only.
+
+        Returns
+        -------
+        camera : Camera
+            Of this class.
+
+        Raises
+        ------
+        InputError
+            If ``parameters`` is not P finite numbers or makes an invalid camera (a focal
+            length <= 0), or ``covariance`` is not a (P, P) symmetric positive semi-definite
+            matrix.
+        """
+        raise NotImplementedError  # pragma: no cover  (every model overrides it)
+
+    def with_parameters(self, parameters, covariance=None) -> Camera:
+        """The camera of the same model and image size with other intrinsic parameters.
+
+        What is not a parameter (the skew; an eight-coefficient :class:`RadTanCamera`'s ``k4,
+        k5, k6``) comes from this camera; see :meth:`from_parameters`.
+
+        Parameters
+        ----------
+        parameters : (P,) array_like
+            In :attr:`parameter_names` order.
+        covariance : (P, P) array_like, optional
+            Their covariance, carried by the new camera; None: unknown.
+
+        Returns
+        -------
+        camera : Camera
+            Of the same class; a radial-tangential camera keeps 5 coefficients (8 if it had 8).
+
+        Raises
+        ------
+        InputError
+            As :meth:`from_parameters`.
+        """
+        return type(self).from_parameters(parameters, self.size, covariance, **self._held())
+
+    def _held(self) -> dict:
+        """What :meth:`with_parameters` keeps that is not a parameter, as keywords of
+        :meth:`from_parameters`."""
+        return {"skew": self.skew}
+
+    def parameter_jacobian(self, P_C) -> np.ndarray:
+        """The derivative of the pixels of camera-frame points with respect to the parameters.
+
+        Parameters
+        ----------
+        P_C : (3, N) array_like
+            Points in the camera frame, metres.
+
+        Returns
+        -------
+        J : (N, 2, P) ndarray
+            ``J[j, :, i] = d uv_j / d p_i``, analytic, in :attr:`parameter_names` order (pixels
+            per pixel for ``fx, fy, cx, cy``, pixels per unit for the coefficients), the skew
+            held fixed; NaN rows where :meth:`project` is NaN. It is a calibration's Jacobian,
+            and the map that carries the parameters' covariance into pixels (``J cov J^T``).
+
+        Raises
+        ------
+        InputError
+            If ``P_C`` is not a finite (3, N) array.
+        """
+        P = as_points(P_C, 3, "P_C", min_count=0)
+        uv = self.project(P)
+        xd, yd = self._from_pixels(uv)  # the lens's normalised coordinates: d uv / d(fx, fy)
+        n = P.shape[1]
+        J = np.zeros((n, 2, len(self.parameter_names)))
+        J[:, 0, 0], J[:, 1, 1] = xd, yd
+        J[:, 0, 2] = J[:, 1, 3] = 1.0
+        self._coefficient_jacobian(P, J)
+        J[~np.all(np.isfinite(uv), axis=0)] = np.nan
+        return J
+
+    def _coefficient_jacobian(self, P: np.ndarray, J: np.ndarray) -> None:
+        """Fill ``J[:, :, 4:]``, the derivative in the model's coefficients (none for the pinhole)."""
 
     # ---- equality: same model, same numbers ---------------------------------------------
     def _key(self) -> tuple:
@@ -396,6 +525,12 @@ class PinholeCamera(Camera):
 
     def _unproject(self, xy_d):
         return _rays(xy_d[0], xy_d[1])
+
+    @classmethod
+    def from_parameters(cls, parameters, size=None, covariance=None, *, skew: float = 0.0) -> PinholeCamera:
+        """The pinhole camera of ``fx, fy, cx, cy``; see :meth:`Camera.from_parameters`."""
+        p = cls._parameter_vector(parameters)
+        return cls(cls._parameter_K(p, skew), size, covariance)
 
     def gtsam_calibration(self):
         import gtsam

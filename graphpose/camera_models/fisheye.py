@@ -76,6 +76,30 @@ class FisheyeCamera(Camera):
         t_max = min(real.min(), np.pi ** 2) if real.size else np.pi ** 2
         object.__setattr__(self, "theta_max", float(np.sqrt(t_max)))
 
+    # ---- the parameters: fx, fy, cx, cy, k1, k2, k3, k4 --------------------------------
+    def _coefficient_parameters(self) -> list:
+        return list(self.distortion)
+
+    @classmethod
+    def from_parameters(cls, parameters, size=None, covariance=None, *, skew: float = 0.0) -> FisheyeCamera:
+        """The camera of ``fx, fy, cx, cy, k1, k2, k3, k4``; see :meth:`Camera.from_parameters`."""
+        p = cls._parameter_vector(parameters)
+        return cls(cls._parameter_K(p, skew), p[4:8], size, covariance)
+
+    def _coefficient_jacobian(self, P, J):
+        X, Y, Z = P
+        rho = np.hypot(X, Y)
+        th = np.arctan2(rho, Z)
+        t = th * th
+        # d theta_d / d k_i = theta t^i; (x_d, y_d) = theta_d (X, Y) / rho, whose limit on the
+        # forward axis has zero derivative in every k_i.
+        safe = np.where(rho > 0, rho, 1.0)
+        powers = np.stack([th * t, th * t * t, th * t ** 3, th * t ** 4])
+        dx = np.where(rho > 0, powers * X / safe, 0.0)
+        dy = np.where(rho > 0, powers * Y / safe, 0.0)
+        J[:, 0, 4:] = (self.fx * dx + self.skew * dy).T
+        J[:, 1, 4:] = (self.fy * dy).T
+
     def _theta_d(self, th):
         k1, k2, k3, k4 = self.distortion
         t = th * th

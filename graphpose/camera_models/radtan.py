@@ -82,6 +82,46 @@ class RadTanCamera(Camera):
     def _full(self):
         return self.coefficients
 
+    # ---- the parameters: fx, fy, cx, cy, k1, k2, p1, p2, k3 ----------------------------
+    def _coefficient_parameters(self) -> list:
+        return list(self.coefficients[:5])
+
+    @classmethod
+    def from_parameters(cls, parameters, size=None, covariance=None, *, skew: float = 0.0,
+                        rational=None) -> RadTanCamera:
+        """The camera of ``fx, fy, cx, cy, k1, k2, p1, p2, k3``; see :meth:`Camera.from_parameters`.
+
+        ``rational``: ``(k4, k5, k6)``, the denominator of an eight-coefficient camera, held as
+        given (they are not parameters of this model); None gives five coefficients.
+        """
+        p = cls._parameter_vector(parameters)
+        d = p[4:9] if rational is None else np.r_[p[4:9], rational]
+        return cls(cls._parameter_K(p, skew), d, size, covariance)
+
+    def _held(self) -> dict:
+        full = self.coefficients
+        return {"skew": self.skew, "rational": full[5:] if self.distortion.size == 8 else None}
+
+    def _coefficient_jacobian(self, P, J):
+        Z = np.where(P[2] > 0, P[2], np.nan)
+        x, y = P[0] / Z, P[1] / Z
+        r2 = x * x + y * y
+        k4, k5, k6 = self.coefficients[5:]
+        b = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))  # the rational denominator (1 without it)
+        # d(x_d, y_d)/d(k1, k2, p1, p2, k3), then times (fx, fy): no skew in this model.
+        radial = np.stack([r2, r2 * r2, r2 ** 3]) / b  # d g / d(k1, k2, k3)
+        dx = np.stack([x * radial[0], x * radial[1], 2.0 * x * y, r2 + 2.0 * x * x, x * radial[2]])
+        dy = np.stack([y * radial[0], y * radial[1], r2 + 2.0 * y * y, 2.0 * x * y, y * radial[2]])
+        J[:, 0, 4:9] = (self.fx * dx).T
+        J[:, 1, 4:9] = (self.fy * dy).T
+        if J.shape[2] > 9:  # the rational model's k4, k5, k6 are parameters too
+            # g = a / b: d g / d(k4, k5, k6) = -a (r^2, r^4, r^6) / b^2.
+            k1, k2, _, _, k3 = self.coefficients[:5]
+            a = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+            dg = -a * np.stack([r2, r2 * r2, r2 ** 3]) / (b * b)
+            J[:, 0, 9:] = (self.fx * x * dg).T
+            J[:, 1, 9:] = (self.fy * y * dg).T
+
     def _parts(self, x, y, jacobian):
         """Distorted ``(x_d, y_d)``, the radial factor ``g`` and, if asked, the three distinct
         entries ``(d00, d01, d11)`` of the symmetric ``d(x_d, y_d) / d(x, y)``.
@@ -235,6 +275,19 @@ class RationalCamera(RadTanCamera):
             raise InputError(f"RationalCamera takes 8 coefficients (k1, k2, p1, p2, k3, k4, k5, k6: OpenCV's "
                              f"rational model), got {d.size}")
         super().__post_init__()
+
+    def _coefficient_parameters(self) -> list:
+        return list(self.coefficients)
+
+    @classmethod
+    def from_parameters(cls, parameters, size=None, covariance=None, *, skew: float = 0.0) -> RationalCamera:
+        """The camera of ``fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, k5, k6``; see
+        :meth:`Camera.from_parameters`."""
+        p = cls._parameter_vector(parameters)
+        return cls(cls._parameter_K(p, skew), p[4:12], size, covariance)
+
+    def _held(self) -> dict:
+        return {"skew": self.skew}  # all eight coefficients are parameters
 
     def _key(self) -> tuple:
         # Equal to the radial-tangential camera with the same eight coefficients: same projection.

@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from .._extras import require
-from ..camera_params import HELD_MODELS
-from ..camera_params import MODELS as CALIBRATION_MODELS
+from ..camera_models import HELD_MODELS
+from ..camera_models import MODELS as CALIBRATION_MODELS
 from ..errors import GraphposeError, InputError
 from ..io.camera_files import FORMATS
 from . import EXIT_OK, PROG, UsageError, calibrate_extras, exit_codes_help

@@ -135,13 +135,12 @@ def rig_record(calibration) -> dict:
         ``view``, and per camera ``images``, ``status``, ``message``, ``rms_px``, with the rig's
         pose ``T_WC0`` (null where no camera used the view); ``ok``, ``summary``.
     """
-    from ..camera_params import parameter_names
     from ..io.files import to_jsonable
 
     rig = calibration.rig
     cameras = []
     for c, camera in enumerate(rig.cameras):
-        names = parameter_names(camera)
+        names = camera.parameter_names
         p = calibration.parameters[[calibration.parameter_names.index(f"cam{c}.{n}") for n in names]]
         s = calibration.sigmas[[calibration.parameter_names.index(f"cam{c}.{n}") for n in names]]
         cameras.append({"name": rig.names[c], "model": camera.model, "K": camera.K, "distortion": camera.distortion,

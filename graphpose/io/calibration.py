@@ -23,7 +23,7 @@
 
   with ``model`` one of ``pinhole`` (``distortion`` ``[]`` or absent), ``radtan``,
   ``fisheye``, and ``size`` optional; a calibration's file adds ``"parameters"`` (``{name:
-  value}``, :func:`graphpose.camera_params.parameter_names`' order) and ``"covariance"``
+  value}``, the camera's ``parameter_names`` order) and ``"covariance"``
   (P x P, that order), which the camera then carries.
 
 Every problem is an :class:`~graphpose.errors.InputError` naming the file and what is wrong:
@@ -41,13 +41,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..camera_params import camera_parameters, parameter_names
-from ..camera_models import Camera, FisheyeCamera, PinholeCamera, RadTanCamera, RationalCamera
+from ..camera_models import MODELS, Camera, FisheyeCamera, PinholeCamera, RadTanCamera
 from ..errors import InputError
 from .camera_files import FORMATS, camera_to_dict, write_camera  # noqa: F401  (the writers)
 
-#: graphpose's camera models by their JSON names.
-MODELS = {"pinhole": PinholeCamera, "radtan": RadTanCamera, "rational": RationalCamera, "fisheye": FisheyeCamera}
 #: ROS camera_info distortion models and graphpose's names for them.
 ROS_MODELS = {"plumb_bob": "radtan", "rational_polynomial": "radtan", "equidistant": "fisheye"}
 #: Kalibr distortion models (of camera_model pinhole) and graphpose's names for them.
@@ -421,7 +418,7 @@ def _with_covariance(camera: Camera, doc: dict, what: str) -> Camera:
     if parameters is None and cov is None:
         return camera
 
-    names = list(parameter_names(camera))
+    names = list(camera.parameter_names)
     if not isinstance(parameters, dict):
         raise InputError(f"{what}: a covariance needs 'parameters', the mapping of the "
                          f"{camera.model} camera's {', '.join(names)} to their values, got "
@@ -430,7 +427,7 @@ def _with_covariance(camera: Camera, doc: dict, what: str) -> Camera:
         raise InputError(f"{what}: parameters must be {', '.join(names)} (a {camera.model} "
                          f"camera's, in this order), got {', '.join(map(str, parameters))}")
     values = _matrix(list(parameters.values()), "parameters", what).ravel()
-    mine = camera_parameters(camera)
+    mine = camera.parameters
     if not np.allclose(values, mine, rtol=1e-12, atol=0.0):
         raise InputError(f"{what}: parameters {values.tolist()} disagree with K and distortion "
                          f"({mine.tolist()}); the covariance belongs to the parameters")

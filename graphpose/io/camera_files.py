@@ -30,7 +30,6 @@ import json
 
 import numpy as np
 
-from ..camera_params import camera_parameters, parameter_names
 from ..camera_models import as_camera
 from ..errors import InputError
 from .files import atomic_write
@@ -59,8 +58,8 @@ def camera_to_dict(camera) -> dict:
     cov = getattr(camera, "covariance", None)
     if cov is not None:
 
-        doc["parameters"] = dict(zip(parameter_names(camera),
-                                     np.asarray(camera_parameters(camera), float).tolist()))
+        doc["parameters"] = dict(zip(camera.parameter_names,
+                                     np.asarray(camera.parameters, float).tolist()))
         doc["covariance"] = np.asarray(cov, float).tolist()
     return doc
 

@@ -10,7 +10,7 @@ them) gives
 
 with ``J_p = d pi / d theta`` (:func:`graphpose.pose.gauss_newton.projection_jacobians`, the
 pose parameters ``(x, y, z, roll, pitch, yaw)``) and ``J_k = d pi / d k``
-(:func:`graphpose.camera_params.projection_jacobian_intrinsics` at the pose's camera-frame
+(the camera's ``parameter_jacobian`` at the pose's camera-frame
 points). The pixel noise and the calibration's error are independent (the calibration was
 made from other images), so
 
@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera_params import projection_jacobian_intrinsics
 from ..geometry import to_camera
 from .gauss_newton import projection_jacobians
 
@@ -56,11 +55,11 @@ def pose_intrinsics_jacobian(camera, T_WC, Wpts, weights=None) -> np.ndarray:
     -------
     D : (6, P) ndarray
         ``d(x, y, z, roll, pitch, yaw) / d k``, metres and radians per unit of each
-        parameter of :func:`graphpose.camera_params.parameter_names`.
+        parameter of the camera's ``parameter_names``.
     """
 
     Jp = projection_jacobians(camera, T_WC, Wpts)  # (2m, 6)
-    Jk = projection_jacobian_intrinsics(camera, to_camera(T_WC, Wpts))  # (m, 2, P)
+    Jk = camera.parameter_jacobian(to_camera(T_WC, Wpts))  # (m, 2, P)
     Jk = Jk.reshape(Jp.shape[0], -1)  # rows (u0, v0, u1, ...), as Jp's
     Jw = Jp if weights is None else Jp * np.asarray(weights)[:, None]
     return -np.linalg.solve(Jw.T @ Jp, Jw.T @ Jk)

@@ -7,8 +7,8 @@ import pytest
 
 import graphpose
 from graphpose import Board, InputError, PinholeCamera
-from graphpose.calibrate import camera_parameters, parameter_names
 from graphpose.calibrate import run as calibrate_run
+from graphpose.camera_models import MODELS
 from graphpose.synth.calibration import calibration_set, fisheye_camera, radtan_camera
 from graphpose.synth.render import render
 
@@ -26,10 +26,10 @@ def radtan_calibration(radtan_set):
 
 def test_radtan_calibration_finds_the_camera(radtan_set, radtan_calibration):
     c = radtan_calibration
-    truth = camera_parameters(radtan_set.camera)
+    truth = radtan_set.camera.parameters
     assert c.ok, c.summary
     assert isinstance(c, graphpose.Calibration)
-    assert c.parameter_names == parameter_names("radtan") and c.camera.model == "radtan"
+    assert c.parameter_names == MODELS["radtan"].parameter_names and c.camera.model == "radtan"
     assert c.camera.size == (640, 480)
     np.testing.assert_array_equal(c.camera.covariance, c.cov)
     z = (c.parameters - truth) / c.sigmas
@@ -86,7 +86,7 @@ def test_fisheye_calibration_needs_the_camera_pass():
     views = calibration_set(camera, 10, rng=1)  # four boards are found without a camera
     c = graphpose.calibrate(views.images, model="fisheye")
     assert c.ok, c.summary
-    z = (c.parameters - camera_parameters(camera)) / c.sigmas
+    z = (c.parameters - camera.parameters) / c.sigmas
     assert np.all(np.abs(z) < 3.0), z
     first = [m for m in c.message if m.startswith("board found in pass 1")]
     assert len(first) == 4
@@ -107,7 +107,7 @@ def test_pinhole_calibration():
     views = calibration_set(camera, 6, rng=5)
     c = graphpose.calibrate(views.images, model="pinhole")
     assert c.ok, c.summary and c.camera.model == "pinhole"
-    z = (c.parameters - camera_parameters(camera)) / c.sigmas
+    z = (c.parameters - camera.parameters) / c.sigmas
     assert np.all(np.abs(z) < 3.0), z
 
 

@@ -6,7 +6,6 @@ import pytest
 
 from graphpose import Board
 from graphpose.calibrate import lm
-from graphpose.camera_params import camera_parameters, camera_with_parameters
 from graphpose.geometry import to_camera
 from graphpose.synth.calibration import radtan_camera
 from graphpose.synth.poses import random_pose
@@ -40,7 +39,7 @@ def test_the_stop_does_not_depend_on_the_costs_last_bits(seed, monkeypatch):
     huber_px = 1.345 * NOISE_PX
     best = lm.solve_lm(camera, poses, observations, huber_px)
     assert best.converged and best.message == "converged"
-    p_best = camera_parameters(best.camera)
+    p_best = best.camera.parameters
     sd = np.sqrt(np.diag(np.linalg.inv(best.information)))
     views, _ = lm._evaluate(best.camera, np.concatenate(
         [p_best] + [lm.params_from_T(T) for T in best.poses]), observations, p_best.size)
@@ -50,17 +49,17 @@ def test_the_stop_does_not_depend_on_the_costs_last_bits(seed, monkeypatch):
 
     exact, noise = lm._cost, np.random.default_rng(1)
     monkeypatch.setattr(lm, "_cost", lambda v, h: exact(v, h) * (1.0 + jitter * noise.standard_normal()))
-    start = camera_with_parameters(best.camera, p_best + 1e-4 * sd)
+    start = best.camera.with_parameters(p_best + 1e-4 * sd)
     fit = lm.solve_lm(start, best.poses, observations, huber_px)
     assert fit.converged and fit.message == "converged"
-    assert np.max(np.abs(camera_parameters(fit.camera) - p_best) / sd) < 1e-9
+    assert np.max(np.abs(fit.camera.parameters - p_best) / sd) < 1e-9
 
 
 def test_the_intrinsics_jacobian_is_at_the_kernels_points():
     # _evaluate projects and differentiates the points the pose kernel placed (once): its
     # intrinsics Jacobian matches central differences of the residuals.
     camera, poses, observations = _problem(2)
-    p = camera_parameters(camera)
+    p = camera.parameters
     x = np.concatenate([p] + [lm.params_from_T(T) for T in poses])
     views, _ = lm._evaluate(camera, x, observations, p.size)
     Jp = np.vstack([J for _, J, _ in views])
@@ -69,9 +68,9 @@ def test_the_intrinsics_jacobian_is_at_the_kernels_points():
         up, down = p.copy(), p.copy()
         up[k] += h
         down[k] -= h
-        r_up = np.concatenate([r for r, _, _ in lm._evaluate(camera_with_parameters(camera, up), x, observations,
+        r_up = np.concatenate([r for r, _, _ in lm._evaluate(camera.with_parameters(up), x, observations,
                                                             p.size)[0]])
-        r_down = np.concatenate([r for r, _, _ in lm._evaluate(camera_with_parameters(camera, down), x,
+        r_down = np.concatenate([r for r, _, _ in lm._evaluate(camera.with_parameters(down), x,
                                                               observations, p.size)[0]])
         # r = measured - predicted, so d r / d p = -J.
         np.testing.assert_allclose(-(r_up - r_down) / (2 * h), Jp[:, k], rtol=1e-5, atol=1e-6 * np.abs(Jp[:, k]).max())

@@ -6,7 +6,7 @@ import pytest
 
 from graphpose import read_camera
 from graphpose.camera_models import RadTanCamera
-from graphpose.camera_params import calibration_model, parameter_names
+from graphpose.camera_models import calibration_model
 from graphpose.cli import main
 from graphpose.io.files import write_png
 from graphpose.synth.calibration import calibration_set
@@ -27,7 +27,7 @@ def views(tmp_path_factory):
 def test_calibration_model_names_what_radtan4_holds():
     cls, held = calibration_model("radtan4")
     assert cls is RadTanCamera
-    assert [n for n, h in zip(parameter_names(cls.model), held) if h] == ["k3"]
+    assert [n for n, h in zip(cls.parameter_names, held) if h] == ["k3"]
     assert not np.any(calibration_model("radtan")[1])
 
 

@@ -9,7 +9,6 @@ from graphpose import Board, InputError
 from graphpose.calibrate import lm
 from graphpose.calibrate.uncertainty import (aligned_difference, covariance_from_information, joint_information,
                                              projection_jacobian, projection_uncertainty)
-from graphpose.camera_params import camera_parameters, camera_with_parameters
 from graphpose.geometry import T_from_params, params_from_T, to_camera
 from graphpose.synth.calibration import fisheye_camera, radtan_camera
 from graphpose.synth.poses import random_pose
@@ -33,10 +32,10 @@ def _views(camera, n, rng):
 
 def _chain(camera, poses, b, q, distance):
     """Steps 1-4 with the unknowns b perturbed: the reference the derivative must match."""
-    P = camera_parameters(camera).size
+    P = camera.parameters.size
     v = camera.unproject(q)
     p = v if distance is None else v * distance
-    perturbed = camera_with_parameters(camera, b[:P])
+    perturbed = camera.with_parameters(b[:P])
     acc = 0.0
     for i, T in enumerate(poses):
         T2 = T_from_params(b[P + 6 * i: P + 6 * i + 6])
@@ -54,7 +53,7 @@ def test_the_derivative_matches_finite_differences(camera, distance):
     w, h = camera.size
     q = np.array([[w / 2, 10.0, w - 30.0], [h / 2, 20.0, h - 15.0]])
     J, _ = projection_jacobian(camera, poses, q, distance)
-    b = np.concatenate([camera_parameters(camera)] + [params_from_T(T) for T in poses])
+    b = np.concatenate([camera.parameters] + [params_from_T(T) for T in poses])
     step = np.where(np.arange(b.size) < 4, 1e-4, 1e-7)
     for k in range(b.size):
         db = np.zeros(b.size)
@@ -72,7 +71,7 @@ def test_nees_against_the_aligned_error_is_two():
     w, h = camera.size
     u, v = np.meshgrid(np.linspace(40, w - 40, 5), np.linspace(40, h - 40, 4))
     q = np.stack([u.ravel(), v.ravel()])
-    P = camera_parameters(camera).size
+    P = camera.parameters.size
     obs, poses = _views(camera, 8, rng)
     exact = [(camera.project(to_camera(T, W)), W, i) for T, (_, W, i) in zip(poses, obs)]
     values = {0.6: [], None: []}

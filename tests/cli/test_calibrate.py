@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from graphpose import Board, estimate_pose, read_camera, read_image
-from graphpose.camera_params import camera_parameters, camera_with_parameters
 from graphpose.cli import main
 from graphpose.io.calibration import write_camera
 from graphpose.synth import poses, render
@@ -32,7 +31,7 @@ def raw_view(tmp_path_factory):
     from graphpose.io.files import write_png
 
     write_png(folder / "view.png", scene.image)
-    sized = camera_with_parameters(render_camera(camera), camera_parameters(camera), COV_K)
+    sized = render_camera(camera).with_parameters(camera.parameters, COV_K)
     write_camera(folder / "with.json", sized)
     write_camera(folder / "without.json", render_camera(camera))
     return folder
@@ -104,7 +103,7 @@ def calibrated_run(views, tmp_path_factory):
 
 
 def test_calibrate_writes_the_camera_the_report_and_the_picture(views, calibrated_run):
-    from graphpose.camera_params import parameter_names
+    from graphpose.camera_models import MODELS
 
     folder, truth_set = views
     code, stdout, stderr, out = calibrated_run
@@ -112,7 +111,7 @@ def test_calibrate_writes_the_camera_the_report_and_the_picture(views, calibrate
     report = json.loads((out / "report.json").read_text())
     assert list(report) == REPORT_KEYS
     assert report["model"] == "radtan" and report["size"] == [640, 480]
-    assert list(report["parameters"]) == list(parameter_names("radtan"))
+    assert list(report["parameters"]) == list(MODELS["radtan"].parameter_names)
     images = report["images"]
     assert [list(i) for i in images] == [IMAGE_KEYS] * 7
     assert [i["image"] for i in images] == [str(folder / f"view_{k:02d}.png") for k in range(6)] + [
@@ -132,7 +131,7 @@ def test_calibrate_writes_the_camera_the_report_and_the_picture(views, calibrate
     np.testing.assert_array_equal(camera.K, report["K"])
     np.testing.assert_array_equal(camera.distortion, report["distortion"])
     np.testing.assert_array_equal(camera.covariance, report["covariance"])
-    z = (camera_parameters(camera) - camera_parameters(truth_set.camera)) / np.sqrt(np.diag(camera.covariance))
+    z = (camera.parameters - truth_set.camera.parameters) / np.sqrt(np.diag(camera.covariance))
     assert np.all(np.abs(z) < 3.0), z
     assert (out / "calibration.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # The summary names the images, the figures and the file.

@@ -9,7 +9,6 @@ import pytest
 
 from graphpose import K_from_params
 from graphpose.camera_models import PinholeCamera
-from graphpose.camera_params import camera_parameters, camera_with_parameters
 from graphpose.cli import main
 from graphpose.cli.track_output import JsonStream, TrackSummary, TumStream
 from graphpose.errors import InputError
@@ -88,7 +87,7 @@ def test_records_say_the_kind_of_sigma(tmp_path, capsys):
     assert main(["render-sequence", str(folder), "--frames", "4", "--excursions", "0", "--seed", "2", "-q"]) == 0
     K = np.array(json.loads((folder / "bounds.json").read_text())["K"])
     plain = PinholeCamera(K)
-    camera = camera_with_parameters(plain, camera_parameters(plain), np.diag([0.25, 0.25, 0.16, 0.16]))
+    camera = plain.with_parameters(plain.parameters, np.diag([0.25, 0.25, 0.16, 0.16]))
     write_camera(tmp_path / "camera.json", camera)
     docs = {}
     for name, option in (("plain", ["--K", ",".join(f"{v}" for v in (K[0, 0], K[1, 1], K[0, 2], K[1, 2]))]),

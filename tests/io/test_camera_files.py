@@ -147,22 +147,18 @@ def test_covariance_note_only_where_it_is_lost():
 
 # ---- the covariance: kept by the JSON file -----------------------------------------------
 def _with_covariance(camera, rng):
-    from graphpose.camera_params import camera_parameters, camera_with_parameters, parameter_names
-
-    A = rng.normal(size=(len(parameter_names(camera)),) * 2) * 1e-3
-    return camera_with_parameters(camera, camera_parameters(camera), A @ A.T)
+    A = rng.normal(size=(len(camera.parameter_names),) * 2) * 1e-3
+    return camera.with_parameters(camera.parameters, A @ A.T)
 
 
 @pytest.mark.parametrize("which", ["pinhole", "radtan4", "radtan5", "rational", "fisheye"])
 def test_json_keeps_parameters_and_covariance(tmp_path, which):
-    from graphpose.camera_params import camera_parameters, parameter_names
-
     camera = _with_covariance(CAMERAS[which], np.random.default_rng(3))
     path = tmp_path / "camera.json"
     write_camera(path, camera)
     doc = json.loads(path.read_text())
-    assert list(doc["parameters"]) == list(parameter_names(camera))
-    np.testing.assert_array_equal(list(doc["parameters"].values()), camera_parameters(camera))
+    assert list(doc["parameters"]) == list(camera.parameter_names)
+    np.testing.assert_array_equal(list(doc["parameters"].values()), camera.parameters)
     back = read_camera(path)
     assert back == camera and type(back) is type(camera)
     np.testing.assert_array_equal(back.covariance, camera.covariance)  # repr floats: to the bit

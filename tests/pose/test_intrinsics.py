@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 
 from graphpose import Board, estimate_pose, estimate_pose_from_points
-from graphpose.camera_params import camera_parameters, camera_with_parameters
 from graphpose.geometry import params_from_T, to_camera
 from graphpose.pose.estimate import estimate_pose_unchecked
 from graphpose.pose.gauss_newton import gauss_newton
@@ -32,7 +31,7 @@ COV_K = SIGMAS[:, None] * CORR * SIGMAS[None, :]
 
 
 def calibrated(camera, cov=COV_K):
-    return camera_with_parameters(camera, camera_parameters(camera), cov)
+    return camera.with_parameters(camera.parameters, cov)
 
 
 def pose(rng, camera):
@@ -46,13 +45,13 @@ def test_the_pose_derivative_is_the_solved_poses_central_difference(name):
     T = pose(rng, camera)
     uv = camera.project(to_camera(T, W))  # exact: the minimum for the true intrinsics
     D = pose_intrinsics_jacobian(camera, T, W)
-    k = camera_parameters(camera)
+    k = camera.parameters
     steps = np.where(np.arange(k.size) < 4, 1e-3, 1e-5)
     for i, h in enumerate(steps):
         plus, minus = k.copy(), k.copy()
         plus[i] += h
         minus[i] -= h
-        fits = [gauss_newton(camera_with_parameters(camera, p), T, uv, W).params for p in (plus, minus)]
+        fits = [gauss_newton(camera.with_parameters(p), T, uv, W).params for p in (plus, minus)]
         np.testing.assert_allclose(D[:, i], (fits[0] - fits[1]) / (2 * h), rtol=2e-3,
                                    atol=1e-6 * np.abs(D[:, i]).max(), err_msg=f"{name} parameter {i}")
 
@@ -70,10 +69,10 @@ def test_monte_carlo_pose_errors_match_the_propagated_covariance():
     T = pose(rng, truth)
     true_params = params_from_T(T)
     uv = truth.project(to_camera(T, W))
-    k, L = camera_parameters(truth), np.linalg.cholesky(COV_K)
+    k, L = truth.parameters, np.linalg.cholesky(COV_K)
     errors, covs, pixel_covs = [], [], []
     for _ in range(200):
-        camera = camera_with_parameters(truth, k + L @ rng.normal(size=k.size), COV_K)
+        camera = truth.with_parameters(k + L @ rng.normal(size=k.size), COV_K)
         est = estimate_pose_from_points(camera, uv + rng.normal(0.0, 0.1, uv.shape), W)
         assert est.ok and est.sigma_kind == SIGMA_CALIBRATION
         errors.append(est.params - true_params)
@@ -98,10 +97,10 @@ def test_rendered_image_spread_over_calibration_draws_is_the_calibration_term():
     est0 = estimate_pose(scene.image, None, calibrated(truth), BOARD)
     assert est0.ok and est0.sigma_kind == SIGMA_CALIBRATION
     points, mask = est0.junctions.points, est0.junctions.trusted
-    k, L = camera_parameters(truth), np.linalg.cholesky(COV_K)
+    k, L = truth.parameters, np.linalg.cholesky(COV_K)
     params = []
     for _ in range(1000):  # the full solve, not its linearisation (measured: within 2 % at 2000)
-        camera = camera_with_parameters(truth, k + L @ rng.normal(size=k.size), COV_K)
+        camera = truth.with_parameters(k + L @ rng.normal(size=k.size), COV_K)
         params.append(gauss_newton(camera, est0.T_WC, points, W, mask=mask).params)
     spread = np.cov(np.array(params).T)
     term = est0.cov - est0.cov_pixel

@@ -9,7 +9,6 @@ import pytest
 
 from graphpose import Board, InputError, track_frames, track_sequence
 from graphpose.camera_models import PinholeCamera
-from graphpose.camera_params import camera_parameters, camera_with_parameters
 from graphpose.pose.intrinsics import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
 from graphpose.track.config import MotionPrior
 from graphpose.track.fixed_lag import FixedLagGraph
@@ -92,7 +91,7 @@ def test_a_fixed_lag_without_measurements_holds_only_the_indices(clip, listed):
 
 def test_a_calibrated_camera_widens_every_tracked_pose(clip, listed):
     plain = PinholeCamera(K)
-    camera = camera_with_parameters(plain, camera_parameters(plain), COV_K)
+    camera = plain.with_parameters(plain.parameters, COV_K)
     for smooth, reference in ((False, listed.frames), (True, listed.smoothed)):
         frames = list(track_frames(clip.images, camera, clip.bounds, timestamps=clip.timestamps, smooth=smooth))
         for f, g in zip(frames, reference):
