@@ -7,7 +7,7 @@ imported here only.
 Sections
 --------
 1. Real images (../shared/data/rob501): RMS and median reprojection residual of a pinhole pose
-   (graphpose.pose.gauss_newton.pose_estimate_nls with the known K, from the case guess) fitted to
+   (graphpose.course.pose_estimate_nls with the known K, from the case guess) fitted to
    our 48 junctions, beside the same for OpenCV ``findChessboardCornersSB`` with
    ``CALIB_CB_ACCURACY`` (its corners matched to ours by nearest neighbour).
 2. Synthetic images (graphpose.synth.render, random poses like the real ones, loose polygons,
@@ -51,7 +51,7 @@ def _match(corners, reference):
 def _pose_residuals(K, guess, points, board):
     """Reprojection residual lengths (n,) in pixels of a pinhole pose fitted to ``points``."""
     from graphpose.geometry import project
-    from graphpose.pose.gauss_newton import pose_estimate_nls
+    from graphpose.course import pose_estimate_nls
 
     W = board.world_points()
     T = pose_estimate_nls(K, guess, points, W)

@@ -140,7 +140,7 @@ def _ours(image, camera, board, truth, T):
     """graphpose on one image: a dict of its figures, or of why it failed."""
     from graphpose import estimate_pose
     from graphpose.errors import GraphposeError
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.estimate import pose_difference
 
     try:
         est = estimate_pose(image, None, camera, board)
@@ -161,7 +161,7 @@ def _ours(image, camera, board, truth, T):
 
 
 def _opencv(cv2, image, camera, board, truth, T):
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.estimate import pose_difference
 
     corners = points(opencv_classic(cv2, image, (board.cols, board.rows)))
     if corners is None:
@@ -206,7 +206,7 @@ def _crb(camera, T, board):
     The pose bound is ``inv(J^T Sigma^-1 J)``, with ``Sigma`` each junction's bound (the inverse
     of its Fisher information, in the image's own pixels: raw through the lens, or pinhole) and
     ``J`` the pixels' derivatives with respect to the camera position and a small rotation
-    ``C -> exp(w) C`` (whose angle is ``|w|``, as :func:`graphpose.pose.estimate.pose_difference`
+    ``C -> exp(w) C`` (whose angle is ``|w|``, as :func:`graphpose.estimate.pose_difference`
     measures it): the smallest RMS errors any unbiased estimator of the pose from these junctions
     can reach. The same pixel noise costs more pose where a lens shrinks the board's image.
     """
@@ -375,7 +375,7 @@ def samples(quick):
     from graphpose import Board, estimate_pose
     from graphpose.geometry import to_camera
     from graphpose.errors import GraphposeError
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.estimate import pose_difference
 
     board = Board(9, 6, 0.030)
     W = board.world_points()

@@ -65,7 +65,7 @@ def speed(quick):
     import cv2
 
     from graphpose.geometry import project
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.estimate import pose_difference
     from graphpose.pose.gauss_newton import gauss_newton
     from graphpose.pose.graph import graph_pose
     from graphpose.pose.homography import pose_from_homography
@@ -140,7 +140,7 @@ def speed(quick):
 def real_images():
     """GN-GTSAM agreement and 1-sigma on the six real images; target 01 against the course's pose."""
     from graphpose import estimate_pose, load_cases, read_image
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.estimate import pose_difference
 
     cf = load_cases(DATA / "cases.json")
     rows, ref = [], None
@@ -203,7 +203,7 @@ def synthetic(quick):
 
     from graphpose import estimate_pose
     from graphpose.errors import GraphposeError
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.estimate import pose_difference
     from graphpose.synth.information import junction_information
     from graphpose.synth.poses import loose_polygon, random_pose
     from graphpose.synth.render import render
@@ -300,7 +300,7 @@ def basin(quick):
     from graphpose import Board, gauss_newton, pose_from_homography
     from graphpose.geometry import project
     from graphpose.errors import InputError
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.estimate import pose_difference
     from graphpose.synth.poses import perturb_pose, random_pose
 
     n = 200 if quick else 1000

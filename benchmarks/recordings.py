@@ -290,7 +290,7 @@ def calibration(cv2, tmp, quick):
 
     from graphpose import Board
     from graphpose.calibrate import calibrate
-    from graphpose.io.calibration import read_camera
+    from graphpose.io.cameras import read_camera
     from graphpose.io.sources import open_frames
     from graphpose.synth.calibration import radtan_camera
     from graphpose.synth.clip import calibration_clip

@@ -53,8 +53,8 @@ from graphpose.detect.find import find_board
 from graphpose.detect.junctions import extract_junctions
 from graphpose.image import read_image
 from graphpose.io.files import encode_png
-from graphpose.pipeline import estimate_pose
-from graphpose.pose.estimate import fit_pose
+from graphpose.estimate import estimate_pose
+from graphpose.estimate import fit_pose
 from graphpose.pose.graph import graph_pose, graph_pose_unchecked
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render

@@ -6,9 +6,9 @@ Data flows one way, one subpackage per step:
 - :mod:`graphpose.detect` finds the cross-junctions (coarse grid, then the saddle fit of
   Lucchese & Mitra in :mod:`graphpose.detect.saddle`);
 - :mod:`graphpose.pose` solves for the pose twice, by Gauss-Newton and by a GTSAM factor
-  graph, and holds the two against each other (:func:`graphpose.pose.estimate.estimate_pose_from_points`);
-- :mod:`graphpose.pipeline` joins the two: image to cross-checked pose
-  (:func:`graphpose.pipeline.estimate_pose`);
+  graph, and holds the two against each other (:func:`graphpose.estimate.estimate_pose_from_points`);
+- :mod:`graphpose.estimate` joins the two: image to cross-checked pose
+  (:func:`graphpose.estimate.estimate_pose`);
 - :mod:`graphpose.calibrate` finds a camera's intrinsics, lens and their covariance from
   images of the board;
 - :mod:`graphpose.track` follows the camera over a sequence with GTSAM's fixed-lag smoother;
@@ -59,8 +59,8 @@ _EXPORTS = {
     "Rig": "rig",
     "estimate_rig_pose": "pipeline_rig",
     "RigPoseEstimate": "pose.rig",
-    "read_camera": "io.calibration",
-    "write_camera": "io.calibration",
+    "read_camera": "io.cameras",
+    "write_camera": "io.cameras",
     "check_K": "_checks",
     "check_transform": "_checks",
     "as_grey": "image",
@@ -70,22 +70,22 @@ _EXPORTS = {
     "estimate_many": "batch",
     "SaddleFit": "detect.saddle",
     "fit_saddles": "detect.saddle",
-    "saddle_point": "detect.saddle",
+    "saddle_point": "course",
     "Junctions": "detect.junctions",
-    "cross_junctions": "detect.junctions",
+    "cross_junctions": "course",
     "extract_junctions": "detect.junctions",
     "refine_junctions": "detect.refine",
     "pose_from_homography": "pose.homography",
     "GNResult": "pose.gauss_newton",
-    "find_jacobian": "pose.gauss_newton",
+    "find_jacobian": "course",
     "gauss_newton": "pose.gauss_newton",
-    "pose_estimate_nls": "pose.gauss_newton",
+    "pose_estimate_nls": "course",
     "GraphResult": "pose.graph",
     "graph_pose": "pose.graph",
-    "CrossCheck": "pose.estimate",
-    "PoseEstimate": "pose.estimate",
-    "estimate_pose": "pipeline",
-    "estimate_pose_from_points": "pose.estimate",
+    "CrossCheck": "pose.cross_check",
+    "PoseEstimate": "estimate",
+    "estimate_pose": "estimate",
+    "estimate_pose_from_points": "estimate",
     "TumTrajectory": "io.tum",
     "read_tum": "io.tum",
     "write_tum": "io.tum",

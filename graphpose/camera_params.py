@@ -3,7 +3,7 @@
 It sits beside the camera models (:mod:`graphpose.camera_models`), below everything that uses a
 calibration's uncertainty: the calibration (:mod:`graphpose.calibrate`, which re-exports these
 functions), the camera files' ``parameters`` and ``covariance`` (:mod:`graphpose.io`), and the
-pose covariance that includes the calibration's (:mod:`graphpose.pose.intrinsics`). Parameter vectors are in OpenCV's order, pixels and unitless:
+pose covariance that includes the calibration's (:mod:`graphpose.pose.covariance`). Parameter vectors are in OpenCV's order, pixels and unitless:
 
 =========  ==================================================
 model      parameters

@@ -14,7 +14,7 @@ import pytest
 import graphpose
 from graphpose.image import read_image
 from graphpose.io.cases import bundled_cases_path, load_cases
-from graphpose.pipeline import estimate_pose
+from graphpose.estimate import estimate_pose
 
 CHECKS = ("check_observations", "check_K", "check_transform", "check_image", "check_image_size")
 
@@ -48,13 +48,13 @@ def _count(monkeypatch):
 def test_every_holder_of_the_checks_is_wrapped(monkeypatch):
     # The counting reaches the checks' own modules and their importers (a rename or a new
     # holder would otherwise escape the count).
-    import graphpose.pose.estimate  # noqa: F401  (loads the pose modules)
+    import graphpose.estimate  # noqa: F401  (loads the pose modules)
     import graphpose.pose.graph  # noqa: F401
 
     _count(monkeypatch)
     wrapped = {m.__name__ for m in sys.modules.values() if getattr(m, "__name__", "").startswith("graphpose")
                and getattr(m.__dict__.get("check_observations"), "__name__", "") == "counting"}
-    assert {"graphpose.observations", "graphpose.pose.estimate"} <= wrapped, wrapped
+    assert {"graphpose.observations", "graphpose.estimate"} <= wrapped, wrapped
 
 
 @pytest.mark.parametrize("with_guess", [True, False], ids=["guess", "homography start"])

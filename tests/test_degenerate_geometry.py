@@ -8,7 +8,7 @@ from graphpose import DegenerateGeometryError, GraphposeError, InputError, T_fro
 from graphpose.camera_models import RadTanCamera
 from graphpose.cli import EXIT_FAILED, exit_code, main
 from graphpose.geometry import homography_dlt, project
-from graphpose.pose.estimate import estimate_pose_from_points
+from graphpose.estimate import estimate_pose_from_points
 from graphpose.pose.homography import pose_from_homography
 from tests.conftest import BOARD_WPTS as W
 from tests.conftest import PROJECT_K as K

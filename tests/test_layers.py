@@ -4,8 +4,8 @@ Every import of a graphpose module by another, at the top of a file or inside a 
 lazy import is still a dependency), is read from the source with ``ast``. A module may import
 from its own layer's group and from the layers below it, never from a layer above; two groups of
 one layer may not import each other. The package's facade (``graphpose/__init__.py``) imports
-its errors only and loads every other name on first use, so it sits low; ``__main__`` and the
-old top-level ``saddle`` module sit above everything.
+its errors only and loads every other name on first use, so it sits low; ``__main__``, the
+course's starter functions and the deprecated module names sit above everything.
 """
 
 from __future__ import annotations
@@ -32,11 +32,12 @@ LAYERS = (
     ("observations", "io"),
     # Junctions from an image, and a pose from points, know nothing of each other.
     ("detect", "pose", "synth"),
-    ("pipeline", "pipeline_rig"),
+    ("estimate", "pipeline_rig"),
     ("io.records",),
     ("calibrate", "track", "batch", "viz"),
     ("cli",),
-    ("saddle", "__main__"),
+    # The course's starter functions (on detect and pose), the deprecated module names.
+    ("__main__", "course", "pipeline", "pose.estimate"),
 )
 
 

@@ -47,7 +47,7 @@ def add_estimate_options(p) -> None:
 
 def rig_from_file(path, option: str = "--camera"):
     """The :class:`graphpose.rig.Rig` of a rig file, or a UsageError saying it holds one camera."""
-    from ..io.calibration import read_camera
+    from ..io.cameras import read_camera
     from ..rig import Rig
 
     if path is None:
@@ -70,7 +70,7 @@ def rig_from_file(path, option: str = "--camera"):
 def run_calibrate(args) -> int:
     """``graphpose calibrate --rig ...``; returns the exit code."""
     from ..calibrate.rig import calibrate_rig
-    from ..io.calibration import write_camera
+    from ..io.cameras import write_camera
     from ..io.files import dumps_json, write_json
     from ..io.rig_files import RIG_FORMATS
     from .calibrate import CalibrationFailed, _check_outputs

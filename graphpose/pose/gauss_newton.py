@@ -7,7 +7,7 @@ The cost is the sum of squared reprojection errors (pixels) over the trusted jun
 with ``theta = (x, y, z, roll, pitch, yaw)`` as in :mod:`graphpose.geometry` and ``pi`` the
 camera's projection (:mod:`graphpose.camera_models`: a pinhole ``K``, or a model with lens
 distortion, so that raw image points are fitted as they are). Each step solves the 6 x 6
-normal equations with the exact analytic Jacobian (:func:`find_jacobian`,
+normal equations with the exact analytic Jacobian (:func:`graphpose.course.find_jacobian`,
 :func:`projection_jacobians`): the pose's derivative of the camera-frame point, chained
 with the camera's ``d uv / d p_C`` (:meth:`graphpose.camera_models.Camera.project_jacobian`). Step control is Levenberg-Marquardt damping: the plain
 Gauss-Newton step is tried first and, when it raises the cost or puts a point behind the
@@ -29,7 +29,6 @@ import numpy as np
 
 from .._checks import (
     MIN_DEPTH,
-    as_float_array,
     as_points,
     check_in_front,
     check_number,
@@ -38,7 +37,6 @@ from .._checks import (
 from ..observations import check_observations
 from ..geometry import T_from_params, params_from_T
 from ..camera_models import PinholeCamera, as_camera
-from ..errors import ConvergenceError, InputError
 from ._gauss_newton import camera_points, chain_jacobians, pinhole_normal_equations, pinhole_residuals
 
 #: Default iteration cap (damped and undamped steps both count).
@@ -97,37 +95,6 @@ class GNResult:
     cov: np.ndarray
     mask: np.ndarray
     message: str
-
-
-def find_jacobian(K, Twc, Wpt) -> np.ndarray:
-    """Jacobian of one target point's image projection with respect to the pose parameters.
-
-    Parameters
-    ----------
-    K : (3, 3) array_like or Camera
-        Intrinsics, pixels (or a camera model, :mod:`graphpose.camera_models`).
-    Twc : (4, 4) array_like
-        Camera pose in the target frame.
-    Wpt : (3, 1) or (3,) array_like
-        The target point, metres.
-
-    Returns
-    -------
-    J : (2, 6) ndarray
-        ``d(u, v) / d(x, y, z, roll, pitch, yaw)``, pixels per metre and pixels per radian.
-
-    Raises
-    ------
-    InputError
-        If an argument is malformed or the point is not in front of the camera.
-    """
-    camera = as_camera(K)
-    T = check_transform(Twc, "Twc")
-    W = as_float_array(Wpt, "Wpt")
-    W = as_points(W[:, None] if W.shape == (3,) else W, 3, "Wpt")
-    if W.shape[1] != 1:
-        raise InputError(f"Wpt must be a single point (3, 1), got {W.shape[1]} points")
-    return projection_jacobians(camera, T, W)
 
 
 def projection_jacobians(camera, T_WC, Wpts) -> np.ndarray:
@@ -430,38 +397,3 @@ def _result(camera, p, I, W, mask, huber_px, pixel_sigma, H, r, chi2, converged,
         mask=mask.copy(),
         message=message,
     )
-
-
-def pose_estimate_nls(K, Twcg, Ipts, Wpts) -> np.ndarray:
-    """Camera pose T_WC by Gauss-Newton from the guess ``Twcg``, using every point.
-
-    Parameters
-    ----------
-    K : (3, 3) array_like or Camera
-        Intrinsics, pixels (or a camera model, :mod:`graphpose.camera_models`).
-    Twcg : (4, 4) array_like
-        Initial guess of T_WC.
-    Ipts : (2, n) array_like
-        Observed image points (u, v), pixels; n >= 4.
-    Wpts : (3, n) array_like
-        Matching target points, metres.
-
-    Returns
-    -------
-    Twc : (4, 4) ndarray
-        The refined pose.
-
-    Raises
-    ------
-    InputError
-        On malformed input (see :func:`gauss_newton`).
-    ConvergenceError
-        If the iterations do not converge.
-    """
-    result = gauss_newton(K, Twcg, Ipts, Wpts, max_iterations=MAX_ITERATIONS)
-    if not result.converged:
-        raise ConvergenceError(
-            f"Gauss-Newton did not converge after {result.iterations} iterations: {result.message} "
-            f"(residual RMS {result.residual_rms_px:.3g} px)"
-        )
-    return result.T_WC

@@ -169,7 +169,7 @@ def graph_pose(camera, T_WC_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, r
         Huber threshold in sigmas.
     from_minimum : bool
         ``T_WC_guess`` is a converged minimum of the same cost (Gauss-Newton's answer, as
-        :func:`graphpose.pose.estimate.estimate_pose_from_points` passes it): the undamped
+        :func:`graphpose.estimate.estimate_pose_from_points` passes it): the undamped
         steps alone confirm it, without Levenberg-Marquardt (``iterations`` is then 0); where
         they do not converge from it, Levenberg-Marquardt runs from it as without the flag.
         The answer is GTSAM's either way.

@@ -7,12 +7,12 @@ pose in the target frame, ``T_WC0``, from every camera's junctions at once: a ju
 A camera that does not see the board (a blank image, or None) gives nothing and the others go
 on; at least one must see it.
 
-Two solvers, as for one camera (:mod:`graphpose.pose.estimate`): Gauss-Newton on
+Two solvers, as for one camera (:mod:`graphpose.estimate`): Gauss-Newton on
 ``(x, y, z, roll, pitch, yaw)`` with the analytic Jacobian (:func:`rig_points`), then GTSAM's
 Levenberg-Marquardt over one ``Pose3`` with one custom factor per camera, started from
 Gauss-Newton's answer; they must agree to
-:data:`~graphpose.pose.estimate.AGREE_TRANSLATION_M` and
-:data:`~graphpose.pose.estimate.AGREE_ROTATION_DEG`. The start is the homography pose of the
+:data:`~graphpose.pose.cross_check.AGREE_TRANSLATION_M` and
+:data:`~graphpose.pose.cross_check.AGREE_ROTATION_DEG`. The start is the homography pose of the
 camera that sees most junctions, carried to camera 0. The covariance is ``sigma^2 (J^T W
 J)^-1`` with the pixel noise ``sigma`` from the residuals, ``sqrt(sum w r^2 / (2M - 6))``
 (GTSAM's marginal at that sigma is the same to the cross-check's precision); the rig's own
@@ -32,7 +32,7 @@ import numpy as np
 from ..board import Board, check_board
 from ..errors import BoardNotFoundError, InputError
 from ..geometry import T_from_params, hat, params_from_T, pose_difference, rot_x, rot_y, rot_z
-from .estimate import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck
+from .cross_check import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck
 from .gauss_newton import _weights
 from .graph import HUBER_K, params_cov_from_tangent
 

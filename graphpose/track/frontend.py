@@ -13,7 +13,7 @@ projection through the sequence's camera, :mod:`graphpose.camera_models`, on the
    drop the untrusted fits and the fits that wandered more than ``gate_px`` from their
    prediction.
 3. **Fit** the frame's own pose with the single-image pipeline's fit,
-   :func:`graphpose.pose.estimate.fit_pose`: from the prediction, Gauss-Newton and, with
+   :func:`graphpose.estimate.fit_pose`: from the prediction, Gauss-Newton and, with
    ``robust``, its Huber gate on outlying junctions. Its input checks are not repeated: the
    junctions are the refinement's (finite), the start the prediction (rigid), and the frame
    itself was checked once, at the tracker's edge.
@@ -58,7 +58,7 @@ from ..detect.search import median
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 # fit_pose without its input checks: the front end's junctions and poses are its own, made
 # finite and rigid here (the public fit's checks were a tenth of a tracked frame's front end).
-from ..pose.estimate import fit_pose_unchecked
+from ..estimate import fit_pose_unchecked
 from .config import TrackerConfig
 from .results import DETECTED, LOST, TRACKED
 
@@ -76,7 +76,7 @@ class Measurement:
     ids : (m,) ndarray of int or None
         Their board indices (row-major).
     fit : GNResult or None
-        The frame's own pose fit of those junctions (:func:`graphpose.pose.estimate.fit_pose`).
+        The frame's own pose fit of those junctions (:func:`graphpose.estimate.fit_pose`).
     message : str
         Why the frame was lost, or why it fell back to extraction; empty otherwise.
     """

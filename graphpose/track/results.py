@@ -3,7 +3,7 @@ and the back end's :class:`BackendResult` for one frame.
 
 Poses are ``T_WC`` (camera in the target frame) and covariances are those of the pose
 parameters ``(x, y, z, roll, pitch, yaw)`` of :mod:`graphpose.geometry` (metres, radians), like
-:class:`graphpose.pose.estimate.PoseEstimate`. A lost frame carries no pose.
+:class:`graphpose.estimate.PoseEstimate`. A lost frame carries no pose.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..pose.intrinsics import SIGMA_PIXEL
+from ..pose.covariance import SIGMA_PIXEL
 
 #: Frame statuses: followed from the previous frame's prediction, found by full extraction,
 #: or without a usable board.
@@ -77,7 +77,7 @@ class FrameResult:
         The covariance from the pixel noise alone (the intrinsics taken as exact): the same
         as ``cov`` for a camera without a covariance, None when lost.
     sigma_kind : str
-        What ``cov`` describes, as :attr:`graphpose.pose.estimate.PoseEstimate.sigma_kind`:
+        What ``cov`` describes, as :attr:`graphpose.estimate.PoseEstimate.sigma_kind`:
         ``"pixel noise"``, or ``"pixel noise and calibration"`` for a camera that carries
         its intrinsics' covariance (:mod:`graphpose.track.uncertainty`: first order, per
         frame; the calibration's error is common to every frame).

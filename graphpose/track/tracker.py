@@ -14,7 +14,7 @@ cannot be read, is lost: it gets no pose, and no motion factor spans it. At the 
 sequence can be smoothed in batch. Each frame's result is given as soon as it is final and
 kept by nobody but the caller (:func:`track_frames`); smoothing keeps only the measurements.
 
-Inputs are checked once, here, as :func:`graphpose.pipeline.estimate_pose` checks them
+Inputs are checked once, here, as :func:`graphpose.estimate.estimate_pose` checks them
 (:func:`graphpose._checks.check_bounds` for the bounds and every per-frame polygon, and
 :func:`graphpose.camera_models.check_image_size` for every frame against the camera's calibration).
 One camera (:mod:`graphpose.camera_models`) serves the whole chain: the front end's predictions,

@@ -49,9 +49,9 @@ def draw_overlay(image, estimate, camera, board: Board = Board(), *, bounds=None
         The image the estimate came from (any dtype :func:`graphpose.image.as_grey` takes),
         raw as the camera took it.
     estimate : PoseEstimate
-        Result of :func:`graphpose.pipeline.estimate_pose`; uses ``T_WC``, ``params``,
+        Result of :func:`graphpose.estimate.estimate_pose`; uses ``T_WC``, ``params``,
         ``mask`` (the trusted junctions), ``junctions.points`` (none are marked when
-        ``junctions`` is None, as from :func:`~graphpose.pose.estimate.estimate_pose_from_points`),
+        ``junctions`` is None, as from :func:`~graphpose.estimate.estimate_pose_from_points`),
         ``reprojection_rms_px``, ``converged``, ``cross_check.agree`` and, when present,
         ``orientation_ambiguous``.
     camera : Camera or (3, 3) array_like

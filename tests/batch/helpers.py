@@ -3,7 +3,7 @@ of subprocesses on 127.0.0.1 that is always stopped.
 
 The image set renders a few 320 x 240 images (the bundled K scaled by a half) and names each
 many times through symbolic links, so that 200 paths, each its own row, cost a dozen renders;
-the expected result of every distinct file comes from :func:`graphpose.pipeline.estimate_pose`
+the expected result of every distinct file comes from :func:`graphpose.estimate.estimate_pose`
 in this process, the single-image path the batch must reproduce: to within 1e-12 (see
 :func:`assert_same_pose`), not bit for bit, since a worker's BLAS may run another thread count
 or kernel than this process's and change the last bits.
@@ -26,7 +26,7 @@ import numpy as np
 from graphpose import Board
 from graphpose.image import read_image
 from graphpose.io.cases import bundled_cases
-from graphpose.pipeline import estimate_pose
+from graphpose.estimate import estimate_pose
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
 

@@ -14,7 +14,7 @@ from graphpose import Board
 from graphpose.batch import read_results
 from graphpose.cli import main
 from graphpose.image import read_image
-from graphpose.pipeline import estimate_pose
+from graphpose.estimate import estimate_pose
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
 from tests.batch.helpers import SIZE, assert_same_pose, half_K

@@ -12,7 +12,7 @@ import pytest
 from graphpose import Board, estimate_pose, read_camera, read_image
 from graphpose.camera_params import camera_parameters, camera_with_parameters
 from graphpose.cli import main
-from graphpose.io.calibration import write_camera
+from graphpose.io.cameras import write_camera
 from graphpose.synth import poses, render
 from tests.conftest import LENS_CAMERAS
 from tests.pose.test_intrinsics import COV_K

@@ -22,9 +22,9 @@ from graphpose import Board, estimate_pose, load_cases, read_camera, read_image
 from graphpose.cli import main
 from graphpose.cli.options import Progress, parse_bounds, parse_K, parse_positive
 from graphpose.io.records import POSE_KEYS
-from graphpose.io.calibration import write_camera
+from graphpose.io.cameras import write_camera
 from graphpose.io.files import encode_png
-from graphpose.pose.estimate import pose_difference
+from graphpose.estimate import pose_difference
 from tests.conftest import REPO, opencv_file, real_file
 
 BUNDLED = REPO / "graphpose" / "data" / "cases.json"
@@ -268,7 +268,7 @@ def test_no_convergence_exits_1(bundled, tmp_path, monkeypatch, capsys):
     # must say so, with exit code 1, no report, a JSON record and the picture.
     import functools
 
-    from graphpose.pose import estimate as pipeline
+    from graphpose import estimate as pipeline
 
     monkeypatch.setattr(pipeline, "gauss_newton_unchecked", functools.partial(pipeline.gauss_newton_unchecked, max_iterations=1))
     case = bundled.cases[0]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from graphpose import Board, BoardNotFoundError, extract_junctions, read_image
-from graphpose.io.calibration import read_camera
+from graphpose.io.cameras import read_camera
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
 from tests.conftest import PROJECT_K as K

@@ -13,7 +13,7 @@ from graphpose import (
     refine_junctions,
 )
 from graphpose.geometry import project
-from graphpose.pose.gauss_newton import pose_estimate_nls
+from graphpose.course import pose_estimate_nls
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
 from tests.conftest import PROJECT_K as K
@@ -328,7 +328,7 @@ def test_a_partly_covered_raw_image_keeps_its_labels_through_the_lens():
     from skimage.draw import disk
 
     from graphpose.image import read_image
-    from graphpose.io.calibration import read_camera
+    from graphpose.io.cameras import read_camera
     from tests.conftest import OPENCV_DIR as folder
     from tests.conftest import opencv_file
 

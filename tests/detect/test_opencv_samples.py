@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from graphpose import Board, estimate_pose, extract_junctions, read_image
-from graphpose.io.calibration import read_camera
-from graphpose.pose.estimate import pose_difference
+from graphpose.io.cameras import read_camera
+from graphpose.estimate import pose_difference
 from tests.conftest import OPENCV_DIR as FOLDER
 
 BOARD = Board(9, 6, 0.03)

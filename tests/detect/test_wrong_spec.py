@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from graphpose import Board, BoardMismatchError, BoardNotFoundError, extract_junctions, read_image
-from graphpose.io.calibration import read_camera
+from graphpose.io.cameras import read_camera
 from graphpose.synth.degrade import jpeg_roundtrip
 from graphpose.synth.render import render
 from tests.conftest import OPENCV_DIR, opencv_file

@@ -37,7 +37,7 @@ def test_result_record_of_a_failure_and_of_an_estimate():
 
 def test_an_estimate_from_points_has_no_junctions_to_write_or_report():
     from graphpose.cli.estimate import format_report
-    from graphpose.pose.estimate import estimate_pose_from_points
+    from graphpose.estimate import estimate_pose_from_points
 
     K, W = PROJECT_K, BOARD_WPTS
     T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
@@ -60,7 +60,7 @@ def test_an_orientation_ambiguous_estimate_says_so_in_record_and_report():
     import dataclasses
 
     from graphpose.cli.estimate import ORIENTATION_AMBIGUOUS, format_report
-    from graphpose.pose.estimate import estimate_pose_from_points
+    from graphpose.estimate import estimate_pose_from_points
 
     K, W = PROJECT_K, BOARD_WPTS
     T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])

@@ -13,8 +13,8 @@ from graphpose import (
     read_image,
 )
 from graphpose.geometry import T_from_params, params_from_T, project, to_camera
-from graphpose.pipeline import estimate_pose
-from graphpose.pose.estimate import (
+from graphpose.estimate import estimate_pose
+from graphpose.estimate import (
     AGREE_ROTATION_DEG,
     AGREE_TRANSLATION_M,
     CrossCheck,
@@ -160,7 +160,7 @@ def test_robust_estimates_converge_and_solvers_agree():
 def test_solvers_minimising_different_robust_costs_disagree(monkeypatch):
     # The cross-check must still catch a real difference: GTSAM given twice the Huber threshold
     # minimises another cost, whose minimum, with an outlier, lies elsewhere.
-    from graphpose.pose import estimate as pipeline
+    from graphpose import estimate as pipeline
 
     monkeypatch.setattr(pipeline, "graph_pose_unchecked", functools.partial(pipeline.graph_pose_unchecked, huber_k=2 * HUBER_K))
     rng = np.random.default_rng(5)
@@ -180,7 +180,7 @@ def test_gtsam_started_at_a_wrong_gauss_newton_answer_moves_off_it(monkeypatch):
     # the cross-check: GTSAM descends its own cost away from that answer.
     import dataclasses
 
-    from graphpose.pose import estimate as pipeline
+    from graphpose import estimate as pipeline
 
     def off(*args, **kwargs):
         gn = pipeline.gauss_newton_unchecked(*args, **kwargs)
@@ -394,7 +394,7 @@ def test_without_bounds_a_symmetric_board_is_orientation_ambiguous(real_cases, r
 def _fake_extraction(monkeypatch, points, trusted, ambiguous=False):
     """extract_junctions replaced, where the pipeline calls it, by one returning these junctions
     (seen where finite)."""
-    from graphpose import pipeline
+    from graphpose import estimate as pipeline
     from graphpose.detect import junctions as module
 
     seen = np.all(np.isfinite(points), axis=0)

@@ -7,7 +7,7 @@ from graphpose import InputError
 from graphpose.camera_models import as_camera
 from graphpose.geometry import T_from_params, params_from_T, project, to_camera
 from graphpose.io.cases import bundled_cases
-from graphpose.pose.estimate import (
+from graphpose.estimate import (
     AGREE_ROTATION_DEG,
     AGREE_TRANSLATION_M,
     estimate_pose_from_points,

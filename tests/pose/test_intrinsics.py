@@ -6,9 +6,9 @@ import pytest
 from graphpose import Board, estimate_pose, estimate_pose_from_points
 from graphpose.camera_params import camera_parameters, camera_with_parameters
 from graphpose.geometry import params_from_T, to_camera
-from graphpose.pose.estimate import estimate_pose_unchecked
+from graphpose.estimate import estimate_pose_unchecked
 from graphpose.pose.gauss_newton import gauss_newton
-from graphpose.pose.intrinsics import (
+from graphpose.pose.covariance import (
     SIGMA_CALIBRATION,
     SIGMA_PIXEL,
     pose_cov_with_intrinsics,
@@ -149,7 +149,7 @@ def test_robust_fit_propagates_with_its_weights():
 
 
 def test_a_propagation_that_cannot_be_solved_is_nan_not_a_crash(monkeypatch):
-    import graphpose.pose.estimate as estimate_module
+    import graphpose.estimate as estimate_module
 
     camera = calibrated(LENS_CAMERAS["radtan"])
     rng = np.random.default_rng(6)

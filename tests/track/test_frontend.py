@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from graphpose import Board, InputError, T_from_params, track_sequence
-from graphpose.pose.estimate import fit_pose
+from graphpose.estimate import fit_pose
 from graphpose.synth.sequence import render_sequence
 from graphpose.track import frontend
 from graphpose.track.config import TrackerConfig
@@ -78,7 +78,7 @@ def test_input_errors_of_the_junction_and_pose_code_fail_the_attempt_not_the_seq
     assert all("track failed: degenerate" in f.message for f in track.frames[1:])
     # The single-image fit failing from the homography start: every attempt fails, every
     # frame is lost, and says why.
-    monkeypatch.setattr("graphpose.pose.estimate.pose_from_homography_unchecked", refuse)
+    monkeypatch.setattr("graphpose.estimate.pose_from_homography_unchecked", refuse)
     track = track_sequence(track_clip.images[:2], K, track_clip.bounds)
     assert list(track.status) == [LOST, LOST]
     assert all("pose fit failed: degenerate" in f.message for f in track.frames)

@@ -10,7 +10,7 @@ import pytest
 from graphpose import Board, InputError, track_frames, track_sequence
 from graphpose.camera_models import PinholeCamera
 from graphpose.camera_params import camera_parameters, camera_with_parameters
-from graphpose.pose.intrinsics import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
+from graphpose.pose.covariance import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
 from graphpose.track.config import MotionPrior
 from graphpose.track.fixed_lag import FixedLagGraph
 from graphpose.track.results import LOST, FrameResult

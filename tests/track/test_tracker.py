@@ -15,7 +15,7 @@ from graphpose import (
     track_sequence,
 )
 from graphpose.io.files import write_png
-from graphpose.pose.estimate import pose_difference
+from graphpose.estimate import pose_difference
 from graphpose.track import frontend
 from graphpose.track.config import MotionPrior, TrackerConfig
 from graphpose.track.frontend import board_symmetries

@@ -1,13 +1,20 @@
-"""From correspondences to a cross-checked camera pose with uncertainty.
+"""A cross-checked camera pose with uncertainty: from an image, or from correspondences.
 
-:func:`estimate_pose_from_points` runs the chain from 2-D/3-D correspondences (the image's
-cross-junctions, for :func:`graphpose.pipeline.estimate_pose`): a
+:func:`estimate_pose` is the one function that knows both steps: the junctions
+(:func:`graphpose.detect.junctions.extract_junctions`: the board found, labelled and refined)
+and the pose from the trusted ones. The detector knows nothing of poses and the solvers nothing
+of images; this module, above both, joins them, and checks its inputs once, at its edge, before
+the slow step.
+
+:func:`estimate_pose_from_points`, beside it, runs the pose's chain from 2-D/3-D
+correspondences (the image's cross-junctions, for :func:`estimate_pose`): a
 start (the caller's guess, or the homography initialiser of :mod:`graphpose.pose.homography`),
 Gauss-Newton (:mod:`graphpose.pose.gauss_newton`) and then the GTSAM factor graph
 (:mod:`graphpose.pose.graph`), started from Gauss-Newton's answer. The two solvers minimise the
 same cost, so GTSAM must stay at that answer: their poses must agree to
-:data:`AGREE_TRANSLATION_M` and :data:`AGREE_ROTATION_DEG`; the difference is always reported
-in :class:`CrossCheck`, and a larger one makes ``agree`` False.
+:data:`~graphpose.pose.cross_check.AGREE_TRANSLATION_M` and
+:data:`~graphpose.pose.cross_check.AGREE_ROTATION_DEG`; the difference is always reported
+in :class:`~graphpose.pose.cross_check.CrossCheck`, and a larger one makes ``agree`` False.
 
 The camera is a :mod:`graphpose.camera_models` object (or a pinhole ``K``): with lens distortion the
 junctions are found on the raw image and both solvers fit the raw pixels through the lens
@@ -22,52 +29,33 @@ rather than returning the worse pose as if it were right.
 
 A camera that carries the covariance of its intrinsics (a calibration file written by
 ``graphpose calibrate``) adds that uncertainty to the pose's covariance
-(:mod:`graphpose.pose.intrinsics`); the pixel-noise-only covariance stays in ``cov_pixel``.
+(:mod:`graphpose.pose.covariance`); the pixel-noise-only covariance stays in ``cov_pixel``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import dataclasses
 
 import numpy as np
 
-from .._checks import check_transform
-from ..errors import DegenerateGeometryError, InputError
-from ..geometry import pose_difference, to_camera  # pose_difference: re-exported, public here too
-from ..observations import check_observations
-from .gauss_newton import GNResult, gauss_newton_unchecked, huber_weights, reprojection_cost
-from .graph import HUBER_K, GraphResult, graph_pose_unchecked
-from .homography import on_target_plane, pose_from_homography_unchecked
-from .intrinsics import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
+from ._checks import check_transform
+from .board import Board, check_board
+from .camera_models import as_camera
+from .detect.junctions import extract_junctions
+from .errors import BoardNotFoundError, DegenerateGeometryError, InputError
+from .geometry import pose_difference, to_camera  # pose_difference: re-exported, public here too
+from .observations import MIN_JUNCTIONS, check_observations
+from .pose.covariance import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
+from .pose.cross_check import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck, cross_check  # noqa: F401  (re-exported)
+from .pose.gauss_newton import GNResult, gauss_newton_unchecked, huber_weights, reprojection_cost
+from .pose.graph import HUBER_K, GraphResult, graph_pose_unchecked
+from .pose.homography import on_target_plane, pose_from_homography_unchecked
 
-#: GN and the graph must agree this closely (metres, degrees): the same cost, two solvers.
-AGREE_TRANSLATION_M = 1e-6
-AGREE_ROTATION_DEG = 1e-5
 #: A minimum counts as clearly worse when its cost exceeds the other's by this fraction.
 _COST_MARGIN = 1e-6
 
 
-@dataclass(frozen=True)
-class CrossCheck:
-    """Difference between the Gauss-Newton and the GTSAM poses.
-
-    Attributes
-    ----------
-    translation_m : float
-        Distance between the two camera positions, metres.
-    rotation_deg : float
-        Angle of the relative rotation, degrees.
-    agree : bool
-        Both solvers converged and the differences are within :data:`AGREE_TRANSLATION_M`
-        and :data:`AGREE_ROTATION_DEG`.
-    """
-
-    translation_m: float
-    rotation_deg: float
-    agree: bool
-
-
-@dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True)
 class PoseEstimate:
     """A camera pose with its uncertainty and the evidence behind it.
 
@@ -80,7 +68,7 @@ class PoseEstimate:
     cov : (6, 6) ndarray
         Covariance of ``params`` (m, rad): ``cov_pixel``, plus, when the camera carries the
         covariance of its intrinsics (a calibration's), that covariance carried into the
-        pose to first order (:mod:`graphpose.pose.intrinsics`); ``sigma_kind`` says which.
+        pose to first order (:mod:`graphpose.pose.covariance`); ``sigma_kind`` says which.
     sigma_xyz_m : (3,) ndarray
         1-sigma of x, y, z, metres (from ``cov``).
     sigma_rpy_rad : (3,) ndarray
@@ -125,8 +113,8 @@ class PoseEstimate:
         ``cov`` for a camera without a covariance.
     sigma_kind : str
         What ``cov`` and the sigmas describe: ``"pixel noise"``
-        (:data:`~graphpose.pose.intrinsics.SIGMA_PIXEL`) or ``"pixel noise and
-        calibration"`` (:data:`~graphpose.pose.intrinsics.SIGMA_CALIBRATION`).
+        (:data:`~graphpose.pose.covariance.SIGMA_PIXEL`) or ``"pixel noise and
+        calibration"`` (:data:`~graphpose.pose.covariance.SIGMA_CALIBRATION`).
     """
 
     T_WC: np.ndarray
@@ -336,22 +324,67 @@ def _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn):
     return True, "ok"
 
 
-def cross_check(gn: GNResult, graph: GraphResult) -> CrossCheck:
-    """Compare the Gauss-Newton and GTSAM poses.
+def estimate_pose(image, bounds, camera, board: Board = Board(), guess=None, *,
+                  robust: bool = False) -> PoseEstimate:
+    """Camera pose from an image of the checkerboard.
 
     Parameters
     ----------
-    gn : GNResult
-        The Gauss-Newton solution.
-    graph : GraphResult
-        The GTSAM solution (started at Gauss-Newton's answer in :func:`estimate_pose`).
+    image : (H, W) or (H, W, 3|4) array_like
+        The image as the camera took it (see :func:`graphpose.image.as_grey`): raw, with the
+        lens distortion ``camera`` describes.
+    bounds : (2, 4) array_like or None
+        Bounding polygon of the board, pixels, clockwise from the corner nearest junction 0
+        (see :func:`graphpose.detect.junctions.extract_junctions`): it only narrows the
+        search and names junction 0's corner. None searches the whole image.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.camera_models`, e.g. from
+        :func:`graphpose.io.cameras.read_camera`), or pinhole intrinsics ``K``, pixels,
+        for an image without distortion.
+    board : Board
+        The target.
+    guess : (4, 4) array_like, optional
+        Starting pose T_WC; the homography initialiser when None.
+    robust : bool
+        Use a Huber kernel (threshold 1.345 robust sigmas) in both solvers.
 
     Returns
     -------
-    CrossCheck
-        Their difference; ``agree`` needs both converged and the difference within
-        :data:`AGREE_TRANSLATION_M` and :data:`AGREE_ROTATION_DEG`.
+    PoseEstimate
+        Check ``ok`` (or ``converged`` and ``cross_check.agree``) before using the pose, and
+        ``orientation_ambiguous`` for a symmetric board found without bounds.
+
+    Raises
+    ------
+    InputError
+        On a malformed image, polygon, camera or guess, an image of another size than the
+        camera's calibration (:func:`graphpose.camera_models.check_image_size`), or a guess with
+        junctions behind the camera.
+    BoardNotFoundError
+        If the junction grid is not found, or fewer than six junctions not all on one line
+        are trusted.
     """
-    dt, dr = pose_difference(gn.T_WC, graph.T_WC)
-    agree = gn.converged and graph.converged and dt <= AGREE_TRANSLATION_M and dr <= AGREE_ROTATION_DEG
-    return CrossCheck(translation_m=dt, rotation_deg=dr, agree=bool(agree))
+    # The camera and the guess are checked before the extraction, so bad ones fail before
+    # the slow step.
+    camera = as_camera(camera)
+    board = check_board(board)
+    guess = None if guess is None else check_transform(guess, "guess")
+    junctions = extract_junctions(image, bounds, board, camera=camera)
+    _check_geometry(junctions.trusted, board)
+    # Unseen junctions are NaN and untrusted: the solvers use the trusted ones only.
+    estimate = estimate_pose_unchecked(camera, junctions.points, board.world_points(), guess, junctions.trusted, robust)
+    return dataclasses.replace(estimate, junctions=junctions,
+                               orientation_ambiguous=bool(junctions.orientation_ambiguous))
+
+
+def _check_geometry(trusted, board) -> None:
+    """Refuse fewer than :data:`graphpose.observations.MIN_JUNCTIONS` trusted junctions, or ones all on one line."""
+    m = int(np.count_nonzero(trusted))
+    if m < MIN_JUNCTIONS:
+        raise BoardNotFoundError(f"only {m} junctions are trusted; a pose needs {MIN_JUNCTIONS}, not all on one line")
+    grid = board.grid_indices()[:, trusted].astype(float)
+    grid -= grid.mean(axis=1, keepdims=True)
+    if np.linalg.matrix_rank(grid) < 2:
+        raise BoardNotFoundError(
+            f"the {m} trusted junctions all lie on one line of the board; a pose needs junctions "
+            "off that line (more of the board in view)")
