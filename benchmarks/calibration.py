@@ -173,7 +173,7 @@ def samples(cv2, quick):
         files = sorted(SAMPLES.glob(f"{side}*.jpg"))
         images = [graphpose.read_image(f, as_float=False) for f in files]
         size = (images[0].shape[1], images[0].shape[0])
-        cal = graphpose.calibrate(files, SAMPLE_BOARD, "radtan")
+        cal = graphpose.calibrate(files, "radtan", board=SAMPLE_BOARD)
         cv_camera, cv_rms, cv_found = _opencv_calibrate(cv2, images, SAMPLE_BOARD, "radtan", size)
         pub = read_camera(SAMPLES / published)
         extra = samples_uncertainty(files, SAMPLE_BOARD)

@@ -102,7 +102,7 @@ def cross_junctions(I, bpoly, Wpts) -> np.ndarray:
         If the board cannot be found and labelled, or part of it is hidden: this function
         returns all n junctions or none (:func:`extract_junctions` returns partial boards).
     """
-    J = extract_junctions(I, bpoly, Board.from_world_points(Wpts))
+    J = extract_junctions(I, bounds=bpoly, board=Board.from_world_points(Wpts))
     if not J.seen.all():
         raise BoardNotFoundError(
             f"only {int(J.seen.sum())} of the {J.seen.size} junctions are in view (the others are "
@@ -168,7 +168,7 @@ def pose_estimate_nls(K, Twcg, Ipts, Wpts) -> np.ndarray:
     ConvergenceError
         If the iterations do not converge.
     """
-    result = gauss_newton(K, Twcg, Ipts, Wpts, max_iterations=MAX_ITERATIONS)
+    result = gauss_newton(Ipts, Wpts, K, guess=Twcg, max_iterations=MAX_ITERATIONS)
     if not result.converged:
         raise ConvergenceError(
             f"Gauss-Newton did not converge after {result.iterations} iterations: {result.message} "

@@ -148,18 +148,18 @@ class PoseEstimate:
         return self.converged and self.cross_check.agree
 
 
-def estimate_pose_from_points(camera, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False) -> PoseEstimate:
+def estimate_pose_from_points(Ipts, Wpts, camera, *, guess=None, mask=None, robust: bool = False) -> PoseEstimate:
     """Cross-checked camera pose from 2-D/3-D correspondences (no extraction).
 
     Parameters
     ----------
-    camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.camera_models`; raw, distorted pixels), or pinhole
-        intrinsics ``K``, pixels.
     Ipts : (2, n) array_like
         Image points (u, v), pixels; NaN allowed where ``mask`` is False.
     Wpts : (3, n) array_like
         Matching target points, metres (on z = 0 when ``guess`` is None).
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.camera_models`; raw, distorted pixels), or pinhole
+        intrinsics ``K``, pixels.
     guess : (4, 4) array_like, optional
         Starting pose T_WC; the homography initialiser when None.
     mask : (n,) array_like of bool, optional
@@ -183,7 +183,7 @@ def estimate_pose_from_points(camera, Ipts, Wpts, guess=None, mask=None, *, robu
     return estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust)
 
 
-def fit_pose(camera, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False):
+def fit_pose(Ipts, Wpts, camera, *, guess=None, mask=None, robust: bool = False):
     """The single-image pose fit: a start, Gauss-Newton and, with ``robust``, the outlier gate.
 
     The pose path of :func:`estimate_pose` without its GTSAM cross-check, shared with the
@@ -195,12 +195,12 @@ def fit_pose(camera, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False)
 
     Parameters
     ----------
-    camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.camera_models`), or pinhole intrinsics ``K``, pixels.
     Ipts : (2, n) array_like
         Image points (u, v), pixels; NaN allowed where ``mask`` is False.
     Wpts : (3, n) array_like
         Matching target points, metres (on z = 0 when ``guess`` is None).
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.camera_models`), or pinhole intrinsics ``K``, pixels.
     guess : (4, 4) array_like, optional
         Starting pose T_WC; the homography initialiser when None.
     mask : (n,) array_like of bool, optional
@@ -324,7 +324,7 @@ def _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn):
     return True, "ok"
 
 
-def estimate_pose(image, bounds, camera, board: Board = Board(), guess=None, *,
+def estimate_pose(image, camera, *, board: Board = Board(), bounds=None, guess=None,
                   robust: bool = False) -> PoseEstimate:
     """Camera pose from an image of the checkerboard.
 
@@ -333,16 +333,16 @@ def estimate_pose(image, bounds, camera, board: Board = Board(), guess=None, *,
     image : (H, W) or (H, W, 3|4) array_like
         The image as the camera took it (see :func:`graphpose.image.as_grey`): raw, with the
         lens distortion ``camera`` describes.
-    bounds : (2, 4) array_like or None
-        Bounding polygon of the board, pixels, clockwise from the corner nearest junction 0
-        (see :func:`graphpose.detect.junctions.extract_junctions`): it only narrows the
-        search and names junction 0's corner. None searches the whole image.
     camera : Camera or (3, 3) array_like
         The camera model (:mod:`graphpose.camera_models`, e.g. from
         :func:`graphpose.io.cameras.read_camera`), or pinhole intrinsics ``K``, pixels,
         for an image without distortion.
     board : Board
         The target.
+    bounds : (2, 4) array_like, optional
+        Bounding polygon of the board, pixels, clockwise from the corner nearest junction 0
+        (see :func:`graphpose.detect.junctions.extract_junctions`): it only narrows the
+        search and names junction 0's corner. None searches the whole image.
     guess : (4, 4) array_like, optional
         Starting pose T_WC; the homography initialiser when None.
     robust : bool
@@ -369,7 +369,7 @@ def estimate_pose(image, bounds, camera, board: Board = Board(), guess=None, *,
     camera = as_camera(camera)
     board = check_board(board)
     guess = None if guess is None else check_transform(guess, "guess")
-    junctions = extract_junctions(image, bounds, board, camera=camera)
+    junctions = extract_junctions(image, bounds=bounds, board=board, camera=camera)
     _check_geometry(junctions.trusted, board)
     # Unseen junctions are NaN and untrusted: the solvers use the trusted ones only.
     estimate = estimate_pose_unchecked(camera, junctions.points, board.world_points(), guess, junctions.trusted, robust)

@@ -15,7 +15,7 @@ from .errors import BoardNotFoundError, InputError
 from .pose.rig import RigPoseEstimate, estimate_rig_pose_from_points
 
 
-def estimate_rig_pose(images, rig, board: Board = Board(), *, robust: bool = False) -> RigPoseEstimate:
+def estimate_rig_pose(images, rig, *, board: Board = Board(), robust: bool = False) -> RigPoseEstimate:
     """The rig's pose (camera 0's, in the target frame) from one image per camera.
 
     Parameters
@@ -64,7 +64,7 @@ def estimate_rig_pose(images, rig, board: Board = Board(), *, robust: bool = Fal
             image = read_image(image, as_float=False)
         check_image_size(rig.cameras[c], image, name)
         try:
-            J = extract_junctions(image, None, board, camera=rig.cameras[c])
+            J = extract_junctions(image, bounds=None, board=board, camera=rig.cameras[c])
             if np.count_nonzero(J.trusted) < 6:
                 raise BoardNotFoundError(f"only {np.count_nonzero(J.trusted)} trusted junctions")
         except BoardNotFoundError as exc:

@@ -63,8 +63,9 @@ def test_one_estimate_checks_each_input_once(bundled, monkeypatch, with_guess, r
     doc, case, image = bundled
     camera = doc.camera.K  # a K (array): the pipeline makes the camera, which checks K
     calls = _count(monkeypatch)
-    estimate = estimate_pose(image, case.bounds, camera, doc.board,
-                             guess=case.guess_T_WC if with_guess else None, robust=robust)
+    estimate = estimate_pose(image, camera, bounds=case.bounds, board=doc.board,
+                             guess=case.guess_T_WC if with_guess else None,
+                             robust=robust)
     assert estimate.ok
     for name in CHECKS:
         assert len(calls[name]) <= 1, f"{name} ran {len(calls[name])} times, from {calls[name]}"
@@ -75,8 +76,8 @@ def test_the_count_sees_a_repeated_check(bundled, monkeypatch):
     checks again (its own edge), and the wrapper counts that."""
     doc, case, image = bundled
     calls = _count(monkeypatch)
-    estimate = estimate_pose(image, case.bounds, doc.camera, doc.board, guess=case.guess_T_WC)
+    estimate = estimate_pose(image, doc.camera, bounds=case.bounds, board=doc.board, guess=case.guess_T_WC)
     before = len(calls["check_observations"])
-    graphpose.estimate_pose_from_points(doc.camera, estimate.junctions.points, doc.board.world_points(),
+    graphpose.estimate_pose_from_points(estimate.junctions.points, doc.board.world_points(), doc.camera,
                                         mask=estimate.junctions.trusted)
     assert len(calls["check_observations"]) >= before + 1

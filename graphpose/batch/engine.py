@@ -60,7 +60,7 @@ class ClusterError(GraphposeError):
     """The Dask cluster could not run the batch: no worker came, or the scheduler went away."""
 
 
-def estimate_many(paths, camera, board: Board = Board(), *, bounds=None, robust: bool = False, client=None,
+def estimate_many(paths, camera, *, board: Board = Board(), bounds=None, robust: bool = False, client=None,
                   workers: int | None = None, images_per_task: int | None = None,
                   task_seconds: float = TASK_SECONDS):
     """Estimate the camera pose in many images on a Dask cluster; records as they arrive.

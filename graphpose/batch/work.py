@@ -87,7 +87,7 @@ def estimate_images(items, camera, board: Board = Board(), robust: bool = False)
                 except GraphposeError as exc:
                     status, message = UNREADABLE, _one_line(exc)
                 else:
-                    estimate = estimate_pose(image, bounds, camera, board, robust=robust)
+                    estimate = estimate_pose(image, camera, bounds=bounds, board=board, robust=robust)
                     if not estimate.ok:
                         status, message = NOT_CONVERGED, f"no reliable pose: {estimate.message}"
         except BoardNotFoundError as exc:

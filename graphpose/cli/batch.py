@@ -145,8 +145,9 @@ def run(args) -> int:
         kept = Counter(results.made[p][1] for p in paths if p in results.done)
         counts, seconds = Counter(), 0.0
         if todo:
-            stream = estimate_many(todo, camera, board, bounds=bounds, robust=args.robust, client=args.scheduler,
-                                   workers=args.workers, images_per_task=args.images_per_task)
+            stream = estimate_many(todo, camera, board=board, bounds=bounds, robust=args.robust,
+                                   client=args.scheduler, workers=args.workers,
+                                   images_per_task=args.images_per_task)
             counts, seconds = _write_all(stream, results, len(todo), target["camera"])
     if not args.quiet:
         print(_summary(counts, kept, seconds, args.out))

@@ -124,7 +124,7 @@ def run(args) -> int:
         if calibration is None:
             views = recording_views(args, show)
             files, names = (image_files(args.images), None) if views is None else views[:2]
-            calibration = calibrate(files, args.board, args.model, names=names or [str(f) for f in files],
+            calibration = calibrate(files, args.model, board=args.board, names=names or [str(f) for f in files],
                                     progress=show)
     finally:
         progress.clear()

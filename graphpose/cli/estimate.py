@@ -176,7 +176,7 @@ def _run_one(job, camera, board, target, robust, overlay, report, progress):
         image = _read(job)
         check_image_size(camera, image.shape, job.name)
         try:
-            estimate = estimate_pose(image, job.bounds, camera, board, guess=job.guess, robust=robust)
+            estimate = estimate_pose(image, camera, bounds=job.bounds, board=board, guess=job.guess, robust=robust)
         except BoardNotFoundError as exc:
             raise BoardNotFoundError(board_hint(str(exc))) from None
         # An unreliable pose is drawn too: the picture shows why.

@@ -101,7 +101,7 @@ def run_calibrate(args) -> int:
         progress.show(int(done), stage)
 
     try:
-        calibration = calibrate_rig([str(s) for s in args.rig], args.board, models, progress=show)
+        calibration = calibrate_rig([str(s) for s in args.rig], models, board=args.board, progress=show)
     finally:
         progress.clear()
     record = rig_record(calibration)
@@ -207,7 +207,7 @@ def run_estimate(args) -> int:
     from ..board import Board
 
     board = args.board if args.board is not None else Board()
-    estimate = estimate_rig_pose(args.rig, rig, board, robust=args.robust)
+    estimate = estimate_rig_pose(args.rig, rig, board=board, robust=args.robust)
     record = rig_pose_record(estimate, args.rig, rig, str(args.camera))
     if args.json == "-":
         sys.stdout.write(dumps_json(record))
@@ -315,7 +315,7 @@ def run_track(args) -> int:
             images = [None if i is None else files[c][i] for c, i in enumerate(group)]
             progress.show(k + 1, next(Path(p).name for p in images if p is not None))
             try:
-                est = estimate_rig_pose(images, rig, board, robust=args.robust)
+                est = estimate_rig_pose(images, rig, board=board, robust=args.robust)
                 ok = est.ok
             except BoardNotFoundError as exc:
                 est, ok, why = None, False, str(exc)

@@ -101,21 +101,21 @@ class Junctions:
     junction0_square: str | None = None
 
 
-def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, window: float = WINDOW_FRACTION,
+def extract_junctions(image, *, board: Board = Board(), bounds=None, camera=None, window: float = WINDOW_FRACTION,
                       smooth_sigma: float | None = None) -> Junctions:
     """Find, label and refine the cross-junctions of a checkerboard.
 
     Parameters
     ----------
-    I : (H, W) or (H, W, 3|4) array_like
+    image : (H, W) or (H, W, 3|4) array_like
         The image (uint8, uint16, bool or float; colour converted to grey).
+    board : Board
+        The board spec: ``cols x rows`` inner junctions.
     bounds : (2, 4) array_like, optional
         The board's outline, pixels, clockwise from the corner nearest junction 0: it
         narrows the search and fixes which corner is junction 0. A loose outline (a few
         pixels inside the margin or outside the sheet) gives the same result. Without it
         the whole image is searched.
-    board : Board
-        The board spec: ``cols x rows`` inner junctions.
     camera : Camera or (3, 3) array_like, optional
         The camera (:mod:`graphpose.camera_models`) when the image is raw, with lens distortion.
         Junctions are found and refined on the raw image as it is (both steps are local);
@@ -154,7 +154,7 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
     >>> J.points.shape, bool(J.trusted.all()), J.orientation_ambiguous
     ((2, 48), True, True)
     """
-    image, scale = grey_and_scale(I, MIN_SIDE)
+    image, scale = grey_and_scale(image, MIN_SIDE)
     poly = None if bounds is None else check_bounds(bounds, image.shape)
     window = check_number("window (a fraction of the square)", window, 0.0, strict=True, maximum=0.7)
     if smooth_sigma is not None:

@@ -171,21 +171,21 @@ def _residual(camera, p, I, W, jacobian):
 _NO_JACOBIAN = np.empty((0, 6))
 
 
-def gauss_newton(camera, T_WC_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel_sigma=None,
+def gauss_newton(Ipts, Wpts, camera, *, guess, mask=None, huber_px=None, pixel_sigma=None,
                  max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL) -> GNResult:
     """Refine a camera pose by damped Gauss-Newton on the reprojection error.
 
     Parameters
     ----------
-    camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.camera_models`; the points are then raw, distorted
-        pixels), or pinhole intrinsics ``K``, pixels.
-    T_WC_guess : (4, 4) array_like
-        Starting pose T_WC.
     Ipts : (2, n) array_like
         Observed junctions (u, v), pixels; NaN allowed where ``mask`` is False.
     Wpts : (3, n) array_like
         Matching target points, metres.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.camera_models`; the points are then raw, distorted
+        pixels), or pinhole intrinsics ``K``, pixels.
+    guess : (4, 4) array_like
+        Starting pose T_WC.
     mask : (n,) array_like of bool, optional
         Points to use (e.g. ``Junctions.trusted``); all by default. At least 4.
     huber_px : float, optional
@@ -212,10 +212,10 @@ def gauss_newton(camera, T_WC_guess, Ipts, Wpts, *, mask=None, huber_px=None, pi
         the guess.
     """
     camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
-    T_WC_guess = check_transform(T_WC_guess, "T_WC_guess")
+    guess = check_transform(guess, "guess")
     huber_px = None if huber_px is None else check_number("huber_px", huber_px, 0.0, strict=True)
     pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
-    return gauss_newton_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
+    return gauss_newton_unchecked(camera, guess, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
 
 
 def gauss_newton_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, huber_px=None, pixel_sigma=None,

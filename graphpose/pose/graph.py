@@ -141,21 +141,21 @@ class GraphResult:
         return np.degrees(np.sqrt(np.diag(self.cov_tangent)[:3]))
 
 
-def graph_pose(camera, T_WC_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=False,
+def graph_pose(Ipts, Wpts, camera, *, guess, mask=None, pixel_sigma=None, robust=False,
                huber_k: float = HUBER_K, from_minimum: bool = False) -> GraphResult:
     """Solve the camera pose with a GTSAM factor graph and return its marginal covariance.
 
     Parameters
     ----------
-    camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.camera_models`; raw, distorted pixels), or pinhole
-        intrinsics ``K``, pixels (fx, fy, skew, cx, cy go into ``Cal3_S2``).
-    T_WC_guess : (4, 4) array_like
-        Starting pose T_WC.
     Ipts : (2, n) array_like
         Observed junctions (u, v), pixels; NaN allowed where ``mask`` is False.
     Wpts : (3, n) array_like
         Matching target points, metres.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.camera_models`; raw, distorted pixels), or pinhole
+        intrinsics ``K``, pixels (fx, fy, skew, cx, cy go into ``Cal3_S2``).
+    guess : (4, 4) array_like
+        Starting pose T_WC.
     mask : (n,) array_like of bool, optional
         Junctions to use (at least 4); all by default.
     pixel_sigma : float, optional
@@ -168,7 +168,7 @@ def graph_pose(camera, T_WC_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, r
     huber_k : float
         Huber threshold in sigmas.
     from_minimum : bool
-        ``T_WC_guess`` is a converged minimum of the same cost (Gauss-Newton's answer, as
+        ``guess`` is a converged minimum of the same cost (Gauss-Newton's answer, as
         :func:`graphpose.estimate.estimate_pose_from_points` passes it): the undamped
         steps alone confirm it, without Levenberg-Marquardt (``iterations`` is then 0); where
         they do not converge from it, Levenberg-Marquardt runs from it as without the flag.
@@ -186,10 +186,10 @@ def graph_pose(camera, T_WC_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, r
         guess.
     """
     camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
-    T_WC_guess = check_transform(T_WC_guess, "T_WC_guess")
+    guess = check_transform(guess, "guess")
     pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
-    return graph_pose_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma, robust, huber_k,
+    return graph_pose_unchecked(camera, guess, Ipts, Wpts, mask, pixel_sigma, robust, huber_k,
                                 from_minimum=bool(from_minimum))
 
 

@@ -29,18 +29,18 @@ from ._homography import homography_pose
 #: Target points farther than this (metres, relative to the board's extent) from z = 0 are refused.
 _PLANE_TOL = 1e-6
 
-def pose_from_homography(camera, Ipts, Wpts) -> np.ndarray:
+def pose_from_homography(Ipts, Wpts, camera) -> np.ndarray:
     """Camera pose from the homography between the target plane and the image.
 
     Parameters
     ----------
-    camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.camera_models`; the points are then raw pixels,
-        undistorted here), or pinhole intrinsics ``K``, pixels.
     Ipts : (2, n) array_like
         Image points (u, v), pixels; n >= 4.
     Wpts : (3, n) array_like
         Matching target points on the plane z = 0, metres.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.camera_models`; the points are then raw pixels,
+        undistorted here), or pinhole intrinsics ``K``, pixels.
 
     Returns
     -------

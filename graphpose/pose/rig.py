@@ -191,7 +191,7 @@ def _start(rig, obs, board):
     used = [o for o in obs if o is not None]
     best = max(used, key=lambda o: o[1].shape[1])
     c, uv, W = best
-    T0 = pose_from_homography(rig.cameras[c], uv, W) @ _invert(rig.T_C0_C[c])
+    T0 = pose_from_homography(uv, W, rig.cameras[c]) @ _invert(rig.T_C0_C[c])
     notes = []
     out = list(obs)
     if _half_turn_symmetric(board):
@@ -199,7 +199,7 @@ def _start(rig, obs, board):
         for k, o in enumerate(obs):
             if o is None or o[0] == c:
                 continue
-            Tk = pose_from_homography(rig.cameras[k], o[1], o[2]) @ _invert(rig.T_C0_C[k])
+            Tk = pose_from_homography(o[1], o[2], rig.cameras[k]) @ _invert(rig.T_C0_C[k])
             if pose_difference(Tk, T0)[1] > 90.0:
                 out[k] = (k, o[1], turned[:, _indices(board, o[2])])
                 notes.append(f"camera {k}'s junctions relabelled by the board's half turn (its labels disagreed "

@@ -255,7 +255,7 @@ class FrontEnd:
         """Full extraction inside a polygon (the whole image for None); ((points, ids, fit), "")
         or (None, why)."""
         try:
-            J = extract_junctions(image, polygon, self.board, camera=self.camera)
+            J = extract_junctions(image, bounds=polygon, board=self.board, camera=self.camera)
         except (BoardNotFoundError, InputError) as exc:
             return None, f"extraction failed: {exc}"
         points, trusted = J.points, J.trusted

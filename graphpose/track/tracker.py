@@ -44,7 +44,7 @@ from .results import DETECTED, LOST, FrameResult, Track
 from .uncertainty import frame_covariance
 
 
-def track_frames(frames, camera, bounds=None, *, board: Board = Board(), timestamps=None, fps: float = 30.0,
+def track_frames(frames, camera, *, board: Board = Board(), bounds=None, timestamps=None, fps: float = 30.0,
                  polygons=None, config: TrackerConfig = TrackerConfig(), smooth: bool = False,
                  progress=None, topic: str | None = None) -> Iterator[FrameResult]:
     """Track the camera pose over a sequence of frames, one :class:`FrameResult` at a time.
@@ -90,7 +90,7 @@ def track_frames(frames, camera, bounds=None, *, board: Board = Board(), timesta
     return _then_damage(run, _smoothed_stream(run) if smooth else run.online())
 
 
-def track_sequence(frames, camera, bounds=None, *, board: Board = Board(), timestamps=None, fps: float = 30.0,
+def track_sequence(frames, camera, *, board: Board = Board(), bounds=None, timestamps=None, fps: float = 30.0,
                    polygons=None, config: TrackerConfig = TrackerConfig(), smooth: bool = False,
                    progress=None, topic: str | None = None) -> Track:
     """Track the camera pose over a sequence of frames of the target (every result kept:

@@ -73,7 +73,7 @@ def make_image_set(folder: Path, n_files: int = 10, n_paths: int = 198, seed: in
         poly = loose_polygon(rendering, rng=rng)
         files.append(path)
         polys.append(poly)
-        estimates.append(estimate_pose(read_image(path, as_float=False), poly, K, board))
+        estimates.append(estimate_pose(read_image(path, as_float=False), K, bounds=poly, board=board))
     assert all(e.ok for e in estimates), "the seed must give images that all have a pose"
     paths, bounds, expected = [], {}, {}
     for k in range(n_paths):

@@ -71,7 +71,8 @@ def test_no_polygon_is_estimate_pose_without_bounds(images):
     # graphpose estimate IMAGE without --bounds: the library searches the whole image.
     path = images.paths[1]
     [row] = estimate_images([(path, None)], images.K, images.board)
-    expected = result_record(path, estimate_pose(read_image(path, as_float=False), None, images.K, images.board), None)
+    expected = result_record(path, estimate_pose(read_image(path, as_float=False), images.K, bounds=None,
+                                                 board=images.board), None)
     assert {k: row[k] for k in expected} == expected
 
 

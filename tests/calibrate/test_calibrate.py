@@ -201,7 +201,7 @@ def test_each_pass_refines_the_board_found_once_as_extract_junctions_does(radtan
         searched = calibrate_run._search(image, board)
         for camera in (None, radtan_camera()):
             uv, W, index = calibrate_run._detect(searched, board, camera)[0]
-            J = extract_junctions(image, None, board, camera=camera)
+            J = extract_junctions(image, bounds=None, board=board, camera=camera)
             assert np.array_equal(index, np.flatnonzero(J.trusted))
             assert np.array_equal(uv, J.points[:, index])
             np.testing.assert_array_equal(W, board.world_points()[:, index])

@@ -41,7 +41,7 @@ def same_pose_images(tmp_path_factory):
         rendering = render(K, T, board, SIZE, rng=rng)
         poly = loose_polygon(rendering, rng=rng) if poly is None else poly
         iio.imwrite(folder / f"frame_{k}.png", rendering.image)
-    expected = {str(p): estimate_pose(read_image(p, as_float=False), poly, K, board) for p in sorted(folder.glob("*.png"))}
+    expected = {str(p): estimate_pose(read_image(p, as_float=False), K, bounds=poly, board=board) for p in sorted(folder.glob("*.png"))}
     return folder, K, poly, expected
 
 

@@ -480,7 +480,7 @@ def test_a_raw_image_with_its_calibration_file(tmp_path):
     assert record["reprojection_rms_px"] < 0.3  # 0.16 px; fitted as a pinhole the raw image gives 0.85
     assert png_size(tmp_path / "left01.png") == (640, 480)
     camera = read_camera(opencv_file("left.opencv.yml"))
-    est = estimate_pose(read_image(opencv_file("left01.jpg")), None, camera, Board(9, 6, 0.03))
+    est = estimate_pose(read_image(opencv_file("left01.jpg")), camera, bounds=None, board=Board(9, 6, 0.03))
     dt, dr = pose_difference(est.T_WC, np.array(record["T_WC"]))
     assert dt < 1e-9 and dr < 1e-7
 
@@ -534,7 +534,7 @@ def test_camera_name_chooses_the_camera_of_a_kalibr_camchain(tmp_path, capsys):
         assert main(args + ([] if name is None else ["--camera-name", name])) == 0
         (records[name],) = json.loads(capsys.readouterr().out)
     assert records[None]["T_WC"] == records["cam0"]["T_WC"] != records["cam1"]["T_WC"]
-    est = estimate_pose(read_image(image), None, read_camera(chain, name="cam1"), board)
+    est = estimate_pose(read_image(image), read_camera(chain, name="cam1"), bounds=None, board=board)
     dt, dr = pose_difference(est.T_WC, np.array(records["cam1"]["T_WC"]))
     assert dt < 1e-9 and dr < 1e-7
 

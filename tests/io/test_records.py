@@ -42,7 +42,7 @@ def test_an_estimate_from_points_has_no_junctions_to_write_or_report():
     K, W = PROJECT_K, BOARD_WPTS
     T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
     mask = np.arange(48) != 7
-    estimate = estimate_pose_from_points(K, project(K, T, W), W, mask=mask)
+    estimate = estimate_pose_from_points(project(K, T, W), W, K, mask=mask)
     assert estimate.junctions is None
     record = result_record("points", estimate)
     json.dumps(record, allow_nan=False)
@@ -64,7 +64,7 @@ def test_an_orientation_ambiguous_estimate_says_so_in_record_and_report():
 
     K, W = PROJECT_K, BOARD_WPTS
     T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
-    estimate = dataclasses.replace(estimate_pose_from_points(K, project(K, T, W), W), orientation_ambiguous=True)
+    estimate = dataclasses.replace(estimate_pose_from_points(project(K, T, W), W, K), orientation_ambiguous=True)
     record = result_record("board.png", estimate)
     assert record["orientation_ambiguous"] is True
     report = format_report("board.png", estimate, record)

@@ -52,7 +52,7 @@ def test_the_pose_derivative_is_the_solved_poses_central_difference(name):
         plus, minus = k.copy(), k.copy()
         plus[i] += h
         minus[i] -= h
-        fits = [gauss_newton(camera_with_parameters(camera, p), T, uv, W).params for p in (plus, minus)]
+        fits = [gauss_newton(uv, W, camera_with_parameters(camera, p), guess=T).params for p in (plus, minus)]
         np.testing.assert_allclose(D[:, i], (fits[0] - fits[1]) / (2 * h), rtol=2e-3,
                                    atol=1e-6 * np.abs(D[:, i]).max(), err_msg=f"{name} parameter {i}")
 
@@ -74,7 +74,7 @@ def test_monte_carlo_pose_errors_match_the_propagated_covariance():
     errors, covs, pixel_covs = [], [], []
     for _ in range(200):
         camera = camera_with_parameters(truth, k + L @ rng.normal(size=k.size), COV_K)
-        est = estimate_pose_from_points(camera, uv + rng.normal(0.0, 0.1, uv.shape), W)
+        est = estimate_pose_from_points(uv + rng.normal(0.0, 0.1, uv.shape), W, camera)
         assert est.ok and est.sigma_kind == SIGMA_CALIBRATION
         errors.append(est.params - true_params)
         covs.append(est.cov)
@@ -95,14 +95,14 @@ def test_rendered_image_spread_over_calibration_draws_is_the_calibration_term():
     rng = np.random.default_rng(11)
     T = pose(rng, truth)
     scene = render.render(truth, T, BOARD, (640, 480), noise_sigma=2.0, rng=rng)
-    est0 = estimate_pose(scene.image, None, calibrated(truth), BOARD)
+    est0 = estimate_pose(scene.image, calibrated(truth), bounds=None, board=BOARD)
     assert est0.ok and est0.sigma_kind == SIGMA_CALIBRATION
     points, mask = est0.junctions.points, est0.junctions.trusted
     k, L = camera_parameters(truth), np.linalg.cholesky(COV_K)
     params = []
     for _ in range(1000):  # the full solve, not its linearisation (measured: within 2 % at 2000)
         camera = camera_with_parameters(truth, k + L @ rng.normal(size=k.size), COV_K)
-        params.append(gauss_newton(camera, est0.T_WC, points, W, mask=mask).params)
+        params.append(gauss_newton(points, W, camera, guess=est0.T_WC, mask=mask).params)
     spread = np.cov(np.array(params).T)
     term = est0.cov - est0.cov_pixel
     ratio = np.sqrt(np.diag(spread) / np.diag(term))
@@ -116,16 +116,16 @@ def test_a_camera_without_covariance_reports_pixel_noise_only():
     rng = np.random.default_rng(2)
     T = pose(rng, camera)
     uv = camera.project(to_camera(T, W)) + rng.normal(0.0, 0.1, (2, W.shape[1]))
-    plain = estimate_pose_from_points(camera, uv, W)
+    plain = estimate_pose_from_points(uv, W, camera)
     assert plain.sigma_kind == SIGMA_PIXEL and plain.cov_pixel is plain.cov
-    with_cov = estimate_pose_from_points(calibrated(camera), uv, W)
+    with_cov = estimate_pose_from_points(uv, W, calibrated(camera))
     np.testing.assert_array_equal(with_cov.cov_pixel, plain.cov)
     np.testing.assert_array_equal(with_cov.params, plain.params)
     extra = with_cov.cov - with_cov.cov_pixel
     assert np.linalg.eigvalsh(extra).min() > -1e-12 * np.abs(extra).max()  # D COV_K D^T: PSD
     np.testing.assert_allclose(with_cov.sigma_xyz_m, np.sqrt(np.diag(with_cov.cov)[:3]))
     # A zero covariance adds nothing.
-    zero = estimate_pose_from_points(calibrated(camera, np.zeros((9, 9))), uv, W)
+    zero = estimate_pose_from_points(uv, W, calibrated(camera, np.zeros((9, 9))))
     np.testing.assert_allclose(zero.cov, plain.cov, rtol=1e-12, atol=0)
     assert zero.sigma_kind == SIGMA_CALIBRATION
 
@@ -160,6 +160,6 @@ def test_a_propagation_that_cannot_be_solved_is_nan_not_a_crash(monkeypatch):
         raise np.linalg.LinAlgError("Singular matrix")
 
     monkeypatch.setattr(estimate_module, "pose_cov_with_intrinsics", singular)
-    est = estimate_pose_from_points(camera, uv, W)
+    est = estimate_pose_from_points(uv, W, camera)
     assert est.sigma_kind == SIGMA_CALIBRATION and np.all(np.isnan(est.cov))
     assert np.all(np.isfinite(est.cov_pixel))  # the pixel noise's share is still known
