@@ -159,7 +159,7 @@ def rendered(cv2, quick):
             "z": dict(zip(cal.parameter_names, z.tolist())), "max_abs_z": float(np.max(np.abs(z))),
             "truth": camera_parameters(camera).tolist(), "graphpose": cal.parameters.tolist(),
             "sigmas": cal.sigmas.tolist(), "opencv": camera_parameters(cv_camera).tolist(),
-            "cross_check": cal.cross_check["max_difference"],
+            "cross_check": cal.cross_check.max_difference,
         }
         o = out[name]
         o["ratio"] = o["graphpose_projection_px"] / o["opencv_projection_px"]

@@ -149,7 +149,7 @@ def real_images():
         cc = est.cross_check
         sx = ", ".join(f"{1e3 * s:.2f}" for s in est.sigma_xyz_m)
         sr = ", ".join(f"{np.degrees(s):.3f}" for s in est.sigma_rpy_rad)
-        rows.append([case.image.name, int(est.mask.sum()), est.reprojection_rms_px, cc.translation_m,
+        rows.append([case.image.name, int(est.mask.sum()), est.rms_px, cc.translation_m,
                      cc.rotation_deg, cc.agree, sx, sr])
         if case.ref_T_WC is not None:
             ref = pose_difference(est.T_WC, case.ref_T_WC)

@@ -148,7 +148,7 @@ def rendered(cv2, quick):
             per_camera_nees.append(nees(C, e))
             z_all.extend((e / np.sqrt(np.diag(C))).tolist())
         row = [name, k, int(views.seen.sum()), sum(s == "used" for r in cal.status for s in r), cal.rms_px,
-               cal.cross_check["max_difference"]]
+               cal.cross_check.max_difference]
         t_g, r_g = _extrinsic_errors(cal.T_C0_C[1], rig.T_C0_C[1])
         row += [t_g, r_g]
         if name in ("stereo", "three"):

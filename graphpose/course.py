@@ -172,6 +172,6 @@ def pose_estimate_nls(K, Twcg, Ipts, Wpts) -> np.ndarray:
     if not result.converged:
         raise ConvergenceError(
             f"Gauss-Newton did not converge after {result.iterations} iterations: {result.message} "
-            f"(residual RMS {result.residual_rms_px:.3g} px)"
+            f"(residual RMS {result.rms_px:.3g} px)"
         )
     return result.T_WC

@@ -50,6 +50,7 @@ from .pose.cross_check import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossChec
 from .pose.gauss_newton import GNResult, gauss_newton_unchecked, huber_weights, reprojection_cost
 from .pose.graph import HUBER_K, GraphResult, graph_pose_unchecked
 from .pose.homography import on_target_plane, pose_from_homography_unchecked
+from ._deprecated import renamed
 
 #: A minimum counts as clearly worse when its cost exceeds the other's by this fraction.
 _COST_MARGIN = 1e-6
@@ -80,7 +81,7 @@ class PoseEstimate:
         found from the homography start.
     iterations : int
         Gauss-Newton iterations.
-    reprojection_rms_px : float
+    rms_px : float
         ``sqrt(mean(du^2 + dv^2))`` over the points used, pixels: OpenCV's definition
         (:func:`graphpose.pose.gauss_newton.reprojection_rms`).
     residuals : (2, n) ndarray
@@ -125,7 +126,7 @@ class PoseEstimate:
     sigma_px: float
     converged: bool
     iterations: int
-    reprojection_rms_px: float
+    rms_px: float
     residuals: np.ndarray
     mask: np.ndarray
     junctions: object
@@ -146,6 +147,8 @@ class PoseEstimate:
     def ok(self) -> bool:
         """Converged and cross-checked: the estimate can be used."""
         return self.converged and self.cross_check.agree
+
+    reprojection_rms_px = renamed("reprojection_rms_px", "rms_px")
 
 
 def estimate_pose_from_points(Ipts, Wpts, camera, *, guess=None, mask=None, robust: bool = False) -> PoseEstimate:
@@ -280,7 +283,7 @@ def estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust) -> PoseEsti
         sigma_px=graph.sigma_px,
         converged=converged,
         iterations=gn.iterations,
-        reprojection_rms_px=gn.residual_rms_px,
+        rms_px=gn.rms_px,
         residuals=_all_residuals(camera, gn, Ipts, Wpts),
         mask=mask,
         junctions=None,

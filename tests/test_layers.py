@@ -23,7 +23,7 @@ LAYERS = (
     ("errors", "_pixels", "_png_filters"),
     # The facade: it imports its errors only; every other name loads on first use (PEP 562).
     # _png: the grey-PNG reader, on the compiled pixels.
-    ("_checks", "_extras", "__init__", "_png"),
+    ("_checks", "_deprecated", "_extras", "__init__", "_png"),
     ("geometry",),
     ("board", "camera_models", "image"),
     ("camera_params",),

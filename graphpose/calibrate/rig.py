@@ -46,6 +46,7 @@ from ..geometry import T_from_params, params_from_T, relative_pose, so3_log
 from ..rig import Rig, _invert, _rodrigues, rig_parameter_names
 from .frames import file_number, match_frames, source_files
 from .run import CROSS_CHECK_TOL, HUBER_K, MIN_IMAGES, REJECT_FLOOR_PX, REJECT_RATIO, _mad_sigma, _rms
+from .result import SolverCrossCheck
 
 #: Per (view, camera) statuses.
 STATUSES = ("used", "rejected", "no board", "no image")
@@ -92,9 +93,9 @@ class RigCalibration:
         Each camera's own calibration (step 2), the start.
     ok : bool
         Both solvers converged and agree.
-    cross_check : dict
-        ``gtsam`` and ``lm``: the two solvers' parameters; ``max_difference`` (the largest
-        ``|p_gtsam - p_lm| / max(|p|, sigma_p)``); ``tolerance``; ``converged``.
+    cross_check : SolverCrossCheck
+        The two solvers' parameters, their largest difference, its tolerance and whether
+        each converged (as :class:`~graphpose.calibrate.result.Calibration`'s).
     summary : str
     """
 
@@ -112,7 +113,7 @@ class RigCalibration:
     sigma_px: float
     calibrations: tuple
     ok: bool
-    cross_check: dict
+    cross_check: SolverCrossCheck
     summary: str
 
     @property
@@ -485,6 +486,7 @@ def _result(view_names, views, keys, active, lm, graph, sigma0, status, message,
         images=tuple(tuple(None if x is None else x[1] for x in row) for row in views),
         status=tuple(st), message=tuple(msg), poses=tuple(poses), view_rms_px=rms, camera_rms_px=camera_rms,
         rms_px=_rms(r_all), sigma_px=sigma, calibrations=tuple(calibrations), ok=ok,
-        cross_check={"gtsam": p_g.tolist(), "lm": p_lm.tolist(), "max_difference": difference,
-                     "tolerance": CROSS_CHECK_TOL, "converged": {"gtsam": graph.converged, "lm": lm.converged}},
+        cross_check=SolverCrossCheck(gtsam=p_g.tolist(), lm=p_lm.tolist(), max_difference=difference,
+                                     tolerance=CROSS_CHECK_TOL, gtsam_converged=graph.converged,
+                                     lm_converged=lm.converged),
         summary=summary)

@@ -46,7 +46,7 @@ from ..board import check_board
 from ..board import Board
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 from ..camera_params import calibration_model, camera_parameters, camera_with_parameters, parameter_names
-from .result import Calibration
+from .result import Calibration, SolverCrossCheck
 
 #: An image whose RMS exceeds this many times the median image's is rejected.
 REJECT_RATIO = 3.0
@@ -573,8 +573,9 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
         rms_px=_rms(used_r),
         sigma_px=sigma,
         ok=bool(ok),
-        cross_check={"gtsam": p_g.tolist(), "lm": p_lm.tolist(), "max_difference": difference,
-                     "tolerance": CROSS_CHECK_TOL, "converged": {"gtsam": graph.converged, "lm": lm.converged}},
+        cross_check=SolverCrossCheck(gtsam=p_g.tolist(), lm=p_lm.tolist(), max_difference=difference,
+                                     tolerance=CROSS_CHECK_TOL, gtsam_converged=graph.converged,
+                                     lm_converged=lm.converged),
         summary=summary,
         joint_cov=joint,
         detections=tuple(None if i not in obs else (obs[i][0], obs[i][2]) for i in range(n)),

@@ -380,7 +380,7 @@ def format_report(name: str, estimate, record: dict) -> str:
         f"  {'angles (deg)':16}{roll:10.3f}{pitch:10.3f}{yaw:10.3f}",
         f"  {'1-sigma (deg)':16}{sr:10.3f}{sp:10.3f}{sw:10.3f}",
         *_sigma_kind_rows(estimate),
-        f"  {'reprojection':16}{estimate.reprojection_rms_px:.3f} px RMS over {trusted.size} junctions, "
+        f"  {'reprojection':16}{estimate.rms_px:.3f} px RMS over {trusted.size} junctions, "
         f"{int(trusted.sum())} trusted",
         f"  {'GN vs GTSAM':16}{1000.0 * check.translation_m:.2g} mm, {check.rotation_deg:.2g} deg apart: "
         + ("agree" if check.agree else "DISAGREE"),

@@ -235,7 +235,7 @@ def rig_pose_record(estimate, images, rig, camera_file) -> dict:
             for c in range(len(rig))]
     return to_jsonable({"camera": camera_file, "pose_of": rig.names[0], "T_WC": estimate.T_WC, "params": estimate.params,
                         "cov": estimate.cov, "sigma_xyz_m": estimate.sigma_xyz_m, "sigma_rpy_rad": estimate.sigma_rpy_rad,
-                        "reprojection_rms_px": estimate.reprojection_rms_px, "cameras": cams,
+                        "reprojection_rms_px": estimate.rms_px, "cameras": cams,
                         "cross_check": {"translation_m": estimate.cross_check.translation_m,
                                         "rotation_deg": estimate.cross_check.rotation_deg,
                                         "agree": estimate.cross_check.agree},
@@ -252,7 +252,7 @@ def format_rig_pose(estimate, images, rig) -> str:
             f"of {len(rig)} cameras:",
             f"  x {x:.5f} +- {sx:.5f}  y {y:.5f} +- {sy:.5f}  z {z:.5f} +- {sz:.5f} m",
             f"  roll {r:.4f} +- {sr:.4f}  pitch {p:.4f} +- {sp:.4f}  yaw {yw:.4f} +- {syw:.4f} deg",
-            f"  reprojection RMS {estimate.reprojection_rms_px:.3f} px; GN vs GTSAM "
+            f"  reprojection RMS {estimate.rms_px:.3f} px; GN vs GTSAM "
             f"{estimate.cross_check.translation_m:.1e} m, {estimate.cross_check.rotation_deg:.1e} deg"]
     for c in range(len(rig)):
         note = "" if estimate.status[c] == "used" else f": {estimate.messages[c]}"

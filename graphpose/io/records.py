@@ -119,7 +119,7 @@ def result_record(image, estimate=None, error=None) -> dict:
         return to_jsonable(record)
     check = estimate.cross_check
     junctions = estimate.junctions
-    record.update(pose_block(status, error, estimate.T_WC, estimate.cov, estimate.reprojection_rms_px,
+    record.update(pose_block(status, error, estimate.T_WC, estimate.cov, estimate.rms_px,
                              int(np.count_nonzero(estimate.mask))))
     record.update(
         converged=bool(estimate.converged),
@@ -156,7 +156,7 @@ def frame_record(frame, path) -> dict:
     record = {"index": int(frame.index), "file": str(path), "timestamp": float(frame.timestamp)}
     has = frame.T_WC is not None
     record.update(pose_block(frame.status, frame.message, frame.T_WC if has else None, frame.cov,
-                             frame.reprojection_rms_px if has else None, frame.junctions if has else None))
+                             frame.rms_px if has else None, frame.junctions if has else None))
     return to_jsonable(record)
 
 

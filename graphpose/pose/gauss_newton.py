@@ -38,6 +38,7 @@ from ..observations import check_observations
 from ..geometry import T_from_params, params_from_T
 from ..camera_models import PinholeCamera, as_camera
 from ._gauss_newton import camera_points, chain_jacobians, pinhole_normal_equations, pinhole_residuals
+from .._deprecated import renamed
 
 #: Default iteration cap (damped and undamped steps both count).
 MAX_ITERATIONS = 100
@@ -69,7 +70,7 @@ class GNResult:
         Steps tried (accepted or rejected).
     residuals : (2, n) ndarray
         Measured minus predicted pixels at the solution, NaN for points left out by the mask.
-    residual_rms_px : float
+    rms_px : float
         ``sqrt(mean(du^2 + dv^2))`` over the used points, pixels (:func:`reprojection_rms`:
         OpenCV's definition, the RMS length of the residual vectors).
     sigma_px : float
@@ -90,11 +91,13 @@ class GNResult:
     converged: bool
     iterations: int
     residuals: np.ndarray
-    residual_rms_px: float
+    rms_px: float
     sigma_px: float
     cov: np.ndarray
     mask: np.ndarray
     message: str
+
+    residual_rms_px = renamed("residual_rms_px", "rms_px")
 
 
 def projection_jacobians(camera, T_WC, Wpts) -> np.ndarray:
@@ -391,7 +394,7 @@ def _result(camera, p, I, W, mask, huber_px, pixel_sigma, H, r, chi2, converged,
         converged=bool(converged),
         iterations=it,
         residuals=residuals,
-        residual_rms_px=reprojection_rms(residuals[:, mask]),
+        rms_px=reprojection_rms(residuals[:, mask]),
         sigma_px=float(sigma),
         cov=cov,
         mask=mask.copy(),

@@ -50,6 +50,7 @@ from .._checks import check_in_front, check_number, check_transform
 from ..observations import check_observations
 from ..geometry import hat, params_from_T, to_camera
 from .gauss_newton import reprojection_rms
+from .._deprecated import renamed
 
 #: Standard deviation (metres) of the prior that pins each target point: far below anything
 #: the pixels can resolve (about 1e-6 px at 1 m), yet finite so the marginals exist.
@@ -99,7 +100,7 @@ class GraphResult:
         (``from_minimum``) and the undamped steps confirmed it.
     residuals : (2, n) ndarray
         Measured minus predicted pixels at the solution, NaN for masked points.
-    residual_rms_px : float
+    rms_px : float
         ``sqrt(mean(du^2 + dv^2))`` over the used points, pixels
         (:func:`graphpose.pose.gauss_newton.reprojection_rms`).
     mask : (n,) ndarray of bool
@@ -116,7 +117,7 @@ class GraphResult:
     converged: bool
     iterations: int
     residuals: np.ndarray
-    residual_rms_px: float
+    rms_px: float
     mask: np.ndarray
     message: str = ""
 
@@ -131,14 +132,18 @@ class GraphResult:
         return np.sqrt(np.diag(self.cov)[3:])
 
     @property
-    def sigma_translation_mm(self) -> np.ndarray:
-        """1-sigma of the camera position along the body axes in millimetres, shape (3,)."""
-        return 1e3 * np.sqrt(np.diag(self.cov_tangent)[3:])
+    def sigma_translation_m(self) -> np.ndarray:
+        """1-sigma of the camera position along the body axes in metres, shape (3,)."""
+        return np.sqrt(np.diag(self.cov_tangent)[3:])
 
     @property
-    def sigma_rotation_deg(self) -> np.ndarray:
-        """1-sigma of the rotation about the body axes in degrees, shape (3,)."""
-        return np.degrees(np.sqrt(np.diag(self.cov_tangent)[:3]))
+    def sigma_rotation_rad(self) -> np.ndarray:
+        """1-sigma of the rotation about the body axes in radians, shape (3,)."""
+        return np.sqrt(np.diag(self.cov_tangent)[:3])
+
+    residual_rms_px = renamed("residual_rms_px", "rms_px")
+    sigma_translation_mm = renamed("sigma_translation_mm", "sigma_translation_m", lambda m: 1e3 * m)
+    sigma_rotation_deg = renamed("sigma_rotation_deg", "sigma_rotation_rad", np.degrees)
 
 
 def graph_pose(Ipts, Wpts, camera, *, guess, mask=None, pixel_sigma=None, robust=False,
@@ -227,7 +232,7 @@ def graph_pose_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma=None,
         converged=converged,
         iterations=iterations,
         residuals=residuals,
-        residual_rms_px=reprojection_rms(used),
+        rms_px=reprojection_rms(used),
         mask=mask.copy(),
         message=message,
     )

@@ -35,6 +35,7 @@ from ..geometry import T_from_params, hat, params_from_T, pose_difference, rot_x
 from .cross_check import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck
 from .gauss_newton import _weights
 from .graph import HUBER_K, params_cov_from_tangent
+from .._deprecated import renamed
 
 _E = np.eye(3)
 MAX_ITERATIONS = 50
@@ -61,7 +62,7 @@ class RigPoseEstimate:
         The pixel noise behind ``cov``, from the residuals.
     converged : bool
     iterations : int
-    reprojection_rms_px : float
+    rms_px : float
         RMS over every junction used, pixels.
     junctions : tuple
         Per camera its :class:`~graphpose.detect.junctions.Junctions`, None where it saw no
@@ -86,7 +87,7 @@ class RigPoseEstimate:
     sigma_px: float
     converged: bool
     iterations: int
-    reprojection_rms_px: float
+    rms_px: float
     junctions: tuple
     residuals: tuple
     status: tuple
@@ -98,6 +99,8 @@ class RigPoseEstimate:
     def ok(self) -> bool:
         """Converged and cross-checked."""
         return self.converged and self.cross_check.agree
+
+    reprojection_rms_px = renamed("reprojection_rms_px", "rms_px")
 
 
 def rotation_and_partials(rpy):
@@ -384,6 +387,6 @@ def _solve(rig, obs, found, status, messages, robust, board):
     sd = np.sqrt(np.abs(np.diag(cov)))
     return RigPoseEstimate(
         T_WC=T, params=q, cov=cov, sigma_xyz_m=sd[:3], sigma_rpy_rad=sd[3:], sigma_px=sigma,
-        converged=bool(converged), iterations=it, reprojection_rms_px=rms, junctions=tuple(found),
+        converged=bool(converged), iterations=it, rms_px=rms, junctions=tuple(found),
         residuals=tuple(residuals), status=tuple(status), messages=tuple(messages),
         cross_check=CrossCheck(translation_m=float(dt), rotation_deg=float(dr), agree=agree), message=message)

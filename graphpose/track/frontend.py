@@ -169,7 +169,7 @@ class FrontEnd:
         if found is None:
             return Measurement(LOST, message=message or "no polygon to search")
         points, ids, fit = found
-        self._rms.add(fit.residual_rms_px)
+        self._rms.add(fit.rms_px)
         return Measurement(status, points, ids, fit, message if status == DETECTED else "")
 
     def accept(self, k: int, timestamp: float, T_WC, shape) -> np.ndarray:
@@ -303,8 +303,8 @@ class FrontEnd:
         limit = cfg.max_rms_px
         if len(self._rms) >= 5:
             limit = min(limit, max(cfg.rms_factor * self._rms.median(), cfg.rms_floor_px))
-        if fit.residual_rms_px > limit:
-            return None, f"fit residual {fit.residual_rms_px:.3f} px RMS exceeds {limit:.3f} px"
+        if fit.rms_px > limit:
+            return None, f"fit residual {fit.rms_px:.3f} px RMS exceeds {limit:.3f} px"
         return (points, ids, fit), ""
 
 

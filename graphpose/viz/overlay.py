@@ -202,7 +202,7 @@ def _pose_lines(estimate, trusted, label) -> list:
         [(f"x {x:+8.4f} m   roll  {roll:+8.2f}\u00b0", white)],
         [(f"y {y:+8.4f} m   pitch {pitch:+8.2f}\u00b0", white)],
         [(f"z {z:+8.4f} m   yaw   {yaw:+8.2f}\u00b0", white)],
-        [(f"rms {estimate.reprojection_rms_px:.2f} px   {int(trusted.sum())}/{trusted.size} trusted", white)],
+        [(f"rms {estimate.rms_px:.2f} px   {int(trusted.sum())}/{trusted.size} trusted", white)],
         [("o", COLOURS["trusted"]), (" trusted  ", white), ("x", COLOURS["untrusted"]),
          (" untrusted  ", white), ("+", COLOURS["reprojected"]), (" model", white)],
         [("axes ", white), ("x", COLOURS["x"]), (" ", white), ("y", COLOURS["y"]), (" ", white),

@@ -129,7 +129,7 @@ def assert_same_pose(row: dict, estimate) -> None:
     covariance's), the junctions used exactly."""
     np.testing.assert_allclose(np.array(row["T_WC"]), estimate.T_WC, rtol=0, atol=POSE_TOLERANCE)
     np.testing.assert_allclose(np.array(row["sigma_xyz_m"]), estimate.sigma_xyz_m, rtol=1e3 * POSE_TOLERANCE, atol=0)
-    np.testing.assert_allclose(row["reprojection_rms_px"], estimate.reprojection_rms_px, rtol=0, atol=POSE_TOLERANCE)
+    np.testing.assert_allclose(row["reprojection_rms_px"], estimate.rms_px, rtol=0, atol=POSE_TOLERANCE)
     assert row["junctions_used"] == int(np.count_nonzero(estimate.mask))
 
 

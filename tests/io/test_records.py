@@ -20,7 +20,7 @@ def test_result_record_of_a_failure_and_of_an_estimate():
     estimate = SimpleNamespace(
         T_WC=T, converged=True, iterations=4,
         cov=np.diag(np.concatenate([[1e-3, 2e-3, 3e-3], np.radians([0.1, 0.2, 0.3])]) ** 2),
-        reprojection_rms_px=0.2, mask=np.array([True, False]),
+        rms_px=0.2, mask=np.array([True, False]),
         junctions=SimpleNamespace(points=np.array([[1.0, np.nan], [2.0, np.nan]]),
                                   trusted=np.array([True, False])),
         cross_check=SimpleNamespace(translation_m=1e-6, rotation_deg=1e-4, agree=np.True_))

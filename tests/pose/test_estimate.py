@@ -45,7 +45,7 @@ def test_real_images_converge_and_solvers_agree(real_cases, real_images):
         est = estimate_pose(image, real_cases.K, bounds=case.bounds, board=real_cases.board, guess=case.guess_T_WC)
         assert_good(est)
         assert est.junctions.points.shape == (2, 48)
-        assert est.reprojection_rms_px < 0.5
+        assert est.rms_px < 0.5
         # The homography start reaches the same pose as the case's guess.
         linear = estimate_pose(image, real_cases.K, bounds=case.bounds, board=real_cases.board)
         assert_good(linear)
@@ -70,7 +70,7 @@ def test_reference_junctions_converge_and_solvers_agree(real_cases, index):
     est = estimate_pose_from_points(case.ref_junctions, WPTS, real_cases.K, guess=case.guess_T_WC)
     assert_good(est)
     assert est.junctions is None
-    assert 0.1 < est.reprojection_rms_px < 0.4  # the README: about 0.2-0.3 px
+    assert 0.1 < est.rms_px < 0.4  # the README: about 0.2-0.3 px
 
 
 def test_target_01_is_near_the_course_reference(real_cases, real_images):
@@ -131,7 +131,7 @@ def test_untrusted_points_are_left_out_but_reported():
     assert_good(est)
     np.testing.assert_allclose(est.T_WC, T, atol=1e-8)
     np.testing.assert_allclose(est.residuals[:, 9], [25.0, -12.0], atol=1e-6)
-    assert est.reprojection_rms_px < 1e-6
+    assert est.rms_px < 1e-6
 
 
 def test_robust_estimate_resists_an_unflagged_outlier():
@@ -330,7 +330,7 @@ def test_raw_images_with_their_camera_converge_and_solvers_agree(opencv_estimate
         assert camera.model == "radtan" and camera.size == (640, 480)
         assert_good(est)
         assert est.mask.sum() == 54 and not est.orientation_ambiguous, name  # 9 + 6 is odd: oriented
-        rms.append(est.reprojection_rms_px)
+        rms.append(est.rms_px)
     # Measured 0.136-0.235 px (median 0.165) over the 26 images, OpenCV's RMS definition
     # (GN and GTSAM within 3e-10 m, 5e-8 deg).
     assert max(rms) < 0.28
@@ -348,7 +348,7 @@ def test_raw_pose_is_the_undistort_first_pose(opencv_estimates):
 def test_the_lens_model_matters_on_raw_images(opencv_estimates):
     camera, est, _ = opencv_estimates["left01.jpg"]
     pinhole = estimate_pose(read_image(opencv_file("left01.jpg")), camera.K, bounds=None, board=OPENCV_BOARD)
-    assert pinhole.reprojection_rms_px > 5 * est.reprojection_rms_px
+    assert pinhole.rms_px > 5 * est.rms_px
     assert pose_difference(pinhole.T_WC, est.T_WC)[0] > 2e-3
 
 

@@ -121,13 +121,13 @@ def test_result_fields_and_noise_estimate():
     np.testing.assert_allclose(res.T_WC, T_from_params(res.params), atol=1e-12)
     np.testing.assert_allclose(res.residuals, I - project(K, res.T_WC, WPTS), atol=1e-9)
     # OpenCV's definition: the RMS length of the residual vectors.
-    assert res.residual_rms_px == pytest.approx(np.sqrt(np.mean(np.sum(res.residuals**2, axis=0))))
+    assert res.rms_px == pytest.approx(np.sqrt(np.mean(np.sum(res.residuals**2, axis=0))))
     assert res.sigma_px == pytest.approx(np.sqrt(np.sum(res.residuals**2) / (2 * 48 - 6)))
     assert 0.2 < res.sigma_px < 0.4
     J = projection_jacobians(K, res.T_WC, WPTS)
     np.testing.assert_allclose(res.cov, res.sigma_px**2 * np.linalg.inv(J.T @ J), rtol=1e-6)
     # At the minimum the gradient J^T r vanishes.
-    assert np.max(np.abs(J.T @ res.residuals.T.ravel())) < 1e-6 * np.max(np.abs(J)) * res.residual_rms_px
+    assert np.max(np.abs(J.T @ res.residuals.T.ravel())) < 1e-6 * np.max(np.abs(J)) * res.rms_px
 
 
 def test_covariance_matches_the_spread_of_repeated_estimates():
@@ -332,7 +332,7 @@ def test_exact_distorted_correspondences_give_the_exact_pose(model):
         res = gauss_newton(I, WPTS, camera, guess=perturb(rng, T, 10, 0.2))
         assert res.converged, res.message
         np.testing.assert_allclose(res.T_WC, T, atol=1e-9)
-        assert res.residual_rms_px < 1e-6
+        assert res.rms_px < 1e-6
         # The homography start undistorts first: exact points give the exact pose.
         np.testing.assert_allclose(pose_from_homography(I, WPTS, camera), T, atol=1e-7)
     if model != "pinhole":  # fitted as a pinhole, the same points give another pose

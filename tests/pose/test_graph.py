@@ -130,12 +130,12 @@ def test_sigmas_in_reporting_units():
     res = graph_pose(project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48)), WPTS, K, guess=T)
     np.testing.assert_allclose(res.sigma_xyz_m, np.sqrt(np.diag(res.cov)[:3]))
     np.testing.assert_allclose(res.sigma_rpy_rad, np.sqrt(np.diag(res.cov)[3:]))
-    np.testing.assert_allclose(res.sigma_translation_mm, 1e3 * np.sqrt(np.diag(res.cov_tangent)[3:]))
-    np.testing.assert_allclose(res.sigma_rotation_deg, np.degrees(np.sqrt(np.diag(res.cov_tangent)[:3])))
+    np.testing.assert_allclose(res.sigma_translation_m, np.sqrt(np.diag(res.cov_tangent)[3:]))
+    np.testing.assert_allclose(res.sigma_rotation_rad, np.sqrt(np.diag(res.cov_tangent)[:3]))
     # dt = C v: the body-frame and target-frame covariances of the position are related by
     # a rotation, so their traces agree.
     assert np.trace(res.cov[:3, :3]) == pytest.approx(np.trace(res.cov_tangent[3:, 3:]), rel=1e-9)
-    assert 0.05 < res.sigma_translation_mm.max() < 10 and res.sigma_rotation_deg.max() < 1
+    assert 0.05e-3 < res.sigma_translation_m.max() < 10e-3 and np.degrees(res.sigma_rotation_rad).max() < 1
 
 
 def test_behind_the_camera_message_names_the_callers_index():

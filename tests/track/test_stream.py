@@ -46,7 +46,7 @@ def _same(a: FrameResult, b: FrameResult):
         assert (x is None) == (y is None), name
         if x is not None:
             np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-15, err_msg=name)
-    np.testing.assert_allclose(a.reprojection_rms_px, b.reprojection_rms_px, rtol=1e-12)
+    np.testing.assert_allclose(a.rms_px, b.rms_px, rtol=1e-12)
 
 
 def test_the_stream_gives_the_lists_results(clip, listed):

@@ -58,7 +58,7 @@ def test_track_accuracy_against_truth(track_clip, tracked):
     for f in tracked.frames:
         if f.status != LOST:
             assert f.junctions >= TrackerConfig().min_junctions
-            assert f.reprojection_rms_px < 0.1  # measured at most 0.016 px
+            assert f.rms_px < 0.1  # measured at most 0.016 px
             assert np.all(f.sigma > 0) and np.all(f.sigma[:3] < 0.001)  # measured at most 0.15 mm
 
 
@@ -149,7 +149,7 @@ def test_real_images_as_a_jumpy_sequence(real_cases, real_images):
     assert all(s in (TRACKED, DETECTED) for s in track.status)
     assert len(track.best_frames()) == 6
     for f in track.best_frames():
-        assert f.reprojection_rms_px < 1.0 and f.junctions >= 40
+        assert f.rms_px < 1.0 and f.junctions >= 40
 
 
 def test_track_input_errors(track_clip, tmp_path):
@@ -228,11 +228,11 @@ def test_raw_frames_track_through_the_camera_model(track_clip, raw_clip):
     for which in ("online", "smoothed"):
         err = [pose_difference(T, track_clip.T_WC[k])[0] for k, T in enumerate(track.poses(which))]
         assert max(err) < 0.5e-3, (which, err)  # measured 0.11 mm online, 0.08 mm smoothed
-    assert max(f.reprojection_rms_px for f in track.frames) < 0.1  # measured 0.015 px at most
+    assert max(f.rms_px for f in track.frames) < 0.1  # measured 0.015 px at most
     # Tracked as if the frames were undistorted, the same frames fit much worse.
     pinhole = track_sequence(raw_clip[:3], K, timestamps=track_clip.timestamps[:3])
     found = [f for f in pinhole.frames if f.T_WC is not None]
-    assert all(f.reprojection_rms_px > 5 * max(g.reprojection_rms_px for g in track.frames) for f in found)
+    assert all(f.rms_px > 5 * max(g.rms_px for g in track.frames) for f in found)
 
 
 def test_a_frame_of_another_size_than_the_calibration_is_refused(raw_clip):
