@@ -55,7 +55,7 @@ from graphpose.image import read_image
 from graphpose.io.files import encode_png
 from graphpose.estimate import estimate_pose
 from graphpose.estimate import fit_pose
-from graphpose.pose.graph import graph_pose, graph_pose_unchecked
+from graphpose.pose.graph import graph_pose
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
 
@@ -159,7 +159,7 @@ def gtsam_stage(cv2, items, repeats):
         J = extract_junctions(read_image(path, as_float=False), bounds=bounds, board=BOARD, camera=cam)
         gn, _ = fit_pose(J.points, W, cam, mask=J.trusted)
         # estimate_pose checks its inputs once at its edge and calls the solvers' unchecked cores
-        ours = partial(graph_pose_unchecked, cam, gn.T_WC, J.points, W, J.trusted, from_minimum=gn.converged)
+        ours = partial(graph_pose, J.points, W, cam, guess=gn.T_WC, mask=J.trusted, from_minimum=gn.converged, check=False)
         peer = partial(opencv_pnp, cv2, cam.K, J.points[:, J.trusted], W[:, J.trusted], guess=gn.T_WC)
         ours(), peer()
         t_ours, t_peer = [], []

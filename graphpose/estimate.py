@@ -47,9 +47,9 @@ from .geometry import pose_difference, to_camera  # pose_difference: re-exported
 from .observations import MIN_JUNCTIONS, check_observations
 from .pose.covariance import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
 from .pose.cross_check import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck, cross_check  # noqa: F401  (re-exported)
-from .pose.gauss_newton import GNResult, gauss_newton_unchecked, huber_weights, reprojection_cost
-from .pose.graph import HUBER_K, GraphResult, graph_pose_unchecked
-from .pose.homography import on_target_plane, pose_from_homography_unchecked
+from .pose.gauss_newton import GNResult, gauss_newton, huber_weights, reprojection_cost
+from .pose.graph import HUBER_K, GraphResult, graph_pose
+from .pose.homography import on_target_plane, pose_from_homography
 from ._deprecated import renamed
 
 #: A minimum counts as clearly worse when its cost exceeds the other's by this fraction.
@@ -151,7 +151,8 @@ class PoseEstimate:
     reprojection_rms_px = renamed("reprojection_rms_px", "rms_px")
 
 
-def estimate_pose_from_points(Ipts, Wpts, camera, *, guess=None, mask=None, robust: bool = False) -> PoseEstimate:
+def estimate_pose_from_points(Ipts, Wpts, camera, *, guess=None, mask=None, robust: bool = False,
+                              check: bool = True) -> PoseEstimate:
     """Cross-checked camera pose from 2-D/3-D correspondences (no extraction).
 
     Parameters
@@ -170,6 +171,11 @@ def estimate_pose_from_points(Ipts, Wpts, camera, *, guess=None, mask=None, robu
     robust : bool
         Use a Huber kernel in both solvers.
 
+    check : bool
+        False skips the input checks, for a caller that checked the inputs at its own edge (a
+        camera object, float arrays of the right shapes, a boolean mask, a checked guess or
+        None): pytransform3d's ``check=False``.
+
     Returns
     -------
     PoseEstimate
@@ -181,12 +187,13 @@ def estimate_pose_from_points(Ipts, Wpts, camera, *, guess=None, mask=None, robu
         On malformed input, fewer than 4 used points, a guess with used points behind the
         camera, or (without a guess) target points off z = 0 or degenerate.
     """
-    camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
-    guess = None if guess is None else check_transform(guess, "guess")
-    return estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust)
+    if check:
+        camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
+        guess = None if guess is None else check_transform(guess, "guess")
+    return _estimate_pose_from_points(camera, Ipts, Wpts, guess, mask, robust)
 
 
-def fit_pose(Ipts, Wpts, camera, *, guess=None, mask=None, robust: bool = False):
+def fit_pose(Ipts, Wpts, camera, *, guess=None, mask=None, robust: bool = False, check: bool = True):
     """The single-image pose fit: a start, Gauss-Newton and, with ``robust``, the outlier gate.
 
     The pose path of :func:`estimate_pose` without its GTSAM cross-check, shared with the
@@ -211,6 +218,11 @@ def fit_pose(Ipts, Wpts, camera, *, guess=None, mask=None, robust: bool = False)
     robust : bool
         Down-weight outlying points (Huber kernel at 1.345 robust sigmas).
 
+    check : bool
+        False skips the input checks, for a caller that checked the inputs at its own edge (a
+        camera object, float arrays of the right shapes, a boolean mask, a checked guess or
+        None): pytransform3d's ``check=False``.
+
     Returns
     -------
     fit : GNResult
@@ -224,29 +236,28 @@ def fit_pose(Ipts, Wpts, camera, *, guess=None, mask=None, robust: bool = False)
     InputError
         As :func:`estimate_pose_from_points`.
     """
-    camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
-    guess = None if guess is None else check_transform(guess, "guess")
-    return fit_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust)
+    if check:
+        camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
+        guess = None if guess is None else check_transform(guess, "guess")
+    return _fit_pose(camera, Ipts, Wpts, guess, mask, robust)
 
 
-def fit_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust):
-    """:func:`fit_pose` on inputs already checked at a public edge (a camera object, float
-    arrays of the right shapes, a boolean mask, a checked guess or None): the pipeline's core
-    and the tracker's front end call it on what they checked or made themselves."""
-    start = pose_from_homography_unchecked(camera, Ipts[:, mask], Wpts[:, mask]) if guess is None else guess
-    gn = gauss_newton_unchecked(camera, start, Ipts, Wpts, mask)
+def _fit_pose(camera, Ipts, Wpts, guess, mask, robust):
+    """:func:`fit_pose` on checked inputs: the pipeline's core and (through ``check=False``) the
+    tracker's front end call it on what they checked or made themselves."""
+    start = pose_from_homography(Ipts[:, mask], Wpts[:, mask], camera, check=False) if guess is None else guess
+    gn = gauss_newton(Ipts, Wpts, camera, guess=start, mask=mask, check=False)
     if robust:
         pixel_sigma = max(1.4826 * float(np.nanmedian(np.abs(gn.residuals[:, mask]))), 1e-12)
-        gn = gauss_newton_unchecked(camera, start, Ipts, Wpts, mask, huber_px=HUBER_K * pixel_sigma,
-                                    pixel_sigma=pixel_sigma)
+        gn = gauss_newton(Ipts, Wpts, camera, guess=start, mask=mask, huber_px=HUBER_K * pixel_sigma,
+                          pixel_sigma=pixel_sigma, check=False)
     return gn, start
 
 
-def estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
-    """The core of :func:`estimate_pose_from_points`, on inputs already checked at a public edge
-    (a camera object, float arrays of the right shapes, a boolean mask, a checked guess or None):
-    the pipeline calls it after its own checks, so nothing is checked twice."""
-    gn, start = fit_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust)
+def _estimate_pose_from_points(camera, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
+    """The core of :func:`estimate_pose_from_points`, on checked inputs: :func:`estimate_pose`
+    calls it after its own checks, so nothing is checked twice."""
+    gn, start = _fit_pose(camera, Ipts, Wpts, guess, mask, robust)
     pixel_sigma = gn.sigma_px if robust else None  # the robust fit's own sigma (fit_pose)
     huber_px = None if pixel_sigma is None else HUBER_K * pixel_sigma
     # GTSAM starts where Gauss-Newton ended (from the shared start if it failed): the same
@@ -255,8 +266,8 @@ def estimate_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust) -> PoseEsti
     # from the shared start would; the basin question (a guess far off) is settled by
     # _compare_with_linear_start. It spares GTSAM's own descent: from a converged answer the
     # undamped steps alone confirm it (from_minimum), where they fail GTSAM descends from it.
-    graph = graph_pose_unchecked(camera, gn.T_WC if gn.converged else start, Ipts, Wpts, mask,
-                                 pixel_sigma=pixel_sigma, robust=robust, from_minimum=gn.converged)
+    graph = graph_pose(Ipts, Wpts, camera, guess=gn.T_WC if gn.converged else start, mask=mask,
+                       pixel_sigma=pixel_sigma, robust=robust, from_minimum=gn.converged, check=False)
     converged, message = gn.converged, "ok" if gn.converged else f"Gauss-Newton: {gn.message}"
     if guess is not None and gn.converged and on_target_plane(Wpts):
         converged, message = _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn)
@@ -311,8 +322,8 @@ def _all_residuals(camera, gn, Ipts, Wpts):
 def _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn):
     """Whether GN from the homography start finds a clearly lower cost than from the guess."""
     try:
-        linear = pose_from_homography_unchecked(camera, Ipts[:, mask], Wpts[:, mask])
-        other = gauss_newton_unchecked(camera, linear, Ipts, Wpts, mask, huber_px=huber_px)
+        linear = pose_from_homography(Ipts[:, mask], Wpts[:, mask], camera, check=False)
+        other = gauss_newton(Ipts, Wpts, camera, guess=linear, mask=mask, huber_px=huber_px, check=False)
     except (InputError, DegenerateGeometryError):
         return True, "ok"  # no usable homography start: nothing to compare with
     mine = reprojection_cost(gn.residuals[:, mask], huber_px)
@@ -375,7 +386,8 @@ def estimate_pose(image, camera, *, board: Board = Board(), bounds=None, guess=N
     junctions = extract_junctions(image, bounds=bounds, board=board, camera=camera)
     _check_geometry(junctions.trusted, board)
     # Unseen junctions are NaN and untrusted: the solvers use the trusted ones only.
-    estimate = estimate_pose_unchecked(camera, junctions.points, board.world_points(), guess, junctions.trusted, robust)
+    estimate = _estimate_pose_from_points(camera, junctions.points, board.world_points(), guess, junctions.trusted,
+                                          robust)
     return dataclasses.replace(estimate, junctions=junctions,
                                orientation_ambiguous=bool(junctions.orientation_ambiguous))
 

@@ -175,7 +175,7 @@ _NO_JACOBIAN = np.empty((0, 6))
 
 
 def gauss_newton(Ipts, Wpts, camera, *, guess, mask=None, huber_px=None, pixel_sigma=None,
-                 max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL) -> GNResult:
+                 max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL, check: bool = True) -> GNResult:
     """Refine a camera pose by damped Gauss-Newton on the reprojection error.
 
     Parameters
@@ -200,6 +200,11 @@ def gauss_newton(Ipts, Wpts, camera, *, guess, mask=None, huber_px=None, pixel_s
         Iteration cap.
     tol : float
         Convergence when the undamped step's largest entry is below ``tol`` (m, rad).
+    check : bool
+        False skips the input checks, for a caller that checked the inputs at its own edge
+        (a camera object, float arrays of the right shapes, a boolean mask, a checked guess,
+        positive ``huber_px`` and ``pixel_sigma`` or None; the guess's depths are still checked): pytransform3d's
+        ``check=False``.
 
     Returns
     -------
@@ -214,19 +219,12 @@ def gauss_newton(Ipts, Wpts, camera, *, guess, mask=None, huber_px=None, pixel_s
         non-positive ``huber_px`` or ``pixel_sigma``, or a used point behind the camera at
         the guess.
     """
-    camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
-    guess = check_transform(guess, "guess")
-    huber_px = None if huber_px is None else check_number("huber_px", huber_px, 0.0, strict=True)
-    pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
-    return gauss_newton_unchecked(camera, guess, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
-
-
-def gauss_newton_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, huber_px=None, pixel_sigma=None,
-                           max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL) -> GNResult:
-    """:func:`gauss_newton` on inputs already checked at a public edge (a camera object, float
-    arrays of the right shapes, a boolean mask, a checked guess, positive ``huber_px`` and
-    ``pixel_sigma`` or None); the guess's depths are still checked (they depend on the pose)."""
-    return _solve(camera, params_from_T(T_WC_guess), Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
+    if check:
+        camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
+        guess = check_transform(guess, "guess")
+        huber_px = None if huber_px is None else check_number("huber_px", huber_px, 0.0, strict=True)
+        pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
+    return _solve(camera, params_from_T(guess), Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
 
 
 def _weights(r, huber_px):

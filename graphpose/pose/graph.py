@@ -147,7 +147,7 @@ class GraphResult:
 
 
 def graph_pose(Ipts, Wpts, camera, *, guess, mask=None, pixel_sigma=None, robust=False,
-               huber_k: float = HUBER_K, from_minimum: bool = False) -> GraphResult:
+               huber_k: float = HUBER_K, from_minimum: bool = False, check: bool = True) -> GraphResult:
     """Solve the camera pose with a GTSAM factor graph and return its marginal covariance.
 
     Parameters
@@ -179,6 +179,12 @@ def graph_pose(Ipts, Wpts, camera, *, guess, mask=None, pixel_sigma=None, robust
         they do not converge from it, Levenberg-Marquardt runs from it as without the flag.
         The answer is GTSAM's either way.
 
+    check : bool
+        False skips the input checks, for a caller that checked the inputs at its own edge
+        (a camera object, float arrays of the right shapes, a boolean mask, a checked guess,
+        positive ``pixel_sigma`` or None and ``huber_k``; the guess's depths are still checked): pytransform3d's
+        ``check=False``.
+
     Returns
     -------
     GraphResult
@@ -190,19 +196,17 @@ def graph_pose(Ipts, Wpts, camera, *, guess, mask=None, pixel_sigma=None, robust
         non-positive ``pixel_sigma`` or ``huber_k``, or a used point behind the camera at the
         guess.
     """
-    camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
-    guess = check_transform(guess, "guess")
-    pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
-    huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
-    return graph_pose_unchecked(camera, guess, Ipts, Wpts, mask, pixel_sigma, robust, huber_k,
-                                from_minimum=bool(from_minimum))
+    if check:
+        camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
+        guess = check_transform(guess, "guess")
+        pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
+        huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
+    return _graph_pose(camera, guess, Ipts, Wpts, mask, pixel_sigma, robust, huber_k, from_minimum=bool(from_minimum))
 
 
-def graph_pose_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma=None, robust=False,
-                         huber_k: float = HUBER_K, *, from_minimum: bool = False) -> GraphResult:
-    """:func:`graph_pose` on inputs already checked at a public edge (a camera object, float
-    arrays of the right shapes, a boolean mask, a checked guess, positive ``pixel_sigma`` or
-    None and ``huber_k``); the guess's depths are still checked (they depend on the pose)."""
+def _graph_pose(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma=None, robust=False,
+                huber_k: float = HUBER_K, *, from_minimum: bool = False) -> GraphResult:
+    """The solve of :func:`graph_pose`, its inputs checked (``check``)."""
     keys = np.flatnonzero(mask)
     I, W = Ipts[:, keys], Wpts[:, keys]  # the used points, once
     check_in_front(to_camera(T_WC_guess, W)[2], "the guess", keys)

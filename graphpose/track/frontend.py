@@ -58,7 +58,7 @@ from ..detect.search import median
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 # fit_pose without its input checks: the front end's junctions and poses are its own, made
 # finite and rigid here (the public fit's checks were a tenth of a tracked frame's front end).
-from ..estimate import fit_pose_unchecked
+from ..estimate import fit_pose
 from .config import TrackerConfig
 from .results import DETECTED, LOST, TRACKED
 
@@ -294,8 +294,8 @@ class FrontEnd:
         checks; ((points, ids, fit), "") or (None, why)."""
         cfg = self.config
         try:
-            fit, _ = fit_pose_unchecked(self.camera, points, self._W[:, ids], guess, np.ones(ids.size, dtype=bool),
-                                        cfg.robust)
+            fit, _ = fit_pose(points, self._W[:, ids], self.camera, guess=guess, mask=np.ones(ids.size, dtype=bool),
+                              robust=cfg.robust, check=False)
         except (InputError, DegenerateGeometryError) as exc:
             return None, f"pose fit failed: {exc}"
         if not fit.converged:

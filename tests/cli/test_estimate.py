@@ -270,7 +270,7 @@ def test_no_convergence_exits_1(bundled, tmp_path, monkeypatch, capsys):
 
     from graphpose import estimate as pipeline
 
-    monkeypatch.setattr(pipeline, "gauss_newton_unchecked", functools.partial(pipeline.gauss_newton_unchecked, max_iterations=1))
+    monkeypatch.setattr(pipeline, "gauss_newton", functools.partial(pipeline.gauss_newton, max_iterations=1))
     case = bundled.cases[0]
     bounds = ",".join(f"{u:g},{v:g}" for u, v in case.bounds.T)
     out_json = tmp_path / "out.json"

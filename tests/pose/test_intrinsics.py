@@ -6,7 +6,6 @@ import pytest
 from graphpose import Board, estimate_pose, estimate_pose_from_points
 from graphpose.camera_params import camera_parameters, camera_with_parameters
 from graphpose.geometry import params_from_T, to_camera
-from graphpose.estimate import estimate_pose_unchecked
 from graphpose.pose.gauss_newton import gauss_newton
 from graphpose.pose.covariance import (
     SIGMA_CALIBRATION,
@@ -137,7 +136,7 @@ def test_robust_fit_propagates_with_its_weights():
     uv = camera.project(to_camera(T, W)) + rng.normal(0.0, 0.1, (2, W.shape[1]))
     uv[:, 7] += 3.0  # an outlier the Huber kernel down-weights
     mask = np.ones(W.shape[1], bool)
-    est = estimate_pose_unchecked(camera, uv, W, None, mask, True)
+    est = estimate_pose_from_points(uv, W, camera, mask=mask, robust=True, check=False)
     from graphpose.pose.gauss_newton import huber_weights
 
     weights = huber_weights(est.gn.residuals, 1.345 * est.gn.sigma_px)

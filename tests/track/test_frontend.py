@@ -78,7 +78,7 @@ def test_input_errors_of_the_junction_and_pose_code_fail_the_attempt_not_the_seq
     assert all("track failed: degenerate" in f.message for f in track.frames[1:])
     # The single-image fit failing from the homography start: every attempt fails, every
     # frame is lost, and says why.
-    monkeypatch.setattr("graphpose.estimate.pose_from_homography_unchecked", refuse)
+    monkeypatch.setattr("graphpose.estimate.pose_from_homography", refuse)
     track = track_sequence(track_clip.images[:2], K, bounds=track_clip.bounds)
     assert list(track.status) == [LOST, LOST]
     assert all("pose fit failed: degenerate" in f.message for f in track.frames)
