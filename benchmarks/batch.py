@@ -89,10 +89,10 @@ def time_cluster(client, paths, bounds, K, board, **options):
 
     from graphpose.batch import estimate_many
 
-    list(estimate_many(paths[:8], K, board, bounds=bounds, client=client, images_per_task=1))  # warm
+    list(estimate_many(paths[:8], K, board=board, bounds=bounds, client=client, images_per_task=1))  # warm
     with get_task_stream(client) as stream:
         start = time.perf_counter()
-        rows = list(estimate_many(paths, K, board, bounds=bounds, client=client, **options))
+        rows = list(estimate_many(paths, K, board=board, bounds=bounds, client=client, **options))
         seconds = time.perf_counter() - start
     tasks = [t for t in stream.data if str(t["key"]).startswith("graphpose-batch")]
     busy = sum(s["stop"] - s["start"] for t in tasks for s in t["startstops"] if s["action"] == "compute")

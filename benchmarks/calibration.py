@@ -159,7 +159,7 @@ def rendered(cv2, quick):
             "z": dict(zip(cal.parameter_names, z.tolist())), "max_abs_z": float(np.max(np.abs(z))),
             "truth": camera.parameters.tolist(), "graphpose": cal.parameters.tolist(),
             "sigmas": cal.sigmas.tolist(), "opencv": cv_camera.parameters.tolist(),
-            "cross_check": cal.cross_check["max_difference"],
+            "cross_check": cal.cross_check.max_difference,
         }
         o = out[name]
         o["ratio"] = o["graphpose_projection_px"] / o["opencv_projection_px"]
@@ -173,7 +173,7 @@ def samples(cv2, quick):
         files = sorted(SAMPLES.glob(f"{side}*.jpg"))
         images = [graphpose.read_image(f, as_float=False) for f in files]
         size = (images[0].shape[1], images[0].shape[0])
-        cal = graphpose.calibrate(files, SAMPLE_BOARD, "radtan")
+        cal = graphpose.calibrate(files, "radtan", board=SAMPLE_BOARD)
         cv_camera, cv_rms, cv_found = _opencv_calibrate(cv2, images, SAMPLE_BOARD, "radtan", size)
         pub = read_camera(SAMPLES / published)
         extra = samples_uncertainty(files, SAMPLE_BOARD)

@@ -59,7 +59,7 @@ def pose_nees(quick: bool = False, trials: int | None = None, seed: int = 2020) 
         for _ in range(n):
             views = calibration_set(radtan_camera(), CALIBRATION_VIEWS + HELD_OUT, rng=rng)
             try:
-                calibration = graphpose.calibrate(views.images[:CALIBRATION_VIEWS], views.board, "radtan")
+                calibration = graphpose.calibrate(views.images[:CALIBRATION_VIEWS], "radtan", board=views.board)
             except graphpose.GraphposeError as exc:
                 failed += 1
                 why.append(" ".join(str(exc).split()))
@@ -73,7 +73,7 @@ def pose_nees(quick: bool = False, trials: int | None = None, seed: int = 2020) 
             for k, rendering in enumerate(views.renderings[CALIBRATION_VIEWS:]):
                 try:
                     # The outline names junction 0's corner: the 8 x 6 board is half-turn symmetric.
-                    est = estimate_pose(rendering.image, rendering.outline, camera, views.board)
+                    est = estimate_pose(rendering.image, camera, bounds=rendering.outline, board=views.board)
                 except graphpose.GraphposeError:
                     continue
                 if not est.ok or est.orientation_ambiguous:

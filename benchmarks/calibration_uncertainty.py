@@ -61,7 +61,7 @@ def _grid(camera, nu=16, nv=12):
 def one_set(camera, n_views, seed, board=Board()):
     """One rendered calibration's parameter NEES and grid NEES (at the boards' distance, at infinity)."""
     views = calibration_set(camera, n_views, rng=seed, board=board)
-    cal = graphpose.calibrate(views.images, board, camera.model)
+    cal = graphpose.calibrate(views.images, camera.model, board=board)
     if not cal.ok:
         return {"seed": seed, "ok": False, "summary": cal.summary}
     e = cal.parameters - camera.parameters
@@ -117,7 +117,7 @@ def samples_uncertainty(files, board):
     """The projection uncertainty at the centre and the corners, and the cross-validation."""
     from graphpose.calibrate.crossval import cross_validate
 
-    cal = graphpose.calibrate(files, board, "radtan")
+    cal = graphpose.calibrate(files, "radtan", board=board)
     w, h = cal.camera.size
     q = np.array([[(w - 1) / 2, 0, w - 1, 0, w - 1], [(h - 1) / 2, 0, 0, h - 1, h - 1]], float)
     at = cal.projection_uncertainty(q, cal.board_distance_m).sigma_px
@@ -126,8 +126,8 @@ def samples_uncertainty(files, board):
 
     J = cal.camera.parameter_jacobian(cal.camera.unproject(q))
     plain = worst_direction_sigma(J @ cal.cov @ J.transpose(0, 2, 1))
-    cv = cross_validate(cal, board)
-    rational = graphpose.calibrate(files, board, "rational")
+    cv = cross_validate(cal, board=board)
+    rational = graphpose.calibrate(files, "rational", board=board)
     d = cv.halves[0].parameters - cv.halves[1].parameters
     C = cv.halves[0].cov + cv.halves[1].cov
     return {"halves_mahalanobis": float(d @ np.linalg.solve(C, d)), "halves_z": (d / np.sqrt(np.diag(C))).tolist(),"distance_m": cal.board_distance_m, "at_boards_px": at.tolist(), "at_infinity_px": far.tolist(),
@@ -165,12 +165,12 @@ def outliers(quick, seed=50_000):
         angle = rng.uniform(0.0, 2 * np.pi)
         moved[k][0][:, j] += rng.uniform(2.0, 5.0) * np.array([np.cos(angle), np.sin(angle)])
         truth_moved.add((k, int(moved[k][1][j])))
-    bad = calibrate_corners(moved, Board(), "radtan", camera.size)
+    bad = calibrate_corners(moved, "radtan", board=Board(), size=camera.size)
     flagged = {(k, int(j)) for k, o in enumerate(bad.outliers) for j in o}
     rejected_images = [k for k, s in enumerate(bad.status) if s != "used"]
     caught = {m for m in truth_moved if m in flagged or m[0] in rejected_images}
     # The reference: the same junctions unmoved, calibrated the same way (from the corners).
-    clean = calibrate_corners(detections, Board(), "radtan", camera.size)
+    clean = calibrate_corners(detections, "radtan", board=Board(), size=camera.size)
     clean_error = _whole_image_error(clean.camera, camera)
     bad_error = _whole_image_error(bad.camera, camera)
     return {"junctions": total, "moved": count, "flagged_of_moved": len(caught), "flagged_total": len(flagged),
@@ -190,6 +190,6 @@ def corners_roundtrip(seed=60_000):
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "corners.vnl"
         write_corners(path, cal.images, cal.detections, Board(), cal.camera.size)
-        again = calibrate_corners(read_corners(path, Board()), Board(), "radtan", cal.camera.size)
+        again = calibrate_corners(read_corners(path, Board()), "radtan", board=Board(), size=cal.camera.size)
     z = (again.parameters - cal.parameters) / cal.sigmas
     return {"max_abs_difference_sigmas": float(np.max(np.abs(z))), "ok": again.ok, "used": again.status.count("used")}

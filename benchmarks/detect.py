@@ -148,7 +148,7 @@ def rolled_sweep(n: int, seed: int = 26) -> dict:
 def run_ours(image, board, polygon=None):
     t = time.perf_counter()
     try:
-        J = extract_junctions(image, polygon, board)
+        J = extract_junctions(image, bounds=polygon, board=board)
     except BoardNotFoundError:
         return None, time.perf_counter() - t
     return (J.points, J.trusted), time.perf_counter() - t

@@ -52,10 +52,10 @@ def run_case(case) -> dict:
     out = {"verdict": "refused", "worst_px": float("nan"), "sigmas": float("nan"), "message": ""}
     try:
         if case.entry == "pose":
-            est = estimate_pose(case.image, case.bounds, case.K, case.board)
+            est = estimate_pose(case.image, case.K, bounds=case.bounds, board=case.board)
             J = est.junctions
         else:
-            est, J = None, extract_junctions(case.image, case.bounds, case.board)
+            est, J = None, extract_junctions(case.image, bounds=case.bounds, board=case.board)
     except InputError as exc:
         return {**out, "verdict": "input", "message": str(exc)}
     except GraphposeError as exc:

@@ -7,7 +7,7 @@ imported here only.
 Sections
 --------
 1. Real images (../shared/data/rob501): RMS and median reprojection residual of a pinhole pose
-   (graphpose.pose.gauss_newton.pose_estimate_nls with the known K, from the case guess) fitted to
+   (graphpose.course.pose_estimate_nls with the known K, from the case guess) fitted to
    our 48 junctions, beside the same for OpenCV ``findChessboardCornersSB`` with
    ``CALIB_CB_ACCURACY`` (its corners matched to ours by nearest neighbour).
 2. Synthetic images (graphpose.synth.render, random poses like the real ones, loose polygons,
@@ -51,7 +51,7 @@ def _match(corners, reference):
 def _pose_residuals(K, guess, points, board):
     """Reprojection residual lengths (n,) in pixels of a pinhole pose fitted to ``points``."""
     from graphpose.geometry import project
-    from graphpose.pose.gauss_newton import pose_estimate_nls
+    from graphpose.course import pose_estimate_nls
 
     W = board.world_points()
     T = pose_estimate_nls(K, guess, points, W)
@@ -66,7 +66,7 @@ def real_images(cv2):
     rows = []
     for case in cases.cases:
         image8 = read_image(case.image)  # the file's 8-bit grey levels, given to both as they are
-        J = extract_junctions(image8, case.bounds, cases.board)
+        J = extract_junctions(image8, bounds=case.bounds, board=cases.board)
         ours = _pose_residuals(cases.K, case.guess_T_WC, J.points, cases.board)
         sb = _opencv_sb(cv2, image8, cases.board)
         sb = None if sb is None else _match(sb, J.points)
@@ -113,7 +113,7 @@ def synthetic(cv2, count):
             T = random_pose(K_REAL, board, rng=rng)
             R = render(K_REAL, T, board, noise_sigma=noise, blur_sigma=blur, rng=rng)
             poly = loose_polygon(R, inset=bool(k % 2), rng=rng)
-            J = extract_junctions(R.image, poly, board)
+            J = extract_junctions(R.image, bounds=poly, board=board)
             err = np.hypot(*(J.points - R.junctions))
             ours.append(err)
             # cornerSubPix starts from the truth rounded to whole pixels (within 0.71 px): a start
@@ -187,12 +187,12 @@ def speed(cv2, repeats):
     for case in cases.cases:
         image8 = read_image(case.image)  # the file's 8-bit grey levels
         part, origin = _crop(image8, case.bounds, CROP_MARGIN)
-        ours.append(median_time(lambda: extract_junctions(image8, case.bounds, cases.board), repeats))
+        ours.append(median_time(lambda: extract_junctions(image8, bounds=case.bounds, board=cases.board), repeats))
         whole.append(median_time(lambda: _opencv_sb(cv2, image8, cases.board), max(3, repeats // 10)))
         crop.append(median_time(lambda: _opencv_sb(cv2, part, cases.board), max(3, repeats // 10)))
         # Found means all 48 corners within 3 px of ours, not merely SB's own flag.
         corners = _opencv_sb(cv2, part, cases.board)
-        points = extract_junctions(image8, case.bounds, cases.board).points
+        points = extract_junctions(image8, bounds=case.bounds, board=cases.board).points
         found.append(corners is not None and _match(corners + origin, points) is not None)
     o, w, c = (1000 * np.median(t) for t in (ours, whole, crop))
     per_image = [[case.image.name, 1000 * a, 1000 * b, 1000 * d, f]

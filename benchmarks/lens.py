@@ -140,10 +140,10 @@ def _ours(image, camera, board, truth, T):
     """graphpose on one image: a dict of its figures, or of why it failed."""
     from graphpose import estimate_pose
     from graphpose.errors import GraphposeError
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.estimate import pose_difference
 
     try:
-        est = estimate_pose(image, None, camera, board)
+        est = estimate_pose(image, camera, bounds=None, board=board)
     except GraphposeError as error:
         return {"solved": False, "why": f"{type(error).__name__}: {error}"}
     except Exception as error:  # noqa: BLE001  (a defect, not a verdict: counted and named, the run goes on)
@@ -161,7 +161,7 @@ def _ours(image, camera, board, truth, T):
 
 
 def _opencv(cv2, image, camera, board, truth, T):
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.estimate import pose_difference
 
     corners = points(opencv_classic(cv2, image, (board.cols, board.rows)))
     if corners is None:
@@ -185,7 +185,7 @@ def _bias_px(camera, T, board):
 
     r = render(camera, T, board, noise_sigma=0.0, blur_sigma=BLUR, quantize=False)
     try:
-        points = estimate_pose(r.image / 255.0, None, camera, board).junctions.points  # float grey in [0, 1]
+        points = estimate_pose(r.image / 255.0, camera, bounds=None, board=board).junctions.points  # float grey in [0, 1]
     except Exception:  # noqa: BLE001  (no figure for this scene)
         return float("nan"), float("nan")
     d = points - r.junctions
@@ -206,7 +206,7 @@ def _crb(camera, T, board):
     The pose bound is ``inv(J^T Sigma^-1 J)``, with ``Sigma`` each junction's bound (the inverse
     of its Fisher information, in the image's own pixels: raw through the lens, or pinhole) and
     ``J`` the pixels' derivatives with respect to the camera position and a small rotation
-    ``C -> exp(w) C`` (whose angle is ``|w|``, as :func:`graphpose.pose.estimate.pose_difference`
+    ``C -> exp(w) C`` (whose angle is ``|w|``, as :func:`graphpose.estimate.pose_difference`
     measures it): the smallest RMS errors any unbiased estimator of the pose from these junctions
     can reach. The same pixel noise costs more pose where a lens shrinks the board's image.
     """
@@ -375,7 +375,7 @@ def samples(quick):
     from graphpose import Board, estimate_pose
     from graphpose.geometry import to_camera
     from graphpose.errors import GraphposeError
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.estimate import pose_difference
 
     board = Board(9, 6, 0.030)
     W = board.world_points()
@@ -386,7 +386,7 @@ def samples(quick):
     for name, image, camera in images:
         row = {"image": name}
         try:
-            est = estimate_pose(image, None, camera, board)
+            est = estimate_pose(image, camera, bounds=None, board=board)
             ok = est.ok
         except GraphposeError as error:
             est, ok = None, False
@@ -408,7 +408,7 @@ def samples(quick):
                 row["junctions_median_distance_px"] = float(np.nanmedian(np.nanmin(d, axis=1)))
         if ok:
             try:
-                und = estimate_pose(_undistort_image(cv2, image, camera), None, camera.K, board)
+                und = estimate_pose(_undistort_image(cv2, image, camera), camera.K, bounds=None, board=board)
                 if und.ok:
                     metres, degrees = pose_difference(est.T_WC, und.T_WC)
                     row["vs_undistort_first_mm"], row["vs_undistort_first_deg"] = 1e3 * metres, degrees
@@ -440,7 +440,8 @@ def speed(quick):
         raw = render(camera, T, board, rng=rng).image
         pin = render(camera.K, T, board, rng=rng).image
         try:  # warm up, and time only scenes both paths solve
-            if not (estimate_pose(raw, None, camera, board).ok and estimate_pose(pin, None, camera.K, board).ok):
+            if not (estimate_pose(raw, camera, bounds=None, board=board).ok and estimate_pose(pin, camera.K, bounds=None,
+                                                                                 board=board).ok):
                 raise ValueError("not solved")
         except Exception:  # noqa: BLE001  (any failure: another scene)
             skipped += 1
@@ -449,7 +450,7 @@ def speed(quick):
         for _ in range(repeats):  # the two paths alternate, so that both meet the same load
             for image, cam, key in ((raw, camera, "raw"), (pin, camera.K, "pinhole")):
                 t, c = time.perf_counter(), time.process_time()
-                estimate_pose(image, None, cam, board)
+                estimate_pose(image, cam, bounds=None, board=board)
                 cpu[key].append(1e3 * (time.process_time() - c))
                 wall[key].append(1e3 * (time.perf_counter() - t))
     return {"images": timed, "skipped": skipped, "repeats": repeats,

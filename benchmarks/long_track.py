@@ -120,7 +120,7 @@ def streamed(frames, K, bounds, timestamps, board):
     kept = Kept(n, board.n)
     stamps, cpu, rss = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
     start, cpu_start = time.perf_counter(), time.process_time()
-    for f in track_frames(frames, K, bounds, board=board, timestamps=timestamps):
+    for f in track_frames(frames, K, bounds=bounds, board=board, timestamps=timestamps):
         kept.keep(f)
         stamps[f.index], cpu[f.index] = time.perf_counter(), time.process_time()
         rss[f.index] = rss_mb()

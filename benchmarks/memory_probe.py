@@ -29,7 +29,7 @@ def _library(path, K):
     import graphpose
 
     try:
-        return graphpose.estimate_pose(graphpose.read_image(path), None, K)
+        return graphpose.estimate_pose(graphpose.read_image(path), K, bounds=None)
     except graphpose.BoardNotFoundError:
         return None
 

@@ -65,7 +65,7 @@ def speed(quick):
     import cv2
 
     from graphpose.geometry import project
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.estimate import pose_difference
     from graphpose.pose.gauss_newton import gauss_newton
     from graphpose.pose.graph import graph_pose
     from graphpose.pose.homography import pose_from_homography
@@ -74,20 +74,20 @@ def speed(quick):
     sets = _speed_sets(quick)
     rows = []
     for name, K, I, W, guess in sets:
-        t_gn = median_time(lambda: gauss_newton(K, guess, I, W), repeats)
+        t_gn = median_time(lambda: gauss_newton(I, W, K, guess=guess), repeats)
         t_lm = median_time(lambda: _opencv_refine(cv2, K, guess, I, W), repeats)
-        t_lin = median_time(lambda: gauss_newton(K, pose_from_homography(K, I, W), I, W), repeats)
+        t_lin = median_time(lambda: gauss_newton(I, W, K, guess=pose_from_homography(I, W, K)), repeats)
         t_cv = median_time(lambda: opencv_pnp(cv2, K, I, W), repeats)
-        t_graph, c_graph = median_time(lambda: graph_pose(K, guess, I, W), max(10, repeats // 3), cpu=True)
+        t_graph, c_graph = median_time(lambda: graph_pose(I, W, K, guess=guess), max(10, repeats // 3), cpu=True)
         rows.append([name, *(1e3 * np.array([t_gn, t_lm])), t_gn / t_lm, *(1e3 * np.array([t_lin, t_cv])),
                      t_lin / t_cv, 1e3 * t_graph, 1e3 * c_graph, t_graph / t_lm])
     # Medians over the sets, in ms as the rows hold them.
     gn, lm, _, lin, cv, _, graph, graph_cpu, _ = np.median(np.array([r[1:] for r in rows]), axis=0)
     # Every timed solver must land on the pose OpenCV's IPPE + LM finds on the same points,
     # or the times compare different work; the squared-residual excess says which one stopped short.
-    solvers = (("GN from guess", lambda K, I, W, g: gauss_newton(K, g, I, W).T_WC),
-               ("homography + GN", lambda K, I, W, g: gauss_newton(K, pose_from_homography(K, I, W), I, W).T_WC),
-               ("GTSAM from guess", lambda K, I, W, g: graph_pose(K, g, I, W).T_WC),
+    solvers = (("GN from guess", lambda K, I, W, g: gauss_newton(I, W, K, guess=g).T_WC),
+               ("homography + GN", lambda K, I, W, g: gauss_newton(I, W, K, guess=pose_from_homography(I, W, K)).T_WC),
+               ("GTSAM from guess", lambda K, I, W, g: graph_pose(I, W, K, guess=g).T_WC),
                ("OpenCV RefineLM from guess", lambda K, I, W, g: _opencv_refine(cv2, K, g, I, W)),
                ("OpenCV IPPE + RefineLM", lambda K, I, W, g: opencv_pnp(cv2, K, I, W)))
     poses = [[solve(K, I, W, g) for _, solve in solvers] for _, K, I, W, g in sets]
@@ -140,16 +140,16 @@ def speed(quick):
 def real_images():
     """GN-GTSAM agreement and 1-sigma on the six real images; target 01 against the course's pose."""
     from graphpose import estimate_pose, load_cases, read_image
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.estimate import pose_difference
 
     cf = load_cases(DATA / "cases.json")
     rows, ref = [], None
     for case in cf.cases:
-        est = estimate_pose(read_image(case.image), case.bounds, cf.K, cf.board, guess=case.guess_T_WC)
+        est = estimate_pose(read_image(case.image), cf.K, bounds=case.bounds, board=cf.board, guess=case.guess_T_WC)
         cc = est.cross_check
         sx = ", ".join(f"{1e3 * s:.2f}" for s in est.sigma_xyz_m)
         sr = ", ".join(f"{np.degrees(s):.3f}" for s in est.sigma_rpy_rad)
-        rows.append([case.image.name, int(est.mask.sum()), est.reprojection_rms_px, cc.translation_m,
+        rows.append([case.image.name, int(est.mask.sum()), est.rms_px, cc.translation_m,
                      cc.rotation_deg, cc.agree, sx, sr])
         if case.ref_T_WC is not None:
             ref = pose_difference(est.T_WC, case.ref_T_WC)
@@ -203,7 +203,7 @@ def synthetic(quick):
 
     from graphpose import estimate_pose
     from graphpose.errors import GraphposeError
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.estimate import pose_difference
     from graphpose.synth.information import junction_information
     from graphpose.synth.poses import loose_polygon, random_pose
     from graphpose.synth.render import render
@@ -218,7 +218,7 @@ def synthetic(quick):
         rendering = render(K, T, noise_sigma=2.0, blur_sigma=1.0, rng=rng)
         polygon = loose_polygon(rendering, rng=rng)
         try:
-            est = estimate_pose(rendering.image, polygon, K)
+            est = estimate_pose(rendering.image, K, bounds=polygon)
             if not est.ok:
                 reasons.append(est.message)
                 est = None
@@ -300,7 +300,7 @@ def basin(quick):
     from graphpose import Board, gauss_newton, pose_from_homography
     from graphpose.geometry import project
     from graphpose.errors import InputError
-    from graphpose.pose.estimate import pose_difference
+    from graphpose.estimate import pose_difference
     from graphpose.synth.poses import perturb_pose, random_pose
 
     n = 200 if quick else 1000
@@ -312,11 +312,11 @@ def basin(quick):
     for _ in range(n):
         T = random_pose(K, rng=rng)
         I = project(K, T, W) + rng.normal(0, 0.2, (2, 48))
-        T_lin = gauss_newton(K, pose_from_homography(K, I, W), I, W).T_WC
+        T_lin = gauss_newton(I, W, K, guess=pose_from_homography(I, W, K)).T_WC
         while True:
             guess = perturb_pose(T, angle_deg=(0.0, 30.0), offset_m=(0.0, 0.5), rng=rng)
             try:
-                res = gauss_newton(K, guess, I, W)
+                res = gauss_newton(I, W, K, guess=guess)
                 break
             except InputError:  # a guess with points behind the camera is refused, not a trial
                 redrawn += 1

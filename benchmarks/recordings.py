@@ -132,7 +132,7 @@ def video(cv2, tmp, quick):
                 "--tum", tmp / "folder.tum", "-q") == 0
     video_P, tum_t = _tum_poses(tmp / "video.tum", clip.timestamps)
     folder_P, _ = _tum_poses(tmp / "folder.tum", clip.timestamps)
-    lossless = track_sequence(seq.images, K_REAL, seq.bounds, timestamps=seq.timestamps).poses("online")
+    lossless = track_sequence(seq.images, K_REAL, bounds=seq.bounds, timestamps=seq.timestamps).poses("online")
     cv_P = np.full((n, 4, 4), np.nan)
     for k, image in enumerate(decoded):
         T, _ = _opencv_pose(cv2, image, K_REAL, project(K_REAL, seq.T_WC[k], W), W)
@@ -240,7 +240,7 @@ def flat_cost(tmp, quick):
     n = total
     cpu, rss, reading, lost = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan), 0
     cpu_start = time.process_time()
-    for f in track_frames(path, K_REAL, seq.bounds, board=Board()):
+    for f in track_frames(path, K_REAL, bounds=seq.bounds, board=Board()):
         now = time.process_time()
         cpu[f.index], cpu_start = now - cpu_start, now
         reading[f.index] = f.cpu_s[0]
@@ -290,7 +290,7 @@ def calibration(cv2, tmp, quick):
 
     from graphpose import Board
     from graphpose.calibrate import calibrate
-    from graphpose.io.calibration import read_camera
+    from graphpose.io.cameras import read_camera
     from graphpose.io.sources import open_frames
     from graphpose.synth.calibration import radtan_camera
     from graphpose.synth.clip import calibration_clip
@@ -316,7 +316,7 @@ def calibration(cv2, tmp, quick):
     eligible = np.flatnonzero((clip.subframes == 1) & (clip.visible == 1.0))
     picks = eligible[np.round(np.linspace(0, len(eligible) - 1, 40)).astype(int)]
     video = open_frames(path)
-    hand = calibrate([video.read(int(k)).image for k in picks], board, "radtan")
+    hand = calibrate([video.read(int(k)).image for k in picks], "radtan", board=board)
     by_hand = _projection_error(hand.camera, truth)
     # OpenCV: findChessboardCornersSB + calibrateCamera on every 15th frame.
     wall, cpu = time.perf_counter(), time.process_time()
@@ -377,7 +377,7 @@ def pans(quick):
     board = Board()
     seq = render_sequence(K_REAL, n, rng=3, excursions=1, noise_sigma=NOISY[0], blur_sigma=NOISY[1],
                           distance=(0.6, 1.3))
-    track = track_sequence(seq.images, K_REAL, seq.bounds, timestamps=seq.timestamps)
+    track = track_sequence(seq.images, K_REAL, bounds=seq.bounds, timestamps=seq.timestamps)
     half = seq.visible >= board.n / 2
     lost = half & ~track.found
     block = {"title": "Pans: frames lost with at least half the board in view",

@@ -148,7 +148,7 @@ def rendered(cv2, quick):
             per_camera_nees.append(nees(C, e))
             z_all.extend((e / np.sqrt(np.diag(C))).tolist())
         row = [name, k, int(views.seen.sum()), sum(s == "used" for r in cal.status for s in r), cal.rms_px,
-               cal.cross_check["max_difference"]]
+               cal.cross_check.max_difference]
         t_g, r_g = _extrinsic_errors(cal.T_C0_C[1], rig.T_C0_C[1])
         row += [t_g, r_g]
         if name in ("stereo", "three"):
@@ -185,7 +185,7 @@ def pair(cv2):
     walls = []
     for _ in range(2):
         t = time.perf_counter()
-        cal = calibrate_rig([left, right], board)
+        cal = calibrate_rig([left, right], board=board)
         walls.append(time.perf_counter() - t)
     T_cv, rms_cv, pairs = _opencv_stereo(cv2, images[0], images[1], board, size, size, fix=False)
     ext = cal.extrinsics()[0]
@@ -237,8 +237,8 @@ def rig_pose(quick):
         for k in np.flatnonzero(views.seen.all(axis=1)):
             truth = views.poses[k]
             try:
-                est = estimate_rig_pose(views.images[k], rig, board)
-                singles = [estimate_pose(views.images[k][c], None, rig.cameras[c], board) for c in range(len(rig))]
+                est = estimate_rig_pose(views.images[k], rig, board=board)
+                singles = [estimate_pose(views.images[k][c], rig.cameras[c], bounds=None, board=board) for c in range(len(rig))]
             except BoardNotFoundError:
                 continue
             if not est.ok:
@@ -252,7 +252,7 @@ def rig_pose(quick):
             blank = [im if c else np.full_like(im, 128) for c, im in enumerate(views.images[k])]
             blank_n += 1
             try:
-                b = estimate_rig_pose(blank, rig, board)
+                b = estimate_rig_pose(blank, rig, board=board)
                 blank_ok += int(b.ok and b.status[0] == "no board")
             except BoardNotFoundError:
                 pass

@@ -53,9 +53,9 @@ from graphpose.detect.find import find_board
 from graphpose.detect.junctions import extract_junctions
 from graphpose.image import read_image
 from graphpose.io.files import encode_png
-from graphpose.pipeline import estimate_pose
-from graphpose.pose.estimate import fit_pose
-from graphpose.pose.graph import graph_pose, graph_pose_unchecked
+from graphpose.estimate import estimate_pose
+from graphpose.estimate import fit_pose
+from graphpose.pose.graph import graph_pose
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
 
@@ -70,7 +70,7 @@ def ours(path, bounds, camera, board=BOARD):
     image = read_image(path, as_float=False)
     check_image_size(camera, image.shape)
     try:
-        return estimate_pose(image, bounds, camera, board)
+        return estimate_pose(image, camera, bounds=bounds, board=board)
     except BoardNotFoundError:
         return None
 
@@ -120,8 +120,8 @@ def stages(cv2, items, repeats):
     for path, bounds, camera in items:
         cam = as_camera(camera)
         image = read_image(path, as_float=False)
-        J = extract_junctions(image, bounds, BOARD, camera=cam)
-        gn, _ = fit_pose(cam, J.points, W, mask=J.trusted)
+        J = extract_junctions(image, bounds=bounds, board=BOARD, camera=cam)
+        gn, _ = fit_pose(J.points, W, cam, mask=J.trusted)
         t = {n: [] for n in names}
         calls = {
             "read": partial(read_image, path, as_float=False),
@@ -156,10 +156,10 @@ def gtsam_stage(cv2, items, repeats):
     W = BOARD.world_points()
     for path, bounds, camera in items:
         cam = as_camera(camera)
-        J = extract_junctions(read_image(path, as_float=False), bounds, BOARD, camera=cam)
-        gn, _ = fit_pose(cam, J.points, W, mask=J.trusted)
+        J = extract_junctions(read_image(path, as_float=False), bounds=bounds, board=BOARD, camera=cam)
+        gn, _ = fit_pose(J.points, W, cam, mask=J.trusted)
         # estimate_pose checks its inputs once at its edge and calls the solvers' unchecked cores
-        ours = partial(graph_pose_unchecked, cam, gn.T_WC, J.points, W, J.trusted, from_minimum=gn.converged)
+        ours = partial(graph_pose, J.points, W, cam, guess=gn.T_WC, mask=J.trusted, from_minimum=gn.converged, check=False)
         peer = partial(opencv_pnp, cv2, cam.K, J.points[:, J.trusted], W[:, J.trusted], guess=gn.T_WC)
         ours(), peer()
         t_ours, t_peer = [], []
@@ -212,7 +212,7 @@ def peak_memory(tool, warm, path):
 def _extract(image, bounds, camera):
     """graphpose's extraction alone (junctions, trusted or not); None where it finds no board."""
     try:
-        return extract_junctions(image, bounds, BOARD, camera=camera)
+        return extract_junctions(image, bounds=bounds, board=BOARD, camera=camera)
     except BoardNotFoundError:
         return None
 

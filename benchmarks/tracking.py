@@ -88,10 +88,10 @@ def _single_frame_times(images, K, board, frames):
         whole = np.array([[0.0, w - 1.0, w - 1.0, 0.0], [0.0, 0.0, h - 1.0, h - 1.0]])
         start = time.perf_counter()
         try:
-            J = extract_junctions(images[k], whole, board)
+            J = extract_junctions(images[k], bounds=whole, board=board)
             use = J.trusted
-            T0 = pose_from_homography(K, J.points[:, use], W[:, use])
-            ok[i] = gauss_newton(K, T0, J.points[:, use], W[:, use]).converged
+            T0 = pose_from_homography(J.points[:, use], W[:, use], K)
+            ok[i] = gauss_newton(J.points[:, use], W[:, use], K, guess=T0).converged
         except GraphposeError:  # no board, or a refusal of the homography or the fit: not found
             pass
         ms[i] = (time.perf_counter() - start) * 1000
@@ -150,7 +150,7 @@ def main(quick: bool = False) -> dict:
                           "out": int(seq.out_of_view.sum()), "partly": int((~seq.in_view & ~seq.out_of_view).sum()),
                           "render_s": render_s, "render_ms": 1000 * render_s / n}}]
 
-    track = track_sequence(seq.images, K, seq.bounds, timestamps=seq.timestamps, smooth=True)
+    track = track_sequence(seq.images, K, bounds=seq.bounds, timestamps=seq.timestamps, smooth=True)
     found = track.found
     cv_poses = np.full((n, 4, 4), np.nan)
     cv_times = []
@@ -305,7 +305,7 @@ def _noisy_sequence(cv2, K, board, quick):
     runs = {}
     for noise in (NOISY[0], NOISY_REFERENCE):
         seq = render_sequence(K, n, rng=3, excursions=1, noise_sigma=noise, blur_sigma=NOISY[1], distance=(0.6, 1.3))
-        track = track_sequence(seq.images, K, seq.bounds, timestamps=seq.timestamps, smooth=True)
+        track = track_sequence(seq.images, K, bounds=seq.bounds, timestamps=seq.timestamps, smooth=True)
         found = track.found
         d_online, _ = _errors(track.poses("online"), seq.T_WC)
         d_smooth, a_smooth = _errors(track.poses("smoothed"), seq.T_WC)
@@ -410,7 +410,7 @@ def instrumented_track(frames, K, bounds, timestamps, config, smooth):
         rss[k] = rss_mb()
 
     start, cpu_start = time.perf_counter(), time.process_time()
-    track = track_sequence(frames, K, bounds, timestamps=timestamps, config=config, smooth=smooth,
+    track = track_sequence(frames, K, bounds=bounds, timestamps=timestamps, config=config, smooth=smooth,
                            progress=progress)
     smooth_s = time.perf_counter() - stamps[-1]
     return track, np.diff(np.r_[start, stamps]), np.diff(np.r_[cpu_start, cpu]), rss, smooth_s

@@ -6,9 +6,9 @@ Data flows one way, one subpackage per step:
 - :mod:`graphpose.detect` finds the cross-junctions (coarse grid, then the saddle fit of
   Lucchese & Mitra in :mod:`graphpose.detect.saddle`);
 - :mod:`graphpose.pose` solves for the pose twice, by Gauss-Newton and by a GTSAM factor
-  graph, and holds the two against each other (:func:`graphpose.pose.estimate.estimate_pose_from_points`);
-- :mod:`graphpose.pipeline` joins the two: image to cross-checked pose
-  (:func:`graphpose.pipeline.estimate_pose`);
+  graph, and holds the two against each other (:func:`graphpose.estimate.estimate_pose_from_points`);
+- :mod:`graphpose.estimate` joins the two: image to cross-checked pose
+  (:func:`graphpose.estimate.estimate_pose`);
 - :mod:`graphpose.calibrate` finds a camera's intrinsics, lens and their covariance from
   images of the board;
 - :mod:`graphpose.track` follows the camera over a sequence with GTSAM's fixed-lag smoother;
@@ -59,10 +59,8 @@ _EXPORTS = {
     "Rig": "rig",
     "estimate_rig_pose": "pipeline_rig",
     "RigPoseEstimate": "pose.rig",
-    "read_camera": "io.calibration",
-    "write_camera": "io.calibration",
-    "check_K": "_checks",
-    "check_transform": "_checks",
+    "read_camera": "io.cameras",
+    "write_camera": "io.cameras",
     "as_grey": "image",
     "read_image": "image",
     "load_cases": "io.cases",
@@ -70,25 +68,21 @@ _EXPORTS = {
     "estimate_many": "batch",
     "SaddleFit": "detect.saddle",
     "fit_saddles": "detect.saddle",
-    "saddle_point": "detect.saddle",
     "Junctions": "detect.junctions",
     "FoundBoard": "detect.find",
     "find_board": "detect.junctions",
     "refine": "detect.junctions",
-    "cross_junctions": "detect.junctions",
     "extract_junctions": "detect.junctions",
     "refine_junctions": "detect.refine",
     "pose_from_homography": "pose.homography",
     "GNResult": "pose.gauss_newton",
-    "find_jacobian": "pose.gauss_newton",
     "gauss_newton": "pose.gauss_newton",
-    "pose_estimate_nls": "pose.gauss_newton",
     "GraphResult": "pose.graph",
     "graph_pose": "pose.graph",
-    "CrossCheck": "pose.estimate",
-    "PoseEstimate": "pose.estimate",
-    "estimate_pose": "pipeline",
-    "estimate_pose_from_points": "pose.estimate",
+    "CrossCheck": "pose.cross_check",
+    "PoseEstimate": "estimate",
+    "estimate_pose": "estimate",
+    "estimate_pose_from_points": "estimate",
     "TumTrajectory": "io.tum",
     "read_tum": "io.tum",
     "write_tum": "io.tum",
@@ -103,6 +97,15 @@ _EXPORTS = {
     "write_sequence": "synth.sequence",
 }
 
+#: The course's starter functions under their seed names (:mod:`graphpose.course`): importable
+#: from here, as the assignment's code does, but not among the names above, which are the
+#: library's own.
+_COURSE = {"saddle_point": "course", "cross_junctions": "course", "find_jacobian": "course",
+           "pose_estimate_nls": "course"}
+
+#: What a user calls: the entries, their results, cameras, boards, files, and the errors.
+#: Validators stay private (graphpose._checks; ``check_image_size`` is a camera's question a
+#: user asks), and the solvers' checked-input paths are ``check=False``, not separate names.
 __all__ = sorted(
     ["BoardMismatchError", "BoardNotFoundError", "ConvergenceError", "DegenerateGeometryError", "GraphposeError", "InputError", "SaddleError",
      *_PACKAGES, *_EXPORTS],
@@ -113,7 +116,7 @@ __all__ = sorted(
 def __getattr__(name: str):
     if name in _PACKAGES:
         return importlib.import_module(f".{name}", __name__)  # sets the attribute itself
-    module = _EXPORTS.get(name)
+    module = _EXPORTS.get(name) or _COURSE.get(name)
     if module is None:
         raise AttributeError(f"module 'graphpose' has no attribute {name!r}")
     value = getattr(importlib.import_module(f".{module}", __name__), name)

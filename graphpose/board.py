@@ -205,15 +205,3 @@ def check_board(board):
     if not isinstance(board, Board):
         raise InputError(f"board must be a graphpose.Board, got {type(board).__name__}")
     return board
-
-
-def board_hint(message: str) -> str:
-    """``message`` with how to give the board when it says the board found is not the spec's
-    (the detector's ``found a 9 x 6 board ...; the board spec says 8 x 6``): the default board,
-    and the ``--board`` option of ``graphpose estimate`` and ``graphpose batch``, whose messages
-    it completes."""
-    if "board spec" not in message:
-        return message
-    d = Board()
-    return (f"{message} (the default board is {d.cols}x{d.rows}x{d.square_m}; give yours with --board "
-            f"COLSxROWSxSQUARE_M: inner junctions along a row and down a column, and the square's side in metres)")

@@ -14,7 +14,7 @@ from .errors import InputError
 
 #: Fewest junctions a pose rests on (six, not all on one line): the detector's verdict
 #: (:func:`graphpose.detect.junctions.extract_junctions`) and the pipeline
-#: (:func:`graphpose.pipeline.estimate_pose`) refuse fewer trusted ones.
+#: (:func:`graphpose.estimate.estimate_pose`) refuse fewer trusted ones.
 MIN_JUNCTIONS = 6
 
 

@@ -1,6 +1,6 @@
 """A rig's pose from its images: each camera's junctions, then the rig's pose from them all.
 
-:func:`estimate_rig_pose` is the rig's twin of :func:`graphpose.pipeline.estimate_pose`: it finds
+:func:`estimate_rig_pose` is the rig's twin of :func:`graphpose.estimate.estimate_pose`: it finds
 each camera's junctions (:func:`graphpose.detect.extract_junctions`, through that
 camera's lens) and hands them to :func:`graphpose.pose.rig.estimate_rig_pose_from_points`
 (Gauss-Newton and GTSAM over camera 0's pose, ``docs/rigs.md``).
@@ -15,7 +15,7 @@ from .errors import BoardNotFoundError, InputError
 from .pose.rig import RigPoseEstimate, estimate_rig_pose_from_points
 
 
-def estimate_rig_pose(images, rig, board: Board = Board(), *, robust: bool = False) -> RigPoseEstimate:
+def estimate_rig_pose(images, rig, *, board: Board = Board(), robust: bool = False) -> RigPoseEstimate:
     """The rig's pose (camera 0's, in the target frame) from one image per camera.
 
     Parameters
@@ -25,7 +25,7 @@ def estimate_rig_pose(images, rig, board: Board = Board(), *, robust: bool = Fal
         for a camera without one.
     rig : Rig
         The calibrated rig (:class:`graphpose.rig.Rig`, e.g. from
-        :func:`graphpose.io.calibration.read_camera` of a rig file).
+        :func:`graphpose.io.cameras.read_camera` of a rig file).
     board : Board
     robust : bool
         A Huber kernel (1.345 robust sigmas) in both solvers.
@@ -64,7 +64,7 @@ def estimate_rig_pose(images, rig, board: Board = Board(), *, robust: bool = Fal
             image = read_image(image, as_float=False)
         check_image_size(rig.cameras[c], image, name)
         try:
-            J = extract_junctions(image, None, board, camera=rig.cameras[c])
+            J = extract_junctions(image, bounds=None, board=board, camera=rig.cameras[c])
             if np.count_nonzero(J.trusted) < 6:
                 raise BoardNotFoundError(f"only {np.count_nonzero(J.trusted)} trusted junctions")
         except BoardNotFoundError as exc:

@@ -54,15 +54,16 @@ def real_images(real_cases):
     return [(case, read_image(case.image, as_float=True)) for case in real_cases.cases]
 
 
-# --- shared constants: the project's camera and target (appended; graphpose.geometry and
-# graphpose.cli.options load no GTSAM) ---------------------------------------------------
+# --- shared constants: the project's camera and target (appended; graphpose.geometry loads
+# no GTSAM) ---------------------------------------------------
 
 from graphpose import Board as _Board  # noqa: E402
 from graphpose.geometry import K_from_params as _K_from_params  # noqa: E402
-from graphpose.cli.options import DEFAULT_K as _DEFAULT_K  # noqa: E402
 
-#: The project's camera (the ROB501 images'), (3, 3) pixels; read-only.
-PROJECT_K = _K_from_params(*_DEFAULT_K)
+#: The project's camera (the ROB501 images'), (3, 3) pixels; read-only. Its fx, fy, cx, cy are
+#: ``graphpose.cli.options.DEFAULT_K``'s (what ``render-sequence`` draws with), written here so
+#: that the tests take the project's K from this module, not from the command line's.
+PROJECT_K = _K_from_params(564.9, 564.3, 337.3, 226.5)
 PROJECT_K.setflags(write=False)
 #: The project's board's junctions (8 x 6, 63.5 mm), (3, 48) metres, row-major; read-only.
 BOARD_WPTS = _Board().world_points()

@@ -14,7 +14,7 @@ import pytest
 import graphpose
 from graphpose.image import read_image
 from graphpose.io.cases import bundled_cases_path, load_cases
-from graphpose.pipeline import estimate_pose
+from graphpose.estimate import estimate_pose
 
 CHECKS = ("check_observations", "check_K", "check_transform", "check_image", "check_image_size")
 
@@ -48,13 +48,13 @@ def _count(monkeypatch):
 def test_every_holder_of_the_checks_is_wrapped(monkeypatch):
     # The counting reaches the checks' own modules and their importers (a rename or a new
     # holder would otherwise escape the count).
-    import graphpose.pose.estimate  # noqa: F401  (loads the pose modules)
+    import graphpose.estimate  # noqa: F401  (loads the pose modules)
     import graphpose.pose.graph  # noqa: F401
 
     _count(monkeypatch)
     wrapped = {m.__name__ for m in sys.modules.values() if getattr(m, "__name__", "").startswith("graphpose")
                and getattr(m.__dict__.get("check_observations"), "__name__", "") == "counting"}
-    assert {"graphpose.observations", "graphpose.pose.estimate"} <= wrapped, wrapped
+    assert {"graphpose.observations", "graphpose.estimate"} <= wrapped, wrapped
 
 
 @pytest.mark.parametrize("with_guess", [True, False], ids=["guess", "homography start"])
@@ -63,8 +63,9 @@ def test_one_estimate_checks_each_input_once(bundled, monkeypatch, with_guess, r
     doc, case, image = bundled
     camera = doc.camera.K  # a K (array): the pipeline makes the camera, which checks K
     calls = _count(monkeypatch)
-    estimate = estimate_pose(image, case.bounds, camera, doc.board,
-                             guess=case.guess_T_WC if with_guess else None, robust=robust)
+    estimate = estimate_pose(image, camera, bounds=case.bounds, board=doc.board,
+                             guess=case.guess_T_WC if with_guess else None,
+                             robust=robust)
     assert estimate.ok
     for name in CHECKS:
         assert len(calls[name]) <= 1, f"{name} ran {len(calls[name])} times, from {calls[name]}"
@@ -75,8 +76,8 @@ def test_the_count_sees_a_repeated_check(bundled, monkeypatch):
     checks again (its own edge), and the wrapper counts that."""
     doc, case, image = bundled
     calls = _count(monkeypatch)
-    estimate = estimate_pose(image, case.bounds, doc.camera, doc.board, guess=case.guess_T_WC)
+    estimate = estimate_pose(image, doc.camera, bounds=case.bounds, board=doc.board, guess=case.guess_T_WC)
     before = len(calls["check_observations"])
-    graphpose.estimate_pose_from_points(doc.camera, estimate.junctions.points, doc.board.world_points(),
+    graphpose.estimate_pose_from_points(estimate.junctions.points, doc.board.world_points(), doc.camera,
                                         mask=estimate.junctions.trusted)
     assert len(calls["check_observations"]) >= before + 1

@@ -8,7 +8,7 @@ from graphpose import DegenerateGeometryError, GraphposeError, InputError, T_fro
 from graphpose.camera_models import RadTanCamera
 from graphpose.cli import EXIT_FAILED, exit_code, main
 from graphpose.geometry import homography_dlt, project
-from graphpose.pose.estimate import estimate_pose_from_points
+from graphpose.estimate import estimate_pose_from_points
 from graphpose.pose.homography import pose_from_homography
 from tests.conftest import BOARD_WPTS as W
 from tests.conftest import PROJECT_K as K
@@ -30,7 +30,7 @@ def test_points_that_fix_no_homography():
     with pytest.raises(DegenerateGeometryError, match="coincide"):
         homography_dlt(np.ones((2, 6)), W[:2, :6])
     with pytest.raises(DegenerateGeometryError, match="collinear"):
-        pose_from_homography(K, project(K, T, W[:, :8]), W[:, :8])
+        pose_from_homography(project(K, T, W[:, :8]), W[:, :8], K)
 
 
 def test_no_pose_in_front_of_the_camera():
@@ -42,10 +42,10 @@ def test_no_pose_in_front_of_the_camera():
     assert np.any(P[2] > 0) and np.any(P[2] < 0)
     uv = (K @ (P / P[2]))[:2]
     with pytest.raises(DegenerateGeometryError, match="in front of the camera"):
-        pose_from_homography(K, uv, W)
+        pose_from_homography(uv, W, K)
     # The same through the public pose estimate (no guess, so the homography start).
     with pytest.raises(DegenerateGeometryError, match="in front of the camera"):
-        estimate_pose_from_points(K, uv, W)
+        estimate_pose_from_points(uv, W, K)
 
 
 def test_a_pixel_where_the_lens_has_no_ray():
@@ -54,7 +54,7 @@ def test_a_pixel_where_the_lens_has_no_ray():
     uv[:, 0] = [K[0, 2] + 3.0 * K[0, 0], K[1, 2]]  # beyond the fold: no ray reaches it
     assert np.isnan(camera.undistort_pixels(uv[:, :1])).all()
     with pytest.raises(DegenerateGeometryError, match="no ray in front"):
-        pose_from_homography(camera, uv, W)
+        pose_from_homography(uv, W, camera)
 
 
 def test_the_command_line_exits_1_on_it(monkeypatch, capsys):
@@ -76,6 +76,6 @@ def test_the_tracker_loses_the_frame_not_the_sequence(track_clip, monkeypatch):
 
     # The homography start of every single-image fit (detection has its own homography).
     monkeypatch.setattr("graphpose.pose.homography.homography_dlt", degenerate)
-    track = track_sequence(track_clip.images[:2], K, track_clip.bounds)
+    track = track_sequence(track_clip.images[:2], K, bounds=track_clip.bounds)
     assert list(track.status) == [LOST, LOST]
     assert all("pose fit failed: degenerate" in f.message for f in track.frames)

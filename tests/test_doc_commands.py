@@ -162,7 +162,7 @@ def _recordings(s):
     waving the 9 x 6 board, as wave.mp4 and clip.mp4, its first frames as a ROS 1 bag, a ROS 2
     bag of PNG messages (both with the camera_info) and a list file."""
     from graphpose.board import Board
-    from graphpose.io.calibration import read_camera
+    from graphpose.io.cameras import read_camera
     from graphpose.io.files import write_png
     from graphpose.io.sources.bag_writer import write_bag
     from graphpose.io.sources.video_out import VideoWriter

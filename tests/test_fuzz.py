@@ -60,7 +60,7 @@ def test_low_contrast_noise_and_a_specular_highlight_without_a_polygon_never_mis
         scene = random_scene(K_FUZZ, board, occluders=("reflection",), distance=(depth, depth * 1.05),
                              contrast=float(rng.uniform(0.2, 0.35)), noise_sigma=6.0, rng=rng)
         try:
-            J = extract_junctions(scene.image, None, board)
+            J = extract_junctions(scene.image, bounds=None, board=board)
         except BoardNotFoundError:
             continue
         answered += 1

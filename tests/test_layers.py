@@ -4,18 +4,18 @@ Every import of a graphpose module by another, at the top of a file or inside a 
 lazy import is still a dependency), is read from the source with ``ast``. A module may import
 from its own layer's group and from the layers below it, never from a layer above; two groups of
 one layer may not import each other. The package's facade (``graphpose/__init__.py``) imports
-its errors only and loads every other name on first use, so it sits low; ``__main__`` and the
-old top-level ``saddle`` module sit above everything.
+its errors only and loads every other name on first use, so it sits low; ``__main__``, the
+course's starter functions and the deprecated module names sit above everything.
 
 Privacy runs by subpackage (:func:`private_imports`): a name with a leading underscore, and
 every name of a private module (``graphpose.detect._refine``), is private to the subpackage
 that holds it (a top-level module, ``graphpose.rig``, is a unit of its own): no other
 subpackage imports it. The package's own top-level private modules (``graphpose._checks``,
-``_extras``, ``_pixels``, ``_png``, ``_png_filters``) are the package's shared internals:
+``_deprecated``, ``_extras``, ``_pixels``, ``_png``, ``_png_filters``) are the package's shared internals:
 private to graphpose, not to one subpackage (they are underscored because they are not the
 user's API: the validators every public edge calls, the optional-dependency guard, the
 compiled pixel kernels), so any graphpose module may import their public names. And
-detection has one seam (:func:`detect_seam_imports`): the pipeline, calibration and tracking
+detection has one seam (:func:`detect_seam_imports`): the estimate, calibration and tracking
 import from ``graphpose.detect`` itself, only the names of its ``__all__``.
 """
 
@@ -34,7 +34,7 @@ LAYERS = (
     ("errors", "_pixels", "_png_filters"),
     # The facade: it imports its errors only; every other name loads on first use (PEP 562).
     # _png: the grey-PNG reader, on the compiled pixels.
-    ("_checks", "_extras", "__init__", "_png"),
+    ("_checks", "_deprecated", "_extras", "__init__", "_png"),
     ("geometry",),
     ("board", "camera_models", "image"),
     # A rig of cameras and its stereo matrices (on the cameras and their parameters).
@@ -42,11 +42,12 @@ LAYERS = (
     ("observations", "io"),
     # Junctions from an image, and a pose from points, know nothing of each other.
     ("detect", "pose", "synth"),
-    ("pipeline", "pipeline_rig"),
+    ("estimate", "pipeline_rig"),
     ("io.records",),
     ("calibrate", "track", "batch", "viz"),
     ("cli",),
-    ("saddle", "__main__"),
+    # The course's starter functions (on detect and pose), the deprecated module names.
+    ("__main__", "course", "pipeline", "pose.estimate"),
 )
 
 
@@ -216,7 +217,7 @@ def private_imports(package: Path = PACKAGE) -> list:
 
 
 #: The subpackages and modules that use detection through its public seam only.
-SEAM_USERS = ("pipeline", "pipeline_rig", "calibrate", "track")
+SEAM_USERS = ("estimate", "pipeline_rig", "calibrate", "track")
 
 
 def _detect_all(package: Path) -> set:

@@ -1,7 +1,7 @@
 """Pose estimates for many images, on a Dask cluster: one row per image, resumable.
 
 - :func:`estimate_many` (:mod:`graphpose.batch.engine`) runs
-  :func:`graphpose.pipeline.estimate_pose` on each image on a local or remote Dask
+  :func:`graphpose.estimate.estimate_pose` on each image on a local or remote Dask
   cluster and yields one record per image as results arrive;
 - :mod:`graphpose.batch.work` is what a worker runs, and says what a record holds (the
   ``estimate --json`` keys, a status word per failure, the time);

@@ -60,7 +60,7 @@ class ClusterError(GraphposeError):
     """The Dask cluster could not run the batch: no worker came, or the scheduler went away."""
 
 
-def estimate_many(paths, camera, board: Board = Board(), *, bounds=None, robust: bool = False, client=None,
+def estimate_many(paths, camera, *, board: Board = Board(), bounds=None, robust: bool = False, client=None,
                   workers: int | None = None, images_per_task: int | None = None,
                   task_seconds: float = TASK_SECONDS):
     """Estimate the camera pose in many images on a Dask cluster; records as they arrive.
@@ -79,7 +79,7 @@ def estimate_many(paths, camera, board: Board = Board(), *, bounds=None, robust:
         file on every one (a shared file system).
     camera : Camera or (3, 3) array_like
         The camera model (:mod:`graphpose.camera_models`, e.g. from
-        :func:`graphpose.io.calibration.read_camera`; the images raw, with its lens
+        :func:`graphpose.io.cameras.read_camera`; the images raw, with its lens
         distortion), or pinhole intrinsics ``K``, pixels, for undistorted images.
     board : Board
         The target.

@@ -2,7 +2,7 @@
 
 :func:`estimate_images` is what a Dask worker runs (and what a plain loop runs, for a
 comparison): for each image it does what ``graphpose estimate IMAGE [--bounds ...]`` does
-(:func:`graphpose.image.read_image`, then :func:`graphpose.pipeline.estimate_pose`) and
+(:func:`graphpose.image.read_image`, then :func:`graphpose.estimate.estimate_pose`) and
 turns the outcome into the record of :func:`graphpose.io.records.result_record`, so the pose
 of a row is the pose that command gives for that image (up to the last bits BLAS may change,
 docs/batch.md). A failure of one image
@@ -24,7 +24,7 @@ import os
 import sys
 import time
 
-from ..board import Board, board_hint
+from ..board import Board
 from ..io.records import result_record, target_keys
 from ..io.sources import parse_frame_key
 from ..errors import BoardNotFoundError, GraphposeError
@@ -61,7 +61,7 @@ def estimate_images(items, camera, board: Board = Board(), robust: bool = False)
     board : Board
         The target.
     robust : bool
-        As :func:`graphpose.pipeline.estimate_pose`.
+        As :func:`graphpose.estimate.estimate_pose`.
 
     Returns
     -------
@@ -69,7 +69,7 @@ def estimate_images(items, camera, board: Board = Board(), robust: bool = False)
         JSON-ready records (see the module docstring); never raises for one image's failure.
     """
     from ..image import read_image
-    from ..pipeline import estimate_pose
+    from ..estimate import estimate_pose
 
     worker = _worker_address()
     target = target_keys(camera, board)
@@ -87,11 +87,11 @@ def estimate_images(items, camera, board: Board = Board(), robust: bool = False)
                 except GraphposeError as exc:
                     status, message = UNREADABLE, _one_line(exc)
                 else:
-                    estimate = estimate_pose(image, bounds, camera, board, robust=robust)
+                    estimate = estimate_pose(image, camera, bounds=bounds, board=board, robust=robust)
                     if not estimate.ok:
                         status, message = NOT_CONVERGED, f"no reliable pose: {estimate.message}"
         except BoardNotFoundError as exc:
-            status, message = BOARD_NOT_FOUND, board_hint(_one_line(exc))
+            status, message = BOARD_NOT_FOUND, _one_line(exc)
         except GraphposeError as exc:
             status, message = FAILED, _one_line(exc)
         except Exception as exc:  # noqa: BLE001  (one image's bug must not stop the batch)
@@ -123,7 +123,7 @@ def warm_up() -> None:
     """Import what :func:`estimate_images` needs, so that a worker's first image is not slower."""
     from skimage import io  # noqa: F401  (read_image's reader, imported on first use)
 
-    from .. import pipeline  # noqa: F401  (estimate_pose, with the detector and the solvers)
+    from .. import estimate  # noqa: F401  (estimate_pose, with the detector and the solvers)
 
 
 def failed_record(path, status: str, message: str, camera=None, board: Board = Board(), bounds=None,

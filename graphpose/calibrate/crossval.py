@@ -167,7 +167,7 @@ def predicted_diff(camera, cov, step: float = 16.0, focus_radius_px=None) -> np.
     return out
 
 
-def cross_validate(calibration, board, step: float = 16.0, progress=None) -> CrossValidation:
+def cross_validate(calibration, *, board, step: float = 16.0, progress=None) -> CrossValidation:
     """Calibrate the even and odd used views apart and difference the two (module docstring).
 
     Parameters
@@ -199,8 +199,9 @@ def cross_validate(calibration, board, step: float = 16.0, progress=None) -> Cro
                          f"this calibration used {len(used)}")
     halves = []
     for half in (used[0::2], used[1::2]):
-        c = calibrate_corners([calibration.detections[k] for k in half], board, calibration.camera.model,
-                              calibration.camera.size, names=[calibration.images[k] for k in half],
+        c = calibrate_corners([calibration.detections[k] for k in half], calibration.camera.model, board=board,
+                              size=calibration.camera.size,
+                              names=[calibration.images[k] for k in half],
                               progress=progress)
         if not c.ok:
             raise InputError(f"cross-validation: a half's calibration failed: {c.summary}")

@@ -20,6 +20,7 @@ lens model (the corners of a radial-tangential camera, say): the map says so, an
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,6 +29,38 @@ from .._checks import check_number
 
 #: Per-image statuses.
 STATUSES = ("used", "rejected", "no board", "unreadable")
+
+
+@dataclass(frozen=True)
+class SolverCrossCheck:
+    """GTSAM's calibration against the hand-written Levenberg-Marquardt's, over the same cost.
+
+    Attributes
+    ----------
+    gtsam, lm : list of float
+        The two solvers' parameters (the calibration's ``parameter_names`` order).
+    max_difference : float
+        The largest ``|p_gtsam - p_lm| / max(|p|, sigma_p)`` over the parameters.
+    tolerance : float
+        The bound ``max_difference`` must meet (1e-6).
+    gtsam_converged, lm_converged : bool
+        Whether each solver converged.
+    """
+
+    gtsam: list
+    lm: list
+    max_difference: float
+    tolerance: float
+    gtsam_converged: bool
+    lm_converged: bool
+
+    def __getitem__(self, key):
+        """Deprecated: the mapping this used to be (``check["max_difference"]``, ...)."""
+        warnings.warn(f"cross_check[{key!r}] is deprecated: cross_check is a SolverCrossCheck, use its "
+                      "attributes", DeprecationWarning, stacklevel=2)
+        old = {"gtsam": self.gtsam, "lm": self.lm, "max_difference": self.max_difference,
+               "tolerance": self.tolerance, "converged": {"gtsam": self.gtsam_converged, "lm": self.lm_converged}}
+        return old[key]
 
 
 @dataclass(frozen=True)
@@ -71,10 +104,9 @@ class Calibration:
         themselves).
     ok : bool
         True when both solvers converged and agree (``cross_check``).
-    cross_check : dict
-        ``gtsam`` and ``lm``: the two solvers' parameters (lists); ``max_difference``: the
-        largest ``|p_gtsam - p_lm| / max(|p|, sigma_p)`` over the parameters; ``tolerance``
-        (1e-6); ``converged``: both solvers'.
+    cross_check : SolverCrossCheck
+        The two solvers' parameters, their largest difference, its tolerance (1e-6) and
+        whether each converged.
     summary : str
         One line: what was found, or why the calibration failed.
     joint_cov : (P + 6 n, P + 6 n) ndarray or None
@@ -109,7 +141,7 @@ class Calibration:
     rms_px: float
     sigma_px: float
     ok: bool
-    cross_check: dict
+    cross_check: SolverCrossCheck
     summary: str
     joint_cov: np.ndarray | None = None
     outliers: tuple = ()

@@ -1,4 +1,4 @@
-"""``calibrate_rig(sources, board, model)``: a rig of cameras from images of the board.
+"""``calibrate_rig(sources, model, *, board)``: a rig of cameras from images of the board.
 
 The steps (``docs/rigs.md``):
 
@@ -32,6 +32,7 @@ where junctions are down-weighted).
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -45,6 +46,7 @@ from ..geometry import T_from_params, invert_transform, params_from_T, relative_
 from ..rig import Rig, rig_parameter_names
 from .frames import file_number, match_frames, source_files
 from .run import CROSS_CHECK_TOL, HUBER_K, MIN_IMAGES, REJECT_FLOOR_PX, REJECT_RATIO, _mad_sigma, _rms
+from .result import SolverCrossCheck
 
 #: Per (view, camera) statuses.
 STATUSES = ("used", "rejected", "no board", "no image")
@@ -91,9 +93,9 @@ class RigCalibration:
         Each camera's own calibration (step 2), the start.
     ok : bool
         Both solvers converged and agree.
-    cross_check : dict
-        ``gtsam`` and ``lm``: the two solvers' parameters; ``max_difference`` (the largest
-        ``|p_gtsam - p_lm| / max(|p|, sigma_p)``); ``tolerance``; ``converged``.
+    cross_check : SolverCrossCheck
+        The two solvers' parameters, their largest difference, its tolerance and whether
+        each converged (as :class:`~graphpose.calibrate.result.Calibration`'s).
     summary : str
     """
 
@@ -111,7 +113,7 @@ class RigCalibration:
     sigma_px: float
     calibrations: tuple
     ok: bool
-    cross_check: dict
+    cross_check: SolverCrossCheck
     summary: str
 
     @property
@@ -267,7 +269,7 @@ def _start_extrinsics(poses, n_cameras, camera_names):
     return [T[c] for c in range(n_cameras)]
 
 
-def calibrate_rig(sources=None, board: Board = Board(), model="radtan", *, frames=None, huber_k: float = HUBER_K,
+def calibrate_rig(sources=None, model="radtan", *, board: Board = Board(), frames=None, huber_k: float = HUBER_K,
                   rng=None, progress=None) -> RigCalibration:
     """Calibrate a rig of cameras from images of the board taken together.
 
@@ -277,18 +279,19 @@ def calibrate_rig(sources=None, board: Board = Board(), model="radtan", *, frame
         One entry per camera: a list of image files, a folder, or a glob pattern. Images are
         matched across cameras by the number in their file names (``left07.jpg`` with
         ``right07.jpg``); a camera may miss a view.
-    board : Board
-        The board in the images.
     model : str or sequence of str
         One model (``"pinhole"``, ``"radtan"``, ``"fisheye"``) for every camera, or one per
         camera (a radtan camera beside a fisheye).
+    board : Board
+        The board in the images.
     frames : sequence of tuple, optional
         Instead of ``sources``: the views, each a tuple of one image per camera (a file or
         an array; None where that camera has none).
     huber_k : float
         Huber threshold, in sigmas of the pixel noise.
-    rng : numpy.random.Generator, int or None
-        Accepted for the API's uniformity; nothing is drawn.
+    rng : None
+        Deprecated and ignored (a DeprecationWarning when given): the calibration draws
+        nothing, it is deterministic. It goes in the next release.
     progress : callable, optional
         Called as ``progress(stage, done, total)``.
 
@@ -306,7 +309,9 @@ def calibrate_rig(sources=None, board: Board = Board(), model="radtan", *, frame
     """
     check_board(board)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
-    del rng
+    if rng is not None:
+        warnings.warn("calibrate's rng is deprecated and ignored (the calibration draws nothing)",
+                      DeprecationWarning, stacklevel=2)
     views, view_names = _views(sources, frames)
     C, V = len(views[0]), len(views)
     models = [model] * C if isinstance(model, str) else list(model)
@@ -327,8 +332,9 @@ def calibrate_rig(sources=None, board: Board = Board(), model="radtan", *, frame
             raise InputError(f"{camera_names[c]} has {len(vs)} images; a camera of a rig needs at least {MIN_IMAGES} "
                              "views with the board, as a calibration does")
         try:
-            cal = calibrate([views[v][c][0] for v in vs], board, models[c], names=[views[v][c][1] for v in vs],
-                            huber_k=huber_k, progress=lambda s, d, t, c=c: report(f"camera {c}: {s}", d, t))
+            cal = calibrate([views[v][c][0] for v in vs], models[c], board=board, names=[views[v][c][1] for v in vs],
+                            huber_k=huber_k,
+                            progress=lambda s, d, t, c=c: report(f"camera {c}: {s}", d, t))
         except InputError as exc:
             raise InputError(f"{camera_names[c]}: {exc}") from None
         calibrations.append(cal)
@@ -480,6 +486,7 @@ def _result(view_names, views, keys, active, lm, graph, sigma0, status, message,
         images=tuple(tuple(None if x is None else x[1] for x in row) for row in views),
         status=tuple(st), message=tuple(msg), poses=tuple(poses), view_rms_px=rms, camera_rms_px=camera_rms,
         rms_px=_rms(r_all), sigma_px=sigma, calibrations=tuple(calibrations), ok=ok,
-        cross_check={"gtsam": p_g.tolist(), "lm": p_lm.tolist(), "max_difference": difference,
-                     "tolerance": CROSS_CHECK_TOL, "converged": {"gtsam": graph.converged, "lm": lm.converged}},
+        cross_check=SolverCrossCheck(gtsam=p_g.tolist(), lm=p_lm.tolist(), max_difference=difference,
+                                     tolerance=CROSS_CHECK_TOL, gtsam_converged=graph.converged,
+                                     lm_converged=lm.converged),
         summary=summary)

@@ -1,4 +1,4 @@
-"""``calibrate(images, board, model)``: the calibration from images to :class:`Calibration`.
+"""``calibrate(images, model, *, board)``: the calibration from images to :class:`Calibration`.
 
 The steps (``docs/calibration.md``):
 
@@ -37,6 +37,7 @@ whole is what the projection uncertainty propagates); the pixel noise reported i
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -46,7 +47,7 @@ from ..board import check_board
 from ..board import Board
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 from ..camera_models import calibration_model
-from .result import Calibration
+from .result import Calibration, SolverCrossCheck
 
 #: An image whose RMS exceeds this many times the median image's is rejected.
 REJECT_RATIO = 3.0
@@ -231,7 +232,7 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
     return keys, rejected, graph, lm, sigma0, obs, outliers
 
 
-def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=None, camera=None,
+def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=None, camera=None,
               huber_k: float = HUBER_K, rng=None, progress=None) -> Calibration:
     """Calibrate a camera from images of the board.
 
@@ -240,12 +241,12 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
     images : sequence of (H, W) array_like or path
         Raw images of one camera at one resolution (arrays, or files read with
         :func:`graphpose.read_image`).
-    board : Board
-        The board in the images.
     model : str
         ``"pinhole"``, ``"radtan"`` (OpenCV's five coefficients), ``"radtan4"`` (k1, k2, p1,
         p2 with k3 held at 0: Kalibr's pinhole-radtan; the camera has four coefficients, k3's
         row and column of the covariance are zero) or ``"fisheye"``.
+    board : Board
+        The board in the images.
     names : sequence of str, optional
         The images' names in messages; their file names, or ``image i``, by default.
     camera : Camera, optional
@@ -255,9 +256,9 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
         without it.
     huber_k : float
         Huber threshold, in sigmas of the pixel noise.
-    rng : numpy.random.Generator, int or None
-        Accepted for the API's uniformity; the calibration draws nothing (it is
-        deterministic).
+    rng : None
+        Deprecated and ignored (a DeprecationWarning when given): the calibration draws
+        nothing, it is deterministic. It goes in the next release.
     progress : callable, optional
         Called as ``progress(stage, done, total)`` after each image of each pass
         (``stage`` ``"first pass"``, ``"pass 2"``, ...) and after each solve (``"solve"``),
@@ -278,7 +279,9 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
     cls, held = calibration_model(model)
     check_board(board)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
-    del rng  # nothing is drawn
+    if rng is not None:
+        warnings.warn("calibrate's rng is deprecated and ignored (the calibration draws nothing)",
+                      DeprecationWarning, stacklevel=2)
     images, labels, size, unreadable = _load(images, names)
     report = progress or (lambda stage, done, total: None)
     n = len(images)
@@ -340,7 +343,7 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
                 # Found for the first time, or rejected by the last solve (which kept no pose
                 # for it): a start from its own homography through the camera so far.
                 try:
-                    poses1[i] = pose_from_homography(camera1, o[0], o[1])
+                    poses1[i] = pose_from_homography(o[0], o[1], camera1)
                 except DegenerateGeometryError as exc:
                     o, reason = None, f"no pose from its junctions: {exc}"
             if o is not None:
@@ -366,7 +369,7 @@ def calibrate(images, board: Board = Board(), model: str = "radtan", *, names=No
                    held, unreadable)
 
 
-def calibrate_corners(corners, board: Board = Board(), model: str = "radtan", size=None, *, names=None,
+def calibrate_corners(corners, model: str = "radtan", *, board: Board = Board(), size=None, names=None,
                       huber_k: float = HUBER_K, progress=None) -> Calibration:
     """Calibrate a camera from junctions found by any detector (no images).
 
@@ -380,9 +383,9 @@ def calibrate_corners(corners, board: Board = Board(), model: str = "radtan", si
         :func:`graphpose.io.corners.read_corners`' result (mrcal's corners.vnl or
         graphpose's JSON), or per image None (no board) or ``(uv (2, m), index (m,))``:
         pixels and the board's junction numbers (``Board.world_points`` columns).
-    board : Board
     model : str
         As :func:`calibrate`'s.
+    board : Board
     size : (int, int), optional
         The images' ``(width, height)``, pixels; required unless ``corners`` says it.
     names : sequence of str, optional
@@ -531,7 +534,7 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
             from ..pose.homography import pose_from_homography
 
             uv, W, _ = obs[i]
-            fit = gauss_newton(camera, pose_from_homography(camera, uv, W), uv, W)
+            fit = gauss_newton(uv, W, camera, guess=pose_from_homography(uv, W, camera))
             status.append("rejected"), message.append(f"{found}; {rejected[i]}"), poses.append(None)
             rms[i] = _rms(fit.residuals)
             points.append(uv), residuals.append(fit.residuals)
@@ -564,8 +567,9 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
         rms_px=_rms(used_r),
         sigma_px=sigma,
         ok=bool(ok),
-        cross_check={"gtsam": p_g.tolist(), "lm": p_lm.tolist(), "max_difference": difference,
-                     "tolerance": CROSS_CHECK_TOL, "converged": {"gtsam": graph.converged, "lm": lm.converged}},
+        cross_check=SolverCrossCheck(gtsam=p_g.tolist(), lm=p_lm.tolist(), max_difference=difference,
+                                     tolerance=CROSS_CHECK_TOL, gtsam_converged=graph.converged,
+                                     lm_converged=lm.converged),
         summary=summary,
         joint_cov=joint,
         detections=tuple(None if i not in obs else (obs[i][0], obs[i][2]) for i in range(n)),

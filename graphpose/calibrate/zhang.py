@@ -141,7 +141,7 @@ def start(model: str, size, observations):
         camera = (PinholeCamera(K, size) if model == "pinhole"
                   else RationalCamera(K, np.zeros(8), size) if model == "rational"
                   else RadTanCamera(K, np.zeros(5), size))
-    poses = [pose_from_homography(camera, uv, W) for uv, W in observations]
+    poses = [pose_from_homography(uv, W, camera) for uv, W in observations]
     return camera, poses
 
 

@@ -497,7 +497,7 @@ class PinholeCamera(Camera):
     Raises
     ------
     InputError
-        If ``K`` fails :func:`graphpose.check_K`, ``size`` is not two positive integers or
+        If ``K`` fails :func:`graphpose._checks.check_K`, ``size`` is not two positive integers or
         ``covariance`` fails :func:`graphpose._checks.check_covariance`.
     """
 
@@ -550,7 +550,7 @@ def as_camera(camera_or_K) -> Camera:
     Raises
     ------
     InputError
-        If a ``K`` fails :func:`graphpose.check_K`.
+        If a ``K`` fails :func:`graphpose._checks.check_K`.
     """
     if isinstance(camera_or_K, Camera):
         return camera_or_K

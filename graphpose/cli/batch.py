@@ -28,6 +28,7 @@ from .recordings import add_topic_option, camera_note, frame_keys, open_recordin
 from .options import (
     Progress,
     add_camera_option,
+    board_hint,
     add_target_options,
     camera_file,
     camera_from_args,
@@ -144,8 +145,9 @@ def run(args) -> int:
         kept = Counter(results.made[p][1] for p in paths if p in results.done)
         counts, seconds = Counter(), 0.0
         if todo:
-            stream = estimate_many(todo, camera, board, bounds=bounds, robust=args.robust, client=args.scheduler,
-                                   workers=args.workers, images_per_task=args.images_per_task)
+            stream = estimate_many(todo, camera, board=board, bounds=bounds, robust=args.robust,
+                                   client=args.scheduler, workers=args.workers,
+                                   images_per_task=args.images_per_task)
             counts, seconds = _write_all(stream, results, len(todo), target["camera"])
     if not args.quiet:
         print(_summary(counts, kept, seconds, args.out))
@@ -186,6 +188,8 @@ def _refuse_other_parameters(results, paths, wanted, out) -> None:
 def _write_all(stream, results, total, camera):
     """Write each record of ``stream`` as it comes, its ``camera`` key the run's (which names
     the file), with a progress bar; (status counts, seconds from the first record to the last)."""
+    from ..batch.work import BOARD_NOT_FOUND
+
     progress = Progress(total, sys.stderr)
     counts, first, last = Counter(), None, None
     quiet = logging.getLogger("distributed")
@@ -194,6 +198,8 @@ def _write_all(stream, results, total, camera):
     try:
         for record in stream:
             record["camera"] = camera
+            if record["status"] == BOARD_NOT_FOUND and record.get("message"):
+                record["message"] = board_hint(record["message"])  # how to give the board: --board
             results.write(record)
             counts[record["status"]] += 1
             last = time.monotonic()

@@ -3,8 +3,8 @@
 Turns the arguments into typed values (image files in order, a :class:`Board`, a model
 name, an output format), checks every output before the work starts (folders, the ``plot``
 extra, whether the format can hold the model), calls :func:`graphpose.calibrate.calibrate`
-with a progress bar on stderr, and writes the camera file (:func:`graphpose.io.calibration.write_camera`),
-optionally the ``--report`` (alias ``--json``) (:func:`calibration_record`) and the ``--plot`` picture
+with a progress bar on stderr, and writes the camera file (:func:`graphpose.io.cameras.write_camera`),
+optionally the ``--report`` (alias ``--json``) (:func:`graphpose.io.records.calibration_record`) and the ``--plot`` picture
 (:func:`graphpose.viz.calibration.plot_calibration`), and a summary on stdout.
 
 Exit codes: 0 calibrated; 1 the calibration failed (a solver did not converge, or the two
@@ -26,7 +26,7 @@ from .._extras import require
 from ..camera_models import HELD_MODELS
 from ..camera_models import MODELS as CALIBRATION_MODELS
 from ..errors import GraphposeError, InputError
-from ..io.camera_files import FORMATS
+from ..io.cameras import FORMATS
 from . import EXIT_OK, PROG, UsageError, calibrate_extras, exit_codes_help
 from .estimate import image_paths
 from .options import BOARD_UNITS, Progress, check_output_folder, parse_board
@@ -106,9 +106,9 @@ def run(args) -> int:
     if not args.images and args.corners is None:
         raise UsageError("give the IMAGES of the board, --corners FILE, or --rig SOURCE0 SOURCE1 ... for a rig")
     from ..calibrate import calibrate
-    from ..io.calibration import write_camera
-    from ..io.camera_files import covariance_note
+    from ..io.cameras import covariance_note, write_camera
     from ..io.files import dumps_json, write_json
+    from ..io.records import calibration_record
 
     _check_outputs(args)
     calibrate_extras.check(args)
@@ -124,7 +124,7 @@ def run(args) -> int:
         if calibration is None:
             views = recording_views(args, show)
             files, names = (image_files(args.images), None) if views is None else views[:2]
-            calibration = calibrate(files, args.board, args.model, names=names or [str(f) for f in files],
+            calibration = calibrate(files, args.model, board=args.board, names=names or [str(f) for f in files],
                                     progress=show)
     finally:
         progress.clear()
@@ -191,47 +191,6 @@ def image_files(paths) -> list:
     if missing:
         raise InputError(f"image file not found: {missing[0]}")
     return files
-
-
-def calibration_record(calibration) -> dict:
-    """The ``--report`` of a calibration, JSON-ready.
-
-    Returns
-    -------
-    dict
-        ``model``; ``K`` (3 x 3, pixels); ``distortion`` (OpenCV's order); ``size``
-        ``[width, height]``; ``parameters`` (``{name: value}``, the covariance's order);
-        ``covariance`` (P x P); ``rms_px`` (``sqrt(mean(du^2 + dv^2))`` over the junctions
-        used); ``images``: per image ``image``, ``status`` (``used``, ``rejected``, ``no
-        board``, ``unreadable``), ``message`` (null when there is nothing to say), ``rms_px`` (null without a
-        board) and ``T_WC`` (4 x 4, the camera in the board's frame; null unless used).
-    """
-    from ..io.files import to_jsonable
-
-    camera = calibration.camera
-    images = []
-    for k, name in enumerate(calibration.images):
-        rms = float(calibration.image_rms_px[k])
-        pose = calibration.poses[k]
-        images.append({
-            "image": str(name),
-            "status": calibration.status[k],
-            "message": calibration.message[k] or None,
-            "rms_px": rms if np.isfinite(rms) else None,
-            "T_WC": None if pose is None else np.asarray(pose),
-            "outliers": np.asarray(calibration.outliers[k]).tolist() if calibration.outliers else [],
-        })
-    record = {
-        "model": camera.model,
-        "K": camera.K,
-        "distortion": camera.distortion,
-        "size": None if camera.size is None else list(camera.size),
-        "parameters": dict(zip(calibration.parameter_names, np.asarray(calibration.parameters, float).tolist())),
-        "covariance": np.asarray(calibration.cov),
-        "rms_px": float(calibration.rms_px),
-        "images": images,
-    }
-    return to_jsonable(record)
 
 
 #: How each parameter is printed: its unit and format.

@@ -92,7 +92,7 @@ def calibrate_from_args(args, show):
     size = args.image_size or corners.size
     if size is None:
         size = _size_from_images(args.corners, corners.images)
-    return calibrate_corners(corners, args.board, args.model, size, progress=show)
+    return calibrate_corners(corners, args.model, board=args.board, size=size, progress=show)
 
 
 def _size_from_images(path, names) -> tuple:
@@ -121,7 +121,7 @@ def after(args, calibration) -> list:
     if args.cross_validate is not None:
         from ..calibrate.crossval import cross_validate
 
-        cv = cross_validate(calibration, args.board)
+        cv = cross_validate(calibration, board=args.board)
         lines.append(f"  {'cross-validate':16}odd and even views ({cv.halves[0].status.count('used')} + "
                      f"{cv.halves[1].status.count('used')}): projection difference {cv.median_px:.3f} px median "
                      f"after the fitted rotation; their covariances predict {cv.predicted_median_px:.3f} px")

@@ -1,7 +1,7 @@
 """``graphpose estimate``: the camera pose from images, folders of them, a case file, or the bundled example.
 
 Turns the arguments into typed values (bounds (2, 4) or none, a camera (``--camera FILE``
-with its lens model, or a pinhole ``--K``), :class:`Board`, a guess (4, 4)), calls :func:`graphpose.pipeline.estimate_pose` once per image, and writes a report
+with its lens model, or a pinhole ``--K``), :class:`Board`, a guess (4, 4)), calls :func:`graphpose.estimate.estimate_pose` once per image, and writes a report
 on stdout, optionally ``--json`` results and ``--overlay`` pictures. An image that fails in
 a batch is reported on stderr and in its JSON entry, and the others go on; the exit code is
 then the worst of the images' codes (see :mod:`graphpose.cli`).
@@ -19,14 +19,12 @@ from pathlib import Path
 import numpy as np
 
 from ..camera_models import check_image_size
-from ..board import board_hint
 from ..errors import BoardNotFoundError, GraphposeError, InputError
 from ..image import read_image
 from ..io.cases import bundled_cases_path, load_cases, load_pose
 from ..io.files import dumps_json, write_json, write_png
-from ..pipeline import estimate_pose
-from ..pose.estimate import pose_difference
-from ..pose.intrinsics import SIGMA_PIXEL
+from ..estimate import estimate_pose, pose_difference
+from ..pose.covariance import SIGMA_PIXEL
 from ..viz.overlay import draw_overlay
 from ..io.sources import BrokenRecordingError, is_recording
 from . import EXIT_OK, UsageError, error_line, exit_code, exit_codes_help, prefix, print_error
@@ -34,6 +32,7 @@ from .recordings import RateProgress, add_every_option, add_topic_option, camera
 from .options import (
     add_camera_option,
     add_target_options,
+    board_hint,
     camera_file,
     camera_from_args,
     check_camera_options,
@@ -177,7 +176,7 @@ def _run_one(job, camera, board, target, robust, overlay, report, progress):
         image = _read(job)
         check_image_size(camera, image.shape, job.name)
         try:
-            estimate = estimate_pose(image, job.bounds, camera, board, guess=job.guess, robust=robust)
+            estimate = estimate_pose(image, camera, bounds=job.bounds, board=board, guess=job.guess, robust=robust)
         except BoardNotFoundError as exc:
             raise BoardNotFoundError(board_hint(str(exc))) from None
         # An unreliable pose is drawn too: the picture shows why.
@@ -381,7 +380,7 @@ def format_report(name: str, estimate, record: dict) -> str:
         f"  {'angles (deg)':16}{roll:10.3f}{pitch:10.3f}{yaw:10.3f}",
         f"  {'1-sigma (deg)':16}{sr:10.3f}{sp:10.3f}{sw:10.3f}",
         *_sigma_kind_rows(estimate),
-        f"  {'reprojection':16}{estimate.reprojection_rms_px:.3f} px RMS over {trusted.size} junctions, "
+        f"  {'reprojection':16}{estimate.rms_px:.3f} px RMS over {trusted.size} junctions, "
         f"{int(trusted.sum())} trusted",
         f"  {'GN vs GTSAM':16}{1000.0 * check.translation_m:.2g} mm, {check.rotation_deg:.2g} deg apart: "
         + ("agree" if check.agree else "DISAGREE"),

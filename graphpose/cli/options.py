@@ -102,10 +102,10 @@ def camera_from_args(args, camera=None, board=None, source: str = ""):
         If both ``--camera`` and ``--K`` are given, ``--camera-name`` without ``--camera``,
         or no camera at all.
     InputError
-        If the ``--camera`` file cannot be read (:func:`graphpose.io.calibration.read_camera`),
+        If the ``--camera`` file cannot be read (:func:`graphpose.io.cameras.read_camera`),
         or holds no camera of the ``--camera-name`` (the message names those it holds).
     """
-    from ..io.calibration import read_camera
+    from ..io.cameras import read_camera
     from . import UsageError
 
     check_camera_options(args)
@@ -239,3 +239,15 @@ class Progress:
             self.stream.write("\r" + " " * self._shown + "\r")
             self.stream.flush()
             self._shown = 0
+
+
+def board_hint(message: str) -> str:
+    """``message`` with how to give the board when it says the board found is not the spec's
+    (the detector's ``found a 9 x 6 board ...; the board spec says 8 x 6``): the default board,
+    and the ``--board`` option of ``graphpose estimate`` and ``graphpose batch``, whose messages
+    it completes."""
+    if "board spec" not in message:
+        return message
+    d = Board()
+    return (f"{message} (the default board is {d.cols}x{d.rows}x{d.square_m}; give yours with --board "
+            f"COLSxROWSxSQUARE_M: inner junctions along a row and down a column, and the square's side in metres)")

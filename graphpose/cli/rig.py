@@ -47,7 +47,7 @@ def add_estimate_options(p) -> None:
 
 def rig_from_file(path, option: str = "--camera"):
     """The :class:`graphpose.rig.Rig` of a rig file, or a UsageError saying it holds one camera."""
-    from ..io.calibration import read_camera
+    from ..io.cameras import read_camera
     from ..rig import Rig
 
     if path is None:
@@ -70,7 +70,7 @@ def rig_from_file(path, option: str = "--camera"):
 def run_calibrate(args) -> int:
     """``graphpose calibrate --rig ...``; returns the exit code."""
     from ..calibrate.rig import calibrate_rig
-    from ..io.calibration import write_camera
+    from ..io.cameras import write_camera
     from ..io.files import dumps_json, write_json
     from ..io.rig_files import RIG_FORMATS
     from .calibrate import CalibrationFailed, _check_outputs
@@ -101,7 +101,7 @@ def run_calibrate(args) -> int:
         progress.show(int(done), stage)
 
     try:
-        calibration = calibrate_rig([str(s) for s in args.rig], args.board, models, progress=show)
+        calibration = calibrate_rig([str(s) for s in args.rig], models, board=args.board, progress=show)
     finally:
         progress.clear()
     record = rig_record(calibration)
@@ -206,7 +206,7 @@ def run_estimate(args) -> int:
     from ..board import Board
 
     board = args.board if args.board is not None else Board()
-    estimate = estimate_rig_pose(args.rig, rig, board, robust=args.robust)
+    estimate = estimate_rig_pose(args.rig, rig, board=board, robust=args.robust)
     record = rig_pose_record(estimate, args.rig, rig, str(args.camera))
     if args.json == "-":
         sys.stdout.write(dumps_json(record))
@@ -234,7 +234,7 @@ def rig_pose_record(estimate, images, rig, camera_file) -> dict:
             for c in range(len(rig))]
     return to_jsonable({"camera": camera_file, "pose_of": rig.names[0], "T_WC": estimate.T_WC, "params": estimate.params,
                         "cov": estimate.cov, "sigma_xyz_m": estimate.sigma_xyz_m, "sigma_rpy_rad": estimate.sigma_rpy_rad,
-                        "reprojection_rms_px": estimate.reprojection_rms_px, "cameras": cams,
+                        "reprojection_rms_px": estimate.rms_px, "cameras": cams,
                         "cross_check": {"translation_m": estimate.cross_check.translation_m,
                                         "rotation_deg": estimate.cross_check.rotation_deg,
                                         "agree": estimate.cross_check.agree},
@@ -251,7 +251,7 @@ def format_rig_pose(estimate, images, rig) -> str:
             f"of {len(rig)} cameras:",
             f"  x {x:.5f} +- {sx:.5f}  y {y:.5f} +- {sy:.5f}  z {z:.5f} +- {sz:.5f} m",
             f"  roll {r:.4f} +- {sr:.4f}  pitch {p:.4f} +- {sp:.4f}  yaw {yw:.4f} +- {syw:.4f} deg",
-            f"  reprojection RMS {estimate.reprojection_rms_px:.3f} px; GN vs GTSAM "
+            f"  reprojection RMS {estimate.rms_px:.3f} px; GN vs GTSAM "
             f"{estimate.cross_check.translation_m:.1e} m, {estimate.cross_check.rotation_deg:.1e} deg"]
     for c in range(len(rig)):
         note = "" if estimate.status[c] == "used" else f": {estimate.messages[c]}"
@@ -314,7 +314,7 @@ def run_track(args) -> int:
             images = [None if i is None else files[c][i] for c, i in enumerate(group)]
             progress.show(k + 1, next(Path(p).name for p in images if p is not None))
             try:
-                est = estimate_rig_pose(images, rig, board, robust=args.robust)
+                est = estimate_rig_pose(images, rig, board=board, robust=args.robust)
                 ok = est.ok
             except BoardNotFoundError as exc:
                 est, ok, why = None, False, str(exc)

@@ -172,7 +172,7 @@ def run(args) -> int:
     progress = RateProgress(n, sys.stderr)
     lag = default_lag_s(args.motion, seconds) if args.lag == AUTO_LAG else args.lag
     config = TrackerConfig(motion=MotionPrior(args.motion), target=args.target, robust=args.robust, lag_s=lag)
-    stream = track_frames(files, camera, args.bounds, board=board, timestamps=timestamps, fps=args.fps,
+    stream = track_frames(files, camera, bounds=args.bounds, board=board, timestamps=timestamps, fps=args.fps,
                           polygons=polygons, config=config, smooth=args.smooth,
                           progress=lambda k, n: progress.show(k + 1, Path(files.label(k)).name))
     target = target_keys(camera, board, *camera_file(args, source))

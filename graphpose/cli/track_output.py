@@ -176,7 +176,7 @@ class TrackSummary:
         if f.T_WC is None:
             return
         self.sigma.extend(f.sigma)
-        self.rms.append(f.reprojection_rms_px)
+        self.rms.append(f.rms_px)
         if self.truth is not None and np.all(np.isfinite(self.truth[f.index])):
             self.errors.extend(pose_difference(f.T_WC, self.truth[f.index]))
 

@@ -6,7 +6,7 @@ saddle fit of :mod:`.saddle` in :mod:`.refine`, through the lens when a camera i
 decides which to trust (:mod:`.junctions`), as :class:`Junctions`.
 :func:`extract_junctions` is the two in a row.
 
-The names below are detection's public seam: the rest of graphpose (the pipeline,
+The names below are detection's public seam: the rest of graphpose (the estimate,
 calibration, tracking) uses only these, never the modules' internals
 (``tests/test_layers.py`` holds that).
 
@@ -15,7 +15,7 @@ calibration, tracking) uses only these, never the modules' internals
 """
 
 from .find import FoundBoard
-from .junctions import Junctions, board_smoothing, cross_junctions, extract_junctions, find_board, refine
+from .junctions import Junctions, board_smoothing, extract_junctions, find_board, refine
 from .noise import estimate_noise
 from .refine import MAX_RADIUS, SMOOTH_SIGMA, WINDOW_FRACTION, refine_junctions
 
@@ -26,7 +26,6 @@ __all__ = [
     "SMOOTH_SIGMA",
     "WINDOW_FRACTION",
     "board_smoothing",
-    "cross_junctions",
     "estimate_noise",
     "extract_junctions",
     "find_board",

@@ -105,44 +105,7 @@ class Junctions:
     junction0_square: str | None = None
 
 
-def cross_junctions(I, bpoly, Wpts) -> np.ndarray:
-    """Cross-junctions of a checkerboard image, row-major from junction 0.
-
-    Parameters
-    ----------
-    I : (H, W) or (H, W, 3|4) array_like
-        The image; colour and 16-bit images are converted by :func:`graphpose.image.as_grey`.
-    bpoly : (2, 4) array_like or None
-        Bounding polygon of the board, pixels, clockwise from the corner nearest junction 0
-        (a few pixels off is fine: it only narrows the search and names junction 0's
-        corner); None searches the whole image.
-    Wpts : (3, n) array_like
-        The junctions' target-frame points, metres, a full row-major grid as made by
-        :meth:`graphpose.board.Board.world_points` (only their grid layout is used).
-
-    Returns
-    -------
-    Ipts : (2, n) ndarray of float64
-        Junction positions (u, v), pixels, in the order of ``Wpts``.
-
-    Raises
-    ------
-    InputError
-        If the image, polygon or ``Wpts`` is malformed (see :func:`extract_junctions`).
-    BoardNotFoundError
-        If the board cannot be found and labelled, or part of it is hidden: this function
-        returns all n junctions or none (:func:`extract_junctions` returns partial boards).
-    """
-    J = extract_junctions(I, bpoly, Board.from_world_points(Wpts))
-    if not J.seen.all():
-        raise BoardNotFoundError(
-            f"only {int(J.seen.sum())} of the {J.seen.size} junctions are in view (the others are "
-            "hidden or off the image); cross_junctions returns all of them or none: use "
-            "extract_junctions for a partial board")
-    return J.points
-
-
-def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, window: float = WINDOW_FRACTION,
+def extract_junctions(image, *, board: Board = Board(), bounds=None, camera=None, window: float = WINDOW_FRACTION,
                       smooth_sigma: float | None = None) -> Junctions:
     """Find, label and refine the cross-junctions of a checkerboard.
 
@@ -150,15 +113,15 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
 
     Parameters
     ----------
-    I : (H, W) or (H, W, 3|4) array_like
+    image : (H, W) or (H, W, 3|4) array_like
         The image (uint8, uint16, bool or float; colour converted to grey).
+    board : Board
+        The board spec: ``cols x rows`` inner junctions.
     bounds : (2, 4) array_like, optional
         The board's outline, pixels, clockwise from the corner nearest junction 0: it
         narrows the search and fixes which corner is junction 0. A loose outline (a few
         pixels inside the margin or outside the sheet) gives the same result. Without it
         the whole image is searched.
-    board : Board
-        The board spec: ``cols x rows`` inner junctions.
     camera : Camera or (3, 3) array_like, optional
         The camera (:mod:`graphpose.camera_models`) when the image is raw, with lens distortion.
         Junctions are found and refined on the raw image as it is (both steps are local);
@@ -197,7 +160,7 @@ def extract_junctions(I, bounds=None, board: Board = Board(), *, camera=None, wi
     >>> J.points.shape, bool(J.trusted.all()), J.orientation_ambiguous
     ((2, 48), True, True)
     """
-    image, scale = grey_and_scale(I, MIN_SIDE)
+    image, scale = grey_and_scale(image, MIN_SIDE)
     poly = None if bounds is None else check_bounds(bounds, image.shape)
     # refine's arguments are checked before the search, so that a bad one costs no search.
     window, smooth_sigma = _check_refinement(window, smooth_sigma)

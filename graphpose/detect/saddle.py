@@ -28,8 +28,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from .._checks import as_float_array, check_image
-from ..errors import InputError, SaddleError
+from .._checks import as_float_array
+from ..errors import InputError
 from ._refine import fit_weighted_grid
 
 
@@ -55,50 +55,6 @@ class SaddleFit:
     valid: np.ndarray
     residual: np.ndarray
     coeffs: np.ndarray
-
-
-def saddle_point(I) -> np.ndarray:
-    """Sub-pixel saddle point of one image patch.
-
-    Parameters
-    ----------
-    I : (h, w) array_like
-        A small grey patch, already smoothed (e.g. with a Gaussian of 1-2 px), holding one
-        cross-junction; ``h, w >= 3``.
-
-    Returns
-    -------
-    pt : (2, 1) ndarray of float64
-        The saddle point (u, v) in patch pixel coordinates (u = column, 0-based).
-
-    Raises
-    ------
-    InputError
-        If the patch is not 2-D, is smaller than 3 x 3, or holds NaN or infinite values.
-    SaddleError
-        If the fitted quadric is not a saddle (``4 alpha gamma - beta^2 >= 0``) or its
-        saddle point lies outside the patch.
-
-    Examples
-    --------
-    >>> v, u = np.mgrid[0:9, 0:9]
-    >>> saddle_point((u - 4.3) * (v - 3.6)).ravel().round(6)
-    array([4.3, 3.6])
-    """
-    P = as_float_array(check_image(I, "I", min_side=3, colour=False), "I")
-    points, saddle, inside, coeffs, _ = fit_quadrics(P[None], None)
-    if not saddle[0]:
-        a, b, g = coeffs[:3, 0]
-        raise SaddleError(
-            "the fitted quadric is not a saddle: 4 alpha gamma - beta^2 = "
-            f"{4 * a * g - b * b:.3g} is not clearly negative"
-        )
-    if not inside[0]:
-        u, v = points[:, 0]
-        raise SaddleError(
-            f"the saddle point ({u:.2f}, {v:.2f}) lies outside the {P.shape[1]} x {P.shape[0]} patch"
-        )
-    return points[:, :1].copy()
 
 
 def fit_saddles(patches, weights=None) -> SaddleFit:

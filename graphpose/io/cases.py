@@ -6,7 +6,7 @@ A case file is the JSON format of ``../shared/data/rob501/cases.json``:
     3 x 3 intrinsics, pixels, of a camera without lens distortion; or
 ``camera``
     the camera with its lens model (:mod:`graphpose.camera_models`): a calibration file's path,
-    relative to the case file (any format :func:`graphpose.io.calibration.read_camera`
+    relative to the case file (any format :func:`graphpose.io.cameras.read_camera`
     reads), or an inline object ``{"model", "K", "distortion", "size"}`` as graphpose's JSON
     camera file holds. A case file gives ``K`` or ``camera``, not both; or neither, when the
     camera comes from elsewhere (``graphpose estimate --cases FILE --camera ...``).
@@ -47,7 +47,7 @@ from .._checks import (
 from ..board import Board
 from ..camera_models import Camera, PinholeCamera
 from ..errors import InputError
-from .calibration import camera_from_dict, read_camera
+from .cameras import camera_from_dict, read_camera
 from .files import read_json
 
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from ..geometry import params_from_T
 from .files import to_jsonable
-from ..pose.intrinsics import SIGMA_PIXEL
+from ..pose.covariance import SIGMA_PIXEL
 
 #: The keys every record has, in order.
 POSE_KEYS = ("status", "message", "T_WC", "xyz_m", "rpy_deg", "sigma_xyz_m", "sigma_rpy_deg",
@@ -85,7 +85,7 @@ def result_record(image, estimate=None, error=None) -> dict:
     image : str or Path
         The image, as the user named it.
     estimate : PoseEstimate or None
-        The pose (see :func:`graphpose.pipeline.estimate_pose`); None when the image failed.
+        The pose (see :func:`graphpose.estimate.estimate_pose`); None when the image failed.
     error : str or None
         Why the image failed, or None.
 
@@ -119,7 +119,7 @@ def result_record(image, estimate=None, error=None) -> dict:
         return to_jsonable(record)
     check = estimate.cross_check
     junctions = estimate.junctions
-    record.update(pose_block(status, error, estimate.T_WC, estimate.cov, estimate.reprojection_rms_px,
+    record.update(pose_block(status, error, estimate.T_WC, estimate.cov, estimate.rms_px,
                              int(np.count_nonzero(estimate.mask))))
     record.update(
         converged=bool(estimate.converged),
@@ -156,7 +156,7 @@ def frame_record(frame, path) -> dict:
     record = {"index": int(frame.index), "file": str(path), "timestamp": float(frame.timestamp)}
     has = frame.T_WC is not None
     record.update(pose_block(frame.status, frame.message, frame.T_WC if has else None, frame.cov,
-                             frame.reprojection_rms_px if has else None, frame.junctions if has else None))
+                             frame.rms_px if has else None, frame.junctions if has else None))
     return to_jsonable(record)
 
 
@@ -175,7 +175,7 @@ def target_keys(camera, board, file=None, name=None) -> dict:
     name : str or None
         The camera's name within its file (``--camera-name``).
     """
-    from ..io.calibration import camera_to_dict
+    from ..io.cameras import camera_to_dict
 
     return to_jsonable({"camera": {**camera_to_dict(camera), "file": file, "name": name},
                         "board": {"cols": int(board.cols), "rows": int(board.rows), "square_m": float(board.square_m)}})
@@ -191,3 +191,42 @@ def target_words(keys: dict) -> tuple:
     lens = cam["model"] + ("" if cam["model"] == "pinhole" else " lens")
     camera = f"{where}: {lens}, fx {K[0][0]:.1f}, fy {K[1][1]:.1f}, cx {K[0][2]:.1f}, cy {K[1][2]:.1f} px"
     return camera, f"{board['cols']} x {board['rows']} junctions, {1000 * board['square_m']:g} mm squares"
+
+
+def calibration_record(calibration) -> dict:
+    """The ``--report`` of a calibration, JSON-ready.
+
+    Returns
+    -------
+    dict
+        ``model``; ``K`` (3 x 3, pixels); ``distortion`` (OpenCV's order); ``size``
+        ``[width, height]``; ``parameters`` (``{name: value}``, the covariance's order);
+        ``covariance`` (P x P); ``rms_px`` (``sqrt(mean(du^2 + dv^2))`` over the junctions
+        used); ``images``: per image ``image``, ``status`` (``used``, ``rejected``, ``no
+        board``, ``unreadable``), ``message`` (null when there is nothing to say), ``rms_px`` (null without a
+        board) and ``T_WC`` (4 x 4, the camera in the board's frame; null unless used).
+    """
+    camera = calibration.camera
+    images = []
+    for k, name in enumerate(calibration.images):
+        rms = float(calibration.image_rms_px[k])
+        pose = calibration.poses[k]
+        images.append({
+            "image": str(name),
+            "status": calibration.status[k],
+            "message": calibration.message[k] or None,
+            "rms_px": rms if np.isfinite(rms) else None,
+            "T_WC": None if pose is None else np.asarray(pose),
+            "outliers": np.asarray(calibration.outliers[k]).tolist() if calibration.outliers else [],
+        })
+    record = {
+        "model": camera.model,
+        "K": camera.K,
+        "distortion": camera.distortion,
+        "size": None if camera.size is None else list(camera.size),
+        "parameters": dict(zip(calibration.parameter_names, np.asarray(calibration.parameters, float).tolist())),
+        "covariance": np.asarray(calibration.cov),
+        "rms_px": float(calibration.rms_px),
+        "images": images,
+    }
+    return to_jsonable(record)

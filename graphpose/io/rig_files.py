@@ -1,6 +1,6 @@
 """Rig files: a :class:`graphpose.rig.Rig` in Kalibr's camchain, OpenCV's stereo FileStorage
-and graphpose's JSON, written by :func:`graphpose.io.calibration.write_camera` and read back by
-:func:`graphpose.io.calibration.read_camera` (which hands a rig's document here).
+and graphpose's JSON, written by :func:`graphpose.io.cameras.write_camera` and read back by
+:func:`graphpose.io.cameras.read_camera` (which hands a rig's document here).
 
 Which way each transform points (``docs/rigs.md``):
 
@@ -62,7 +62,7 @@ def rig_from_document(doc: dict, path, name=None):
     InputError
         If a key is missing or a transform is not rigid (the message names the file).
     """
-    from .calibration import _from_kalibr, _matrix, camera_from_dict
+    from .cameras import _from_kalibr, _matrix, camera_from_dict
 
     if "cameras" in doc and "T_C0_C" in doc:
         names = doc.get("names") or [f"cam{i}" for i in range(len(doc["cameras"]))]
@@ -110,7 +110,7 @@ def _inverse(T, path, key) -> np.ndarray:
 
 
 def _from_opencv_stereo(doc, path) -> Rig:
-    from .calibration import _build, _matrix, _require, _size, _trim
+    from .cameras import _build, _matrix, _require, _size, _trim
     from ..camera_models import FisheyeCamera, PinholeCamera, RadTanCamera
 
     what = "OpenCV stereo calibration (M1 D1 M2 D2 R T)"
@@ -139,7 +139,7 @@ def rig_text(rig: Rig, format: str) -> str:
     ------
     InputError
         If the format is unknown or cannot hold the rig (OpenCV's stereo file holds two
-        cameras; Kalibr's radtan four coefficients: :func:`graphpose.io.camera_files.write_camera`).
+        cameras; Kalibr's radtan four coefficients: :func:`graphpose.io.cameras.write_camera`).
     """
     if format not in RIG_FORMATS:
         raise InputError(f"a rig is written as {', '.join(RIG_FORMATS)}, not {format!r} (a ros camera_info "
@@ -148,7 +148,7 @@ def rig_text(rig: Rig, format: str) -> str:
 
 
 def _json(rig: Rig) -> str:
-    from .camera_files import camera_to_dict
+    from .cameras import camera_to_dict
 
     doc = {"names": list(rig.names), "cameras": [camera_to_dict(c) for c in rig.cameras],
            "T_C0_C": [T.tolist() for T in rig.T_C0_C]}
@@ -160,7 +160,7 @@ def _json(rig: Rig) -> str:
 
 
 def _opencv(rig: Rig) -> str:
-    from .camera_files import _opencv_matrix
+    from .cameras import _opencv_matrix_yaml as _opencv_matrix
 
     if len(rig) != 2:
         raise InputError(f"OpenCV's stereo file holds two cameras and this rig has {len(rig)}: write the "
@@ -185,7 +185,7 @@ def _opencv(rig: Rig) -> str:
 
 
 def _kalibr(rig: Rig) -> str:
-    from .camera_files import _floats, _kalibr as kalibr_camera
+    from .cameras import _floats, _kalibr as kalibr_camera
 
     text = ""
     names = [f"cam{i}" for i in range(len(rig))]

@@ -7,7 +7,7 @@ The cost is the sum of squared reprojection errors (pixels) over the trusted jun
 with ``theta = (x, y, z, roll, pitch, yaw)`` as in :mod:`graphpose.geometry` and ``pi`` the
 camera's projection (:mod:`graphpose.camera_models`: a pinhole ``K``, or a model with lens
 distortion, so that raw image points are fitted as they are). Each step solves the 6 x 6
-normal equations with the exact analytic Jacobian (:func:`find_jacobian`,
+normal equations with the exact analytic Jacobian (:func:`graphpose.course.find_jacobian`,
 :func:`projection_jacobians`): the pose's derivative of the camera-frame point, chained
 with the camera's ``d uv / d p_C`` (:meth:`graphpose.camera_models.Camera.project_jacobian`). Step control is Levenberg-Marquardt damping: the plain
 Gauss-Newton step is tried first and, when it raises the cost or puts a point behind the
@@ -29,7 +29,6 @@ import numpy as np
 
 from .._checks import (
     MIN_DEPTH,
-    as_float_array,
     as_points,
     check_in_front,
     check_number,
@@ -43,6 +42,7 @@ from ..errors import ConvergenceError, InputError
 # camera's frame) and chain_jacobians (the projection's chain rule) are shared with the
 # calibration's solvers, which import them from here, the module that documents them.
 from ._gauss_newton import camera_points, chain_jacobians, pinhole_normal_equations, pinhole_residuals
+from .._deprecated import renamed
 
 #: Default iteration cap (damped and undamped steps both count).
 MAX_ITERATIONS = 100
@@ -74,7 +74,7 @@ class GNResult:
         Steps tried (accepted or rejected).
     residuals : (2, n) ndarray
         Measured minus predicted pixels at the solution, NaN for points left out by the mask.
-    residual_rms_px : float
+    rms_px : float
         ``sqrt(mean(du^2 + dv^2))`` over the used points, pixels (:func:`reprojection_rms`:
         OpenCV's definition, the RMS length of the residual vectors).
     sigma_px : float
@@ -95,42 +95,13 @@ class GNResult:
     converged: bool
     iterations: int
     residuals: np.ndarray
-    residual_rms_px: float
+    rms_px: float
     sigma_px: float
     cov: np.ndarray
     mask: np.ndarray
     message: str
 
-
-def find_jacobian(K, Twc, Wpt) -> np.ndarray:
-    """Jacobian of one target point's image projection with respect to the pose parameters.
-
-    Parameters
-    ----------
-    K : (3, 3) array_like or Camera
-        Intrinsics, pixels (or a camera model, :mod:`graphpose.camera_models`).
-    Twc : (4, 4) array_like
-        Camera pose in the target frame.
-    Wpt : (3, 1) or (3,) array_like
-        The target point, metres.
-
-    Returns
-    -------
-    J : (2, 6) ndarray
-        ``d(u, v) / d(x, y, z, roll, pitch, yaw)``, pixels per metre and pixels per radian.
-
-    Raises
-    ------
-    InputError
-        If an argument is malformed or the point is not in front of the camera.
-    """
-    camera = as_camera(K)
-    T = check_transform(Twc, "Twc")
-    W = as_float_array(Wpt, "Wpt")
-    W = as_points(W[:, None] if W.shape == (3,) else W, 3, "Wpt")
-    if W.shape[1] != 1:
-        raise InputError(f"Wpt must be a single point (3, 1), got {W.shape[1]} points")
-    return projection_jacobians(camera, T, W)
+    residual_rms_px = renamed("residual_rms_px", "rms_px")
 
 
 def projection_jacobians(camera, T_WC, Wpts) -> np.ndarray:
@@ -207,21 +178,21 @@ def _residual(camera, p, I, W, jacobian):
 _NO_JACOBIAN = np.empty((0, 6))
 
 
-def gauss_newton(camera, T_WC_guess, Ipts, Wpts, *, mask=None, huber_px=None, pixel_sigma=None,
-                 max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL) -> GNResult:
+def gauss_newton(Ipts, Wpts, camera, *, guess, mask=None, huber_px=None, pixel_sigma=None,
+                 max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL, check: bool = True) -> GNResult:
     """Refine a camera pose by damped Gauss-Newton on the reprojection error.
 
     Parameters
     ----------
-    camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.camera_models`; the points are then raw, distorted
-        pixels), or pinhole intrinsics ``K``, pixels.
-    T_WC_guess : (4, 4) array_like
-        Starting pose T_WC.
     Ipts : (2, n) array_like
         Observed junctions (u, v), pixels; NaN allowed where ``mask`` is False.
     Wpts : (3, n) array_like
         Matching target points, metres.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.camera_models`; the points are then raw, distorted
+        pixels), or pinhole intrinsics ``K``, pixels.
+    guess : (4, 4) array_like
+        Starting pose T_WC.
     mask : (n,) array_like of bool, optional
         Points to use (e.g. ``Junctions.trusted``); all by default. At least 4.
     huber_px : float, optional
@@ -233,6 +204,11 @@ def gauss_newton(camera, T_WC_guess, Ipts, Wpts, *, mask=None, huber_px=None, pi
         Iteration cap.
     tol : float
         Convergence when the undamped step's largest entry is below ``tol`` (m, rad).
+    check : bool
+        False skips the input checks, for a caller that checked the inputs at its own edge
+        (a camera object, float arrays of the right shapes, a boolean mask, a checked guess,
+        positive ``huber_px`` and ``pixel_sigma`` or None; the guess's depths are still checked): pytransform3d's
+        ``check=False``.
 
     Returns
     -------
@@ -247,19 +223,12 @@ def gauss_newton(camera, T_WC_guess, Ipts, Wpts, *, mask=None, huber_px=None, pi
         non-positive ``huber_px`` or ``pixel_sigma``, or a used point behind the camera at
         the guess.
     """
-    camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
-    T_WC_guess = check_transform(T_WC_guess, "T_WC_guess")
-    huber_px = None if huber_px is None else check_number("huber_px", huber_px, 0.0, strict=True)
-    pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
-    return gauss_newton_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
-
-
-def gauss_newton_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, huber_px=None, pixel_sigma=None,
-                           max_iterations: int = MAX_ITERATIONS, tol: float = STEP_TOL) -> GNResult:
-    """:func:`gauss_newton` on inputs already checked at a public edge (a camera object, float
-    arrays of the right shapes, a boolean mask, a checked guess, positive ``huber_px`` and
-    ``pixel_sigma`` or None); the guess's depths are still checked (they depend on the pose)."""
-    return _solve(camera, params_from_T(T_WC_guess), Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
+    if check:
+        camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
+        guess = check_transform(guess, "guess")
+        huber_px = None if huber_px is None else check_number("huber_px", huber_px, 0.0, strict=True)
+        pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
+    return _solve(camera, params_from_T(guess), Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol)
 
 
 def stacked_huber_weights(r, huber_px):
@@ -444,44 +413,9 @@ def _result(camera, p, I, W, mask, huber_px, pixel_sigma, H, r, chi2, converged,
         converged=bool(converged),
         iterations=it,
         residuals=residuals,
-        residual_rms_px=reprojection_rms(residuals[:, mask]),
+        rms_px=reprojection_rms(residuals[:, mask]),
         sigma_px=float(sigma),
         cov=cov,
         mask=mask.copy(),
         message=message,
     )
-
-
-def pose_estimate_nls(K, Twcg, Ipts, Wpts) -> np.ndarray:
-    """Camera pose T_WC by Gauss-Newton from the guess ``Twcg``, using every point.
-
-    Parameters
-    ----------
-    K : (3, 3) array_like or Camera
-        Intrinsics, pixels (or a camera model, :mod:`graphpose.camera_models`).
-    Twcg : (4, 4) array_like
-        Initial guess of T_WC.
-    Ipts : (2, n) array_like
-        Observed image points (u, v), pixels; n >= 4.
-    Wpts : (3, n) array_like
-        Matching target points, metres.
-
-    Returns
-    -------
-    Twc : (4, 4) ndarray
-        The refined pose.
-
-    Raises
-    ------
-    InputError
-        On malformed input (see :func:`gauss_newton`).
-    ConvergenceError
-        If the iterations do not converge.
-    """
-    result = gauss_newton(K, Twcg, Ipts, Wpts, max_iterations=MAX_ITERATIONS)
-    if not result.converged:
-        raise ConvergenceError(
-            f"Gauss-Newton did not converge after {result.iterations} iterations: {result.message} "
-            f"(residual RMS {result.residual_rms_px:.3g} px)"
-        )
-    return result.T_WC

@@ -50,6 +50,7 @@ from .._checks import check_in_front, check_number, check_transform
 from ..observations import check_observations
 from ..geometry import hat, params_from_T, to_camera
 from .gauss_newton import reprojection_rms
+from .._deprecated import renamed
 
 #: Standard deviation (metres) of the prior that pins each target point: far below anything
 #: the pixels can resolve (about 1e-6 px at 1 m), yet finite so the marginals exist.
@@ -99,7 +100,7 @@ class GraphResult:
         (``from_minimum``) and the undamped steps confirmed it.
     residuals : (2, n) ndarray
         Measured minus predicted pixels at the solution, NaN for masked points.
-    residual_rms_px : float
+    rms_px : float
         ``sqrt(mean(du^2 + dv^2))`` over the used points, pixels
         (:func:`graphpose.pose.gauss_newton.reprojection_rms`).
     mask : (n,) ndarray of bool
@@ -116,7 +117,7 @@ class GraphResult:
     converged: bool
     iterations: int
     residuals: np.ndarray
-    residual_rms_px: float
+    rms_px: float
     mask: np.ndarray
     message: str = ""
 
@@ -131,31 +132,35 @@ class GraphResult:
         return np.sqrt(np.diag(self.cov)[3:])
 
     @property
-    def sigma_translation_mm(self) -> np.ndarray:
-        """1-sigma of the camera position along the body axes in millimetres, shape (3,)."""
-        return 1e3 * np.sqrt(np.diag(self.cov_tangent)[3:])
+    def sigma_translation_m(self) -> np.ndarray:
+        """1-sigma of the camera position along the body axes in metres, shape (3,)."""
+        return np.sqrt(np.diag(self.cov_tangent)[3:])
 
     @property
-    def sigma_rotation_deg(self) -> np.ndarray:
-        """1-sigma of the rotation about the body axes in degrees, shape (3,)."""
-        return np.degrees(np.sqrt(np.diag(self.cov_tangent)[:3]))
+    def sigma_rotation_rad(self) -> np.ndarray:
+        """1-sigma of the rotation about the body axes in radians, shape (3,)."""
+        return np.sqrt(np.diag(self.cov_tangent)[:3])
+
+    residual_rms_px = renamed("residual_rms_px", "rms_px")
+    sigma_translation_mm = renamed("sigma_translation_mm", "sigma_translation_m", lambda m: 1e3 * m)
+    sigma_rotation_deg = renamed("sigma_rotation_deg", "sigma_rotation_rad", np.degrees)
 
 
-def graph_pose(camera, T_WC_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, robust=False,
-               huber_k: float = HUBER_K, from_minimum: bool = False) -> GraphResult:
+def graph_pose(Ipts, Wpts, camera, *, guess, mask=None, pixel_sigma=None, robust=False,
+               huber_k: float = HUBER_K, from_minimum: bool = False, check: bool = True) -> GraphResult:
     """Solve the camera pose with a GTSAM factor graph and return its marginal covariance.
 
     Parameters
     ----------
-    camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.camera_models`; raw, distorted pixels), or pinhole
-        intrinsics ``K``, pixels (fx, fy, skew, cx, cy go into ``Cal3_S2``).
-    T_WC_guess : (4, 4) array_like
-        Starting pose T_WC.
     Ipts : (2, n) array_like
         Observed junctions (u, v), pixels; NaN allowed where ``mask`` is False.
     Wpts : (3, n) array_like
         Matching target points, metres.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.camera_models`; raw, distorted pixels), or pinhole
+        intrinsics ``K``, pixels (fx, fy, skew, cx, cy go into ``Cal3_S2``).
+    guess : (4, 4) array_like
+        Starting pose T_WC.
     mask : (n,) array_like of bool, optional
         Junctions to use (at least 4); all by default.
     pixel_sigma : float, optional
@@ -168,11 +173,17 @@ def graph_pose(camera, T_WC_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, r
     huber_k : float
         Huber threshold in sigmas.
     from_minimum : bool
-        ``T_WC_guess`` is a converged minimum of the same cost (Gauss-Newton's answer, as
-        :func:`graphpose.pose.estimate.estimate_pose_from_points` passes it): the undamped
+        ``guess`` is a converged minimum of the same cost (Gauss-Newton's answer, as
+        :func:`graphpose.estimate.estimate_pose_from_points` passes it): the undamped
         steps alone confirm it, without Levenberg-Marquardt (``iterations`` is then 0); where
         they do not converge from it, Levenberg-Marquardt runs from it as without the flag.
         The answer is GTSAM's either way.
+
+    check : bool
+        False skips the input checks, for a caller that checked the inputs at its own edge
+        (a camera object, float arrays of the right shapes, a boolean mask, a checked guess,
+        positive ``pixel_sigma`` or None and ``huber_k``; the guess's depths are still checked): pytransform3d's
+        ``check=False``.
 
     Returns
     -------
@@ -185,19 +196,17 @@ def graph_pose(camera, T_WC_guess, Ipts, Wpts, *, mask=None, pixel_sigma=None, r
         non-positive ``pixel_sigma`` or ``huber_k``, or a used point behind the camera at the
         guess.
     """
-    camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
-    T_WC_guess = check_transform(T_WC_guess, "T_WC_guess")
-    pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
-    huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
-    return graph_pose_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma, robust, huber_k,
-                                from_minimum=bool(from_minimum))
+    if check:
+        camera, Ipts, Wpts, mask = check_observations(camera, Ipts, Wpts, mask)
+        guess = check_transform(guess, "guess")
+        pixel_sigma = None if pixel_sigma is None else check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
+        huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
+    return _graph_pose(camera, guess, Ipts, Wpts, mask, pixel_sigma, robust, huber_k, from_minimum=bool(from_minimum))
 
 
-def graph_pose_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma=None, robust=False,
-                         huber_k: float = HUBER_K, *, from_minimum: bool = False) -> GraphResult:
-    """:func:`graph_pose` on inputs already checked at a public edge (a camera object, float
-    arrays of the right shapes, a boolean mask, a checked guess, positive ``pixel_sigma`` or
-    None and ``huber_k``); the guess's depths are still checked (they depend on the pose)."""
+def _graph_pose(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma=None, robust=False,
+                huber_k: float = HUBER_K, *, from_minimum: bool = False) -> GraphResult:
+    """The solve of :func:`graph_pose`, its inputs checked (``check``)."""
     keys = np.flatnonzero(mask)
     I, W = Ipts[:, keys], Wpts[:, keys]  # the used points, once
     check_in_front(to_camera(T_WC_guess, W)[2], "the guess", keys)
@@ -227,7 +236,7 @@ def graph_pose_unchecked(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma=None,
         converged=converged,
         iterations=iterations,
         residuals=residuals,
-        residual_rms_px=reprojection_rms(used),
+        rms_px=reprojection_rms(used),
         mask=mask.copy(),
         message=message,
     )

@@ -29,18 +29,24 @@ from ._homography import homography_pose
 #: Target points farther than this (metres, relative to the board's extent) from z = 0 are refused.
 _PLANE_TOL = 1e-6
 
-def pose_from_homography(camera, Ipts, Wpts) -> np.ndarray:
+def pose_from_homography(Ipts, Wpts, camera, *, check: bool = True) -> np.ndarray:
     """Camera pose from the homography between the target plane and the image.
 
     Parameters
     ----------
-    camera : Camera or (3, 3) array_like
-        The camera model (:mod:`graphpose.camera_models`; the points are then raw pixels,
-        undistorted here), or pinhole intrinsics ``K``, pixels.
     Ipts : (2, n) array_like
         Image points (u, v), pixels; n >= 4.
     Wpts : (3, n) array_like
         Matching target points on the plane z = 0, metres.
+    camera : Camera or (3, 3) array_like
+        The camera model (:mod:`graphpose.camera_models`; the points are then raw pixels,
+        undistorted here), or pinhole intrinsics ``K``, pixels.
+
+    check : bool
+        False skips the input checks, for a caller that checked the inputs at its own edge
+        (a camera object, float arrays of the right shapes, every point used; the plane and
+        the geometry are still checked): pytransform3d's
+        ``check=False``.
 
     Returns
     -------
@@ -57,13 +63,8 @@ def pose_from_homography(camera, Ipts, Wpts) -> np.ndarray:
         sign of the decomposition puts all the points in front of the camera, or a point
         lies where the camera's lens model has no ray in front of it.
     """
-    camera, Ipts, Wpts, _ = check_observations(camera, Ipts, Wpts)
-    return pose_from_homography_unchecked(camera, Ipts, Wpts)
-
-
-def pose_from_homography_unchecked(camera, Ipts, Wpts) -> np.ndarray:
-    """:func:`pose_from_homography` on a camera object and float points already checked at a
-    public edge (every point used); the plane and the geometry are still checked here."""
+    if check:
+        camera, Ipts, Wpts, _ = check_observations(camera, Ipts, Wpts)
     if not on_target_plane(Wpts):
         raise InputError("Wpts must lie on the target plane z = 0 for the homography initialiser")
     K = camera.K

@@ -7,12 +7,12 @@ pose in the target frame, ``T_WC0``, from every camera's junctions at once: a ju
 A camera that does not see the board (a blank image, or None) gives nothing and the others go
 on; at least one must see it.
 
-Two solvers, as for one camera (:mod:`graphpose.pose.estimate`): Gauss-Newton on
+Two solvers, as for one camera (:mod:`graphpose.estimate`): Gauss-Newton on
 ``(x, y, z, roll, pitch, yaw)`` with the analytic Jacobian (:func:`rig_points`), then GTSAM's
 Levenberg-Marquardt over one ``Pose3`` with one custom factor per camera, started from
 Gauss-Newton's answer; they must agree to
-:data:`~graphpose.pose.estimate.AGREE_TRANSLATION_M` and
-:data:`~graphpose.pose.estimate.AGREE_ROTATION_DEG`. The start is the homography pose of the
+:data:`~graphpose.pose.cross_check.AGREE_TRANSLATION_M` and
+:data:`~graphpose.pose.cross_check.AGREE_ROTATION_DEG`. The start is the homography pose of the
 camera that sees most junctions, carried to camera 0. The covariance is ``sigma^2 (J^T W
 J)^-1`` with the pixel noise ``sigma`` from the residuals, ``sqrt(sum w r^2 / (2M - 6))``
 (GTSAM's marginal at that sigma is the same to the cross-check's precision); the rig's own
@@ -32,9 +32,10 @@ import numpy as np
 from ..board import Board, check_board
 from ..errors import BoardNotFoundError, InputError
 from ..geometry import T_from_params, hat, invert_transform, params_from_T, pose_difference, rot_x, rot_y, rot_z
-from .estimate import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck
+from .cross_check import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck
 from .gauss_newton import stacked_huber_weights
 from .graph import HUBER_K, params_cov_from_tangent
+from .._deprecated import renamed
 
 _E = np.eye(3)
 MAX_ITERATIONS = 50
@@ -61,7 +62,7 @@ class RigPoseEstimate:
         The pixel noise behind ``cov``, from the residuals.
     converged : bool
     iterations : int
-    reprojection_rms_px : float
+    rms_px : float
         RMS over every junction used, pixels.
     junctions : tuple
         Per camera its :class:`~graphpose.detect.junctions.Junctions`, None where it saw no
@@ -86,7 +87,7 @@ class RigPoseEstimate:
     sigma_px: float
     converged: bool
     iterations: int
-    reprojection_rms_px: float
+    rms_px: float
     junctions: tuple
     residuals: tuple
     status: tuple
@@ -98,6 +99,8 @@ class RigPoseEstimate:
     def ok(self) -> bool:
         """Converged and cross-checked."""
         return self.converged and self.cross_check.agree
+
+    reprojection_rms_px = renamed("reprojection_rms_px", "rms_px")
 
 
 def rotation_and_partials(rpy):
@@ -184,7 +187,7 @@ def _start(rig, obs, board):
     used = [o for o in obs if o is not None]
     best = max(used, key=lambda o: o[1].shape[1])
     c, uv, W = best
-    T0 = pose_from_homography(rig.cameras[c], uv, W) @ invert_transform(rig.T_C0_C[c])
+    T0 = pose_from_homography(uv, W, rig.cameras[c]) @ invert_transform(rig.T_C0_C[c])
     notes = []
     out = list(obs)
     if _half_turn_symmetric(board):
@@ -192,7 +195,7 @@ def _start(rig, obs, board):
         for k, o in enumerate(obs):
             if o is None or o[0] == c:
                 continue
-            Tk = pose_from_homography(rig.cameras[k], o[1], o[2]) @ invert_transform(rig.T_C0_C[k])
+            Tk = pose_from_homography(o[1], o[2], rig.cameras[k]) @ invert_transform(rig.T_C0_C[k])
             if pose_difference(Tk, T0)[1] > 90.0:
                 out[k] = (k, o[1], turned[:, _indices(board, o[2])])
                 notes.append(f"camera {k}'s junctions relabelled by the board's half turn (its labels disagreed "
@@ -377,6 +380,6 @@ def _solve(rig, obs, found, status, messages, robust, board):
     sd = np.sqrt(np.abs(np.diag(cov)))
     return RigPoseEstimate(
         T_WC=T, params=q, cov=cov, sigma_xyz_m=sd[:3], sigma_rpy_rad=sd[3:], sigma_px=sigma,
-        converged=bool(converged), iterations=it, reprojection_rms_px=rms, junctions=tuple(found),
+        converged=bool(converged), iterations=it, rms_px=rms, junctions=tuple(found),
         residuals=tuple(residuals), status=tuple(status), messages=tuple(messages),
         cross_check=CrossCheck(translation_m=float(dt), rotation_deg=float(dr), agree=agree), message=message)

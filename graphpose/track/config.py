@@ -139,7 +139,7 @@ class TrackerConfig:
         A refined junction further than this from its prediction is dropped (the fit
         wandered to another feature), pixels.
     robust : bool
-        The frame's own pose fit (:func:`graphpose.pose.estimate.fit_pose`, the single-image
+        The frame's own pose fit (:func:`graphpose.estimate.fit_pose`, the single-image
         pipeline's) down-weights outlying junctions with the Huber kernel at 1.345 robust
         sigmas, as ``estimate_pose(..., robust=True)``. Off by default, as there: the
         junctions reaching the fit already passed the saddle fit's trust test and the gate

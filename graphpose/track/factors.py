@@ -67,10 +67,10 @@ def resection_factor(key, points, Wpts, camera, pixel_sigma: float) -> gtsam.Cus
     if Wpts.shape[1] != m:
         raise InputError(f"points and Wpts must hold the same number of points, got {m} and {Wpts.shape[1]}")
     check_number("pixel_sigma", pixel_sigma, 0.0, strict=True)
-    return resection_factor_unchecked(key, points, Wpts, as_camera(camera), float(pixel_sigma))
+    return _resection_factor(key, points, Wpts, as_camera(camera), float(pixel_sigma))
 
 
-def resection_factor_unchecked(key, points, Wpts, camera, pixel_sigma: float) -> gtsam.CustomFactor:
+def _resection_factor(key, points, Wpts, camera, pixel_sigma: float) -> gtsam.CustomFactor:
     """:func:`resection_factor` on inputs already checked (a camera object, finite float
     (2, m) and (3, m) arrays, a positive sigma): the back end's frames, checked at the
     tracker's edge, build their factors through it."""

@@ -13,7 +13,7 @@ projection through the sequence's camera, :mod:`graphpose.camera_models`, on the
    drop the untrusted fits and the fits that wandered more than ``gate_px`` from their
    prediction.
 3. **Fit** the frame's own pose with the single-image pipeline's fit,
-   :func:`graphpose.pose.estimate.fit_pose`: from the prediction, Gauss-Newton and, with
+   :func:`graphpose.estimate.fit_pose`: from the prediction, Gauss-Newton and, with
    ``robust``, its Huber gate on outlying junctions. Its input checks are not repeated: the
    junctions are the refinement's (finite), the start the prediction (rigid), and the frame
    itself was checked once, at the tracker's edge.
@@ -56,7 +56,7 @@ from ..detect import MAX_RADIUS, SMOOTH_SIGMA, WINDOW_FRACTION, board_smoothing,
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 # fit_pose without its input checks: the front end's junctions and poses are its own, made
 # finite and rigid here (the public fit's checks were a tenth of a tracked frame's front end).
-from ..pose.estimate import fit_pose_unchecked
+from ..estimate import fit_pose
 from .config import TrackerConfig
 from .results import DETECTED, LOST, TRACKED
 
@@ -74,7 +74,7 @@ class Measurement:
     ids : (m,) ndarray of int or None
         Their board indices (row-major).
     fit : GNResult or None
-        The frame's own pose fit of those junctions (:func:`graphpose.pose.estimate.fit_pose`).
+        The frame's own pose fit of those junctions (:func:`graphpose.estimate.fit_pose`).
     message : str
         Why the frame was lost, or why it fell back to extraction; empty otherwise.
     """
@@ -165,7 +165,7 @@ class FrontEnd:
         if found is None:
             return Measurement(LOST, message=message or "no polygon to search")
         points, ids, fit = found
-        self._rms.add(fit.residual_rms_px)
+        self._rms.add(fit.rms_px)
         return Measurement(status, points, ids, fit, message if status == DETECTED else "")
 
     def accept(self, k: int, timestamp: float, T_WC, shape) -> np.ndarray:
@@ -252,7 +252,7 @@ class FrontEnd:
         """Full extraction inside a polygon (the whole image for None); ((points, ids, fit), "")
         or (None, why)."""
         try:
-            J = extract_junctions(image, polygon, self.board, camera=self.camera)
+            J = extract_junctions(image, bounds=polygon, board=self.board, camera=self.camera)
         except (BoardNotFoundError, InputError) as exc:
             return None, f"extraction failed: {exc}"
         points, trusted = J.points, J.trusted
@@ -291,8 +291,8 @@ class FrontEnd:
         checks; ((points, ids, fit), "") or (None, why)."""
         cfg = self.config
         try:
-            fit, _ = fit_pose_unchecked(self.camera, points, self._W[:, ids], guess, np.ones(ids.size, dtype=bool),
-                                        cfg.robust)
+            fit, _ = fit_pose(points, self._W[:, ids], self.camera, guess=guess, mask=np.ones(ids.size, dtype=bool),
+                              robust=cfg.robust, check=False)
         except (InputError, DegenerateGeometryError) as exc:
             return None, f"pose fit failed: {exc}"
         if not fit.converged:
@@ -300,8 +300,8 @@ class FrontEnd:
         limit = cfg.max_rms_px
         if len(self._rms) >= 5:
             limit = min(limit, max(cfg.rms_factor * self._rms.median(), cfg.rms_floor_px))
-        if fit.residual_rms_px > limit:
-            return None, f"fit residual {fit.residual_rms_px:.3f} px RMS exceeds {limit:.3f} px"
+        if fit.rms_px > limit:
+            return None, f"fit residual {fit.rms_px:.3f} px RMS exceeds {limit:.3f} px"
         return (points, ids, fit), ""
 
 

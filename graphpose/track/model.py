@@ -75,7 +75,7 @@ from ..board import Board
 from ..errors import InputError
 from ..pose.graph import projection_factor
 from .config import TARGET_FORMS, MotionPrior
-from .factors import constant_velocity_factor, resection_factor_unchecked
+from .factors import _resection_factor, constant_velocity_factor
 
 
 def landmark_stride(board: Board) -> int:
@@ -202,7 +202,7 @@ class FactorBuilder:
 
     def _target_factors(self, graph, values, stamps, k, timestamp, points, ids, pixel_sigma) -> None:
         if self.target == "resection":
-            graph.add(resection_factor_unchecked(X(k), points, self._Wpts[:, ids], self.camera, pixel_sigma))
+            graph.add(_resection_factor(X(k), points, self._Wpts[:, ids], self.camera, pixel_sigma))
             return
         noise = gtsam.noiseModel.Isotropic.Sigma(2, pixel_sigma)
         for uv, j in zip(points.T, ids.tolist()):

@@ -3,7 +3,7 @@ and the back end's :class:`BackendResult` for one frame.
 
 Poses are ``T_WC`` (camera in the target frame) and covariances are those of the pose
 parameters ``(x, y, z, roll, pitch, yaw)`` of :mod:`graphpose.geometry` (metres, radians), like
-:class:`graphpose.pose.estimate.PoseEstimate`. A lost frame carries no pose.
+:class:`graphpose.estimate.PoseEstimate`. A lost frame carries no pose.
 """
 
 from __future__ import annotations
@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..pose.intrinsics import SIGMA_PIXEL
+from ..pose.covariance import SIGMA_PIXEL
+from .._deprecated import renamed
 
 #: Frame statuses: followed from the previous frame's prediction, found by full extraction,
 #: or without a usable board.
@@ -60,7 +61,7 @@ class FrameResult:
         Marginal covariance of ``(x, y, z, roll, pitch, yaw)``, metres and radians.
     junctions : int
         Junctions whose projection factors entered the graph (0 when lost).
-    reprojection_rms_px : float
+    rms_px : float
         RMS reprojection residual of those junctions at ``T_WC``, pixels (NaN when lost).
     single_T_WC : (4, 4) ndarray or None
         The frame's own single-frame fit of the same junctions (no motion prior).
@@ -77,7 +78,7 @@ class FrameResult:
         The covariance from the pixel noise alone (the intrinsics taken as exact): the same
         as ``cov`` for a camera without a covariance, None when lost.
     sigma_kind : str
-        What ``cov`` describes, as :attr:`graphpose.pose.estimate.PoseEstimate.sigma_kind`:
+        What ``cov`` describes, as :attr:`graphpose.estimate.PoseEstimate.sigma_kind`:
         ``"pixel noise"``, or ``"pixel noise and calibration"`` for a camera that carries
         its intrinsics' covariance (:mod:`graphpose.track.uncertainty`: first order, per
         frame; the calibration's error is common to every frame).
@@ -99,7 +100,7 @@ class FrameResult:
     T_WC: np.ndarray | None = None
     cov: np.ndarray | None = None
     junctions: int = 0
-    reprojection_rms_px: float = float("nan")
+    rms_px: float = float("nan")
     single_T_WC: np.ndarray | None = None
     points: np.ndarray | None = None
     ids: np.ndarray | None = None
@@ -114,6 +115,8 @@ class FrameResult:
     def __post_init__(self):
         if self.cov_pixel is None and self.sigma_kind == SIGMA_PIXEL:  # the two are one
             object.__setattr__(self, "cov_pixel", self.cov)
+
+    reprojection_rms_px = renamed("reprojection_rms_px", "rms_px")
 
     @property
     def sigma(self) -> np.ndarray | None:

@@ -14,7 +14,7 @@ cannot be read, is lost: it gets no pose, and no motion factor spans it. At the 
 sequence can be smoothed in batch. Each frame's result is given as soon as it is final and
 kept by nobody but the caller (:func:`track_frames`); smoothing keeps only the measurements.
 
-Inputs are checked once, here, as :func:`graphpose.pipeline.estimate_pose` checks them
+Inputs are checked once, here, as :func:`graphpose.estimate.estimate_pose` checks them
 (:func:`graphpose._checks.check_bounds` for the bounds and every per-frame polygon, and
 :func:`graphpose.camera_models.check_image_size` for every frame against the camera's calibration).
 One camera (:mod:`graphpose.camera_models`) serves the whole chain: the front end's predictions,
@@ -44,7 +44,7 @@ from .results import DETECTED, LOST, FrameResult, Track
 from .uncertainty import frame_covariance
 
 
-def track_frames(frames, camera, bounds=None, *, board: Board = Board(), timestamps=None, fps: float = 30.0,
+def track_frames(frames, camera, *, board: Board = Board(), bounds=None, timestamps=None, fps: float = 30.0,
                  polygons=None, config: TrackerConfig = TrackerConfig(), smooth: bool = False,
                  progress=None, topic: str | None = None) -> Iterator[FrameResult]:
     """Track the camera pose over a sequence of frames, one :class:`FrameResult` at a time.
@@ -90,7 +90,7 @@ def track_frames(frames, camera, bounds=None, *, board: Board = Board(), timesta
     return _then_damage(run, _smoothed_stream(run) if smooth else run.online())
 
 
-def track_sequence(frames, camera, bounds=None, *, board: Board = Board(), timestamps=None, fps: float = 30.0,
+def track_sequence(frames, camera, *, board: Board = Board(), bounds=None, timestamps=None, fps: float = 30.0,
                    polygons=None, config: TrackerConfig = TrackerConfig(), smooth: bool = False,
                    progress=None, topic: str | None = None) -> Track:
     """Track the camera pose over a sequence of frames of the target (every result kept:

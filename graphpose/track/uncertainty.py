@@ -4,10 +4,10 @@ A camera read from a calibration (``graphpose calibrate``) may carry the covaria
 intrinsic parameters (:mod:`graphpose.camera_models`). Each tracked pose then reports a
 covariance that includes it, beside the pixel-noise-only covariance of the back end, and
 says which kind it is (``sigma_kind``, the convention of
-:class:`graphpose.pose.estimate.PoseEstimate`).
+:class:`graphpose.estimate.PoseEstimate`).
 
 The propagation is first order and per frame, the single image's
-(:func:`graphpose.pose.intrinsics.pose_cov_with_intrinsics`): at the back end's pose ``T_WC``
+(:func:`graphpose.pose.covariance.pose_cov_with_intrinsics`): at the back end's pose ``T_WC``
 of frame ``k``, ``D_k = d theta_k / d k`` is how the least-squares resection of that frame's
 junctions moves with the intrinsics, and
 
@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..pose.intrinsics import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
+from ..pose.covariance import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
 
 
 def frame_covariance(camera, T_WC, Wpts, cov_pixel) -> tuple:
@@ -56,8 +56,8 @@ def frame_covariance(camera, T_WC, Wpts, cov_pixel) -> tuple:
         ``cov_pixel`` for a camera without a covariance; else ``cov_pixel + D cov_k D^T``
         (NaN where the frame's normal equations are singular).
     sigma_kind : str
-        :data:`~graphpose.pose.intrinsics.SIGMA_PIXEL` or
-        :data:`~graphpose.pose.intrinsics.SIGMA_CALIBRATION`.
+        :data:`~graphpose.pose.covariance.SIGMA_PIXEL` or
+        :data:`~graphpose.pose.covariance.SIGMA_CALIBRATION`.
     """
     if getattr(camera, "covariance", None) is None:
         return cov_pixel, SIGMA_PIXEL

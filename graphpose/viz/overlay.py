@@ -49,9 +49,9 @@ def draw_overlay(image, estimate, camera, board: Board = Board(), *, bounds=None
         The image the estimate came from (any dtype :func:`graphpose.image.as_grey` takes),
         raw as the camera took it.
     estimate : PoseEstimate
-        Result of :func:`graphpose.pipeline.estimate_pose`; uses ``T_WC``, ``params``,
+        Result of :func:`graphpose.estimate.estimate_pose`; uses ``T_WC``, ``params``,
         ``mask`` (the trusted junctions), ``junctions.points`` (none are marked when
-        ``junctions`` is None, as from :func:`~graphpose.pose.estimate.estimate_pose_from_points`),
+        ``junctions`` is None, as from :func:`~graphpose.estimate.estimate_pose_from_points`),
         ``reprojection_rms_px``, ``converged``, ``cross_check.agree`` and, when present,
         ``orientation_ambiguous``.
     camera : Camera or (3, 3) array_like
@@ -202,7 +202,7 @@ def _pose_lines(estimate, trusted, label) -> list:
         [(f"x {x:+8.4f} m   roll  {roll:+8.2f}\u00b0", white)],
         [(f"y {y:+8.4f} m   pitch {pitch:+8.2f}\u00b0", white)],
         [(f"z {z:+8.4f} m   yaw   {yaw:+8.2f}\u00b0", white)],
-        [(f"rms {estimate.reprojection_rms_px:.2f} px   {int(trusted.sum())}/{trusted.size} trusted", white)],
+        [(f"rms {estimate.rms_px:.2f} px   {int(trusted.sum())}/{trusted.size} trusted", white)],
         [("o", COLOURS["trusted"]), (" trusted  ", white), ("x", COLOURS["untrusted"]),
          (" untrusted  ", white), ("+", COLOURS["reprojected"]), (" model", white)],
         [("axes ", white), ("x", COLOURS["x"]), (" ", white), ("y", COLOURS["y"]), (" ", white),

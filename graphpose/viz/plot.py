@@ -95,7 +95,7 @@ def _reprojection(ax, frames):
     """Per-frame reprojection RMS coloured by status; lost frames as marks on the axis."""
     for status in ("tracked", "detected"):
         chosen = [f for f in frames if f.status == status]
-        ax.plot([f.timestamp for f in chosen], [f.reprojection_rms_px for f in chosen], ".",
+        ax.plot([f.timestamp for f in chosen], [f.rms_px for f in chosen], ".",
                 color=_COLOURS[status], label=f"{status} ({len(chosen)})")
     lost = [f.timestamp for f in frames if f.status == "lost"]
     ax.plot(lost, np.zeros(len(lost)), "|", color=_COLOURS["lost"], ms=12, label=f"lost ({len(lost)})")

@@ -57,7 +57,7 @@ def draw_track_frame(image, frame, camera, board: Board = Board(), label: str = 
                 if np.isfinite(u) and np.isfinite(v):
                     _ring(canvas, u, v, 6.0 * size, 2.0 * size, COLOURS["trusted"])
         _draw_axes(canvas, camera, T, 2.0 * board.square_m, size)
-        text, colour = f"{label} {frame.status}  {frame.reprojection_rms_px:.2f} px", COLOURS["good"]
+        text, colour = f"{label} {frame.status}  {frame.rms_px:.2f} px", COLOURS["good"]
     else:
         text, colour = f"{label} {frame.status}", COLOURS["bad"]
     _text(canvas, 6 * scale, 6 * scale, f"t {frame.timestamp:.3f} s  {text}".strip(), colour, scale)

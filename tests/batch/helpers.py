@@ -3,7 +3,7 @@ of subprocesses on 127.0.0.1 that is always stopped.
 
 The image set renders a few 320 x 240 images (the bundled K scaled by a half) and names each
 many times through symbolic links, so that 200 paths, each its own row, cost a dozen renders;
-the expected result of every distinct file comes from :func:`graphpose.pipeline.estimate_pose`
+the expected result of every distinct file comes from :func:`graphpose.estimate.estimate_pose`
 in this process, the single-image path the batch must reproduce: to within 1e-12 (see
 :func:`assert_same_pose`), not bit for bit, since a worker's BLAS may run another thread count
 or kernel than this process's and change the last bits.
@@ -26,7 +26,7 @@ import numpy as np
 from graphpose import Board
 from graphpose.image import read_image
 from graphpose.io.cases import bundled_cases
-from graphpose.pipeline import estimate_pose
+from graphpose.estimate import estimate_pose
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
 
@@ -73,7 +73,7 @@ def make_image_set(folder: Path, n_files: int = 10, n_paths: int = 198, seed: in
         poly = loose_polygon(rendering, rng=rng)
         files.append(path)
         polys.append(poly)
-        estimates.append(estimate_pose(read_image(path, as_float=False), poly, K, board))
+        estimates.append(estimate_pose(read_image(path, as_float=False), K, bounds=poly, board=board))
     assert all(e.ok for e in estimates), "the seed must give images that all have a pose"
     paths, bounds, expected = [], {}, {}
     for k in range(n_paths):
@@ -129,7 +129,7 @@ def assert_same_pose(row: dict, estimate) -> None:
     covariance's), the junctions used exactly."""
     np.testing.assert_allclose(np.array(row["T_WC"]), estimate.T_WC, rtol=0, atol=POSE_TOLERANCE)
     np.testing.assert_allclose(np.array(row["sigma_xyz_m"]), estimate.sigma_xyz_m, rtol=1e3 * POSE_TOLERANCE, atol=0)
-    np.testing.assert_allclose(row["reprojection_rms_px"], estimate.reprojection_rms_px, rtol=0, atol=POSE_TOLERANCE)
+    np.testing.assert_allclose(row["reprojection_rms_px"], estimate.rms_px, rtol=0, atol=POSE_TOLERANCE)
     assert row["junctions_used"] == int(np.count_nonzero(estimate.mask))
 
 

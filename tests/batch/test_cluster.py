@@ -138,7 +138,7 @@ def test_a_worker_killed_mid_run_on_the_cluster(images, cluster):
     # images again one a task, on the other worker or the restarted one.
     with distributed.Client(cluster.address) as client:
         client.wait_for_workers(2, timeout=60)
-        stream = estimate_many(images.all_paths, images.K, images.board, bounds=images.bounds, client=client,
+        stream = estimate_many(images.all_paths, images.K, board=images.board, bounds=images.bounds, client=client,
                                images_per_task=4)
         rows = [*kill_a_busy_worker(client, stream), *stream]
         check_rows(rows, images)
@@ -151,7 +151,7 @@ def test_an_image_whose_own_task_kills_its_worker_gets_a_crashed_row(images, clu
     with distributed.Client(cluster.address) as client:
         client.wait_for_workers(2, timeout=60)
         paths = images.paths[:40]
-        stream = estimate_many(paths, images.K, images.board, bounds=images.bounds, client=client,
+        stream = estimate_many(paths, images.K, board=images.board, bounds=images.bounds, client=client,
                                images_per_task=1)
         rows = [*kill_a_busy_worker(client, stream), *stream]
         crashed = [r["image"] for r in rows if r["status"] == "crashed"]

@@ -55,7 +55,7 @@ def test_local_cluster_workers_single_threaded_without_a_malloc_trim_threshold(c
 
 
 def test_every_image_once_with_the_single_image_pose(images, client):
-    rows = list(estimate_many(images.all_paths, images.K, images.board, bounds=images.bounds, client=client))
+    rows = list(estimate_many(images.all_paths, images.K, board=images.board, bounds=images.bounds, client=client))
     check_rows(rows, images)
     assert {r["status"] for r in rows} <= set(STATUSES)
     workers = {r["worker"] for r in rows if r["status"] == "ok"}
@@ -64,7 +64,7 @@ def test_every_image_once_with_the_single_image_pose(images, client):
 
 
 def test_a_worker_killed_mid_run_loses_and_repeats_nothing(images, client):
-    stream = estimate_many(images.all_paths, images.K, images.board, bounds=images.bounds, client=client,
+    stream = estimate_many(images.all_paths, images.K, board=images.board, bounds=images.bounds, client=client,
                            images_per_task=3)
     rows = [next(stream)]
     pids = client.run(os.getpid)
@@ -81,7 +81,8 @@ def test_one_polygon_for_all_and_the_whole_image_for_the_rest(images, client):
     paths = images.paths[:3]
     poly = images.bounds[paths[0]]
     for bounds, polys in ((poly, [poly, poly, poly]), ({paths[0]: poly, paths[1]: None}, [poly, None, None])):
-        rows = {r["image"]: r for r in estimate_many(paths, images.K, images.board, bounds=bounds, client=client)}
+        rows = {r["image"]: r for r in estimate_many(paths, images.K, board=images.board, bounds=bounds,
+                                                     client=client)}
         for path, used in zip(paths, polys):
             [want] = estimate_images([(path, used)], images.K, images.board)
             assert [rows[path][k] for k in ("status", "message", "T_WC")] == \
@@ -89,7 +90,7 @@ def test_one_polygon_for_all_and_the_whole_image_for_the_rest(images, client):
 
 
 def test_closing_the_stream_early_cancels_the_rest(images, client):
-    stream = estimate_many(images.paths, images.K, images.board, bounds=images.bounds, client=client,
+    stream = estimate_many(images.paths, images.K, board=images.board, bounds=images.bounds, client=client,
                            images_per_task=1)
     assert next(stream)["image"] in images.paths
     stream.close()
@@ -114,4 +115,4 @@ def test_closing_the_stream_early_cancels_the_rest(images, client):
 def test_bad_arguments_fail_before_any_cluster_starts(images, kwargs, fragment):
     args = {"paths": ["a.png"], "K": images.K, "board": Board(), **kwargs}
     with pytest.raises(InputError, match=fragment):
-        estimate_many(args.pop("paths"), args.pop("K"), args.pop("board"), **args)
+        estimate_many(args.pop("paths"), args.pop("K"), board=args.pop("board"), **args)

@@ -4,7 +4,7 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-import graphpose.pipeline
+import graphpose.estimate
 from graphpose.batch.work import (
     BOARD_NOT_FOUND,
     CRASHED,
@@ -20,7 +20,7 @@ from graphpose.batch.work import (
 )
 from graphpose.io.records import result_record
 from graphpose.image import read_image
-from graphpose.pipeline import estimate_pose
+from graphpose.estimate import estimate_pose
 from tests.batch.helpers import make_image_set
 
 
@@ -62,7 +62,7 @@ def test_an_unexpected_exception_is_an_error_row_with_its_type(images, monkeypat
     def broken(*args, **kwargs):
         raise ZeroDivisionError("a bug\nover two lines")
 
-    monkeypatch.setattr(graphpose.pipeline, "estimate_pose", broken)
+    monkeypatch.setattr(graphpose.estimate, "estimate_pose", broken)
     [row] = estimate_images([(images.paths[0], images.bounds[images.paths[0]])], images.K, images.board)
     assert row["status"] == ERROR and row["message"] == "ZeroDivisionError: a bug over two lines"
 
@@ -71,7 +71,8 @@ def test_no_polygon_is_estimate_pose_without_bounds(images):
     # graphpose estimate IMAGE without --bounds: the library searches the whole image.
     path = images.paths[1]
     [row] = estimate_images([(path, None)], images.K, images.board)
-    expected = result_record(path, estimate_pose(read_image(path, as_float=False), None, images.K, images.board), None)
+    expected = result_record(path, estimate_pose(read_image(path, as_float=False), images.K, bounds=None,
+                                                 board=images.board), None)
     assert {k: row[k] for k in expected} == expected
 
 

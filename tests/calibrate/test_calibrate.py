@@ -34,7 +34,7 @@ def test_radtan_calibration_finds_the_camera(radtan_set, radtan_calibration):
     np.testing.assert_array_equal(c.camera.covariance, c.cov)
     z = (c.parameters - truth) / c.sigmas
     assert np.all(np.abs(z) < 3.0), z
-    assert c.cross_check["max_difference"] <= 1e-6
+    assert c.cross_check.max_difference <= 1e-6
     # Rendered junctions: a few hundredths of a pixel.
     assert 0.0 < c.rms_px < 0.05 and 0.0 < c.sigma_px < 0.05
     used = np.hstack([r for r, s in zip(c.residuals, c.status) if s == "used"])
@@ -201,7 +201,7 @@ def test_each_pass_refines_the_board_found_once_as_extract_junctions_does(radtan
         searched = calibrate_run._search(image, board)
         for camera in (None, radtan_camera()):
             uv, W, index = calibrate_run._detect(searched, board, camera)[0]
-            J = extract_junctions(image, None, board, camera=camera)
+            J = extract_junctions(image, bounds=None, board=board, camera=camera)
             assert np.array_equal(index, np.flatnonzero(J.trusted))
             assert np.array_equal(uv, J.points[:, index])
             np.testing.assert_array_equal(W, board.world_points()[:, index])

@@ -78,7 +78,7 @@ def test_the_same_camera_from_the_written_corners(calibrated, tmp_path):
     views, c = calibrated
     path = tmp_path / "corners.vnl"
     write_corners(path, c.images, c.detections, Board(), size=c.camera.size)
-    again = calibrate_corners(read_corners(path, Board()), Board(), "radtan", c.camera.size)
+    again = calibrate_corners(read_corners(path, Board()), "radtan", board=Board(), size=c.camera.size)
     assert again.ok and again.status == c.status
     assert all(m.startswith("junctions read from the corners") for m in again.message)
     # The same junctions: the same camera, to a hundredth of its sigmas (the Huber threshold
@@ -86,7 +86,7 @@ def test_the_same_camera_from_the_written_corners(calibrated, tmp_path):
     assert np.all(np.abs(again.parameters - c.parameters) < 0.01 * c.sigmas)
     np.testing.assert_allclose(again.sigmas, c.sigmas, rtol=0.02)
     with pytest.raises(InputError, match="size"):
-        calibrate_corners(read_corners(path, Board()), Board(), "radtan")
+        calibrate_corners(read_corners(path, Board()), "radtan", board=Board())
 
 
 def test_single_outliers_are_left_out_and_named(calibrated):
@@ -100,7 +100,7 @@ def test_single_outliers_are_left_out_and_named(calibrated):
         uv[:, pick] += rng.uniform(2.0, 5.0, pick.size) * np.stack([np.cos(angle), np.sin(angle)])
         moved.append(set(index[pick].tolist()))
         junctions.append((uv, index))
-    bad = calibrate_corners(junctions, Board(), "radtan", c.camera.size)
+    bad = calibrate_corners(junctions, "radtan", board=Board(), size=c.camera.size)
     assert bad.ok and bad.status.count("used") == 10
     for k in range(10):
         assert set(bad.outliers[k].tolist()) == moved[k]

@@ -47,8 +47,8 @@ def test_extrinsics_within_three_sigmas_of_the_truth(calibrated, rendered):
 
 def test_the_two_solvers_land_on_the_same_parameters(calibrated):
     check = calibrated.cross_check
-    assert check["max_difference"] <= check["tolerance"] == 1e-6
-    assert np.allclose(check["gtsam"], check["lm"], rtol=1e-6, atol=1e-9)
+    assert check.max_difference <= check.tolerance == 1e-6
+    assert np.allclose(check.gtsam, check.lm, rtol=1e-6, atol=1e-9)
 
 
 def test_views_one_camera_sees_count_and_blanks_are_named(calibrated, rendered):

@@ -14,7 +14,7 @@ from graphpose import Board
 from graphpose.batch import read_results
 from graphpose.cli import main
 from graphpose.image import read_image
-from graphpose.pipeline import estimate_pose
+from graphpose.estimate import estimate_pose
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
 from tests.batch.helpers import SIZE, assert_same_pose, half_K
@@ -41,7 +41,7 @@ def same_pose_images(tmp_path_factory):
         rendering = render(K, T, board, SIZE, rng=rng)
         poly = loose_polygon(rendering, rng=rng) if poly is None else poly
         iio.imwrite(folder / f"frame_{k}.png", rendering.image)
-    expected = {str(p): estimate_pose(read_image(p, as_float=False), poly, K, board) for p in sorted(folder.glob("*.png"))}
+    expected = {str(p): estimate_pose(read_image(p, as_float=False), K, bounds=poly, board=board) for p in sorted(folder.glob("*.png"))}
     return folder, K, poly, expected
 
 

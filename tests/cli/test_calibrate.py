@@ -11,7 +11,7 @@ import pytest
 
 from graphpose import Board, estimate_pose, read_camera, read_image
 from graphpose.cli import main
-from graphpose.io.calibration import write_camera
+from graphpose.io.cameras import write_camera
 from graphpose.synth import poses, render
 from tests.conftest import LENS_CAMERAS
 from tests.pose.test_intrinsics import COV_K
@@ -61,7 +61,8 @@ def test_estimate_reports_the_kind_of_its_sigmas(raw_view, capsys):
     np.testing.assert_allclose(plain["sigma_pixel_xyz_m"], plain["sigma_xyz_m"], rtol=0)
     assert np.all(np.array(record["sigma_xyz_m"]) > np.array(plain["sigma_xyz_m"]))
     # And they are the library's figures.
-    est = estimate_pose(read_image(image, as_float=False), None, read_camera(raw_view / "with.json"), BOARD)
+    est = estimate_pose(read_image(image, as_float=False), read_camera(raw_view / "with.json"), bounds=None,
+                        board=BOARD)
     np.testing.assert_allclose(record["sigma_xyz_m"], est.sigma_xyz_m, rtol=1e-9)
     np.testing.assert_allclose(record["sigma_rpy_deg"], np.degrees(est.sigma_rpy_rad), rtol=1e-9)
 
@@ -162,10 +163,10 @@ def one_calibration(views, monkeypatch):
     cached = {}
     real = package.calibrate
 
-    def calibrate(files, board, model, **kwargs):
+    def calibrate(files, model, *, board, **kwargs):
         key = (tuple(map(str, files)), model)
         if key not in cached:
-            cached[key] = real(files, board, model, **kwargs)
+            cached[key] = real(files, model, board=board, **kwargs)
         else:
             kwargs["progress"]("solve", 1, 1)
         return cached[key]

@@ -22,9 +22,9 @@ from graphpose import Board, estimate_pose, load_cases, read_camera, read_image
 from graphpose.cli import main
 from graphpose.cli.options import Progress, parse_bounds, parse_K, parse_positive
 from graphpose.io.records import POSE_KEYS
-from graphpose.io.calibration import write_camera
+from graphpose.io.cameras import write_camera
 from graphpose.io.files import encode_png
-from graphpose.pose.estimate import pose_difference
+from graphpose.estimate import pose_difference
 from tests.conftest import REPO, opencv_file, real_file
 
 BUNDLED = REPO / "graphpose" / "data" / "cases.json"
@@ -268,9 +268,9 @@ def test_no_convergence_exits_1(bundled, tmp_path, monkeypatch, capsys):
     # must say so, with exit code 1, no report, a JSON record and the picture.
     import functools
 
-    from graphpose.pose import estimate as pipeline
+    from graphpose import estimate as pipeline
 
-    monkeypatch.setattr(pipeline, "gauss_newton_unchecked", functools.partial(pipeline.gauss_newton_unchecked, max_iterations=1))
+    monkeypatch.setattr(pipeline, "gauss_newton", functools.partial(pipeline.gauss_newton, max_iterations=1))
     case = bundled.cases[0]
     bounds = ",".join(f"{u:g},{v:g}" for u, v in case.bounds.T)
     out_json = tmp_path / "out.json"
@@ -480,7 +480,7 @@ def test_a_raw_image_with_its_calibration_file(tmp_path):
     assert record["reprojection_rms_px"] < 0.3  # 0.16 px; fitted as a pinhole the raw image gives 0.85
     assert png_size(tmp_path / "left01.png") == (640, 480)
     camera = read_camera(opencv_file("left.opencv.yml"))
-    est = estimate_pose(read_image(opencv_file("left01.jpg")), None, camera, Board(9, 6, 0.03))
+    est = estimate_pose(read_image(opencv_file("left01.jpg")), camera, bounds=None, board=Board(9, 6, 0.03))
     dt, dr = pose_difference(est.T_WC, np.array(record["T_WC"]))
     assert dt < 1e-9 and dr < 1e-7
 
@@ -534,7 +534,7 @@ def test_camera_name_chooses_the_camera_of_a_kalibr_camchain(tmp_path, capsys):
         assert main(args + ([] if name is None else ["--camera-name", name])) == 0
         (records[name],) = json.loads(capsys.readouterr().out)
     assert records[None]["T_WC"] == records["cam0"]["T_WC"] != records["cam1"]["T_WC"]
-    est = estimate_pose(read_image(image), None, read_camera(chain, name="cam1"), board)
+    est = estimate_pose(read_image(image), read_camera(chain, name="cam1"), bounds=None, board=board)
     dt, dr = pose_difference(est.T_WC, np.array(records["cam1"]["T_WC"]))
     assert dt < 1e-9 and dr < 1e-7
 

@@ -11,7 +11,7 @@ from graphpose import K_from_params, read_tum, render_sequence, write_sequence
 from graphpose.cli import main
 from graphpose.io.files import write_png
 from graphpose.io.tum import write_tum
-from graphpose.pose.estimate import pose_difference
+from graphpose.estimate import pose_difference
 from tests.conftest import opencv_file
 
 

@@ -13,7 +13,7 @@ from graphpose.cli import main
 from graphpose.cli.track_output import JsonStream, TrackSummary, TumStream
 from graphpose.errors import InputError
 from graphpose.geometry import T_from_params
-from graphpose.io.camera_files import write_camera
+from graphpose.io.cameras import write_camera
 from graphpose.io.files import write_json, write_png
 from graphpose.io.tum import write_tum
 from graphpose.track.results import FrameResult

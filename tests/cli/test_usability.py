@@ -198,7 +198,7 @@ def test_the_failure_picture_rings_at_least_the_junctions_its_reason_counts():
 
     image = read_image(opencv_file("left01.jpg"), as_float=False)
     with pytest.raises(BoardNotFoundError) as refused:
-        extract_junctions(image, None, Board(10, 7, 0.025))
+        extract_junctions(image, bounds=None, board=Board(10, 7, 0.025))
     seen = refused.value.junctions_seen
     assert seen == 54  # the 9 x 6 board it names
     assert failure_evidence(image, None, Board(10, 7, 0.025), seen).lattice.shape[1] >= seen

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from graphpose import Board, BoardNotFoundError, extract_junctions, read_image
-from graphpose.io.calibration import read_camera
+from graphpose.io.cameras import read_camera
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
 from tests.conftest import PROJECT_K as K
@@ -45,7 +45,7 @@ def samples():
     for name in SAMPLES:
         camera = cameras["left" if name.startswith("left") else "right"]
         image = read_image(opencv_file(name))
-        out.append((name, image, camera, extract_junctions(image, None, OPENCV_BOARD, camera=camera)))
+        out.append((name, image, camera, extract_junctions(image, bounds=None, board=OPENCV_BOARD, camera=camera)))
     return out
 
 
@@ -54,7 +54,7 @@ def test_bounds_from_the_corner_nearest_the_upper_left_find_every_opencv_sample_
     for name, image, camera, free in samples:
         assert free.junction0_square == "dark", name  # without bounds: the colour rule
         bounds, shift = user_bounds(free, OPENCV_BOARD)
-        J = extract_junctions(image, bounds, OPENCV_BOARD, camera=camera)
+        J = extract_junctions(image, bounds=bounds, board=OPENCV_BOARD, camera=camera)
         assert J.trusted.all() and J.seen.all() and not J.orientation_ambiguous, name
         corners = J.points[:, [0, OPENCV_BOARD.cols - 1, OPENCV_BOARD.n - 1, OPENCV_BOARD.n - OPENCV_BOARD.cols]]
         nearest = np.argmin(np.hypot(bounds[0][:, None] - corners[0], bounds[1][:, None] - corners[1]), axis=1)
@@ -73,7 +73,7 @@ def test_bounds_a_quarter_turn_off_are_refused_and_say_so(samples):
     bounds, _ = user_bounds(free, OPENCV_BOARD)
     for shift in (1, 3):  # the first edge along a column (6 junctions) of the 9 x 6 board
         with pytest.raises(BoardNotFoundError, match=r"quarter turn off .*along a column of the 9 x 6 board"):
-            extract_junctions(image, np.roll(bounds, -shift, axis=1), OPENCV_BOARD, camera=camera)
+            extract_junctions(image, bounds=np.roll(bounds, -shift, axis=1), board=OPENCV_BOARD, camera=camera)
 
 
 @pytest.mark.parametrize("board, opposite", [(Board(9, 6, 0.03), "light"), (Board(8, 6, 0.0635), "dark"),
@@ -84,12 +84,12 @@ def test_junction0_square_is_the_colour_rendered_at_junction_0s_corner(board, op
     rng = np.random.default_rng(4)
     R = render(K, random_pose(K, board, rng=rng), board, rng=rng)
     poly = loose_polygon(R, rng=rng)
-    J = extract_junctions(R.image, poly, board)
+    J = extract_junctions(R.image, bounds=poly, board=board)
     assert J.junction0_square == "dark" and J.trusted.all()
     np.testing.assert_allclose(J.points, R.junctions, atol=0.1)
-    free = extract_junctions(R.image, None, board)
+    free = extract_junctions(R.image, bounds=None, board=board)
     assert free.junction0_square == "dark"
     # Bounds that start at the opposite corner name it junction 0: the truth turned by half a turn.
-    J = extract_junctions(R.image, np.roll(poly, -2, axis=1), board)
+    J = extract_junctions(R.image, bounds=np.roll(poly, -2, axis=1), board=board)
     assert J.junction0_square == opposite and J.trusted.all() and not J.orientation_ambiguous
     np.testing.assert_allclose(J.points, R.junctions[:, ::-1], atol=0.1)

@@ -13,7 +13,7 @@ from graphpose import (
     refine_junctions,
 )
 from graphpose.geometry import project
-from graphpose.pose.gauss_newton import pose_estimate_nls
+from graphpose.course import pose_estimate_nls
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
 from tests.conftest import PROJECT_K as K
@@ -34,7 +34,7 @@ def pose_rms(K, guess, points, board=Board()):
 
 @pytest.fixture(scope="module")
 def real_junctions(real_images):
-    return [(case, image, extract_junctions(image, case.bounds)) for case, image in real_images]
+    return [(case, image, extract_junctions(image, bounds=case.bounds)) for case, image in real_images]
 
 
 def synthetic(seed, noise=2.0, blur=1.0, inset=False, **kw):
@@ -90,11 +90,11 @@ def test_cross_junctions_is_extract_junctions_points(real_cases, real_images, re
 def test_colour_16_bit_and_8_bit_images_agree(real_images):
     case, image = real_images[0]
     grey8 = np.rint(image * 255).astype(np.uint8)
-    reference = extract_junctions(grey8, case.bounds).points
+    reference = extract_junctions(grey8, bounds=case.bounds).points
     colour = np.repeat(grey8[:, :, None], 3, axis=2)
     deep = grey8.astype(np.uint16) * 257
     for variant in (colour, deep, grey8.astype(float) / 255.0):
-        np.testing.assert_allclose(extract_junctions(variant, case.bounds).points, reference, atol=1e-6)
+        np.testing.assert_allclose(extract_junctions(variant, bounds=case.bounds).points, reference, atol=1e-6)
 
 
 # ------------------------------------------------------------------------------ synthetic
@@ -105,7 +105,7 @@ def test_synthetic_rms_error_against_truth(noise, blur, limit):
     errors = []
     for seed in range(6):
         R, poly = synthetic(100 + seed, noise, blur, inset=bool(seed % 2))
-        J = extract_junctions(R.image, poly)
+        J = extract_junctions(R.image, bounds=poly)
         assert J.trusted.all()
         errors.append(np.sum((J.points - R.junctions) ** 2, axis=0))
     assert np.sqrt(np.mean(np.concatenate(errors))) < limit
@@ -113,15 +113,15 @@ def test_synthetic_rms_error_against_truth(noise, blur, limit):
 
 def test_noise_free_synthetic_image_is_exact():
     R, poly = synthetic(7, noise=0.0, blur=1.0, quantize=False)
-    J = extract_junctions(R.image, poly)
+    J = extract_junctions(R.image, bounds=poly)
     assert np.max(np.hypot(*(J.points - R.junctions))) < 0.01
 
 
 def test_polygon_inside_the_margin_or_outside_the_sheet_gives_the_same_junctions():
     rng = np.random.default_rng(11)
     R = render(K, random_pose(K, rng=rng), rng=rng)
-    inset = extract_junctions(R.image, loose_polygon(R, inset=True, rng=rng)).points
-    outside = extract_junctions(R.image, loose_polygon(R, offset_px=(2.0, 5.0), rng=rng) + [[-3.0], [0.0]]).points
+    inset = extract_junctions(R.image, bounds=loose_polygon(R, inset=True, rng=rng)).points
+    outside = extract_junctions(R.image, bounds=loose_polygon(R, offset_px=(2.0, 5.0), rng=rng) + [[-3.0], [0.0]]).points
     np.testing.assert_allclose(inset, outside, atol=0.01)  # the re-centring stops within 0.02 px steps
 
 
@@ -129,7 +129,7 @@ def test_larger_board_and_other_grid():
     board = Board(5, 4, 0.08)
     rng = np.random.default_rng(12)
     R = render(K, random_pose(K, board, rng=rng), board, rng=rng)
-    J = extract_junctions(R.image, loose_polygon(R, rng=rng), board)
+    J = extract_junctions(R.image, bounds=loose_polygon(R, rng=rng), board=board)
     assert J.points.shape == (2, 20) and J.trusted.all()
     assert np.sqrt(np.mean(np.sum((J.points - R.junctions) ** 2, axis=0))) < 0.03
     np.testing.assert_allclose(cross_junctions(R.image, loose_polygon(R, rng=rng), board.world_points()),
@@ -144,7 +144,7 @@ def test_occluded_junction_is_not_trusted(half):
     image = R.image.copy()
     u, v = np.rint(R.junctions[:, 20]).astype(int)
     image[v - half:v + half + 1, u - half:u + half + 1] = 128
-    J = extract_junctions(image, poly)
+    J = extract_junctions(image, bounds=poly)
     assert not J.trusted[20]
     assert J.trusted.sum() == 47
     # Either seen and refined as well as the sticker allows, or not seen at all (NaN).
@@ -196,7 +196,7 @@ def small_case():
 def test_bad_polygon_raises_input_error(small_case, poly, message):
     R, _ = small_case
     with pytest.raises(InputError, match=message):
-        extract_junctions(R.image, poly)
+        extract_junctions(R.image, bounds=poly)
 
 
 @pytest.mark.parametrize(
@@ -208,7 +208,7 @@ def test_bad_polygon_raises_input_error(small_case, poly, message):
 def test_bad_image_raises_input_error(small_case, image, message):
     _, poly = small_case
     with pytest.raises(InputError, match=message):
-        extract_junctions(image, poly)
+        extract_junctions(image, bounds=poly)
 
 
 def test_wpts_not_a_grid_raises_input_error(small_case):
@@ -226,7 +226,7 @@ def test_image_without_a_board_raises_board_not_found(small_case, kind):
     rng = np.random.default_rng(5)
     image = np.full(R.image.shape, 0.5) if kind == "blank" else rng.uniform(0, 1, R.image.shape)
     with pytest.raises(BoardNotFoundError):
-        extract_junctions(image, poly)
+        extract_junctions(image, bounds=poly)
 
 
 def test_polygon_starting_on_a_column_is_refused_not_turned(small_case):
@@ -234,7 +234,7 @@ def test_polygon_starting_on_a_column_is_refused_not_turned(small_case):
     # board's 6-junction columns along the first edge): refused, never a turned pose.
     R, poly = small_case
     with pytest.raises(BoardNotFoundError, match="the bounds do not outline the board found"):
-        extract_junctions(R.image, np.roll(poly, -1, axis=1))
+        extract_junctions(R.image, bounds=np.roll(poly, -1, axis=1))
 
 
 def test_polygon_around_part_of_the_board_still_labels_the_board_from_its_edges(small_case):
@@ -244,7 +244,7 @@ def test_polygon_around_part_of_the_board_still_labels_the_board_from_its_edges(
     J = R.junctions.reshape(2, 6, 8)
     corners = np.stack([J[:, 0, 0], J[:, 0, 4], J[:, 5, 4], J[:, 5, 0]], axis=1)
     part = corners + [[-5, 5, 5, -5], [-5, -5, 5, 5]]
-    found = extract_junctions(R.image, part)
+    found = extract_junctions(R.image, bounds=part)
     assert found.trusted.all() and not found.orientation_ambiguous
     np.testing.assert_allclose(found.points, R.junctions, atol=0.1)
 
@@ -260,7 +260,7 @@ def test_polygon_over_a_corner_of_the_board_says_it_holds_no_board():
     # Nothing inside them at the fast path's levels; a coarser level (searched where nothing is
     # found) sees the board, which the bounds do not outline: still a refusal, now saying so.
     with pytest.raises(BoardNotFoundError, match="the bounds do not outline the board found"):
-        extract_junctions(read_image(case.image), bounds)
+        extract_junctions(read_image(case.image), bounds=bounds)
 
 
 def test_bounds_round_one_corner_of_the_board_do_not_outline_it(small_case):
@@ -270,14 +270,14 @@ def test_bounds_round_one_corner_of_the_board_do_not_outline_it(small_case):
     J = R.junctions.reshape(2, 6, 8)
     corners = np.stack([J[:, 0, 0], J[:, 0, 2], J[:, 2, 2], J[:, 2, 0]], axis=1)
     with pytest.raises(BoardNotFoundError, match="the bounds do not outline the board found"):
-        extract_junctions(R.image, corners + [[-5, 5, 5, -5], [-5, -5, 5, 5]])
+        extract_junctions(R.image, bounds=corners + [[-5, 5, 5, -5], [-5, -5, 5, 5]])
 
 
 def test_bounds_away_from_the_board_hold_no_board(small_case):
     R, _ = small_case
     empty = np.array([[5.0, 60, 60, 5], [5, 5, 60, 60]])
     with pytest.raises(BoardNotFoundError, match="no checkerboard inside the bounds"):
-        extract_junctions(R.image, empty)
+        extract_junctions(R.image, bounds=empty)
 
 
 @pytest.mark.parametrize("true, spec", [((7, 5), (8, 6)), ((8, 6), (8, 8)), ((8, 6), (7, 5)), ((8, 6), (9, 6))])
@@ -290,15 +290,15 @@ def test_board_spec_that_does_not_match_the_board_says_what_was_found(true, spec
     message = r"found a \d x \d board of junctions; the board spec says " + f"{spec[0]} x {spec[1]}"
     for bounds in (loose_polygon(R, rng=rng), None):
         with pytest.raises(BoardNotFoundError, match=message):
-            extract_junctions(R.image, bounds, Board(*spec, 0.0635))
+            extract_junctions(R.image, bounds=bounds, board=Board(*spec, 0.0635))
 
 
 def test_bad_options_raise_input_error(small_case):
     R, poly = small_case
     with pytest.raises(InputError, match="window"):
-        extract_junctions(R.image, poly, window=0.9)
+        extract_junctions(R.image, bounds=poly, window=0.9)
     with pytest.raises(InputError, match="smooth_sigma"):
-        extract_junctions(R.image, poly, smooth_sigma=-1.0)
+        extract_junctions(R.image, bounds=poly, smooth_sigma=-1.0)
     with pytest.raises(InputError, match="half_width"):
         refine_junctions(R.image, R.junctions, 1.0)
     with pytest.raises(InputError, match="half_width"):
@@ -328,7 +328,7 @@ def test_a_partly_covered_raw_image_keeps_its_labels_through_the_lens():
     from skimage.draw import disk
 
     from graphpose.image import read_image
-    from graphpose.io.calibration import read_camera
+    from graphpose.io.cameras import read_camera
     from tests.conftest import OPENCV_DIR as folder
     from tests.conftest import opencv_file
 
@@ -336,14 +336,14 @@ def test_a_partly_covered_raw_image_keeps_its_labels_through_the_lens():
     camera = read_camera(folder / "left.opencv.yml")
     board = Board(9, 6, 0.03)
     image = read_image(folder / "left01.jpg", as_float=True)  # float: the cover below is a grey level in [0, 1]
-    whole = extract_junctions(image, None, board, camera=camera)
+    whole = extract_junctions(image, bounds=None, board=board, camera=camera)
     assert whole.trusted.all() and not whole.orientation_ambiguous
     grid = whole.points.reshape(2, 6, 9)
     step = np.hypot(*(grid[:, 2, 8] - grid[:, 2, 7]))
     centre = grid[:, 2:4, 8].mean(axis=1)
     covered = image.copy()
     covered[disk((centre[1], centre[0]), 2.2 * step, shape=image.shape)] = 0.45
-    part = extract_junctions(covered, None, board, camera=camera)
+    part = extract_junctions(covered, bounds=None, board=board, camera=camera)
     distance = np.hypot(*(whole.points - centre[:, None])) / step
     hidden, touched = distance < 1.8, distance < 3.0  # under the patch; near its rim
     assert 0 < hidden.sum() < touched.sum() < board.n // 2
@@ -377,7 +377,7 @@ def test_junctions_through_a_strong_lens_are_fitted_where_the_lens_straightens_t
     errors = []
     for _ in range(3):
         R = render(camera, random_pose(camera, board, distance=distance, rng=rng), board, noise_sigma=0.0, rng=rng)
-        J = extract_junctions(R.image, R.outline, board, camera=camera)
+        J = extract_junctions(R.image, bounds=R.outline, board=board, camera=camera)
         assert J.trusted.sum() >= 44
         errors.append(np.hypot(*(J.points - R.junctions))[J.trusted])
     errors = np.concatenate(errors)
@@ -397,7 +397,7 @@ def test_refine_junctions_takes_the_camera_as_extract_junctions_does():
     board = Board()
     R = render(camera, random_pose(camera, board, distance=(0.45, 0.7), rng=rng), board, noise_sigma=0.0, rng=rng)
     start = R.junctions + rng.uniform(-1.0, 1.0, R.junctions.shape)
-    half = 0.5 * extract_junctions(R.image, R.outline, board, camera=camera).square_px
+    half = 0.5 * extract_junctions(R.image, bounds=R.outline, board=board, camera=camera).square_px
     errors = {}
     for name, cam in (("lens", camera), ("raw grid", None)):
         points, trusted, _ = refine_junctions(R.image, start, np.clip(half, 2, 12), camera=cam)
@@ -435,12 +435,12 @@ def test_find_board_then_refine_is_extract_junctions_on_real_images(real_images)
     for case, image in real_images[:3]:
         for bounds in (case.bounds, None):
             found = find_board(image, Board(), bounds=bounds)
-            assert_same_junctions(refine(image, found), extract_junctions(image, bounds))
+            assert_same_junctions(refine(image, found), extract_junctions(image, bounds=bounds))
     # 8-bit, as the command line reads it (its residuals in [0, 1] grey units too).
     case = real_images[0][0]
     image = read_image(case.image, as_float=False)
     assert_same_junctions(refine(image, find_board(image, Board(), bounds=case.bounds)),
-                          extract_junctions(image, case.bounds))
+                          extract_junctions(image, bounds=case.bounds))
 
 
 def test_find_board_then_refine_is_extract_junctions_on_rendered_images():
@@ -450,11 +450,11 @@ def test_find_board_then_refine_is_extract_junctions_on_rendered_images():
         R, poly = synthetic(seed, noise=noise)
         for bounds in (poly, None):
             assert_same_junctions(refine(R.image, find_board(R.image, Board(), bounds=bounds)),
-                                  extract_junctions(R.image, bounds))
+                                  extract_junctions(R.image, bounds=bounds))
     R, poly = synthetic(43)
     found = find_board(R.image, Board(), bounds=poly)
     assert_same_junctions(refine(R.image, found, window=0.4, smooth_sigma=1.0),
-                          extract_junctions(R.image, poly, window=0.4, smooth_sigma=1.0))
+                          extract_junctions(R.image, bounds=poly, window=0.4, smooth_sigma=1.0))
 
 
 def test_refine_with_a_camera_is_the_lens_path():
@@ -465,7 +465,7 @@ def test_refine_with_a_camera_is_the_lens_path():
     camera, board, R = fisheye_render(7)
     found = find_board(R.image, board, bounds=R.outline)
     lens = refine(R.image, found, camera=camera)
-    assert_same_junctions(lens, extract_junctions(R.image, R.outline, board, camera=camera))
+    assert_same_junctions(lens, extract_junctions(R.image, bounds=R.outline, board=board, camera=camera))
     assert lens.trusted.sum() >= 44
     # Without the lens (no camera, or only its K) the rim's curved grid is no planar grid.
     for no_lens in (None, np.asarray(camera.K)):

@@ -110,7 +110,7 @@ def test_smoothing_follows_the_noise_over_the_contrast():
 ])
 def test_noisy_blurred_and_low_contrast_boards_are_found_and_labelled(seed, board, noise, blur, black, white):
     R = _rendered(seed, board, noise, blur, black, white)
-    J = extract_junctions(R.image, None, board)
+    J = extract_junctions(R.image, bounds=None, board=board)
     assert J.seen.all() and J.trusted.sum() >= 0.9 * board.n
     assert _label_error(J, R.junctions) < 0.6
     # Their accuracy: well under a tenth of a square, as the grid gate demands.
@@ -120,7 +120,7 @@ def test_noisy_blurred_and_low_contrast_boards_are_found_and_labelled(seed, boar
 def test_a_noisy_board_inside_loose_bounds_is_found():
     board = Board(7, 5, 0.04)
     R = _rendered(4, board, 16.0, 3.0)
-    J = extract_junctions(R.image, loose_polygon(R, rng=5), board)
+    J = extract_junctions(R.image, bounds=loose_polygon(R, rng=5), board=board)
     assert J.seen.all() and _label_error(J, R.junctions) < 0.6
     assert not J.orientation_ambiguous
 
@@ -138,7 +138,7 @@ def test_a_faint_board_in_a_bright_scene_is_judged_by_its_own_contrast():
     image = r.image.copy()
     image[:40, :80] = 0
     image[-40:, -80:] = 255
-    J = extract_junctions(image, loose_polygon(r, rng=rng), board)
+    J = extract_junctions(image, bounds=loose_polygon(r, rng=rng), board=board)
     assert J.trusted.sum() == board.n
     assert np.max(np.hypot(*(J.points - r.junctions))) < 0.5
 
@@ -152,7 +152,7 @@ def test_noisy_images_are_never_mislabelled():
         T[0, 3] += 0.3 * (seed % 2)  # the camera moved right: the board runs off the image's left
         R = render(K, T, board, (640, 480), noise_sigma=16.0, blur_sigma=3.0, rng=rng)
         try:
-            J = extract_junctions(R.image, None, board)
+            J = extract_junctions(R.image, bounds=None, board=board)
         except BoardNotFoundError:
             continue
         truth = R.junctions

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from graphpose import Board, estimate_pose, extract_junctions, read_image
-from graphpose.io.calibration import read_camera
-from graphpose.pose.estimate import pose_difference
+from graphpose.io.cameras import read_camera
+from graphpose.estimate import pose_difference
 from tests.conftest import OPENCV_DIR as FOLDER
 
 BOARD = Board(9, 6, 0.03)
@@ -31,7 +31,7 @@ def cameras():
 def test_every_sample_is_found_whole_without_a_polygon(cameras, side):
     camera = cameras[0] if side == "left" else cameras[1]
     for k in PAIRS:
-        J = extract_junctions(read_image(FOLDER / f"{side}{k:02d}.jpg"), None, BOARD, camera=camera)
+        J = extract_junctions(read_image(FOLDER / f"{side}{k:02d}.jpg"), bounds=None, board=BOARD, camera=camera)
         assert J.trusted.all() and J.seen.all(), (side, k)
         assert not J.orientation_ambiguous  # 10 x 7 squares: the colours fix junction 0
         # ... by the convention: junction 0's outer corner square is dark. Sampled a fifth of
@@ -49,8 +49,8 @@ def test_junction_0_is_the_same_physical_corner_in_every_image(cameras):
     left, right = cameras
     rig = []
     for k in PAIRS:
-        a = estimate_pose(read_image(FOLDER / f"left{k:02d}.jpg"), None, left, BOARD)
-        b = estimate_pose(read_image(FOLDER / f"right{k:02d}.jpg"), None, right, BOARD)
+        a = estimate_pose(read_image(FOLDER / f"left{k:02d}.jpg"), left, bounds=None, board=BOARD)
+        b = estimate_pose(read_image(FOLDER / f"right{k:02d}.jpg"), right, bounds=None, board=BOARD)
         assert a.ok and b.ok, k
         rig.append(np.linalg.inv(a.T_WC) @ b.T_WC)
     # Bouguet's rig: a baseline of about 100 mm. One mislabelled image would turn its

@@ -279,6 +279,6 @@ def test_junctions_near_a_fisheyes_rim_are_refined_without_bias():
     P_C = to_camera(T_WC, W)
     assert np.degrees(np.arctan2(np.hypot(P_C[0], P_C[1]), P_C[2])).max() > 80.0
     rendering = render(camera, T_WC, board, noise_sigma=0.0, rng=0)
-    J = extract_junctions(rendering.image, None, board, camera=camera)
+    J = extract_junctions(rendering.image, bounds=None, board=board, camera=camera)
     assert J.trusted.all()
     assert np.max(np.hypot(*(J.points - rendering.junctions))) < 0.01

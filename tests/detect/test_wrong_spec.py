@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from graphpose import Board, BoardMismatchError, BoardNotFoundError, extract_junctions, read_image
-from graphpose.io.calibration import read_camera
+from graphpose.io.cameras import read_camera
 from graphpose.synth.degrade import jpeg_roundtrip
 from graphpose.synth.render import render
 from tests.conftest import OPENCV_DIR, opencv_file
@@ -60,7 +60,7 @@ def test_every_left_sample_refuses_an_8x6_spec_naming_the_9x6_board(left_camera)
         image = read_image(OPENCV_DIR / f"left{k:02d}.jpg")
         for camera in (left_camera, None):  # with the camera, and as a raw image without one
             with pytest.raises(BoardMismatchError) as exc:
-                extract_junctions(image, None, Board(8, 6, 0.025), camera=camera)
+                extract_junctions(image, bounds=None, board=Board(8, 6, 0.025), camera=camera)
             assert exc.value.found == (9, 6), (k, str(exc.value))
             assert "9 x 6" in str(exc.value) and "8 x 6" in str(exc.value)
 
@@ -78,18 +78,18 @@ def test_the_command_line_gives_no_pose_and_names_the_board(left_camera):
 def test_a_rendered_9x6_board_refuses_an_8x6_spec():
     R = render(K, _facing((0.1, 0.0625), 0.6, roll=0.2), NINE_BY_SIX, (640, 480), rng=3)
     with pytest.raises(BoardMismatchError) as exc:
-        extract_junctions(R.image, None, Board(8, 6, 0.025))
+        extract_junctions(R.image, bounds=None, board=Board(8, 6, 0.025))
     assert exc.value.found == (9, 6) and "found a 9 x 6 board" in str(exc.value)
-    J = extract_junctions(R.image, None, NINE_BY_SIX)  # the right spec finds it, on the truth
+    J = extract_junctions(R.image, bounds=None, board=NINE_BY_SIX)  # the right spec finds it, on the truth
     assert J.trusted.all() and np.max(np.hypot(*(J.points - R.junctions))) < 0.1
 
 
 def test_a_small_picture_of_a_board_is_not_taken_for_the_spec_beside_a_larger_board():
     image, near = _board_and_picture()
     with pytest.raises(BoardMismatchError) as exc:
-        extract_junctions(image, None, Board(8, 6, 0.025))
+        extract_junctions(image, bounds=None, board=Board(8, 6, 0.025))
     assert exc.value.found == (9, 6) and "found a 9 x 6 board" in str(exc.value)
-    J = extract_junctions(image, None, NINE_BY_SIX)  # the right spec: the large board, not the picture
+    J = extract_junctions(image, bounds=None, board=NINE_BY_SIX)  # the right spec: the large board, not the picture
     assert J.trusted.all() and np.max(np.hypot(*(J.points - near.junctions))) < 0.1
 
 

@@ -13,7 +13,7 @@ from graphpose.camera_models import (
     RadTanCamera,
     check_image_size,
 )
-from graphpose.io.calibration import (
+from graphpose.io.cameras import (
     camera_from_dict,
     camera_to_dict,
     read_camera,

@@ -8,8 +8,8 @@ import yaml
 
 from graphpose import InputError
 from graphpose.camera_models import FisheyeCamera, PinholeCamera, RadTanCamera
-from graphpose.io.calibration import read_camera, write_camera
-from graphpose.io.camera_files import FORMATS, covariance_note
+from graphpose.io.cameras import read_camera, write_camera
+from graphpose.io.cameras import FORMATS, covariance_note
 
 K = [[533.51234567891, 0.0, 341.6000001], [0.0, 533.4987654321, 235.2], [0.0, 0.0, 1.0]]
 K_SKEW = [[500.1, 1.5, 320.3], [0.0, 510.7, 240.1], [0.0, 0.0, 1.0]]

@@ -12,7 +12,7 @@ from graphpose import (
     T_from_params,
     load_cases,
 )
-from graphpose.io.calibration import write_camera
+from graphpose.io.cameras import write_camera
 from graphpose.io.cases import load_pose
 
 

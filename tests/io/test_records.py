@@ -20,7 +20,7 @@ def test_result_record_of_a_failure_and_of_an_estimate():
     estimate = SimpleNamespace(
         T_WC=T, converged=True, iterations=4,
         cov=np.diag(np.concatenate([[1e-3, 2e-3, 3e-3], np.radians([0.1, 0.2, 0.3])]) ** 2),
-        reprojection_rms_px=0.2, mask=np.array([True, False]),
+        rms_px=0.2, mask=np.array([True, False]),
         junctions=SimpleNamespace(points=np.array([[1.0, np.nan], [2.0, np.nan]]),
                                   trusted=np.array([True, False])),
         cross_check=SimpleNamespace(translation_m=1e-6, rotation_deg=1e-4, agree=np.True_))
@@ -37,12 +37,12 @@ def test_result_record_of_a_failure_and_of_an_estimate():
 
 def test_an_estimate_from_points_has_no_junctions_to_write_or_report():
     from graphpose.cli.estimate import format_report
-    from graphpose.pose.estimate import estimate_pose_from_points
+    from graphpose.estimate import estimate_pose_from_points
 
     K, W = PROJECT_K, BOARD_WPTS
     T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
     mask = np.arange(48) != 7
-    estimate = estimate_pose_from_points(K, project(K, T, W), W, mask=mask)
+    estimate = estimate_pose_from_points(project(K, T, W), W, K, mask=mask)
     assert estimate.junctions is None
     record = result_record("points", estimate)
     json.dumps(record, allow_nan=False)
@@ -60,11 +60,11 @@ def test_an_orientation_ambiguous_estimate_says_so_in_record_and_report():
     import dataclasses
 
     from graphpose.cli.estimate import ORIENTATION_AMBIGUOUS, format_report
-    from graphpose.pose.estimate import estimate_pose_from_points
+    from graphpose.estimate import estimate_pose_from_points
 
     K, W = PROJECT_K, BOARD_WPTS
     T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
-    estimate = dataclasses.replace(estimate_pose_from_points(K, project(K, T, W), W), orientation_ambiguous=True)
+    estimate = dataclasses.replace(estimate_pose_from_points(project(K, T, W), W, K), orientation_ambiguous=True)
     record = result_record("board.png", estimate)
     assert record["orientation_ambiguous"] is True
     report = format_report("board.png", estimate, record)

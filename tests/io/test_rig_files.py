@@ -6,7 +6,7 @@ import yaml
 
 from graphpose import FisheyeCamera, InputError, PinholeCamera, RadTanCamera
 from graphpose.geometry import T_from_params
-from graphpose.io.calibration import read_camera, write_camera
+from graphpose.io.cameras import read_camera, write_camera
 from graphpose.rig import Rig, rig_parameter_names, stereo_rectify
 
 K = np.array([[500.0, 0.0, 320.0], [0.0, 501.0, 240.0], [0.0, 0.0, 1.0]])

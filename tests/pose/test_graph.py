@@ -7,17 +7,16 @@ from graphpose import InputError
 from graphpose.camera_models import as_camera
 from graphpose.geometry import T_from_params, params_from_T, project, to_camera
 from graphpose.io.cases import bundled_cases
-from graphpose.pose.estimate import (
+from graphpose.estimate import (
     AGREE_ROTATION_DEG,
     AGREE_TRANSLATION_M,
     estimate_pose_from_points,
     pose_difference,
 )
-from graphpose.pose.gauss_newton import gauss_newton, gauss_newton_unchecked
+from graphpose.pose.gauss_newton import gauss_newton
 from graphpose.pose.graph import (
     GraphResult,
     graph_pose,
-    graph_pose_unchecked,
     params_cov_from_tangent,
     params_from_tangent_jacobian,
     projection_factor,
@@ -45,7 +44,7 @@ def guess_near(T, rng):
 def test_exact_correspondences_give_the_exact_pose():
     rng = np.random.default_rng(0)
     T = random_pose(rng=rng)
-    res = graph_pose(K, guess_near(T, rng), project(K, T, WPTS), WPTS, pixel_sigma=0.5)
+    res = graph_pose(project(K, T, WPTS), WPTS, K, guess=guess_near(T, rng), pixel_sigma=0.5)
     assert isinstance(res, GraphResult) and res.converged
     np.testing.assert_allclose(res.T_WC, T, atol=1e-8)
     np.testing.assert_allclose(res.params, params_from_T(T), atol=1e-8)
@@ -57,8 +56,8 @@ def test_graph_and_gauss_newton_agree_on_pose_and_covariance(seed):
     T = random_pose(rng=rng)
     I = project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48))
     guess = guess_near(T, rng)
-    g = gauss_newton(K, guess, I, WPTS)
-    r = graph_pose(K, guess, I, WPTS)
+    g = gauss_newton(I, WPTS, K, guess=guess)
+    r = graph_pose(I, WPTS, K, guess=guess)
     assert g.converged and r.converged
     dt, dr = pose_difference(g.T_WC, r.T_WC)
     assert dt < 1e-6 and dr < 1e-5
@@ -74,8 +73,8 @@ def test_agreement_with_a_mask_and_a_huber_kernel():
     I[:, 5] += [20.0, -10.0]
     I[:, 30] += [3.0, 2.0]
     mask = np.arange(48) != 5
-    r = graph_pose(K, T, I, WPTS, mask=mask, robust=True)
-    g = gauss_newton(K, T, I, WPTS, mask=mask, huber_px=1.345 * r.sigma_px, pixel_sigma=r.sigma_px)
+    r = graph_pose(I, WPTS, K, guess=T, mask=mask, robust=True)
+    g = gauss_newton(I, WPTS, K, guess=T, mask=mask, huber_px=1.345 * r.sigma_px, pixel_sigma=r.sigma_px)
     assert r.converged and g.converged
     assert np.all(np.isnan(r.residuals[:, 5])) and np.all(np.isfinite(r.residuals[:, mask]))
     assert 0.2 < r.sigma_px < 0.45  # robust scale, not inflated by the 3.6 px outlier
@@ -88,8 +87,8 @@ def test_given_pixel_sigma_scales_the_covariance():
     rng = np.random.default_rng(11)
     T = random_pose(rng=rng)
     I = project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48))
-    one = graph_pose(K, T, I, WPTS, pixel_sigma=1.0)
-    two = graph_pose(K, T, I, WPTS, pixel_sigma=2.0)
+    one = graph_pose(I, WPTS, K, guess=T, pixel_sigma=1.0)
+    two = graph_pose(I, WPTS, K, guess=T, pixel_sigma=2.0)
     assert one.sigma_px == 1.0 and two.sigma_px == 2.0
     np.testing.assert_allclose(two.cov, 4 * one.cov, rtol=1e-6)
     np.testing.assert_allclose(two.T_WC, one.T_WC, atol=1e-9)
@@ -120,22 +119,22 @@ def test_params_cov_from_tangent_rotates_position_and_maps_angles():
     M_inv = params_from_tangent_jacobian(T)[3:, :3]
     np.testing.assert_allclose(cov[3:, 3:], M_inv @ cov_tangent[:3, :3] @ M_inv.T, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(cov[:3, 3:], C @ cov_tangent[3:, :3] @ M_inv.T, rtol=1e-12, atol=1e-12)
-    res = graph_pose(K, T, project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48)), WPTS)
+    res = graph_pose(project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48)), WPTS, K, guess=T)
     np.testing.assert_array_equal(res.cov, params_cov_from_tangent(res.T_WC, res.cov_tangent))
 
 
 def test_sigmas_in_reporting_units():
     rng = np.random.default_rng(13)
     T = random_pose(rng=rng)
-    res = graph_pose(K, T, project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48)), WPTS)
+    res = graph_pose(project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48)), WPTS, K, guess=T)
     np.testing.assert_allclose(res.sigma_xyz_m, np.sqrt(np.diag(res.cov)[:3]))
     np.testing.assert_allclose(res.sigma_rpy_rad, np.sqrt(np.diag(res.cov)[3:]))
-    np.testing.assert_allclose(res.sigma_translation_mm, 1e3 * np.sqrt(np.diag(res.cov_tangent)[3:]))
-    np.testing.assert_allclose(res.sigma_rotation_deg, np.degrees(np.sqrt(np.diag(res.cov_tangent)[:3])))
+    np.testing.assert_allclose(res.sigma_translation_m, np.sqrt(np.diag(res.cov_tangent)[3:]))
+    np.testing.assert_allclose(res.sigma_rotation_rad, np.sqrt(np.diag(res.cov_tangent)[:3]))
     # dt = C v: the body-frame and target-frame covariances of the position are related by
     # a rotation, so their traces agree.
     assert np.trace(res.cov[:3, :3]) == pytest.approx(np.trace(res.cov_tangent[3:, 3:]), rel=1e-9)
-    assert 0.05 < res.sigma_translation_mm.max() < 10 and res.sigma_rotation_deg.max() < 1
+    assert 0.05e-3 < res.sigma_translation_m.max() < 10e-3 and np.degrees(res.sigma_rotation_rad).max() < 1
 
 
 def test_behind_the_camera_message_names_the_callers_index():
@@ -143,7 +142,7 @@ def test_behind_the_camera_message_names_the_callers_index():
     W = WPTS.copy()
     W[2, [5, 20, 30]] = -2.0  # behind a camera at z = -1 looking along +z; 5 is masked out
     with pytest.raises(InputError, match=r"2 target point\(s\) .* \(first index 20, depth -1 m\)"):
-        graph_pose(K, T, project(K, T, WPTS), W, mask=np.arange(48) >= 10)
+        graph_pose(project(K, T, WPTS), W, K, guess=T, mask=np.arange(48) >= 10)
 
 
 @pytest.mark.parametrize(
@@ -152,14 +151,14 @@ def test_behind_the_camera_message_names_the_callers_index():
         (dict(pixel_sigma=0.0), "pixel_sigma"),
         (dict(huber_k=-1.0, robust=True), "huber_k"),
         (dict(mask=np.arange(48) < 2), "at least 4"),
-        (dict(T_WC_guess=T_from_params([0.2, 0.15, 1.0, 0, 0, 0])), "behind the camera"),
+        (dict(guess=T_from_params([0.2, 0.15, 1.0, 0, 0, 0])), "behind the camera"),
         (dict(Ipts=np.zeros((2, 47))), "same number"),
         (dict(camera=np.eye(3) * [0, 1, 1]), "focal"),
     ],
 )
 def test_bad_input_is_refused(kwargs, match):
     T = T_from_params([0.2, 0.15, -1.0, 0.0, 0.0, 0.0])
-    args = dict(camera=K, T_WC_guess=T, Ipts=project(K, T, WPTS), Wpts=WPTS)
+    args = dict(camera=K, guess=T, Ipts=project(K, T, WPTS), Wpts=WPTS)
     args.update(kwargs)
     with pytest.raises(InputError, match=match):
         graph_pose(**args)
@@ -172,7 +171,7 @@ def test_indeterminate_system_from_a_wild_guess_is_reported_not_raised():
     cases = bundled_cases()
     case = cases.cases[0]
     guess = T_from_params([0.8988, -0.2123, -0.9709, 1.4218, -1.2728, 3.0092])
-    result = graph_pose(cases.K, guess, case.true_junctions, cases.board.world_points())
+    result = graph_pose(case.true_junctions, cases.board.world_points(), cases.K, guess=guess)
     assert not result.converged
     assert "Indeterminate" in result.message
     assert np.all(np.isnan(result.cov))
@@ -245,8 +244,8 @@ def test_graph_and_gauss_newton_agree_on_distorted_correspondences(model):
         T = random_pose(rng=rng)
         I = camera.project(to_camera(T, WPTS)) + rng.normal(0, 0.3, (2, 48))
         guess = guess_near(T, rng)
-        g = gauss_newton(camera, guess, I, WPTS)
-        r = graph_pose(camera, guess, I, WPTS)
+        g = gauss_newton(I, WPTS, camera, guess=guess)
+        r = graph_pose(I, WPTS, camera, guess=guess)
         assert g.converged and r.converged
         dt, dr = pose_difference(g.T_WC, r.T_WC)
         assert dt < AGREE_TRANSLATION_M and dr < AGREE_ROTATION_DEG  # the pipeline's thresholds
@@ -254,14 +253,14 @@ def test_graph_and_gauss_newton_agree_on_distorted_correspondences(model):
         np.testing.assert_allclose(r.residuals, g.residuals, atol=1e-5)
         np.testing.assert_allclose(r.cov, g.cov, rtol=1e-4, atol=1e-6 * np.max(np.abs(g.cov)))
         # The pipeline on the same points: homography start, both solvers, the cross-check.
-        est = estimate_pose_from_points(camera, I, WPTS)
+        est = estimate_pose_from_points(I, WPTS, camera)
         assert est.ok, est.message
         assert est.orientation_ambiguous is False
         assert pose_difference(est.T_WC, g.T_WC)[0] < 1e-6
 
 
 def test_unchecked_cores_give_the_checked_solve():
-    # estimate_pose_unchecked calls both solvers' unchecked cores on inputs it checked: the
+    # estimate_pose_from_points calls both solvers with check=False on inputs it checked: the
     # result must be the checked call's, and the checked call must still refuse bad input.
     rng = np.random.default_rng(7)
     T = random_pose(rng)
@@ -271,13 +270,13 @@ def test_unchecked_cores_give_the_checked_solve():
     I[:, 3] = np.nan
     guess = guess_near(T, rng)
     camera = as_camera(K)
-    for solve, core in ((gauss_newton, gauss_newton_unchecked), (graph_pose, graph_pose_unchecked)):
-        a = solve(K, guess, I, WPTS, mask=mask)
-        b = core(camera, guess, I, WPTS, mask)
+    for solve in (gauss_newton, graph_pose):
+        a = solve(I, WPTS, K, guess=guess, mask=mask)
+        b = solve(I, WPTS, camera, guess=guess, mask=mask, check=False)
         np.testing.assert_array_equal(a.T_WC, b.T_WC)
         np.testing.assert_array_equal(a.cov, b.cov)
         with pytest.raises(InputError, match="NaN"):
-            solve(K, guess, I, WPTS, mask=np.ones(48, dtype=bool))
+            solve(I, WPTS, K, guess=guess, mask=np.ones(48, dtype=bool))
 
 
 # ------------------------------------------------------------------ from Gauss-Newton's minimum
@@ -291,11 +290,11 @@ def test_from_a_minimum_the_undamped_steps_alone_give_the_descents_answer(model,
     T = random_pose(rng)
     I = camera.project(to_camera(T, WPTS)) + rng.normal(0, 0.3, (2, 48))
     I[:, 5] += 4.0  # an outlier for the Huber kernel
-    g = gauss_newton(camera, guess_near(T, rng), I, WPTS, huber_px=1.345 * 0.3 if robust else None)
+    g = gauss_newton(I, WPTS, camera, guess=guess_near(T, rng), huber_px=1.345 * 0.3 if robust else None)
     assert g.converged
     sigma = 0.3 if robust else None
-    descent = graph_pose(camera, g.T_WC, I, WPTS, pixel_sigma=sigma, robust=robust)
-    confirmed = graph_pose(camera, g.T_WC, I, WPTS, pixel_sigma=sigma, robust=robust, from_minimum=True)
+    descent = graph_pose(I, WPTS, camera, guess=g.T_WC, pixel_sigma=sigma, robust=robust)
+    confirmed = graph_pose(I, WPTS, camera, guess=g.T_WC, pixel_sigma=sigma, robust=robust, from_minimum=True)
     assert descent.converged and descent.iterations >= 1
     assert confirmed.converged and confirmed.iterations == 0  # no Levenberg-Marquardt
     assert max(pose_difference(confirmed.T_WC, descent.T_WC)) < 1e-9
@@ -310,10 +309,10 @@ def test_a_start_the_undamped_steps_do_not_confirm_gets_the_descent(monkeypatch)
     rng = np.random.default_rng(41)
     T = random_pose(rng)
     I = project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48))
-    g = gauss_newton(K, T, I, WPTS)
+    g = gauss_newton(I, WPTS, K, guess=T)
     off = T_from_params(g.params + [1e-3, 0, 0, 0, 0, 0])
-    flagged = graph_pose(K, off, I, WPTS, from_minimum=True)
-    plain = graph_pose(K, off, I, WPTS)
+    flagged = graph_pose(I, WPTS, K, guess=off, from_minimum=True)
+    plain = graph_pose(I, WPTS, K, guess=off)
     assert flagged.iterations == plain.iterations >= 1
     assert flagged.converged == plain.converged
     np.testing.assert_array_equal(flagged.T_WC, plain.T_WC)
@@ -324,7 +323,7 @@ def test_an_indeterminate_system_from_a_flagged_start_is_reported_as_without_the
     cases = bundled_cases()
     case = cases.cases[0]
     guess = T_from_params([0.8988, -0.2123, -0.9709, 1.4218, -1.2728, 3.0092])
-    args = (cases.K, guess, case.true_junctions, cases.board.world_points())
-    flagged, plain = graph_pose(*args, from_minimum=True), graph_pose(*args)
+    args = (case.true_junctions, cases.board.world_points(), cases.K)
+    flagged, plain = graph_pose(*args, guess=guess, from_minimum=True), graph_pose(*args, guess=guess)
     assert not flagged.converged and "Indeterminate" in flagged.message
     assert flagged.message == plain.message and flagged.iterations == plain.iterations

@@ -5,9 +5,8 @@ import pytest
 
 from graphpose import Board, estimate_pose, estimate_pose_from_points
 from graphpose.geometry import params_from_T, to_camera
-from graphpose.pose.estimate import estimate_pose_unchecked
 from graphpose.pose.gauss_newton import gauss_newton
-from graphpose.pose.intrinsics import (
+from graphpose.pose.covariance import (
     SIGMA_CALIBRATION,
     SIGMA_PIXEL,
     pose_cov_with_intrinsics,
@@ -51,7 +50,7 @@ def test_the_pose_derivative_is_the_solved_poses_central_difference(name):
         plus, minus = k.copy(), k.copy()
         plus[i] += h
         minus[i] -= h
-        fits = [gauss_newton(camera.with_parameters(p), T, uv, W).params for p in (plus, minus)]
+        fits = [gauss_newton(uv, W, camera.with_parameters(p), guess=T).params for p in (plus, minus)]
         np.testing.assert_allclose(D[:, i], (fits[0] - fits[1]) / (2 * h), rtol=2e-3,
                                    atol=1e-6 * np.abs(D[:, i]).max(), err_msg=f"{name} parameter {i}")
 
@@ -73,7 +72,7 @@ def test_monte_carlo_pose_errors_match_the_propagated_covariance():
     errors, covs, pixel_covs = [], [], []
     for _ in range(200):
         camera = truth.with_parameters(k + L @ rng.normal(size=k.size), COV_K)
-        est = estimate_pose_from_points(camera, uv + rng.normal(0.0, 0.1, uv.shape), W)
+        est = estimate_pose_from_points(uv + rng.normal(0.0, 0.1, uv.shape), W, camera)
         assert est.ok and est.sigma_kind == SIGMA_CALIBRATION
         errors.append(est.params - true_params)
         covs.append(est.cov)
@@ -94,14 +93,14 @@ def test_rendered_image_spread_over_calibration_draws_is_the_calibration_term():
     rng = np.random.default_rng(11)
     T = pose(rng, truth)
     scene = render.render(truth, T, BOARD, (640, 480), noise_sigma=2.0, rng=rng)
-    est0 = estimate_pose(scene.image, None, calibrated(truth), BOARD)
+    est0 = estimate_pose(scene.image, calibrated(truth), bounds=None, board=BOARD)
     assert est0.ok and est0.sigma_kind == SIGMA_CALIBRATION
     points, mask = est0.junctions.points, est0.junctions.trusted
     k, L = truth.parameters, np.linalg.cholesky(COV_K)
     params = []
     for _ in range(1000):  # the full solve, not its linearisation (measured: within 2 % at 2000)
         camera = truth.with_parameters(k + L @ rng.normal(size=k.size), COV_K)
-        params.append(gauss_newton(camera, est0.T_WC, points, W, mask=mask).params)
+        params.append(gauss_newton(points, W, camera, guess=est0.T_WC, mask=mask).params)
     spread = np.cov(np.array(params).T)
     term = est0.cov - est0.cov_pixel
     ratio = np.sqrt(np.diag(spread) / np.diag(term))
@@ -115,16 +114,16 @@ def test_a_camera_without_covariance_reports_pixel_noise_only():
     rng = np.random.default_rng(2)
     T = pose(rng, camera)
     uv = camera.project(to_camera(T, W)) + rng.normal(0.0, 0.1, (2, W.shape[1]))
-    plain = estimate_pose_from_points(camera, uv, W)
+    plain = estimate_pose_from_points(uv, W, camera)
     assert plain.sigma_kind == SIGMA_PIXEL and plain.cov_pixel is plain.cov
-    with_cov = estimate_pose_from_points(calibrated(camera), uv, W)
+    with_cov = estimate_pose_from_points(uv, W, calibrated(camera))
     np.testing.assert_array_equal(with_cov.cov_pixel, plain.cov)
     np.testing.assert_array_equal(with_cov.params, plain.params)
     extra = with_cov.cov - with_cov.cov_pixel
     assert np.linalg.eigvalsh(extra).min() > -1e-12 * np.abs(extra).max()  # D COV_K D^T: PSD
     np.testing.assert_allclose(with_cov.sigma_xyz_m, np.sqrt(np.diag(with_cov.cov)[:3]))
     # A zero covariance adds nothing.
-    zero = estimate_pose_from_points(calibrated(camera, np.zeros((9, 9))), uv, W)
+    zero = estimate_pose_from_points(uv, W, calibrated(camera, np.zeros((9, 9))))
     np.testing.assert_allclose(zero.cov, plain.cov, rtol=1e-12, atol=0)
     assert zero.sigma_kind == SIGMA_CALIBRATION
 
@@ -136,7 +135,7 @@ def test_robust_fit_propagates_with_its_weights():
     uv = camera.project(to_camera(T, W)) + rng.normal(0.0, 0.1, (2, W.shape[1]))
     uv[:, 7] += 3.0  # an outlier the Huber kernel down-weights
     mask = np.ones(W.shape[1], bool)
-    est = estimate_pose_unchecked(camera, uv, W, None, mask, True)
+    est = estimate_pose_from_points(uv, W, camera, mask=mask, robust=True, check=False)
     from graphpose.pose.gauss_newton import huber_weights
 
     weights = huber_weights(est.gn.residuals, 1.345 * est.gn.sigma_px)
@@ -148,7 +147,7 @@ def test_robust_fit_propagates_with_its_weights():
 
 
 def test_a_propagation_that_cannot_be_solved_is_nan_not_a_crash(monkeypatch):
-    import graphpose.pose.estimate as estimate_module
+    import graphpose.estimate as estimate_module
 
     camera = calibrated(LENS_CAMERAS["radtan"])
     rng = np.random.default_rng(6)
@@ -159,6 +158,6 @@ def test_a_propagation_that_cannot_be_solved_is_nan_not_a_crash(monkeypatch):
         raise np.linalg.LinAlgError("Singular matrix")
 
     monkeypatch.setattr(estimate_module, "pose_cov_with_intrinsics", singular)
-    est = estimate_pose_from_points(camera, uv, W)
+    est = estimate_pose_from_points(uv, W, camera)
     assert est.sigma_kind == SIGMA_CALIBRATION and np.all(np.isnan(est.cov))
     assert np.all(np.isfinite(est.cov_pixel))  # the pixel noise's share is still known

@@ -27,7 +27,7 @@ def frames():
 def test_the_rig_pose_is_near_the_truth_and_the_solvers_agree(frames):
     rig, views, both = frames
     for k in both[:2]:
-        est = estimate_rig_pose(views.images[k], rig, BOARD)
+        est = estimate_rig_pose(views.images[k], rig, board=BOARD)
         assert est.ok, est.message
         dt, dr = pose_difference(est.T_WC, views.poses[k])
         assert dt < 1e-3 and dr < 0.05
@@ -43,23 +43,23 @@ def test_a_blank_camera_still_gives_a_pose(frames):
     rig, views, both = frames
     k = both[0]
     blank = np.full_like(views.images[k][0], 128)
-    est = estimate_rig_pose([blank, views.images[k][1]], rig, BOARD)
+    est = estimate_rig_pose([blank, views.images[k][1]], rig, board=BOARD)
     assert est.ok and est.status == ("no board", "used") and est.messages[0]
     assert pose_difference(est.T_WC, views.poses[k])[0] < 2e-3
-    est = estimate_rig_pose([views.images[k][0], None], rig, BOARD, robust=True)
+    est = estimate_rig_pose([views.images[k][0], None], rig, board=BOARD, robust=True)
     assert est.ok and est.status == ("used", "no board")
     with pytest.raises(BoardNotFoundError, match="no camera of the rig sees the board"):
-        estimate_rig_pose([blank, None], rig, BOARD)
+        estimate_rig_pose([blank, None], rig, board=BOARD)
 
 
 def test_bad_input(frames):
     rig, views, _ = frames
     with pytest.raises(InputError, match="one image per camera of the rig: 2 cameras, 1 images"):
-        estimate_rig_pose(views.images[0][:1], rig, BOARD)
+        estimate_rig_pose(views.images[0][:1], rig, board=BOARD)
     with pytest.raises(InputError, match="rig must be a graphpose Rig"):
-        estimate_rig_pose(views.images[0], rig.cameras[0], BOARD)
+        estimate_rig_pose(views.images[0], rig.cameras[0], board=BOARD)
     with pytest.raises(InputError, match="calibrated for 640 x 480"):
-        estimate_rig_pose([views.images[0][0][:400], views.images[0][1]], rig, BOARD)
+        estimate_rig_pose([views.images[0][0][:400], views.images[0][1]], rig, board=BOARD)
 
 
 def test_rig_points_derivatives_match_finite_differences():

@@ -12,9 +12,9 @@ from skimage.measure import points_in_poly
 from graphpose.board import Board
 from graphpose.geometry import K_from_params, T_from_params, project, to_camera
 from graphpose.camera_models import FisheyeCamera, PinholeCamera, RadTanCamera
-from graphpose.detect.saddle import saddle_point
+from graphpose.course import saddle_point
 from graphpose.errors import InputError
-from graphpose.pose.estimate import pose_difference
+from graphpose.estimate import pose_difference
 from graphpose.synth.information import image_gradients, junction_information
 from graphpose.synth.lens import in_view, view_limit
 from graphpose.synth.poses import loose_polygon, perturb_pose, random_pose

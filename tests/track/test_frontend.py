@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from graphpose import Board, InputError, T_from_params, track_sequence
-from graphpose.pose.estimate import fit_pose
+from graphpose.estimate import fit_pose
 from graphpose.synth.sequence import render_sequence
 from graphpose.track import frontend
 from graphpose.track.config import TrackerConfig
@@ -44,7 +44,7 @@ def test_detects_then_tracks_with_the_single_image_fit(track_clip):
     assert (first.status, second.status) == (DETECTED, TRACKED)
     assert first.points.shape == (2, first.ids.size) and first.ids.size >= 44
     # The single-image pipeline's fit, from the homography for a detection.
-    fit, _ = fit_pose(K, first.points, W[:, first.ids])
+    fit, _ = fit_pose(first.points, W[:, first.ids], K)
     np.testing.assert_allclose(first.fit.T_WC, fit.T_WC, atol=1e-12)
     assert first.fit.sigma_px == fit.sigma_px
     for found, k in ((first, 0), (second, 1)):
@@ -53,10 +53,10 @@ def test_detects_then_tracks_with_the_single_image_fit(track_clip):
 
 def test_robust_setting_is_the_pipelines_robust_fit(track_clip):
     first, _ = _first_two(track_clip, TrackerConfig(robust=True))
-    fit, _ = fit_pose(K, first.points, W[:, first.ids], robust=True)
+    fit, _ = fit_pose(first.points, W[:, first.ids], K, robust=True)
     np.testing.assert_allclose(first.fit.T_WC, fit.T_WC, atol=1e-12)
     assert first.fit.sigma_px == fit.sigma_px  # the robust sigma (1.4826 x median |residual|)
-    plain, _ = fit_pose(K, first.points, W[:, first.ids])
+    plain, _ = fit_pose(first.points, W[:, first.ids], K)
     assert first.fit.sigma_px != plain.sigma_px
 
 
@@ -73,13 +73,13 @@ def test_input_errors_of_the_junction_and_pose_code_fail_the_attempt_not_the_seq
 
     # A refinement that fails once tracking started: each frame falls back to full extraction.
     monkeypatch.setattr(frontend, "refine_junctions", refuse)
-    track = track_sequence(track_clip.images[:3], K, track_clip.bounds)
+    track = track_sequence(track_clip.images[:3], K, bounds=track_clip.bounds)
     assert list(track.status) == [DETECTED, DETECTED, DETECTED]
     assert all("track failed: degenerate" in f.message for f in track.frames[1:])
     # The single-image fit failing from the homography start: every attempt fails, every
     # frame is lost, and says why.
-    monkeypatch.setattr("graphpose.pose.estimate.pose_from_homography_unchecked", refuse)
-    track = track_sequence(track_clip.images[:2], K, track_clip.bounds)
+    monkeypatch.setattr("graphpose.estimate.pose_from_homography", refuse)
+    track = track_sequence(track_clip.images[:2], K, bounds=track_clip.bounds)
     assert list(track.status) == [LOST, LOST]
     assert all("pose fit failed: degenerate" in f.message for f in track.frames)
 

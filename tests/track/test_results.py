@@ -41,7 +41,7 @@ def test_track_accessors():
 def test_smoothed_track_prefers_its_smoothed_frames():
     frames = _frames()
     moved = tuple(FrameResult(f.index, f.timestamp, f.status, None if f.T_WC is None else f.T_WC + 0.0,
-                              f.cov, f.junctions, f.reprojection_rms_px, f.single_T_WC) for f in frames)
+                              f.cov, f.junctions, f.rms_px, f.single_T_WC) for f in frames)
     track = Track(frames, moved, TrackerConfig())
     assert track.best_frames() is moved
     np.testing.assert_array_equal(track.poses("best"), track.poses("smoothed"))

@@ -9,7 +9,7 @@ import pytest
 
 from graphpose import Board, InputError, track_frames, track_sequence
 from graphpose.camera_models import PinholeCamera
-from graphpose.pose.intrinsics import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
+from graphpose.pose.covariance import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
 from graphpose.track.config import MotionPrior
 from graphpose.track.fixed_lag import FixedLagGraph
 from graphpose.track.results import LOST, FrameResult
@@ -32,7 +32,7 @@ def clip():
 
 @pytest.fixture(scope="module")
 def listed(clip):
-    return track_sequence(clip.images, K, clip.bounds, timestamps=clip.timestamps, smooth=True)
+    return track_sequence(clip.images, K, bounds=clip.bounds, timestamps=clip.timestamps, smooth=True)
 
 
 def _same(a: FrameResult, b: FrameResult):
@@ -45,12 +45,12 @@ def _same(a: FrameResult, b: FrameResult):
         assert (x is None) == (y is None), name
         if x is not None:
             np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-15, err_msg=name)
-    np.testing.assert_allclose(a.reprojection_rms_px, b.reprojection_rms_px, rtol=1e-12)
+    np.testing.assert_allclose(a.rms_px, b.rms_px, rtol=1e-12)
 
 
 def test_the_stream_gives_the_lists_results(clip, listed):
-    online = list(track_frames(clip.images, K, clip.bounds, timestamps=clip.timestamps))
-    smoothed = list(track_frames(clip.images, K, clip.bounds, timestamps=clip.timestamps, smooth=True))
+    online = list(track_frames(clip.images, K, bounds=clip.bounds, timestamps=clip.timestamps))
+    smoothed = list(track_frames(clip.images, K, bounds=clip.bounds, timestamps=clip.timestamps, smooth=True))
     assert [f.index for f in online] == [f.index for f in smoothed] == list(range(len(clip.images)))
     for a, b in zip(online, listed.frames):
         _same(a, b)
@@ -65,7 +65,7 @@ def test_the_stream_keeps_no_result_it_gave(clip):
     # Memory flat however long the run: once the caller lets a result go, nothing holds it
     # but (until the next frame) the stream itself. Counted, never timed.
     given, alive = [], []
-    for f in track_frames(clip.images, K, clip.bounds, timestamps=clip.timestamps):
+    for f in track_frames(clip.images, K, bounds=clip.bounds, timestamps=clip.timestamps):
         given.append(weakref.ref(f))
         del f
         gc.collect()
@@ -93,7 +93,8 @@ def test_a_calibrated_camera_widens_every_tracked_pose(clip, listed):
     plain = PinholeCamera(K)
     camera = plain.with_parameters(plain.parameters, COV_K)
     for smooth, reference in ((False, listed.frames), (True, listed.smoothed)):
-        frames = list(track_frames(clip.images, camera, clip.bounds, timestamps=clip.timestamps, smooth=smooth))
+        frames = list(track_frames(clip.images, camera, bounds=clip.bounds, timestamps=clip.timestamps,
+                                   smooth=smooth))
         for f, g in zip(frames, reference):
             assert f.sigma_kind == SIGMA_CALIBRATION and g.sigma_kind == SIGMA_PIXEL
             # The poses and the pixel-only covariance are the plain camera's ...

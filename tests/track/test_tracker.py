@@ -15,7 +15,7 @@ from graphpose import (
     track_sequence,
 )
 from graphpose.io.files import write_png
-from graphpose.pose.estimate import pose_difference
+from graphpose.estimate import pose_difference
 from graphpose.track import frontend
 from graphpose.track.config import MotionPrior, TrackerConfig
 from graphpose.track.frontend import board_symmetries
@@ -25,7 +25,8 @@ from tests.conftest import PROJECT_K as K
 
 @pytest.fixture(scope="module")
 def tracked(track_clip):
-    return track_sequence(track_clip.images, K, track_clip.bounds, timestamps=track_clip.timestamps, smooth=True)
+    return track_sequence(track_clip.images, K, bounds=track_clip.bounds, timestamps=track_clip.timestamps,
+                          smooth=True)
 
 
 def test_track_reports_out_of_view_frames_lost_and_recovers(track_clip, tracked):
@@ -57,7 +58,7 @@ def test_track_accuracy_against_truth(track_clip, tracked):
     for f in tracked.frames:
         if f.status != LOST:
             assert f.junctions >= TrackerConfig().min_junctions
-            assert f.reprojection_rms_px < 0.1  # measured at most 0.016 px
+            assert f.rms_px < 0.1  # measured at most 0.016 px
             assert np.all(f.sigma > 0) and np.all(f.sigma[:3] < 0.001)  # measured at most 0.15 mm
 
 
@@ -73,7 +74,7 @@ def test_track_reads_a_folder(track_clip, tmp_path):
     for k in range(3):
         write_png(tmp_path / f"f{k:02d}.png", track_clip.images[k])
     (tmp_path / "notes.txt").write_text("not a frame")
-    track = track_sequence(tmp_path, K, track_clip.bounds, timestamps=[10.0, 10.1, 10.2])
+    track = track_sequence(tmp_path, K, bounds=track_clip.bounds, timestamps=[10.0, 10.1, 10.2])
     assert list(track.status) == [DETECTED, TRACKED, TRACKED]
     np.testing.assert_allclose(track.timestamps, [10.0, 10.1, 10.2])
 
@@ -83,20 +84,20 @@ def test_an_unreadable_frame_file_is_lost_and_the_others_tracked(track_clip, tmp
     for k in range(6):
         write_png(tmp_path / f"f{k:02d}.png", track_clip.images[k])
     (tmp_path / "f03.png").write_bytes(b"\x89PNG\r\n\x1a\n truncated")
-    track = track_sequence(tmp_path, K, track_clip.bounds, fps=track_clip.fps)
+    track = track_sequence(tmp_path, K, bounds=track_clip.bounds, fps=track_clip.fps)
     assert list(track.status) == [DETECTED, TRACKED, TRACKED, LOST, DETECTED, TRACKED]
     message = track.frames[3].message
     assert "unreadable" in message and "f03.png" in message
     # A corrupt FIRST frame: the bounds belong to it, the next frames are searched without.
     (tmp_path / "f00.png").write_bytes(b"not an image")
-    assert list(track_sequence(tmp_path, K, track_clip.bounds).status)[:3] == [LOST, DETECTED, TRACKED]
+    assert list(track_sequence(tmp_path, K, bounds=track_clip.bounds).status)[:3] == [LOST, DETECTED, TRACKED]
 
 
 def test_every_frame_reports_the_time_of_its_parts(track_clip, tmp_path):
     for k in range(4):
         write_png(tmp_path / f"f{k:02d}.png", track_clip.images[k])
     (tmp_path / "f02.png").write_bytes(b"not an image")
-    track = track_sequence(tmp_path, K, track_clip.bounds, fps=track_clip.fps)
+    track = track_sequence(tmp_path, K, bounds=track_clip.bounds, fps=track_clip.fps)
     assert list(track.status) == [DETECTED, TRACKED, LOST, DETECTED]
     for f in track.frames:
         assert f.read_s > 0 and len(f.cpu_s) == 3 and min(f.cpu_s) >= 0
@@ -111,18 +112,18 @@ def test_a_missing_or_corrupt_frame_given_in_memory_is_an_input_error(track_clip
     nan_frame = track_clip.images[1] / 255.0
     nan_frame[100, 100] = np.nan
     with pytest.raises(InputError, match="frame 1 .*NaN"):
-        track_sequence([track_clip.images[0], nan_frame], K, track_clip.bounds)
+        track_sequence([track_clip.images[0], nan_frame], K, bounds=track_clip.bounds)
     with pytest.raises(InputError, match="frame 1 must be"):
-        track_sequence([track_clip.images[0], None], K, track_clip.bounds)
+        track_sequence([track_clip.images[0], None], K, bounds=track_clip.bounds)
 
 
 def test_counter_clockwise_bounds_are_the_same_input_error_as_in_estimate(track_clip):
     # The tracker used to take any finite 2 x 4 array and lose every frame on a reversed one.
     reverse = track_clip.bounds[:, ::-1]
     with pytest.raises(InputError) as single:
-        estimate_pose(track_clip.images[0], reverse, K)
+        estimate_pose(track_clip.images[0], K, bounds=reverse)
     with pytest.raises(InputError) as tracked:
-        track_sequence(track_clip.images[:3], K, reverse)
+        track_sequence(track_clip.images[:3], K, bounds=reverse)
     assert "clockwise" in str(single.value)
     assert str(tracked.value) == str(single.value)
 
@@ -143,56 +144,56 @@ def test_per_frame_polygons_are_checked_like_bounds(track_clip):
 def test_real_images_as_a_jumpy_sequence(real_cases, real_images):
     images = [image for _, image in real_images]
     polygons = [case.bounds for case, _ in real_images]
-    track = track_sequence(images, real_cases.K, real_images[0][0].bounds, polygons=polygons, smooth=True)
+    track = track_sequence(images, real_cases.K, bounds=real_images[0][0].bounds, polygons=polygons, smooth=True)
     assert len(track) == 6
     assert all(s in (TRACKED, DETECTED) for s in track.status)
     assert len(track.best_frames()) == 6
     for f in track.best_frames():
-        assert f.reprojection_rms_px < 1.0 and f.junctions >= 40
+        assert f.rms_px < 1.0 and f.junctions >= 40
 
 
 def test_track_input_errors(track_clip, tmp_path):
     images, bounds = track_clip.images[:2], track_clip.bounds
     with pytest.raises(InputError, match="empty"):
-        track_sequence([], K, bounds)
+        track_sequence([], K, bounds=bounds)
     with pytest.raises(InputError, match="timestamps has"):
-        track_sequence(images, K, bounds, timestamps=[0.0])
+        track_sequence(images, K, bounds=bounds, timestamps=[0.0])
     with pytest.raises(InputError, match="increasing"):
-        track_sequence(images, K, bounds, timestamps=[1.0, 1.0])
+        track_sequence(images, K, bounds=bounds, timestamps=[1.0, 1.0])
     with pytest.raises(InputError, match="fps"):
-        track_sequence(images, K, bounds, fps=0.0)
+        track_sequence(images, K, bounds=bounds, fps=0.0)
     with pytest.raises(InputError, match="polygons has"):
-        track_sequence(images, K, bounds, polygons=[None])
+        track_sequence(images, K, bounds=bounds, polygons=[None])
     with pytest.raises(InputError, match="polygons must be a sequence"):
-        track_sequence(images, K, bounds, polygons=3)
+        track_sequence(images, K, bounds=bounds, polygons=3)
     with pytest.raises(InputError, match=r"bounds must have shape \(2, 4\)"):
-        track_sequence(images, K, np.zeros((2, 3)))
+        track_sequence(images, K, bounds=np.zeros((2, 3)))
     with pytest.raises(InputError, match="motion model"):
-        track_sequence(images, K, bounds, config=TrackerConfig(motion=MotionPrior("teleport")))
+        track_sequence(images, K, bounds=bounds, config=TrackerConfig(motion=MotionPrior("teleport")))
     with pytest.raises(InputError, match="config must be a TrackerConfig"):
-        track_sequence(images, K, bounds, config={"min_junctions": 12})
+        track_sequence(images, K, bounds=bounds, config={"min_junctions": 12})
     with pytest.raises(InputError, match="board must be a graphpose.Board"):
-        track_sequence(images, K, bounds, board="8x6")
+        track_sequence(images, K, bounds=bounds, board="8x6")
     with pytest.raises(InputError, match="K must have shape"):
-        track_sequence(images, np.eye(2), bounds)
+        track_sequence(images, np.eye(2), bounds=bounds)
     with pytest.raises(InputError, match="frame 1"):
-        track_sequence([images[0], np.zeros((2, 2, 2))], K, bounds)
+        track_sequence([images[0], np.zeros((2, 2, 2))], K, bounds=bounds)
     with pytest.raises(InputError, match="not found"):
-        track_sequence(tmp_path / "nowhere", K, bounds)
+        track_sequence(tmp_path / "nowhere", K, bounds=bounds)
     # A time-lapse (a frame every 2 s) under the 1 s default lag: the constant-velocity prior
     # would never reach its three poses, so every frame would start a segment of its own.
     with pytest.raises(InputError, match=r"lag_s = 1 s is shorter than the 3 frames \(4 s .* at least 8 s"):
-        track_sequence(images, K, bounds, fps=0.5)
-    track_sequence(images, K, bounds, fps=0.5, config=TrackerConfig(lag_s=8.0))
-    track_sequence(images, K, bounds, fps=0.5, config=TrackerConfig(lag_s=None))
+        track_sequence(images, K, bounds=bounds, fps=0.5)
+    track_sequence(images, K, bounds=bounds, fps=0.5, config=TrackerConfig(lag_s=8.0))
+    track_sequence(images, K, bounds=bounds, fps=0.5, config=TrackerConfig(lag_s=None))
 
 
 def test_float_and_colour_frames_track_as_8_bit_grey(track_clip):
     # Converted once per frame (graphpose.image.as_grey): the same junctions, the same poses.
     images = track_clip.images[:3]
-    grey = track_sequence(images, K, track_clip.bounds)
-    scaled = track_sequence([image / 255.0 for image in images], K, track_clip.bounds)
-    colour = track_sequence([np.dstack([image] * 3) for image in images], K, track_clip.bounds)
+    grey = track_sequence(images, K, bounds=track_clip.bounds)
+    scaled = track_sequence([image / 255.0 for image in images], K, bounds=track_clip.bounds)
+    colour = track_sequence([np.dstack([image] * 3) for image in images], K, bounds=track_clip.bounds)
     for other in (scaled, colour):
         assert list(other.status) == list(grey.status) == [DETECTED, TRACKED, TRACKED]
         np.testing.assert_allclose(other.poses("online"), grey.poses("online"), atol=1e-9)
@@ -227,11 +228,11 @@ def test_raw_frames_track_through_the_camera_model(track_clip, raw_clip):
     for which in ("online", "smoothed"):
         err = [pose_difference(T, track_clip.T_WC[k])[0] for k, T in enumerate(track.poses(which))]
         assert max(err) < 0.5e-3, (which, err)  # measured 0.11 mm online, 0.08 mm smoothed
-    assert max(f.reprojection_rms_px for f in track.frames) < 0.1  # measured 0.015 px at most
+    assert max(f.rms_px for f in track.frames) < 0.1  # measured 0.015 px at most
     # Tracked as if the frames were undistorted, the same frames fit much worse.
     pinhole = track_sequence(raw_clip[:3], K, timestamps=track_clip.timestamps[:3])
     found = [f for f in pinhole.frames if f.T_WC is not None]
-    assert all(f.reprojection_rms_px > 5 * max(g.reprojection_rms_px for g in track.frames) for f in found)
+    assert all(f.rms_px > 5 * max(g.rms_px for g in track.frames) for f in found)
 
 
 def test_a_frame_of_another_size_than_the_calibration_is_refused(raw_clip):
@@ -256,10 +257,10 @@ def _spy_extraction(monkeypatch, turn_after_first=False):
         if turn_after_first and len(calls) > 1:
             if bounds is not None:
                 raise BoardNotFoundError("no board in this polygon (test)")
-            J = extract_junctions(image, None, board, camera=camera)
+            J = extract_junctions(image, bounds=None, board=board, camera=camera)
             return dataclasses.replace(J, points=J.points[:, ::-1], trusted=J.trusted[::-1], seen=J.seen[::-1],
                                        orientation_ambiguous=True)
-        return extract_junctions(image, bounds, board, camera=camera, **kwargs)
+        return extract_junctions(image, board=board, bounds=bounds, camera=camera, **kwargs)
 
     monkeypatch.setattr(frontend, "extract_junctions", spy)
     return calls
@@ -279,7 +280,7 @@ def test_a_fresh_detection_of_a_symmetric_board_keeps_the_orientation(track_clip
               track_clip.images[3], track_clip.images[4]]
     times = track_clip.timestamps[:5]
     calls = _spy_extraction(monkeypatch, turn_after_first=True)
-    track = track_sequence(frames, K, track_clip.bounds, timestamps=times)
+    track = track_sequence(frames, K, bounds=track_clip.bounds, timestamps=times)
     assert list(track.status) == [DETECTED, TRACKED, LOST, DETECTED, TRACKED]
     assert any(bounds is None for bounds, _ in calls[1:])  # the whole-image search was reached
     for k in (0, 1, 3, 4):
@@ -313,7 +314,7 @@ def test_fixed_lag_tracker_matches_the_whole_sequence_graph_through_a_loss(track
     # relinearising; the online error against the truth is about 0.1 mm), and the same
     # batch smoothing (measured 2e-12 m).
     assert tracked.config.lag_s == TrackerConfig().lag_s == 1.0
-    runs = {lag: track_sequence(track_clip.images, K, track_clip.bounds, timestamps=track_clip.timestamps,
+    runs = {lag: track_sequence(track_clip.images, K, bounds=track_clip.bounds, timestamps=track_clip.timestamps,
                                 config=TrackerConfig(lag_s=lag), smooth=True) for lag in (0.3, None)}
     short, whole = runs[0.3], runs[None]
     assert list(short.status) == list(whole.status) == list(tracked.status)

@@ -26,7 +26,7 @@ def _estimate(trusted):
     points = project(K, T_WC, BOARD.world_points())
     junctions = SimpleNamespace(points=points, trusted=np.asarray(trusted, bool))
     return SimpleNamespace(T_WC=T_WC, params=params_from_T(T_WC), junctions=junctions, mask=junctions.trusted,
-                           reprojection_rms_px=0.25, converged=True, cross_check=SimpleNamespace(agree=True))
+                           rms_px=0.25, converged=True, cross_check=SimpleNamespace(agree=True))
 
 
 def _close(pixel, colour, tol=40):

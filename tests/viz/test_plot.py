@@ -22,7 +22,7 @@ def small_track(n=12, lost=(5, 6)):
             frames.append(FrameResult(k, k / 30.0, "lost", message="out of view"))
         else:
             frames.append(FrameResult(k, k / 30.0, "detected" if k in (0, 7) else "tracked", T_WC=T,
-                                      cov=np.eye(6) * 1e-8, junctions=48, reprojection_rms_px=0.01 + 1e-3 * k))
+                                      cov=np.eye(6) * 1e-8, junctions=48, rms_px=0.01 + 1e-3 * k))
     return Track(tuple(frames), None, TrackerConfig())
 
 

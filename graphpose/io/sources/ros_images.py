@@ -115,10 +115,10 @@ def camera_info_camera(msg, what: str):
     Raises
     ------
     InputError
-        As :func:`graphpose.io.calibration.camera_from_ros_info` (an unknown distortion model,
+        As :func:`graphpose.io.cameras.camera_from_ros_info` (an unknown distortion model,
         a K of zeros: a camera_info of an uncalibrated camera).
     """
-    from ..calibration import camera_from_ros_info
+    from ..cameras import camera_from_ros_info
 
     K = np.asarray(getattr(msg, "k", getattr(msg, "K", None)), dtype=float).reshape(-1)
     d = np.asarray(getattr(msg, "d", getattr(msg, "D", [])), dtype=float).reshape(-1)

@@ -16,7 +16,7 @@ made from other images), so
 
     cov = cov_pixel + D cov_k D^T,   D = d theta / d k,
 
-in the parameterisation :class:`graphpose.pose.estimate.PoseEstimate` reports ``cov`` in.
+in the parameterisation :class:`graphpose.estimate.PoseEstimate` reports ``cov`` in.
 ``W`` is the identity for least squares, the Huber weights at the solution for a robust fit.
 
 The term does not shrink with more junctions: ``cov_pixel`` falls as 1/n, ``D cov_k D^T``
