@@ -24,7 +24,8 @@ LAYERS = (
     # The facade: it imports its errors only; every other name loads on first use (PEP 562).
     # _png: the grey-PNG reader, on the compiled pixels.
     ("_checks", "_extras", "__init__", "_png"),
-    ("geometry",),
+    # The robust-estimation rules (a Huber threshold, a sigma from residuals) beside it.
+    ("geometry", "robust"),
     ("board", "camera_models", "image"),
     ("camera_params",),
     # A rig of cameras and its stereo matrices (on the cameras and their parameters).

@@ -45,6 +45,7 @@ from ..board import check_board
 from ..board import Board
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 from ..camera_params import calibration_model, camera_parameters, camera_with_parameters, parameter_names
+from ..robust import HUBER_K, mad_sigma  # noqa: F401  (HUBER_K: calibrate's default, named here too)
 from .result import Calibration
 
 #: An image whose RMS exceeds this many times the median image's is rejected.
@@ -60,11 +61,11 @@ OUTLIER_SIGMAS = 5.0
 OUTLIER_IMAGE_FRACTION = 0.25
 #: The two solvers must agree on each parameter to this fraction of max(|p|, sigma_p).
 CROSS_CHECK_TOL = 1e-6
-#: Huber threshold, in sigmas (95 % efficiency under Gaussian noise, as the pose's).
-HUBER_K = 1.345
 #: Fewest images with a board; fewest trusted junctions an image must give.
 MIN_IMAGES = 3
 MIN_JUNCTIONS = 8
+#: The smallest pixel sigma the residuals' median gives (:func:`graphpose.robust.mad_sigma`).
+SIGMA_FLOOR_PX = 1e-6
 #: Passes with the camera after the first: they stop when one finds no new board.
 MAX_CAMERA_PASSES = 3
 #: Largest relative 1-sigma of fx or fy a calibration may have.
@@ -163,11 +164,6 @@ def _rms(r):
     return float(np.sqrt(np.mean(np.sum(r * r, axis=0)))) if r.size else float("nan")
 
 
-def _mad_sigma(residuals):
-    """The pixel noise from residuals [(2, m)]: 1.4826 x the median absolute coordinate."""
-    return max(1.4826 * float(np.median(np.abs(np.hstack(residuals)))), 1e-6)
-
-
 def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
     """Step 3 on the images ``obs`` (a dict image -> observation): the plain solve, the
     robust screening and the rejections, the robust solve twice (``final``; else only the
@@ -185,17 +181,17 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
         # From Zhang's start a plain fit first; from an earlier pass's camera the residuals
         # at the start (no iterations) set the first Huber threshold.
         fit = solve_lm(camera, [poses[k] for k in keys], view, max_iterations=100 if plain else 0,
-                       prior_px=_mad_sigma(fit.residuals) if fit is not None else 1.0, held=held)
+                       prior_px=mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX) if fit is not None else 1.0, held=held)
         # Robust screening: two Huber solves (the noise from the residuals' median each time)
         # give the majority's fit, against which an image that does not fit stands out (a
         # plain fit spreads one bad image's misfit over all of them).
         for _ in range(2):
-            s = _mad_sigma(fit.residuals)
+            s = mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
             fit = solve_lm(fit.camera, fit.poses, view, huber_k * s, prior_px=s, held=held)
         camera, poses = fit.camera, dict(zip(keys, fit.poses))
         plain = False
         # Single junctions that do not fit the majority's solution: left out, and solved again.
-        limit_px = OUTLIER_SIGMAS * _mad_sigma(fit.residuals)
+        limit_px = OUTLIER_SIGMAS * mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
         flagged, whole = False, None
         for k, r in zip(keys, fit.residuals):
             bad = np.hypot(r[0], r[1]) > limit_px
@@ -227,7 +223,7 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
                                  f"median image's {np.median(rms):.3f} px (a moved board, a wrong label, "
                                  "a blurred image?)")
         keys.pop(worst)
-    sigma0 = _mad_sigma(fit.residuals)
+    sigma0 = mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
     plain = fit
     start_poses = fit.poses
     if not final:

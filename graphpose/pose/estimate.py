@@ -36,7 +36,8 @@ from ..errors import DegenerateGeometryError, InputError
 from ..geometry import pose_difference, to_camera  # pose_difference: re-exported, public here too
 from ..observations import check_observations
 from .gauss_newton import GNResult, gauss_newton_unchecked, huber_weights, reprojection_cost
-from .graph import HUBER_K, GraphResult, graph_pose_unchecked
+from ..robust import HUBER_K, mad_sigma
+from .graph import GraphResult, graph_pose_unchecked
 from .homography import on_target_plane, pose_from_homography_unchecked
 from .intrinsics import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
 
@@ -202,7 +203,7 @@ def fit_pose(camera, Ipts, Wpts, guess=None, mask=None, *, robust: bool = False)
     tracker's front end (:mod:`graphpose.track.frontend`): start from ``guess``, or from the
     homography initialiser when None; Gauss-Newton on the used points; with ``robust``, the
     pixel sigma estimated robustly (1.4826 x the median absolute residual) and Gauss-Newton
-    again from the same start with a Huber kernel at :data:`graphpose.pose.graph.HUBER_K` of
+    again from the same start with a Huber kernel at :data:`graphpose.robust.HUBER_K` of
     those sigmas, so that outlying points are down-weighted.
 
     Parameters
@@ -245,7 +246,7 @@ def fit_pose_unchecked(camera, Ipts, Wpts, guess, mask, robust):
     start = pose_from_homography_unchecked(camera, Ipts[:, mask], Wpts[:, mask]) if guess is None else guess
     gn = gauss_newton_unchecked(camera, start, Ipts, Wpts, mask)
     if robust:
-        pixel_sigma = max(1.4826 * float(np.nanmedian(np.abs(gn.residuals[:, mask]))), 1e-12)
+        pixel_sigma = mad_sigma(gn.residuals[:, mask], floor=1e-12)
         gn = gauss_newton_unchecked(camera, start, Ipts, Wpts, mask, huber_px=HUBER_K * pixel_sigma,
                                     pixel_sigma=pixel_sigma)
     return gn, start

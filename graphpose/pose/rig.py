@@ -34,7 +34,8 @@ from ..errors import BoardNotFoundError, InputError
 from ..geometry import T_from_params, hat, params_from_T, pose_difference, rot_x, rot_y, rot_z
 from .estimate import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck
 from .gauss_newton import _weights
-from .graph import HUBER_K, params_cov_from_tangent
+from ..robust import HUBER_K, mad_sigma
+from .graph import params_cov_from_tangent
 
 _E = np.eye(3)
 MAX_ITERATIONS = 50
@@ -352,7 +353,7 @@ def _solve(rig, obs, found, status, messages, robust, board):
     q, r, w, H, converged, it = _gauss_newton(rig, q0, used, None)
     huber_px = None
     if robust:
-        sigma_r = max(1.4826 * float(np.median(np.abs(r))), 1e-6)
+        sigma_r = mad_sigma(r, floor=1e-6)
         huber_px = HUBER_K * sigma_r
         q, r, w, H, converged, it2 = _gauss_newton(rig, q, used, huber_px)
         it += it2
