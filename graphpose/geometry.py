@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from ._checks import check_K
+from ._checks import MIN_POSE_POINTS, check_K
 from .errors import DegenerateGeometryError
 
 
@@ -274,7 +274,7 @@ def homography_dlt(src, dst) -> np.ndarray:
     # with normalised points (A's condition number ~10 apart from the null direction) squaring
     # the condition costs no accuracy that matters.
     w, V = np.linalg.eigh(A.T @ A)
-    if n < 4 or w[1] < _RANK_TOL**2 * w[-1]:
+    if n < MIN_POSE_POINTS or w[1] < _RANK_TOL**2 * w[-1]:
         raise DegenerateGeometryError("the points do not determine a homography (collinear or repeated points)")
     H = np.linalg.solve(Td, V[:, 0].reshape(3, 3) @ Ts)
     return H / np.linalg.norm(H)

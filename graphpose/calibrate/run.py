@@ -61,9 +61,12 @@ OUTLIER_SIGMAS = 5.0
 OUTLIER_IMAGE_FRACTION = 0.25
 #: The two solvers must agree on each parameter to this fraction of max(|p|, sigma_p).
 CROSS_CHECK_TOL = 1e-6
-#: Fewest images with a board; fewest trusted junctions an image must give.
+#: Fewest images with a board.
 MIN_IMAGES = 3
-MIN_JUNCTIONS = 8
+#: Fewest trusted junctions an image must give to join a calibration: more than a pose's
+#: (:data:`graphpose.observations.MIN_JUNCTIONS`), as an image must fix its own pose (six
+#: unknowns) and still tell the camera's parameters something (16 equations, 10 beyond its pose).
+MIN_CALIBRATION_JUNCTIONS = 8
 #: The smallest pixel sigma the residuals' median gives (:func:`graphpose.robust.mad_sigma`).
 SIGMA_FLOOR_PX = 1e-6
 #: Passes with the camera after the first: they stop when one finds no new board.
@@ -154,8 +157,8 @@ def _detect(searched, board, camera):
     except BoardNotFoundError as exc:
         return None, str(exc)
     index = np.flatnonzero(J.trusted)
-    if index.size < MIN_JUNCTIONS:
-        return None, f"only {index.size} trusted junctions (need {MIN_JUNCTIONS})"
+    if index.size < MIN_CALIBRATION_JUNCTIONS:
+        return None, f"only {index.size} trusted junctions (need {MIN_CALIBRATION_JUNCTIONS})"
     return (J.points[:, index], board.world_points()[:, index], index), ""
 
 
@@ -198,7 +201,7 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
             if not bad.any():
                 continue
             uv, W, index = obs[k]
-            if bad.sum() > OUTLIER_IMAGE_FRACTION * bad.size or bad.size - bad.sum() < MIN_JUNCTIONS:
+            if bad.sum() > OUTLIER_IMAGE_FRACTION * bad.size or bad.size - bad.sum() < MIN_CALIBRATION_JUNCTIONS:
                 if whole is None or bad.mean() > whole[1]:
                     whole = (k, bad.mean(), int(bad.sum()), bad.size)
                 continue
@@ -402,7 +405,7 @@ def calibrate_corners(corners, board: Board = Board(), model: str = "radtan", si
     ------
     InputError
         If the size is missing or bad, a junction set is malformed, or fewer than three
-        images have :data:`MIN_JUNCTIONS` junctions.
+        images have :data:`MIN_CALIBRATION_JUNCTIONS` junctions.
     """
     from .._checks import check_size
     from ..io.corners import Corners
@@ -438,8 +441,8 @@ def calibrate_corners(corners, board: Board = Board(), model: str = "radtan", si
                 or np.any(index < 0) or np.any(index >= board.n):
             raise InputError(f"{labels[i]}: junctions must be pixels (2, m) with m board junction numbers in "
                              f"0..{board.n - 1}")
-        if index.size < MIN_JUNCTIONS:
-            why[i] = f"only {index.size} junctions (need {MIN_JUNCTIONS})"
+        if index.size < MIN_CALIBRATION_JUNCTIONS:
+            why[i] = f"only {index.size} junctions (need {MIN_CALIBRATION_JUNCTIONS})"
             continue
         obs[i], found_in[i] = (uv, W_all[:, index], index), 0
     if len(obs) < MIN_IMAGES:
