@@ -28,7 +28,7 @@ from ..camera_params import MODELS as CALIBRATION_MODELS
 from ..errors import GraphposeError, InputError
 from ..io.camera_files import FORMATS
 from . import EXIT_OK, PROG, UsageError, calibrate_extras, exit_codes_help
-from .estimate import image_paths
+from ..io.sources import expand_paths
 from .options import BOARD_UNITS, Progress, check_output_folder, parse_board
 from .recordings import add_view_options, recording_views, views_record, views_text
 
@@ -178,15 +178,16 @@ def _check_outputs(args) -> None:
 
 
 def image_files(paths) -> list:
-    """The images of IMAGES (:func:`graphpose.cli.estimate.image_paths`: files as given, a
-    folder's image files in name order), each of which must exist.
+    """The images of IMAGES (:func:`graphpose.io.sources.expand_paths`: files as given, a
+    folder's image files in name order, a glob's matches, a list file's paths), each of which
+    must exist.
 
     Raises
     ------
     InputError
         If a path does not exist or a folder holds no image.
     """
-    files = image_paths(paths)
+    files = expand_paths(paths)
     missing = [path for path in files if not Path(path).is_file()]
     if missing:
         raise InputError(f"image file not found: {missing[0]}")

@@ -28,7 +28,7 @@ from ..pipeline import estimate_pose
 from ..pose.estimate import pose_difference
 from ..pose.intrinsics import SIGMA_PIXEL
 from ..viz.overlay import draw_overlay
-from ..io.sources import BrokenRecordingError, is_recording
+from ..io.sources import BrokenRecordingError, expand_paths, is_recording
 from . import EXIT_OK, UsageError, error_line, exit_code, exit_codes_help, prefix, print_error
 from .recordings import RateProgress, add_every_option, add_topic_option, camera_note, open_source, recording_camera
 from .options import (
@@ -268,7 +268,7 @@ def _jobs(args):
                     for k in range(0, len(recording), args.every)], None, None
         if args.every != 1 or getattr(args, "topic", None) is not None:
             raise UsageError("--every and --topic go with one video or ROS bag")
-        return [Job(str(path), path, args.bounds, guess) for path in image_paths(args.images)], None, None
+        return [Job(str(path), path, args.bounds, guess) for path in expand_paths(args.images)], None, None
     if args.bounds is not None:
         raise UsageError("--bounds goes with IMAGE (images or folders); a case file gives each image its bounds")
     if args.guess is not None:
@@ -298,20 +298,6 @@ def _target(args, cases, source, jobs=()):
         camera, board = camera_from_args(args, cases.camera, cases.board,
                                          source=f"case file {source} gives no K nor camera")
     return camera, board, target_keys(camera, board, *camera_file(args, source))
-
-
-def image_paths(items) -> list:
-    """The images named by ``items`` (paths, as typed): a folder stands for its image files in
-    name order (:func:`graphpose.track.frames.list_frames`), a quoted glob for its matches, a
-    list file (``.txt``, ``.lst``, ``.list``) for the paths it lists, any other path for itself
-    (:func:`graphpose.io.sources.expand_paths`)."""
-    from ..io.sources import expand_paths
-    from ..track.frames import list_frames
-
-    for item in items:
-        if Path(item).is_dir():
-            list_frames(item)  # its own message for a folder without images
-    return expand_paths(items)
 
 
 def _display(path: Path) -> str:
