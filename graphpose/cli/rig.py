@@ -281,7 +281,8 @@ def run_track(args) -> int:
     from ..track.frames import frame_timestamps, read_timestamps
     from . import EXIT_FAILED
     from .options import Progress, check_output_folder
-    from .track_output import JsonStream, TumStream
+    from ..io.tum import TumStream
+    from .track_output import JsonStream
 
     if args.frames:
         raise UsageError("--rig takes the rig's frames itself (one SOURCE per camera): give no FRAMES")

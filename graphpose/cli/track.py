@@ -152,7 +152,8 @@ def run(args) -> int:
     from ..track.config import MotionPrior, TrackerConfig, default_lag_s
     from ..track.frames import frame_timestamps, read_timestamps
     from ..track.tracker import track_frames
-    from .track_output import JsonStream, TrackSummary, TumStream
+    from ..io.tum import TumStream
+    from .track_output import JsonStream, TrackSummary
 
     if args.plot is not None:  # a missing extra is found now, not after the whole sequence
         from .._extras import require

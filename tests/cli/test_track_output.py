@@ -11,7 +11,8 @@ from graphpose import K_from_params
 from graphpose.camera_models import PinholeCamera
 from graphpose.camera_params import camera_parameters, camera_with_parameters
 from graphpose.cli import main
-from graphpose.cli.track_output import JsonStream, TrackSummary, TumStream
+from graphpose.cli.track_output import JsonStream, TrackSummary
+from graphpose.io.tum import TumStream
 from graphpose.errors import InputError
 from graphpose.geometry import T_from_params
 from graphpose.io.camera_files import write_camera
