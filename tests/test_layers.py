@@ -4,7 +4,7 @@ Every import of a graphpose module by another, at the top of a file or inside a 
 lazy import is still a dependency), is read from the source with ``ast``. A module may import
 from its own layer's group and from the layers below it, never from a layer above; two groups of
 one layer may not import each other. The package's facade (``graphpose/__init__.py``) imports
-its errors only and loads every other name on first use, so it sits low; ``__main__`` and the
+its errors and the lazy loader only and loads every other name on first use, so it sits low; ``__main__`` and the
 old top-level ``saddle`` module sit above everything.
 """
 
@@ -18,10 +18,10 @@ PACKAGE = Path(__file__).resolve().parents[1] / "graphpose"
 #: Bottom up. Each layer is a tuple of groups; a group is a module or subpackage (dotted,
 #: below ``graphpose``), and the most specific group containing a module is its own.
 LAYERS = (
-    # errors, the compiled view of decoded pixels and the PNG row filters (they import no
-    # graphpose module).
-    ("errors", "_pixels", "_png_filters"),
-    # The facade: it imports its errors only; every other name loads on first use (PEP 562).
+    # errors, the compiled view of decoded pixels, the PNG row filters and the packages' lazy
+    # names (they import no graphpose module).
+    ("errors", "_pixels", "_png_filters", "_lazy"),
+    # The facade: it imports its errors and _lazy only; every other name loads on first use (PEP 562).
     # _png: the grey-PNG reader, on the compiled pixels.
     ("_checks", "_extras", "__init__", "_png"),
     # The robust-estimation rules (a Huber threshold, a sigma from residuals) beside it.

@@ -14,10 +14,10 @@ as well). Names are imported on first use, so that importing the package loads n
 
 from __future__ import annotations
 
-import importlib
 import sys
 import types
 
+from .._lazy import lazy_getattr
 from ..camera_params import (  # noqa: F401  (re-exported: listed in __all__)
     camera_parameters,
     camera_with_parameters,
@@ -32,14 +32,7 @@ _EXPORTS = {"calibrate": "run", "calibrate_corners": "run", "Calibration": "resu
 __all__ = sorted(["camera_parameters", "camera_with_parameters", "parameter_names",
                   "projection_jacobian_intrinsics", *_EXPORTS])
 
-
-def __getattr__(name: str):
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'graphpose.calibrate' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_getattr(__name__, _EXPORTS)
 
 
 def __dir__():
