@@ -55,6 +55,7 @@ class RigGraph:
     ----------
     cameras : list of Camera
     T_C0_C : list of (4, 4) ndarray
+        Camera c's pose in camera 0's frame (the first the identity).
     poses : list of (4, 4) ndarray
         ``T_WC0`` per view.
     cov : (N, N) ndarray
