@@ -282,7 +282,7 @@ def run_track(args) -> int:
     from . import EXIT_FAILED
     from .options import Progress, check_output_folder
     from ..io.tum import TumStream
-    from .track_output import JsonStream
+    from .track_output import JsonStream, abort_on_error
 
     if args.frames:
         raise UsageError("--rig takes the rig's frames itself (one SOURCE per camera): give no FRAMES")
@@ -310,7 +310,7 @@ def run_track(args) -> int:
     doc = None
     progress = Progress(len(views), sys.stderr)
     found = 0
-    try:
+    with abort_on_error(progress, lambda: (tum, doc)):
         doc = None if args.json is None else JsonStream(args.json)
         for k, group in enumerate(views):
             images = [None if i is None else files[c][i] for c, i in enumerate(group)]
@@ -338,12 +338,6 @@ def run_track(args) -> int:
         if doc is not None:
             doc.close({"rig": str(args.camera), "pose_of": rig.names[0], "smoothed": False,
                        "board": f"{board.cols}x{board.rows}x{board.square_m}"})
-    except BaseException:
-        progress.clear()
-        for out in (tum, doc):
-            if out is not None:
-                out.abort()
-        raise
     if not args.quiet and args.json != "-":
         print(f"graphpose track --rig: {found} of {len(views)} frames with the rig's pose ({rig.names[0]}'s T_WC), "
               f"{len(views) - found} lost")

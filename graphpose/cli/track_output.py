@@ -19,10 +19,26 @@ from __future__ import annotations
 import json
 import sys
 from array import array
+from contextlib import contextmanager
 
 import numpy as np
 
 from ..io.files import AtomicFile, dumps_json
+
+
+@contextmanager
+def abort_on_error(progress, outputs):
+    """Run the block; on any error (an interruption too) clear ``progress``'s line, abort each
+    output of ``outputs()`` (a callable, so that outputs opened inside the block count; None
+    for one not opened) so that no file is left half written, and raise the error again."""
+    try:
+        yield
+    except BaseException:
+        progress.clear()
+        for out in outputs():
+            if out is not None:
+                out.abort()
+        raise
 
 
 class JsonStream:
