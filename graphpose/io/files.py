@@ -55,16 +55,7 @@ def atomic_write(path, data) -> None:
     """
     if isinstance(data, str):
         data = data.encode("utf-8")
-    out = AtomicFile(path, binary=True)
-    try:
-        out.file.write(data)
-    except OSError as exc:
-        out.abort()
-        raise InputError(f"cannot write {out.path}: {exc.strerror or exc}") from None
-    except BaseException:
-        out.abort()
-        raise
-    out.commit()
+    AtomicFile(path, binary=True).commit(data)
 
 
 class AtomicFile:
@@ -107,9 +98,11 @@ class AtomicFile:
             raise InputError(f"cannot write {self.path}: {exc.strerror or exc}") from None
         self.file = os.fdopen(fd, "wb") if binary else os.fdopen(fd, "w", encoding="utf-8", newline="")
 
-    def commit(self) -> None:
-        """Flush the file to disk and put it in place of ``path``."""
+    def commit(self, data=None) -> None:
+        """Write ``data`` (if given) last, flush the file to disk and put it in place of ``path``."""
         try:
+            if data is not None:
+                self.file.write(data)
             self.file.flush()
             os.fsync(self.file.fileno())
             self.file.close()
