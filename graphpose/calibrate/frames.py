@@ -28,8 +28,8 @@ def source_files(source, what: str = "source") -> list:
     Parameters
     ----------
     source : str, Path or sequence of them
-        A folder (its image files: :func:`graphpose.io.sources.paths.list_images`), a glob pattern (``left*.jpg``), one file, or a list of
-        files.
+        A folder (its image files, :func:`graphpose.io.sources.paths.list_images`), a glob
+        pattern (``left*.jpg``), one file, or a list of files.
     what : str
         The source's name in messages.
 

@@ -77,10 +77,7 @@ def expand_paths(items) -> list:
 def list_images(folder) -> list:
     """A folder's image files in name order: its files (not its sub-folders) whose name ends in
     one of :data:`graphpose.image.IMAGE_SUFFIXES`, in any case; empty when it holds none.
-
-    The one rule for what a folder of images holds: :func:`expand_paths` (every command's
-    images), :func:`graphpose.track.frames.list_frames` and a rig's camera folders
-    (:func:`graphpose.calibrate.frames.source_files`) all read a folder with it.
+    Every folder of images graphpose reads (commands, tracks, a rig's cameras) is read with it.
     """
     return sorted(p for p in Path(folder).iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
 
