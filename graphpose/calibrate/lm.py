@@ -237,11 +237,11 @@ def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = M
         return _hold((blocks[0] + info, blocks[1], blocks[2], blocks[3] + grad, blocks[4]), held)
 
     def trial(camera, x_new):
-        trial = camera_with_parameters(camera, x_new[:P])  # InputError: a focal length <= 0
-        views_new, z_new = _evaluate(trial, x_new, observations, P)
-        cost_new = (_cost(views_new, huber_px) + prior_terms(trial, x_new[:P], prior_px)[0]
+        moved = camera_with_parameters(camera, x_new[:P])  # InputError: a focal length <= 0
+        views_new, z_new = _evaluate(moved, x_new, observations, P)
+        cost_new = (_cost(views_new, huber_px) + prior_terms(moved, x_new[:P], prior_px)[0]
                     if z_new > 0 else np.inf)
-        return trial, views_new, cost_new
+        return moved, views_new, cost_new
 
     x, camera, views, S, converged, it, message = levenberg_marquardt(
         x, camera, views, cost, normal, trial, observed_scale(uv for uv, _, _ in observations), huber_px,

@@ -156,9 +156,9 @@ def solve_rig_lm(cameras, T_C0_C, poses, observations, huber_px=None,
         return _normal(views, observations, cols, view0, len(poses), huber_px)
 
     def trial(cameras, x_new):
-        trial = _cameras(cameras, x_new, starts)
-        views_new, z = _evaluate(trial, x_new, observations, layout)
-        return trial, views_new, _cost(views_new, huber_px) if z > 0 else np.inf
+        moved = _cameras(cameras, x_new, starts)
+        views_new, z = _evaluate(moved, x_new, observations, layout)
+        return moved, views_new, _cost(views_new, huber_px) if z > 0 else np.inf
 
     x, cameras, views, S, converged, it, message = levenberg_marquardt(
         x, cameras, views, _cost(views, huber_px), normal, trial, observed_scale(uv for _, _, uv, _ in observations),
