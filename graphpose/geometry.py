@@ -143,6 +143,15 @@ def hat(w) -> np.ndarray:
     return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
 
 
+def hats(P) -> np.ndarray:
+    """:func:`hat` of every column of P (3, m): the skew matrices (m, 3, 3)."""
+    out = np.zeros((P.shape[1], 3, 3))
+    out[:, 0, 1], out[:, 0, 2] = -P[2], P[1]
+    out[:, 1, 0], out[:, 1, 2] = P[2], -P[0]
+    out[:, 2, 0], out[:, 2, 1] = -P[1], P[0]
+    return out
+
+
 def so3_log(R) -> np.ndarray:
     """Rotation vector (3,) of a rotation matrix (3, 3), radians, accurate from 0 to pi
     (``R = exp(hat(omega))``; at pi either sign of the axis is an answer)."""

@@ -50,3 +50,14 @@ def test_project_centre_of_fronto_parallel_camera():
     uv = project(K, T, [[0.1, 0.2], [0.2, 0.2], [0.0, 0.0]])
     np.testing.assert_allclose(uv, [[320, 370], [240, 240]])
     assert to_camera(T, [[0.1], [0.2], [0.0]])[2, 0] == pytest.approx(1.0)
+
+
+def test_hats_is_hat_of_every_column():
+    from graphpose.geometry import hat, hats
+
+    P = np.random.default_rng(2).normal(size=(3, 5))
+    H = hats(P)
+    assert H.shape == (5, 3, 3)
+    for k in range(5):
+        np.testing.assert_array_equal(H[k], hat(P[:, k]))
+    assert hats(np.zeros((3, 0))).shape == (0, 3, 3)

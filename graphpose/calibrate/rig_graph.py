@@ -37,7 +37,8 @@ from ..camera_params import camera_parameters, camera_with_parameters, projectio
 from ..errors import InputError
 
 from ..pose.graph import params_from_tangent_jacobian
-from ..pose.rig import hats, huber
+from ..geometry import hats
+from ..pose.rig import huber
 from .graph import _ABSOLUTE_TOL, _MAX_ITERATIONS, _POLISH_ITERATIONS, _POLISH_STEP, _RELATIVE_TOL
 
 

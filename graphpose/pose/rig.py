@@ -31,7 +31,7 @@ import numpy as np
 
 from ..board import Board, check_board
 from ..errors import BoardNotFoundError, InputError
-from ..geometry import T_from_params, hat, params_from_T, pose_difference, rot_x, rot_y, rot_z
+from ..geometry import T_from_params, hat, hats, params_from_T, pose_difference, rot_x, rot_y, rot_z
 from .estimate import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck
 from .gauss_newton import _weights
 from ..robust import HUBER_K, mad_sigma
@@ -166,15 +166,6 @@ def huber(r, jacobians, k):
     ds = np.where(far, (k * k - k * a) / (safe ** 3 * root), 0.0)
     outer = (r.T[:, :, None] * r.T[:, None, :]) * ds[:, None, None]
     return r * s, [s[:, None, None] * J + outer @ J for J in jacobians]
-
-
-def hats(P):
-    """``[p]_x`` for each column of P (3, m): (m, 3, 3)."""
-    out = np.zeros((P.shape[1], 3, 3))
-    out[:, 0, 1], out[:, 0, 2] = -P[2], P[1]
-    out[:, 1, 0], out[:, 1, 2] = P[2], -P[0]
-    out[:, 2, 0], out[:, 2, 1] = -P[1], P[0]
-    return out
 
 
 def _invert(T):
