@@ -29,7 +29,7 @@ from ..errors import GraphposeError, InputError
 from ..io.camera_files import FORMATS
 from . import EXIT_OK, PROG, UsageError, calibrate_extras, exit_codes_help
 from ..io.sources import expand_paths
-from .options import BOARD_UNITS, Progress, check_output_folder, parse_board
+from .options import BOARD_UNITS, Progress, check_output_folder, parse_board, write_json_option
 from .recordings import add_view_options, recording_views, views_record, views_text
 
 #: The models ``--model`` takes, and the formats of ``--format``.
@@ -108,7 +108,6 @@ def run(args) -> int:
     from ..calibrate import calibrate
     from ..io.calibration import write_camera
     from ..io.camera_files import covariance_note
-    from ..io.files import dumps_json, write_json
 
     _check_outputs(args)
     calibrate_extras.check(args)
@@ -134,10 +133,7 @@ def run(args) -> int:
     record = calibration_record(calibration)
     if views is not None:
         record["views"] = views_record(views[2])
-    if args.json == "-":
-        sys.stdout.write(dumps_json(record))
-    elif args.json is not None:
-        write_json(args.json, record)
+    write_json_option(args.json, record)
     if not calibration.ok:
         raise CalibrationFailed(f"{calibration.summary} (no camera file written)")
     write_camera(args.out, calibration.camera, format=args.format)

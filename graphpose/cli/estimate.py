@@ -23,7 +23,7 @@ from ..board import board_hint
 from ..errors import BoardNotFoundError, GraphposeError, InputError
 from ..image import read_image
 from ..io.cases import bundled_cases_path, load_cases, load_pose
-from ..io.files import dumps_json, write_json, write_png
+from ..io.files import write_png
 from ..pipeline import estimate_pose
 from ..pose.estimate import pose_difference
 from ..pose.intrinsics import SIGMA_PIXEL
@@ -39,6 +39,7 @@ from .options import (
     check_camera_options,
     check_output_folder,
     parse_bounds,
+    write_json_option,
 )
 from ..io.records import result_record, target_keys, target_words
 
@@ -155,10 +156,7 @@ def run(args) -> int:
         failed = sum(c != EXIT_OK for c in codes)
         what = "images" if jobs[0].recording is None else f"frames of {jobs[0].recording.name}"
         print(f"{len(jobs)} {what}: {len(jobs) - failed} estimated, {failed} failed")
-    if args.json == "-":
-        sys.stdout.write(dumps_json(records))
-    elif args.json is not None:
-        write_json(args.json, records)
+    write_json_option(args.json, records)
     if broken is not None:
         print_error(broken, prog=prefix("estimate"))
         return exit_code(broken)
