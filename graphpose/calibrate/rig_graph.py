@@ -145,6 +145,7 @@ def solve_rig_graph(cameras, T_C0_C, poses, observations, sigma: float, huber_k=
     poses : list of (4, 4) ndarray
         Starting ``T_WC0`` per view.
     observations : list of (view, camera, uv (2, m), W (3, m))
+        Every (view, camera) with the board: its junctions' pixels and board points.
     sigma : float
         Pixel noise of every junction, pixels.
     huber_k : float, optional

@@ -129,14 +129,9 @@ def solve_rig_lm(cameras, T_C0_C, poses, observations, huber_px=None,
 
     Parameters
     ----------
-    cameras : list of Camera
-        Starting cameras (models and sizes kept).
-    T_C0_C : list of (4, 4) ndarray
-        Starting extrinsics, the first the identity.
-    poses : list of (4, 4) ndarray
-        Starting ``T_WC0`` per view.
-    observations : list of (view, camera, uv (2, m), W (3, m))
-        Every (view, camera) with the board: its junctions' pixels and board points.
+    cameras, T_C0_C, poses, observations
+        The start and the junctions, as :func:`graphpose.calibrate.rig_graph.solve_rig_graph`
+        takes them.
     huber_px : float, optional
         Huber threshold on each junction's 2-D error, pixels.
     max_iterations : int
