@@ -24,8 +24,7 @@ Conventions are stated once, in :mod:`graphpose.geometry`; input checks live in
 
 from __future__ import annotations
 
-import importlib
-
+from ._lazy import lazy_getattr
 from .errors import (  # noqa: F401  (re-exported: listed in __all__)
     BoardMismatchError,
     BoardNotFoundError,
@@ -113,15 +112,7 @@ __all__ = sorted(
 )
 
 
-def __getattr__(name: str):
-    if name in _PACKAGES:
-        return importlib.import_module(f".{name}", __name__)  # sets the attribute itself
-    module = _EXPORTS.get(name) or _COURSE.get(name)
-    if module is None:
-        raise AttributeError(f"module 'graphpose' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
-    globals()[name] = value  # later look-ups skip this function
-    return value
+__getattr__ = lazy_getattr(__name__, {**_EXPORTS, **_COURSE}, _PACKAGES)
 
 
 def __dir__():

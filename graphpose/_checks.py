@@ -29,6 +29,10 @@ from .errors import InputError
 ROTATION_TOL = 1e-6
 #: Smallest camera-frame depth (metres) a point may have to count as in front of the camera.
 MIN_DEPTH = 1e-9
+#: Fewest points any pose is solved from: four points of the board's plane, no three on a line,
+#: fix its homography, the pose's linear start (the public solvers refuse fewer; the pipeline
+#: and the detector ask for :data:`graphpose.observations.MIN_JUNCTIONS`, which leaves a margin).
+MIN_POSE_POINTS = 4
 
 
 def as_float_array(x, name: str, shape=None) -> np.ndarray:
@@ -250,8 +254,8 @@ def check_correspondences(K, Ipts, Wpts, mask=None):
         mask = np.asarray(mask)
         if mask.shape != (n,) or mask.dtype != bool:
             raise InputError(f"mask must be a boolean array of shape ({n},), got {mask.dtype} {mask.shape}")
-    if np.count_nonzero(mask) < 4:
-        raise InputError(f"pose needs at least 4 trusted points, got {np.count_nonzero(mask)}")
+    if np.count_nonzero(mask) < MIN_POSE_POINTS:
+        raise InputError(f"pose needs at least {MIN_POSE_POINTS} trusted points, got {np.count_nonzero(mask)}")
     return K, Ipts, Wpts, mask
 
 

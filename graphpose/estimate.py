@@ -48,7 +48,8 @@ from .observations import MIN_JUNCTIONS, check_observations
 from .pose.covariance import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
 from .pose.cross_check import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck, cross_check  # noqa: F401  (re-exported)
 from .pose.gauss_newton import GNResult, gauss_newton, huber_weights, reprojection_cost
-from .pose.graph import HUBER_K, GraphResult, graph_pose
+from .pose.graph import GraphResult, graph_pose
+from .robust import HUBER_K, mad_sigma
 from .pose.homography import on_target_plane, pose_from_homography
 from ._deprecated import renamed
 
@@ -200,7 +201,7 @@ def fit_pose(Ipts, Wpts, camera, *, guess=None, mask=None, robust: bool = False,
     tracker's front end (:mod:`graphpose.track.frontend`): start from ``guess``, or from the
     homography initialiser when None; Gauss-Newton on the used points; with ``robust``, the
     pixel sigma estimated robustly (1.4826 x the median absolute residual) and Gauss-Newton
-    again from the same start with a Huber kernel at :data:`graphpose.pose.graph.HUBER_K` of
+    again from the same start with a Huber kernel at :data:`graphpose.robust.HUBER_K` of
     those sigmas, so that outlying points are down-weighted.
 
     Parameters
@@ -248,7 +249,7 @@ def _fit_pose(camera, Ipts, Wpts, guess, mask, robust):
     start = pose_from_homography(Ipts[:, mask], Wpts[:, mask], camera, check=False) if guess is None else guess
     gn = gauss_newton(Ipts, Wpts, camera, guess=start, mask=mask, check=False)
     if robust:
-        pixel_sigma = max(1.4826 * float(np.nanmedian(np.abs(gn.residuals[:, mask]))), 1e-12)
+        pixel_sigma = mad_sigma(gn.residuals[:, mask], floor=1e-12)
         gn = gauss_newton(Ipts, Wpts, camera, guess=start, mask=mask, huber_px=HUBER_K * pixel_sigma,
                           pixel_sigma=pixel_sigma, check=False)
     return gn, start

@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from ._checks import check_K
+from ._checks import MIN_POSE_POINTS, check_K
 from .errors import DegenerateGeometryError
 
 
@@ -141,6 +141,15 @@ def project(K, T_WC, P_W) -> np.ndarray:
 def hat(w) -> np.ndarray:
     """The skew matrix ``[w]_x`` (3, 3) of a 3-vector: ``hat(w) @ p == np.cross(w, p)``."""
     return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+
+
+def hats(P) -> np.ndarray:
+    """:func:`hat` of every column of P (3, m): the skew matrices (m, 3, 3)."""
+    out = np.zeros((P.shape[1], 3, 3))
+    out[:, 0, 1], out[:, 0, 2] = -P[2], P[1]
+    out[:, 1, 0], out[:, 1, 2] = P[2], -P[0]
+    out[:, 2, 0], out[:, 2, 1] = -P[1], P[0]
+    return out
 
 
 def so3_log(R) -> np.ndarray:
@@ -292,7 +301,7 @@ def homography_dlt(src, dst) -> np.ndarray:
     # with normalised points (A's condition number ~10 apart from the null direction) squaring
     # the condition costs no accuracy that matters.
     w, V = np.linalg.eigh(A.T @ A)
-    if n < 4 or w[1] < _RANK_TOL**2 * w[-1]:
+    if n < MIN_POSE_POINTS or w[1] < _RANK_TOL**2 * w[-1]:
         raise DegenerateGeometryError("the points do not determine a homography (collinear or repeated points)")
     H = np.linalg.solve(Td, V[:, 0].reshape(3, 3) @ Ts)
     return H / np.linalg.norm(H)

@@ -232,3 +232,19 @@ def test_check_timestamps_rejects():
         check_timestamps([[0, 1]], "t")
     with pytest.raises(InputError, match="strictly increasing"):
         check_timestamps([0, 1, 1], "t")
+
+
+def test_min_pose_points_is_the_one_minimum_of_the_pose_checks_and_the_tracker_setting():
+    from graphpose._checks import MIN_POSE_POINTS, check_correspondences
+    from graphpose.track.config import TrackerConfig
+
+    K = np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]])
+    rng = np.random.default_rng(1)
+    W = np.vstack([rng.uniform(0, 0.2, (2, MIN_POSE_POINTS)), np.zeros((1, MIN_POSE_POINTS))])
+    I = rng.uniform(0, 400, (2, MIN_POSE_POINTS))
+    assert check_correspondences(K, I, W)[3].sum() == MIN_POSE_POINTS
+    with pytest.raises(InputError, match=f"at least {MIN_POSE_POINTS} trusted points, got {MIN_POSE_POINTS - 1}"):
+        check_correspondences(K, I[:, 1:], W[:, 1:])
+    assert TrackerConfig(min_junctions=MIN_POSE_POINTS).min_junctions == MIN_POSE_POINTS
+    with pytest.raises(InputError, match=f"integer >= {MIN_POSE_POINTS}"):
+        TrackerConfig(min_junctions=MIN_POSE_POINTS - 1)

@@ -65,3 +65,14 @@ def test_so3_exp_inverts_so3_log_and_invert_transform_inverts():
         T = se3_exp(np.r_[w, rng.standard_normal(3)])
         np.testing.assert_allclose(so3_exp(w), T[:3, :3], atol=1e-14)
         np.testing.assert_allclose(invert_transform(T) @ T, np.eye(4), atol=1e-14)
+
+
+def test_hats_is_hat_of_every_column():
+    from graphpose.geometry import hat, hats
+
+    P = np.random.default_rng(2).normal(size=(3, 5))
+    H = hats(P)
+    assert H.shape == (5, 3, 3)
+    for k in range(5):
+        np.testing.assert_array_equal(H[k], hat(P[:, k]))
+    assert hats(np.zeros((3, 0))).shape == (0, 3, 3)

@@ -4,14 +4,14 @@ Every import of a graphpose module by another, at the top of a file or inside a 
 lazy import is still a dependency), is read from the source with ``ast``. A module may import
 from its own layer's group and from the layers below it, never from a layer above; two groups of
 one layer may not import each other. The package's facade (``graphpose/__init__.py``) imports
-its errors only and loads every other name on first use, so it sits low; ``__main__``, the
-course's starter functions and the deprecated module names sit above everything.
+its errors and the lazy loader only and loads every other name on first use, so it sits low;
+``__main__``, the course's starter functions and the deprecated module names sit above everything.
 
 Privacy runs by subpackage (:func:`private_imports`): a name with a leading underscore, and
 every name of a private module (``graphpose.detect._refine``), is private to the subpackage
 that holds it (a top-level module, ``graphpose.rig``, is a unit of its own): no other
 subpackage imports it. The package's own top-level private modules (``graphpose._checks``,
-``_deprecated``, ``_extras``, ``_pixels``, ``_png``, ``_png_filters``) are the package's shared internals:
+``_deprecated``, ``_extras``, ``_lazy``, ``_pixels``, ``_png``, ``_png_filters``) are the package's shared internals:
 private to graphpose, not to one subpackage (they are underscored because they are not the
 user's API: the validators every public edge calls, the optional-dependency guard, the
 compiled pixel kernels), so any graphpose module may import their public names. And
@@ -29,13 +29,14 @@ PACKAGE = Path(__file__).resolve().parents[1] / "graphpose"
 #: Bottom up. Each layer is a tuple of groups; a group is a module or subpackage (dotted,
 #: below ``graphpose``), and the most specific group containing a module is its own.
 LAYERS = (
-    # errors, the compiled view of decoded pixels and the PNG row filters (they import no
-    # graphpose module).
-    ("errors", "_pixels", "_png_filters"),
-    # The facade: it imports its errors only; every other name loads on first use (PEP 562).
+    # errors, the compiled view of decoded pixels, the PNG row filters and the packages' lazy
+    # names (they import no graphpose module).
+    ("errors", "_pixels", "_png_filters", "_lazy"),
+    # The facade: it imports its errors and _lazy only; every other name loads on first use (PEP 562).
     # _png: the grey-PNG reader, on the compiled pixels.
     ("_checks", "_deprecated", "_extras", "__init__", "_png"),
-    ("geometry",),
+    # The robust-estimation rules (a Huber threshold, a sigma from residuals) beside it.
+    ("geometry", "robust"),
     ("board", "camera_models", "image"),
     # A rig of cameras and its stereo matrices (on the cameras and their parameters).
     ("rig",),

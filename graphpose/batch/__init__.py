@@ -17,7 +17,7 @@ and are imported only when used: the names below load on first use.
 
 from __future__ import annotations
 
-import importlib
+from .._lazy import lazy_getattr
 
 #: Public name -> the module of this package that defines it (imported lazily, PEP 562).
 _EXPORTS = {
@@ -44,14 +44,7 @@ __all__ = [
     "read_results",
 ]
 
-
-def __getattr__(name: str):
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'graphpose.batch' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_getattr(__name__, _EXPORTS)
 
 
 def __dir__():

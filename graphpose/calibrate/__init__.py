@@ -14,9 +14,10 @@ as well). Names are imported on first use, so that importing the package loads n
 
 from __future__ import annotations
 
-import importlib
 import sys
 import types
+
+from .._lazy import lazy_getattr
 
 #: Public name -> the module of this package that defines it (imported lazily, PEP 562).
 _EXPORTS = {"calibrate": "run", "calibrate_corners": "run", "Calibration": "result",
@@ -24,14 +25,7 @@ _EXPORTS = {"calibrate": "run", "calibrate_corners": "run", "Calibration": "resu
 
 __all__ = sorted(_EXPORTS)
 
-
-def __getattr__(name: str):
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'graphpose.calibrate' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_getattr(__name__, _EXPORTS)
 
 
 def __dir__():

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..geometry import hats
 
 #: mrcal's default focus region: a radius of min(width, height) / 6 around the image's centre.
 FOCUS_FRACTION = 1.0 / 6.0
@@ -150,10 +151,7 @@ def predicted_diff(camera, cov, step: float = 16.0, focus_radius_px=None) -> np.
     J = camera.parameter_jacobian(vg)  # (N, 2, P)
     _, Gp = camera.project_jacobian(vg)  # (N, 2, 3)
     # d (R v) / d omega at R = I is -[v]_x.
-    skew = np.zeros((vg.shape[1], 3, 3))
-    skew[:, 0, 1], skew[:, 0, 2], skew[:, 1, 2] = -vg[2], vg[1], -vg[0]
-    skew[:, 1, 0], skew[:, 2, 0], skew[:, 2, 1] = vg[2], -vg[1], vg[0]
-    G = -Gp @ skew  # (N, 2, 3)
+    G = -Gp @ hats(vg)  # (N, 2, 3)
     centre = np.array([[(width - 1) / 2.0], [(height - 1) / 2.0]])
     qg = q[:, good]
     near = np.hypot(*(qg - centre)) <= radius if radius > 0 else np.ones(qg.shape[1], bool)

@@ -18,9 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-
-#: Image file suffixes a folder source is read for.
-IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm")
+from ..image import IMAGE_SUFFIXES
+from ..io.sources.paths import list_images
 
 
 def source_files(source, what: str = "source") -> list:
@@ -29,8 +28,8 @@ def source_files(source, what: str = "source") -> list:
     Parameters
     ----------
     source : str, Path or sequence of them
-        A folder (its image files), a glob pattern (``left*.jpg``), one file, or a list of
-        files.
+        A folder (its image files, :func:`graphpose.io.sources.paths.list_images`), a glob
+        pattern (``left*.jpg``), one file, or a list of files.
     what : str
         The source's name in messages.
 
@@ -42,7 +41,7 @@ def source_files(source, what: str = "source") -> list:
     if isinstance(source, (str, Path)):
         path = Path(source)
         if path.is_dir():
-            files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+            files = list_images(path)
         elif path.is_file():
             files = [path]
         elif any(ch in str(source) for ch in "*?["):

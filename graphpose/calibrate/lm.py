@@ -228,33 +228,114 @@ def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = M
     x = np.concatenate([camera.parameters] + [params_from_T(T) for T in poses])
     views, _ = _evaluate(camera, x, observations, P)
     cost = _cost(views, huber_px) + prior_terms(camera, x[:P], prior_px)[0]
-    scale = np.concatenate([np.abs(uv).T.ravel() for uv, _, _ in observations])
-    lam, converged, message, it, polish = 0.0, False, "iteration cap reached", 0, 0
-    S = np.full((P, P), np.nan)
-    while it < max_iterations:
-        it += 1
+
+    def normal(views, camera, x):
         blocks = _normal(views, huber_px, P)
         _, info, grad = prior_terms(camera, x[:P], prior_px)
-        blocks = _hold((blocks[0] + info, blocks[1], blocks[2], blocks[3] + grad, blocks[4]), held)
-        gp, ge = blocks[3], blocks[4]
+        return _hold((blocks[0] + info, blocks[1], blocks[2], blocks[3] + grad, blocks[4]), held)
+
+    def trial(camera, x_new):
+        moved = camera.with_parameters(x_new[:P])  # InputError: a focal length <= 0
+        views_new, z_new = _evaluate(moved, x_new, observations, P)
+        cost_new = (_cost(views_new, huber_px) + prior_terms(moved, x_new[:P], prior_px)[0]
+                    if z_new > 0 else np.inf)
+        return moved, views_new, cost_new
+
+    x, camera, views, S, converged, it, message = levenberg_marquardt(
+        x, camera, views, cost, normal, trial, observed_scale(uv for uv, _, _ in observations), huber_px,
+        max_iterations, np.full((P, P), np.nan), "the views do not constrain the calibration")
+    residuals, weights = residuals_and_weights(views, huber_px)
+    poses = [T_from_params(x[P + 6 * i: P + 6 * i + 6]) for i in range(len(observations))]
+    if held is not None and np.any(held):
+        S = S.copy()
+        S[held, :], S[:, held] = 0.0, 0.0  # no information: a held parameter is not estimated
+    return LMCalibration(camera, poses, S, residuals, weights, converged, it, message)
+
+
+def observed_scale(uvs) -> np.ndarray:
+    """The measured pixels' magnitudes (2M,), interleaved per junction as the residuals are:
+    the scale of :func:`_rounding`'s bound, from each observation's ``uv`` (2, m)."""
+    return np.concatenate([np.abs(uv).T.ravel() for uv in uvs])
+
+
+def residuals_and_weights(views, huber_px):
+    """Each view's residuals (2, m) and its junctions' Huber weights (m,) (ones without a
+    kernel), from the stacked residuals (2m,) that start each entry of ``views``."""
+    residuals, weights = [], []
+    for r, *_ in views:
+        m = r.size // 2
+        w = stacked_huber_weights(r, huber_px)
+        residuals.append(r.reshape(m, 2).T)
+        weights.append(np.ones(m) if w is None else w[0::2].copy())
+    return residuals, weights
+
+
+def levenberg_marquardt(x, state, views, cost, normal, trial, scale, huber_px, max_iterations, S, singular):
+    """The Levenberg-Marquardt loop of both hand-written calibrations (one camera,
+    :func:`solve_lm`; a rig, :func:`graphpose.calibrate.rig_lm.solve_rig_lm`): undamped
+    Gauss-Newton steps while they lower the cost, damped ones (lambda x 10 each failure, / 10
+    each success) when not, the pose blocks eliminated by :func:`_step`.
+
+    It stops when the undamped step is below :data:`STEP_SIGMAS` of every unknown's sigma
+    (converged), or, where the cost's rounding (:func:`_rounding`) hides any further descent,
+    when the steps at the rounding stay below :data:`ROUNDING_SIGMAS` (converged) or do not.
+
+    Parameters
+    ----------
+    x : (N,) ndarray
+        The start: the problem's parameters, then every view's pose (6 each).
+    state : object
+        The camera (or cameras) at ``x``, handed to ``normal`` and ``trial``.
+    views : list
+        Each observation's ``(r (2m,), ...)`` at ``x`` (its residuals first), for ``normal``.
+    cost : float
+        The cost at ``x``.
+    normal : callable
+        ``normal(views, state, x) -> (U, V, Wb, gp, ge)``: the normal equations by blocks.
+    trial : callable
+        ``trial(state, x_new) -> (state_new, views_new, cost_new)``; ``cost_new`` inf, or an
+        InputError raised, where ``x_new`` is no camera or puts a junction behind one.
+    scale : (2M,) ndarray
+        :func:`observed_scale` of the observations.
+    huber_px : float or None
+        The Huber threshold, pixels.
+    max_iterations : int
+        Steps tried (accepted or not).
+    S : ndarray
+        The Schur complement returned when no step is solved (NaN of its shape).
+    singular : str
+        What a singular system means, for the message.
+
+    Returns
+    -------
+    x, state, views
+        Where it ended.
+    S : ndarray
+        The last undamped system's Schur complement (the parameters' information).
+    converged : bool
+    iterations : int
+    message : str
+    """
+    lam, converged, message, it, polish = 0.0, False, "iteration cap reached", 0, 0
+    while it < max_iterations:
+        it += 1
+        blocks = normal(views, state, x)
         try:
             delta_gn, S, sd = _step(*blocks, 0.0)
         except np.linalg.LinAlgError:
-            message = "normal equations singular (the views do not constrain the calibration)"
+            message = f"normal equations singular ({singular})"
             break
         if np.all(np.abs(delta_gn) <= STEP_SIGMAS * sd):
             converged, message = True, "converged"
             break
-        g = np.concatenate([gp, ge.ravel()])
+        g = np.concatenate([blocks[3], blocks[4].ravel()])
         rounding = _rounding(views, scale, huber_px)
         polishing = 0.5 * (g @ delta_gn) <= rounding
         if polishing:
             polish += 1
             if polish > _MAX_POLISH_STEPS:
-                if np.all(np.abs(delta_gn) <= ROUNDING_SIGMAS * sd):
-                    converged, message = True, "converged (step at the rounding limit)"
-                else:
-                    message = "the steps at the cost's rounding do not converge"
+                converged, message = _at_rounding(delta_gn, sd, "converged (step at the rounding limit)",
+                                                  "the steps at the cost's rounding do not converge")
                 break
         try:
             delta = delta_gn if lam == 0.0 or polishing else _step(*blocks, lam)[0]
@@ -263,35 +344,26 @@ def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = M
             break
         x_new = x + delta
         try:
-            trial = camera.with_parameters(x_new[:P])
-            views_new, z_new = _evaluate(trial, x_new, observations, P)
-            cost_new = (_cost(views_new, huber_px) + prior_terms(trial, x_new[:P], prior_px)[0]
-                        if z_new > 0 else np.inf)
-        except InputError:  # a focal length <= 0
+            state_new, views_new, cost_new = trial(state, x_new)
+        except InputError:
             cost_new = np.inf
         if not np.isfinite(cost_new):
             cost_new = np.inf
         if cost_new < cost or (polishing and cost_new <= cost + rounding):
-            x, views, cost, camera = x_new, views_new, cost_new, trial
+            x, views, cost, state = x_new, views_new, cost_new, state_new
             lam = 0.0 if lam < 1e-6 else lam / 10.0
         else:
             lam = 1e-4 if lam == 0.0 else lam * 10.0
             if lam > _LAMBDA_MAX:
-                # At the cost's rounding no step can lower it: converged if the undamped step
-                # is already far below every parameter's sigma.
-                if np.all(np.abs(delta_gn) <= ROUNDING_SIGMAS * sd):
-                    converged, message = True, "converged (at the cost's rounding)"
-                else:
-                    message = "damped steps cannot lower the cost"
+                # At the cost's rounding no step can lower it.
+                converged, message = _at_rounding(delta_gn, sd, "converged (at the cost's rounding)",
+                                                  "damped steps cannot lower the cost")
                 break
-    residuals, weights = [], []
-    for r, _, _ in views:
-        m = r.size // 2
-        w = stacked_huber_weights(r, huber_px)
-        residuals.append(r.reshape(m, 2).T)
-        weights.append(np.ones(m) if w is None else w[0::2].copy())
-    poses = [T_from_params(x[P + 6 * i: P + 6 * i + 6]) for i in range(len(observations))]
-    if held is not None and np.any(held):
-        S = S.copy()
-        S[held, :], S[:, held] = 0.0, 0.0  # no information: a held parameter is not estimated
-    return LMCalibration(camera, poses, S, residuals, weights, converged, it, message)
+    return x, state, views, S, converged, it, message
+
+
+def _at_rounding(delta_gn, sd, yes: str, no: str):
+    """Where the cost's rounding stops the descent: converged (and ``yes``) if the undamped
+    step is already far below every unknown's sigma (:data:`ROUNDING_SIGMAS`), else ``no``."""
+    converged = bool(np.all(np.abs(delta_gn) <= ROUNDING_SIGMAS * sd))
+    return converged, yes if converged else no

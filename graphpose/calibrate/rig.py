@@ -45,7 +45,8 @@ from ..errors import InputError
 from ..geometry import T_from_params, invert_transform, params_from_T, relative_pose, so3_exp, so3_log
 from ..rig import Rig, rig_parameter_names
 from .frames import file_number, match_frames, source_files
-from .run import CROSS_CHECK_TOL, HUBER_K, MIN_IMAGES, REJECT_FLOOR_PX, REJECT_RATIO, _mad_sigma, _rms
+from ..robust import HUBER_K, mad_sigma
+from .run import CROSS_CHECK_TOL, MIN_IMAGES, REJECT_FLOOR_PX, REJECT_RATIO, SIGMA_FLOOR_PX, _rms
 from .result import SolverCrossCheck
 
 #: Per (view, camera) statuses.
@@ -365,7 +366,8 @@ def calibrate_rig(sources=None, model="radtan", *, board: Board = Board(), frame
         # last digits (the final solves below converge in full).
         fit = solve_rig_lm(start[0], start[1], [start[2][v] for v in active], packed, max_iterations=0)
         for _ in range(2):
-            fit = solve_rig_lm(fit.cameras, fit.T_C0_C, fit.poses, packed, huber_k * _mad_sigma(fit.residuals),
+            huber_px = huber_k * mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
+            fit = solve_rig_lm(fit.cameras, fit.T_C0_C, fit.poses, packed, huber_px,
                                max_iterations=SCREENING_ITERATIONS)
         rms = np.array([_rms(r) for r in fit.residuals])
         limit = max(REJECT_RATIO * float(np.median(rms)), REJECT_FLOOR_PX)
@@ -385,7 +387,7 @@ def calibrate_rig(sources=None, model="radtan", *, board: Board = Board(), frame
             break
         start = (fit.cameras, fit.T_C0_C, {**start[2], **dict(zip(active, fit.poses))})
     keys, active, packed = _pack(obs)
-    sigma0 = _mad_sigma(fit.residuals)
+    sigma0 = mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
     report("solve", 1, 2)
     # Both solvers from the screening's fit, each on its own path (as graphpose.calibrate's):
     # they must land on the same parameters.

@@ -36,7 +36,8 @@ from gtsam.symbol_shorthand import E, K, X
 from ..errors import InputError
 
 from ..pose.graph import params_from_tangent_jacobian
-from ..pose.rig import hats, huber
+from ..geometry import hats
+from ..pose.rig import huber
 from .graph import _ABSOLUTE_TOL, _MAX_ITERATIONS, _POLISH_ITERATIONS, _POLISH_STEP, _RELATIVE_TOL
 
 
@@ -54,6 +55,7 @@ class RigGraph:
     ----------
     cameras : list of Camera
     T_C0_C : list of (4, 4) ndarray
+        Camera c's pose in camera 0's frame (the first the identity).
     poses : list of (4, 4) ndarray
         ``T_WC0`` per view.
     cov : (N, N) ndarray
@@ -142,6 +144,7 @@ def solve_rig_graph(cameras, T_C0_C, poses, observations, sigma: float, huber_k=
     poses : list of (4, 4) ndarray
         Starting ``T_WC0`` per view.
     observations : list of (view, camera, uv (2, m), W (3, m))
+        Every (view, camera) with the board: its junctions' pixels and board points.
     sigma : float
         Pixel noise of every junction, pixels.
     huber_k : float, optional

@@ -20,46 +20,30 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
 from ..geometry import T_from_params, params_from_T
 from ..pose.rig import rig_points
 from ..pose.gauss_newton import stacked_huber_weights
-from .lm import _LAMBDA_MAX, _cost, _rounding, _step, _MAX_POLISH_STEPS, _ROUNDINGS, MAX_ITERATIONS, ROUNDING_SIGMAS, STEP_SIGMAS
+from .rig_graph import RigGraph
+from .lm import MAX_ITERATIONS, _cost, levenberg_marquardt, observed_scale, residuals_and_weights
 
 
 
 @dataclass(frozen=True)
-class RigLM:
-    """The hand-written solver's solution.
+class RigLM(RigGraph):
+    """The hand-written solver's solution: the graph's fields (:class:`.rig_graph.RigGraph`;
+    ``cov`` here ``(J^T W J)^-1`` of the intrinsics and extrinsics, the views' poses
+    marginalised, at unit pixel noise) and the residuals.
 
     Attributes
     ----------
-    cameras : list of Camera
-    T_C0_C : list of (4, 4) ndarray
-        Camera c's pose in camera 0's frame (the first the identity).
-    poses : list of (4, 4) ndarray
-        ``T_WC0`` per view.
-    cov : (N, N) ndarray
-        ``(J^T W J)^-1`` of the intrinsics and extrinsics (the rig's parameters, the views'
-        poses marginalised) at unit pixel noise.
     residuals : list of (2, m) ndarray
         Measured minus predicted pixels per observation.
     weights : list of (m,) ndarray
         Huber weight of each junction.
-    converged : bool
-    iterations : int
-    message : str
     """
 
-    cameras: list
-    T_C0_C: list
-    poses: list
-    cov: np.ndarray
     residuals: list
     weights: list
-    converged: bool
-    iterations: int
-    message: str
 
 
 def _layout(cameras, n_views):
@@ -144,14 +128,9 @@ def solve_rig_lm(cameras, T_C0_C, poses, observations, huber_px=None,
 
     Parameters
     ----------
-    cameras : list of Camera
-        Starting cameras (models and sizes kept).
-    T_C0_C : list of (4, 4) ndarray
-        Starting extrinsics, the first the identity.
-    poses : list of (4, 4) ndarray
-        Starting ``T_WC0`` per view.
-    observations : list of (view, camera, uv (2, m), W (3, m))
-        Every (view, camera) with the board: its junctions' pixels and board points.
+    cameras, T_C0_C, poses, observations
+        The start and the junctions, as :func:`graphpose.calibrate.rig_graph.solve_rig_graph`
+        takes them.
     huber_px : float, optional
         Huber threshold on each junction's 2-D error, pixels.
     max_iterations : int
@@ -166,64 +145,23 @@ def solve_rig_lm(cameras, T_C0_C, poses, observations, huber_px=None,
     x = np.concatenate([c.parameters for c in cameras]
                        + [params_from_T(T) for T in T_C0_C[1:]] + [params_from_T(T) for T in poses])
     views, _ = _evaluate(cameras, x, observations, layout)
-    cost = _cost(views, huber_px)
-    scale = np.concatenate([np.abs(uv).T.ravel() for _, _, uv, _ in observations])
-    lam, converged, message, it, polish = 0.0, False, "iteration cap reached", 0, 0
-    S = np.full((view0, view0), np.nan)
-    while it < max_iterations:
-        it += 1
-        blocks = _normal(views, observations, cols, view0, len(poses), huber_px)
-        try:
-            delta_gn, S, sd = _step(*blocks, 0.0)
-        except np.linalg.LinAlgError:
-            message = "normal equations singular (the views do not constrain the rig)"
-            break
-        if np.all(np.abs(delta_gn) <= STEP_SIGMAS * sd):
-            converged, message = True, "converged"
-            break
-        g = np.concatenate([blocks[3], blocks[4].ravel()])
-        rounding = _rounding(views, scale, huber_px)
-        polishing = 0.5 * (g @ delta_gn) <= rounding
-        if polishing:
-            polish += 1
-            if polish > _MAX_POLISH_STEPS:
-                converged = bool(np.all(np.abs(delta_gn) <= ROUNDING_SIGMAS * sd))
-                message = ("converged (step at the rounding limit)" if converged
-                           else "the steps at the cost's rounding do not converge")
-                break
-        try:
-            delta = delta_gn if lam == 0.0 or polishing else _step(*blocks, lam)[0]
-        except np.linalg.LinAlgError:
-            message = "damped normal equations singular"
-            break
-        x_new = x + delta
-        try:
-            trial = _cameras(cameras, x_new, starts)
-            views_new, z = _evaluate(trial, x_new, observations, layout)
-            cost_new = _cost(views_new, huber_px) if z > 0 else np.inf
-        except InputError:
-            cost_new = np.inf
-        if not np.isfinite(cost_new):
-            cost_new = np.inf
-        if cost_new < cost or (polishing and cost_new <= cost + rounding):
-            x, views, cost, cameras = x_new, views_new, cost_new, trial
-            lam = 0.0 if lam < 1e-6 else lam / 10.0
-        else:
-            lam = 1e-4 if lam == 0.0 else lam * 10.0
-            if lam > _LAMBDA_MAX:
-                converged = bool(np.all(np.abs(delta_gn) <= ROUNDING_SIGMAS * sd))
-                message = "converged (at the cost's rounding)" if converged else "damped steps cannot lower the cost"
-                break
-    residuals, weights = [], []
-    for r, _, _ in views:
-        m = r.size // 2
-        w = stacked_huber_weights(r, huber_px)
-        residuals.append(r.reshape(m, 2).T)
-        weights.append(np.ones(m) if w is None else w[0::2].copy())
+
+    def normal(views, cameras, x):
+        return _normal(views, observations, cols, view0, len(poses), huber_px)
+
+    def trial(cameras, x_new):
+        moved = _cameras(cameras, x_new, starts)
+        views_new, z = _evaluate(moved, x_new, observations, layout)
+        return moved, views_new, _cost(views_new, huber_px) if z > 0 else np.inf
+
+    x, cameras, views, S, converged, it, message = levenberg_marquardt(
+        x, cameras, views, _cost(views, huber_px), normal, trial, observed_scale(uv for _, _, uv, _ in observations),
+        huber_px, max_iterations, np.full((view0, view0), np.nan), "the views do not constrain the rig")
+    residuals, weights = residuals_and_weights(views, huber_px)
     try:
         cov = np.linalg.inv(S)
     except np.linalg.LinAlgError:
         cov = np.full_like(S, np.nan)
     T_out = [np.eye(4)] + [T_from_params(x[ext[c]: ext[c] + 6]) for c in range(1, len(cameras))]
     poses = [T_from_params(x[view0 + 6 * v: view0 + 6 * v + 6]) for v in range(len(poses))]
-    return RigLM(list(cameras), T_out, poses, cov, residuals, weights, converged, it, message)
+    return RigLM(list(cameras), T_out, poses, cov, converged, it, message, residuals=residuals, weights=weights)

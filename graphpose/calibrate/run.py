@@ -47,6 +47,7 @@ from ..board import check_board
 from ..board import Board
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 from ..camera_models import calibration_model
+from ..robust import HUBER_K, mad_sigma  # noqa: F401  (HUBER_K: calibrate's default, named here too)
 from .result import Calibration, SolverCrossCheck
 
 #: An image whose RMS exceeds this many times the median image's is rejected.
@@ -62,11 +63,14 @@ OUTLIER_SIGMAS = 5.0
 OUTLIER_IMAGE_FRACTION = 0.25
 #: The two solvers must agree on each parameter to this fraction of max(|p|, sigma_p).
 CROSS_CHECK_TOL = 1e-6
-#: Huber threshold, in sigmas (95 % efficiency under Gaussian noise, as the pose's).
-HUBER_K = 1.345
-#: Fewest images with a board; fewest trusted junctions an image must give.
+#: Fewest images with a board.
 MIN_IMAGES = 3
-MIN_JUNCTIONS = 8
+#: Fewest trusted junctions an image must give to join a calibration: more than a pose's
+#: (:data:`graphpose.observations.MIN_JUNCTIONS`), as an image must fix its own pose (six
+#: unknowns) and still tell the camera's parameters something (16 equations, 10 beyond its pose).
+MIN_CALIBRATION_JUNCTIONS = 8
+#: The smallest pixel sigma the residuals' median gives (:func:`graphpose.robust.mad_sigma`).
+SIGMA_FLOOR_PX = 1e-6
 #: Passes with the camera after the first: they stop when one finds no new board.
 MAX_CAMERA_PASSES = 3
 #: Largest relative 1-sigma of fx or fy a calibration may have.
@@ -148,19 +152,17 @@ def _detect(searched, board, camera):
     except BoardNotFoundError as exc:
         return None, str(exc)
     index = np.flatnonzero(J.trusted)
-    if index.size < MIN_JUNCTIONS:
-        return None, f"only {index.size} trusted junctions (need {MIN_JUNCTIONS})"
+    if index.size < MIN_CALIBRATION_JUNCTIONS:
+        return None, f"only {index.size} trusted junctions (need {MIN_CALIBRATION_JUNCTIONS})"
     return (J.points[:, index], board.world_points()[:, index], index), ""
 
 
 def _rms(r):
-    """sqrt(mean(du^2 + dv^2)) of residuals (2, m)."""
+    """sqrt(mean(du^2 + dv^2)) of residuals (2, m): the definition of
+    :func:`graphpose.pose.gauss_newton.reprojection_rms`, summed a junction at a time. The two
+    round differently in the last bit (a third of the figures), so each keeps its own sum and
+    every reported figure stays as it was."""
     return float(np.sqrt(np.mean(np.sum(r * r, axis=0)))) if r.size else float("nan")
-
-
-def _mad_sigma(residuals):
-    """The pixel noise from residuals [(2, m)]: 1.4826 x the median absolute coordinate."""
-    return max(1.4826 * float(np.median(np.abs(np.hstack(residuals)))), 1e-6)
 
 
 def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
@@ -180,24 +182,24 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
         # From Zhang's start a plain fit first; from an earlier pass's camera the residuals
         # at the start (no iterations) set the first Huber threshold.
         fit = solve_lm(camera, [poses[k] for k in keys], view, max_iterations=100 if plain else 0,
-                       prior_px=_mad_sigma(fit.residuals) if fit is not None else 1.0, held=held)
+                       prior_px=mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX) if fit is not None else 1.0, held=held)
         # Robust screening: two Huber solves (the noise from the residuals' median each time)
         # give the majority's fit, against which an image that does not fit stands out (a
         # plain fit spreads one bad image's misfit over all of them).
         for _ in range(2):
-            s = _mad_sigma(fit.residuals)
+            s = mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
             fit = solve_lm(fit.camera, fit.poses, view, huber_k * s, prior_px=s, held=held)
         camera, poses = fit.camera, dict(zip(keys, fit.poses))
         plain = False
         # Single junctions that do not fit the majority's solution: left out, and solved again.
-        limit_px = OUTLIER_SIGMAS * _mad_sigma(fit.residuals)
+        limit_px = OUTLIER_SIGMAS * mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
         flagged, whole = False, None
         for k, r in zip(keys, fit.residuals):
             bad = np.hypot(r[0], r[1]) > limit_px
             if not bad.any():
                 continue
             uv, W, index = obs[k]
-            if bad.sum() > OUTLIER_IMAGE_FRACTION * bad.size or bad.size - bad.sum() < MIN_JUNCTIONS:
+            if bad.sum() > OUTLIER_IMAGE_FRACTION * bad.size or bad.size - bad.sum() < MIN_CALIBRATION_JUNCTIONS:
                 if whole is None or bad.mean() > whole[1]:
                     whole = (k, bad.mean(), int(bad.sum()), bad.size)
                 continue
@@ -222,7 +224,7 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
                                  f"median image's {np.median(rms):.3f} px (a moved board, a wrong label, "
                                  "a blurred image?)")
         keys.pop(worst)
-    sigma0 = _mad_sigma(fit.residuals)
+    sigma0 = mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
     plain = fit
     start_poses = fit.poses
     if not final:
@@ -403,7 +405,7 @@ def calibrate_corners(corners, model: str = "radtan", *, board: Board = Board(),
     ------
     InputError
         If the size is missing or bad, a junction set is malformed, or fewer than three
-        images have :data:`MIN_JUNCTIONS` junctions.
+        images have :data:`MIN_CALIBRATION_JUNCTIONS` junctions.
     """
     from .._checks import check_size
     from ..io.corners import Corners
@@ -439,8 +441,8 @@ def calibrate_corners(corners, model: str = "radtan", *, board: Board = Board(),
                 or np.any(index < 0) or np.any(index >= board.n):
             raise InputError(f"{labels[i]}: junctions must be pixels (2, m) with m board junction numbers in "
                              f"0..{board.n - 1}")
-        if index.size < MIN_JUNCTIONS:
-            why[i] = f"only {index.size} junctions (need {MIN_JUNCTIONS})"
+        if index.size < MIN_CALIBRATION_JUNCTIONS:
+            why[i] = f"only {index.size} junctions (need {MIN_CALIBRATION_JUNCTIONS})"
             continue
         obs[i], found_in[i] = (uv, W_all[:, index], index), 0
     if len(obs) < MIN_IMAGES:

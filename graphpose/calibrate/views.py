@@ -6,7 +6,7 @@ but not searched) and keeps, up to ``max_views``:
 
 1. **Frames with the board**: the board search of the calibration (no camera yet,
    :func:`graphpose.detect.find_board`), whole or partly in view (at least
-   :data:`MIN_JUNCTIONS` junctions).
+   :data:`MIN_VIEW_JUNCTIONS` junctions).
 2. **Still and sharp ones**: the board's junctions may move at most :data:`MAX_SPEED_PX` pixels a
    frame (their 90th percentile, from the scanned frames before and after): a faster frame is
    smeared over its exposure and, from a rolling shutter, skewed; a frame neither of whose
@@ -39,8 +39,10 @@ import numpy as np
 from ..board import Board, check_board
 from ..errors import BoardNotFoundError, InputError
 
-#: Fewest junctions a view must show to be a candidate.
-MIN_JUNCTIONS = 12
+#: Fewest junctions a view must show to be a candidate: more than a calibration's images need
+#: (:data:`graphpose.calibrate.run.MIN_CALIBRATION_JUNCTIONS`), because a view is also judged by
+#: its junctions' motion (the 90th percentile of those it shares with a neighbour) and blur.
+MIN_VIEW_JUNCTIONS = 12
 #: A frame is blurred when its blur exceeds this many times the recording's sharp frames'.
 BLUR_TOLERANCE = 1.6
 #: Fastest junction motion of a view, pixels a frame (half of it is the smear over an exposure of
@@ -199,8 +201,8 @@ def _scan(image, board):
         return NO_BOARD, " ".join(str(exc).split())[:160], None, np.nan
     points = np.where(found.seen, found.points, np.nan)
     m = int(found.seen.sum())
-    if m < MIN_JUNCTIONS:
-        return TOO_FEW, f"{m} junctions, fewer than {MIN_JUNCTIONS}", None, np.nan
+    if m < MIN_VIEW_JUNCTIONS:
+        return TOO_FEW, f"{m} junctions, fewer than {MIN_VIEW_JUNCTIONS}", None, np.nan
     return USED, "", points, _blur(grey, points[:, found.seen], np.nanmedian(found.step_px))
 
 
@@ -235,7 +237,7 @@ def _speed(seen, step, n) -> np.ndarray:
         for j in (k - step, k + step):
             if j in seen:
                 both = np.isfinite(P[0]) & np.isfinite(seen[j][0])
-                if both.sum() >= MIN_JUNCTIONS:
+                if both.sum() >= MIN_VIEW_JUNCTIONS:
                     d = np.hypot(*(P[:, both] - seen[j][:, both]))
                     rates.append(float(np.percentile(d, 90)) / step)
         if rates:
@@ -307,7 +309,7 @@ def _greedy(seen, blur, size, board, cap, duplicate_px, status, detail) -> None:
 def _duplicate_of(P, seen, chosen, limit):
     for j in chosen:
         both = np.isfinite(P[0]) & np.isfinite(seen[j][0])
-        if both.sum() >= MIN_JUNCTIONS:
+        if both.sum() >= MIN_VIEW_JUNCTIONS:
             d = P[:, both] - seen[j][:, both]
             if np.sqrt(np.mean(np.sum(d * d, axis=0))) < limit:
                 return j

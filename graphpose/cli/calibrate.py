@@ -28,8 +28,8 @@ from ..camera_models import MODELS as CALIBRATION_MODELS
 from ..errors import GraphposeError, InputError
 from ..io.cameras import FORMATS
 from . import EXIT_OK, PROG, UsageError, calibrate_extras, exit_codes_help
-from .estimate import image_paths
-from .options import BOARD_UNITS, Progress, check_output_folder, parse_board
+from ..io.sources import expand_paths
+from .options import BOARD_UNITS, Progress, check_output_folder, parse_board, write_json_option
 from .recordings import add_view_options, recording_views, views_record, views_text
 
 #: The models ``--model`` takes, and the formats of ``--format``.
@@ -107,7 +107,6 @@ def run(args) -> int:
         raise UsageError("give the IMAGES of the board, --corners FILE, or --rig SOURCE0 SOURCE1 ... for a rig")
     from ..calibrate import calibrate
     from ..io.cameras import covariance_note, write_camera
-    from ..io.files import dumps_json, write_json
     from ..io.records import calibration_record
 
     _check_outputs(args)
@@ -134,10 +133,7 @@ def run(args) -> int:
     record = calibration_record(calibration)
     if views is not None:
         record["views"] = views_record(views[2])
-    if args.json == "-":
-        sys.stdout.write(dumps_json(record))
-    elif args.json is not None:
-        write_json(args.json, record)
+    write_json_option(args.json, record)
     if not calibration.ok:
         raise CalibrationFailed(f"{calibration.summary} (no camera file written)")
     write_camera(args.out, calibration.camera, format=args.format)
@@ -178,15 +174,16 @@ def _check_outputs(args) -> None:
 
 
 def image_files(paths) -> list:
-    """The images of IMAGES (:func:`graphpose.cli.estimate.image_paths`: files as given, a
-    folder's image files in name order), each of which must exist.
+    """The images of IMAGES (:func:`graphpose.io.sources.expand_paths`: files as given, a
+    folder's image files in name order, a glob's matches, a list file's paths), each of which
+    must exist.
 
     Raises
     ------
     InputError
         If a path does not exist or a folder holds no image.
     """
-    files = image_paths(paths)
+    files = expand_paths(paths)
     missing = [path for path in files if not Path(path).is_file()]
     if missing:
         raise InputError(f"image file not found: {missing[0]}")

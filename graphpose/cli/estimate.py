@@ -22,11 +22,11 @@ from ..camera_models import check_image_size
 from ..errors import BoardNotFoundError, GraphposeError, InputError
 from ..image import read_image
 from ..io.cases import bundled_cases_path, load_cases, load_pose
-from ..io.files import dumps_json, write_json, write_png
+from ..io.files import write_png
 from ..estimate import estimate_pose, pose_difference
 from ..pose.covariance import SIGMA_PIXEL
 from ..viz.overlay import draw_overlay
-from ..io.sources import BrokenRecordingError, is_recording
+from ..io.sources import BrokenRecordingError, expand_paths, is_recording
 from . import EXIT_OK, UsageError, error_line, exit_code, exit_codes_help, prefix, print_error
 from .recordings import RateProgress, add_every_option, add_topic_option, camera_note, open_source, recording_camera
 from .options import (
@@ -38,6 +38,7 @@ from .options import (
     check_camera_options,
     check_output_folder,
     parse_bounds,
+    write_json_option,
 )
 from ..io.records import result_record, target_keys, target_words
 
@@ -154,10 +155,7 @@ def run(args) -> int:
         failed = sum(c != EXIT_OK for c in codes)
         what = "images" if jobs[0].recording is None else f"frames of {jobs[0].recording.name}"
         print(f"{len(jobs)} {what}: {len(jobs) - failed} estimated, {failed} failed")
-    if args.json == "-":
-        sys.stdout.write(dumps_json(records))
-    elif args.json is not None:
-        write_json(args.json, records)
+    write_json_option(args.json, records)
     if broken is not None:
         print_error(broken, prog=prefix("estimate"))
         return exit_code(broken)
@@ -267,7 +265,7 @@ def _jobs(args):
                     for k in range(0, len(recording), args.every)], None, None
         if args.every != 1 or getattr(args, "topic", None) is not None:
             raise UsageError("--every and --topic go with one video or ROS bag")
-        return [Job(str(path), path, args.bounds, guess) for path in image_paths(args.images)], None, None
+        return [Job(str(path), path, args.bounds, guess) for path in expand_paths(args.images)], None, None
     if args.bounds is not None:
         raise UsageError("--bounds goes with IMAGE (images or folders); a case file gives each image its bounds")
     if args.guess is not None:
@@ -297,20 +295,6 @@ def _target(args, cases, source, jobs=()):
         camera, board = camera_from_args(args, cases.camera, cases.board,
                                          source=f"case file {source} gives no K nor camera")
     return camera, board, target_keys(camera, board, *camera_file(args, source))
-
-
-def image_paths(items) -> list:
-    """The images named by ``items`` (paths, as typed): a folder stands for its image files in
-    name order (:func:`graphpose.track.frames.list_frames`), a quoted glob for its matches, a
-    list file (``.txt``, ``.lst``, ``.list``) for the paths it lists, any other path for itself
-    (:func:`graphpose.io.sources.expand_paths`)."""
-    from ..io.sources import expand_paths
-    from ..track.frames import list_frames
-
-    for item in items:
-        if Path(item).is_dir():
-            list_frames(item)  # its own message for a folder without images
-    return expand_paths(items)
 
 
 def _display(path: Path) -> str:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +23,7 @@ from ..board import Board
 from ..geometry import K_from_params
 from ..camera_models import PinholeCamera
 from ..errors import InputError
+from ..io.files import dumps_json, write_json
 
 #: The project's camera (the ROB501 sample set's): fx, fy, cx, cy in pixels. Only what the
 #: project renders itself (``graphpose render-sequence``) and the tests use it: a user's image
@@ -133,6 +135,15 @@ def camera_file(args, source=None):
     if args.K is not None:
         return None, None
     return (None if source is None else str(source)), None
+
+
+def write_json_option(path, value) -> None:
+    """Write ``value`` where a ``--json`` option says: ``"-"`` standard output, a path a file
+    (whole or not at all, :func:`graphpose.io.files.write_json`), None nowhere."""
+    if path == "-":
+        sys.stdout.write(dumps_json(value))
+    elif path is not None:
+        write_json(path, value)
 
 
 def check_output_folder(path, option: str) -> None:

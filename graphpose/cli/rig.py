@@ -71,10 +71,9 @@ def run_calibrate(args) -> int:
     """``graphpose calibrate --rig ...``; returns the exit code."""
     from ..calibrate.rig import calibrate_rig
     from ..io.cameras import write_camera
-    from ..io.files import dumps_json, write_json
     from ..io.rig_files import RIG_FORMATS
     from .calibrate import CalibrationFailed, _check_outputs
-    from .options import Progress
+    from .options import Progress, write_json_option
 
     if args.images:
         raise UsageError("give the images either as IMAGES (one camera) or as --rig SOURCE0 SOURCE1 ... (one source "
@@ -105,10 +104,7 @@ def run_calibrate(args) -> int:
     finally:
         progress.clear()
     record = rig_record(calibration)
-    if args.json == "-":
-        sys.stdout.write(dumps_json(record))
-    elif args.json is not None:
-        write_json(args.json, record)
+    write_json_option(args.json, record)
     if not calibration.ok:
         raise CalibrationFailed(f"{calibration.summary} (no rig file written)")
     write_camera(args.out, calibration.rig, format=args.format)
@@ -186,10 +182,9 @@ def format_rig_summary(calibration, out, fmt: str) -> str:
 
 def run_estimate(args) -> int:
     """``graphpose estimate --camera RIG --rig IMAGE0 IMAGE1 ...``; returns the exit code."""
-    from ..io.files import dumps_json, write_json
     from ..pipeline_rig import estimate_rig_pose
     from . import error_line, exit_code
-    from .options import check_output_folder
+    from .options import check_output_folder, write_json_option
 
     if args.images or args.cases is not None:
         raise UsageError("--rig takes the rig's images itself (one per camera): give no IMAGES and no --cases")
@@ -208,10 +203,7 @@ def run_estimate(args) -> int:
     board = args.board if args.board is not None else Board()
     estimate = estimate_rig_pose(args.rig, rig, board=board, robust=args.robust)
     record = rig_pose_record(estimate, args.rig, rig, str(args.camera))
-    if args.json == "-":
-        sys.stdout.write(dumps_json(record))
-    elif args.json is not None:
-        write_json(args.json, record)
+    write_json_option(args.json, record)
     if not estimate.ok:
         from .estimate import _NotConverged
 
@@ -280,7 +272,8 @@ def run_track(args) -> int:
     from ..track.frames import frame_timestamps, read_timestamps
     from . import EXIT_FAILED
     from .options import Progress, check_output_folder
-    from .track_output import JsonStream, TumStream
+    from ..io.tum import TumStream
+    from .track_output import JsonStream, abort_on_error
 
     if args.frames:
         raise UsageError("--rig takes the rig's frames itself (one SOURCE per camera): give no FRAMES")
@@ -308,7 +301,7 @@ def run_track(args) -> int:
     doc = None
     progress = Progress(len(views), sys.stderr)
     found = 0
-    try:
+    with abort_on_error(progress, lambda: (tum, doc)):
         doc = None if args.json is None else JsonStream(args.json)
         for k, group in enumerate(views):
             images = [None if i is None else files[c][i] for c, i in enumerate(group)]
@@ -336,12 +329,6 @@ def run_track(args) -> int:
         if doc is not None:
             doc.close({"rig": str(args.camera), "pose_of": rig.names[0], "smoothed": False,
                        "board": f"{board.cols}x{board.rows}x{board.square_m}"})
-    except BaseException:
-        progress.clear()
-        for out in (tum, doc):
-            if out is not None:
-                out.abort()
-        raise
     if not args.quiet and args.json != "-":
         print(f"graphpose track --rig: {found} of {len(views)} frames with the rig's pose ({rig.names[0]}'s T_WC), "
               f"{len(views) - found} lost")

@@ -152,7 +152,8 @@ def run(args) -> int:
     from ..track.config import MotionPrior, TrackerConfig, default_lag_s
     from ..track.frames import frame_timestamps, read_timestamps
     from ..track.tracker import track_frames
-    from .track_output import JsonStream, TrackSummary, TumStream
+    from ..io.tum import TumStream
+    from .track_output import JsonStream, TrackSummary, abort_on_error
 
     if args.plot is not None:  # a missing extra is found now, not after the whole sequence
         from .._extras import require
@@ -179,7 +180,7 @@ def run(args) -> int:
     summary, kept = TrackSummary(truth), []  # kept: the picture's few numbers a frame
     tum = None if args.tum is None else TumStream(args.tum)
     doc = video = broken = None
-    try:
+    with abort_on_error(progress, lambda: (tum, doc)):
         doc = None if args.json is None else JsonStream(args.json)
         video = None if args.overlay_video is None else OverlayVideo(args.overlay_video, args.frames, args, camera, board)
         try:
@@ -205,12 +206,6 @@ def run(args) -> int:
             doc.close({"smoothed": bool(args.smooth), "motion": args.motion, "target": args.target,
                        "lag_s": config.lag_s, "K": camera.K, "camera": target["camera"],
                        "board": f"{board.cols}x{board.rows}x{board.square_m}"})
-    except BaseException:
-        progress.clear()
-        for out in (tum, doc):
-            if out is not None:
-                out.abort()
-        raise
     if args.plot is not None:
         from ..track.results import Track
         from ..viz.plot import plot_track

@@ -1,12 +1,14 @@
-"""``graphpose track``'s outputs written as the frames come: the TUM file (:class:`TumStream`),
-the JSON document (:class:`JsonStream`) and the summary's figures (:class:`TrackSummary`).
+"""``graphpose track``'s outputs written as the frames come: the TUM file
+(:class:`graphpose.io.tum.TumStream`), the JSON document (:class:`JsonStream`) and the
+summary's figures (:class:`TrackSummary`).
 
 Each frame's line and record is written once its result is final
 (:func:`graphpose.track.tracker.track_frames`), so that nothing grows with the sequence but
 a few numbers a frame for the summary. The bytes are those :func:`graphpose.io.tum.write_tum`
 and :func:`graphpose.io.files.write_json` write for the whole sequence at once, and a file
-still appears whole or not at all: the lines go to a temporary file beside it, which
-replaces it at :meth:`close` (an error or an interruption leaves no file, as before).
+still appears whole or not at all (:class:`graphpose.io.files.AtomicFile`): the lines go to a
+temporary file beside it, which replaces it at ``close`` (an error or an interruption leaves
+no file).
 
 The JSON to standard output (``--json -``) is written as it comes too: a run stopped by an
 error there leaves the document unfinished (the error line on stderr and exit code say so).
@@ -15,87 +17,28 @@ error there leaves the document unfinished (the error line on stderr and exit co
 from __future__ import annotations
 
 import json
-import os
-import secrets
-import shutil
 import sys
 from array import array
-from pathlib import Path
+from contextlib import contextmanager
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from .._checks import check_transform
-from ..errors import InputError
-from ..io.files import dumps_json
+from ..io.files import AtomicFile, dumps_json
 
 
-class _TempFile:
-    """A temporary file beside ``path`` that replaces it at :meth:`commit`, or goes at :meth:`abort`."""
-
-    def __init__(self, path, suffix: str = "tmp"):
-        self.path = Path(path)
-        self.tmp = self.path.with_name(f".{self.path.name}.{secrets.token_hex(4)}.{suffix}")
-        try:
-            # os.open with mode 0o666 lets the umask set the final permissions, as open() would.
-            self.file = os.fdopen(os.open(self.tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666), "w",
-                                  encoding="utf-8", newline="")
-        except OSError as exc:
-            raise InputError(f"cannot write {self.path}: {exc.strerror or exc}") from None
-
-    def commit(self) -> None:
-        try:
-            self.file.flush()
-            os.fsync(self.file.fileno())
-            self.file.close()
-            os.replace(self.tmp, self.path)
-        except OSError as exc:
-            self.abort()
-            raise InputError(f"cannot write {self.path}: {exc.strerror or exc}") from None
-
-    def abort(self) -> None:
-        if not self.file.closed:
-            self.file.close()
-        self.tmp.unlink(missing_ok=True)
-
-
-class TumStream:
-    """A TUM trajectory file (:mod:`graphpose.io.tum`) written one pose at a time.
-
-    The header, which counts the lost frames, is only known at the end: the lines go to a
-    temporary body, copied under the header at :meth:`close`.
-    """
-
-    def __init__(self, path):
-        self._body = _TempFile(path, "body")
-        self.path = self._body.path
-
-    def add(self, timestamp: float, T_WC) -> None:
-        """One line ``timestamp tx ty tz qx qy qz qw`` (as :func:`graphpose.io.tum.write_tum`)."""
-        T = check_transform(T_WC, "T_WC")
-        q = Rotation.from_matrix(T[None, :3, :3]).as_quat()[0]  # scipy's order is x, y, z, w
-        if not np.isfinite(timestamp):
-            raise InputError("timestamps contains NaN or infinite values")
-        self._body.file.write(f"{float(timestamp):.6f} " + " ".join(f"{v:.9f}" for v in (*T[:3, 3], *q)) + "\n")
-
-    def close(self, header: str) -> None:
-        """Write the file: ``header`` as ``#`` comment lines, then the lines."""
-        out = _TempFile(self.path)
-        try:
-            out.file.write("".join(f"# {line}\n" for line in header.splitlines()))
-            self._body.file.flush()
-            with open(self._body.tmp, encoding="utf-8", newline="") as body:
-                shutil.copyfileobj(body, out.file)
-        except BaseException:
-            out.abort()
-            raise
-        finally:
-            self._body.abort()
-        out.commit()
-
-    def abort(self) -> None:
-        """Leave no file (the run failed)."""
-        self._body.abort()
+@contextmanager
+def abort_on_error(progress, outputs):
+    """Run the block; on any error (an interruption too) clear ``progress``'s line, abort each
+    output of ``outputs()`` (a callable, so that outputs opened inside the block count; None
+    for one not opened) so that no file is left half written, and raise the error again."""
+    try:
+        yield
+    except BaseException:
+        progress.clear()
+        for out in outputs():
+            if out is not None:
+                out.abort()
+        raise
 
 
 class JsonStream:
@@ -104,7 +47,7 @@ class JsonStream:
     standard output."""
 
     def __init__(self, path):
-        self._temp = None if path == "-" else _TempFile(path)
+        self._temp = None if path == "-" else AtomicFile(path)
         self._out = sys.stdout if self._temp is None else self._temp.file
         self._count = 0
         self._out.write('{\n "frames": ')

@@ -53,24 +53,72 @@ def atomic_write(path, data) -> None:
     InputError
         If the folder is missing or the file cannot be written (the message names the path).
     """
-    path = Path(path)
     if isinstance(data, str):
         data = data.encode("utf-8")
-    tmp = path.with_name(f".{path.name}.{os.urandom(4).hex()}.tmp")
-    try:
-        # os.open with mode 0o666 lets the umask set the final permissions, as open() would.
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise InputError(f"cannot write {path}: {exc.strerror or exc}") from None
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    AtomicFile(path, binary=True).commit(data)
+
+
+class AtomicFile:
+    """A file written under a temporary name beside ``path``, which replaces ``path`` at
+    :meth:`commit` or goes at :meth:`abort`: a reader never sees half a file, and a run
+    stopped midway leaves the old file (or none) behind. :func:`atomic_write` writes a whole
+    document at once through it; a file written piece by piece (a track's TUM and JSON as the
+    frames come) holds one open until the end.
+
+    Parameters
+    ----------
+    path : str or Path
+        Destination file; its folder must exist.
+    binary : bool
+        ``file`` takes bytes; else text, UTF-8, with newlines written as given.
+    suffix : str
+        The temporary name's ending (``.{name}.{8 hex digits}.{suffix}``).
+
+    Attributes
+    ----------
+    path, tmp : Path
+        The destination and the temporary file.
+    file : file object
+        Open for writing, on ``tmp``.
+
+    Raises
+    ------
+    InputError
+        If the folder is missing or the file cannot be written (the message names ``path``);
+        :meth:`commit` too, after removing the temporary file.
+    """
+
+    def __init__(self, path, *, binary: bool = False, suffix: str = "tmp"):
+        self.path = Path(path)
+        self.tmp = self.path.with_name(f".{self.path.name}.{os.urandom(4).hex()}.{suffix}")
+        try:
+            # os.open with mode 0o666 lets the umask set the final permissions, as open() would.
+            fd = os.open(self.tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        except OSError as exc:
+            raise InputError(f"cannot write {self.path}: {exc.strerror or exc}") from None
+        self.file = os.fdopen(fd, "wb") if binary else os.fdopen(fd, "w", encoding="utf-8", newline="")
+
+    def commit(self, data=None) -> None:
+        """Write ``data`` (if given) last, flush the file to disk and put it in place of ``path``."""
+        try:
+            if data is not None:
+                self.file.write(data)
+            self.file.flush()
+            os.fsync(self.file.fileno())
+            self.file.close()
+            os.replace(self.tmp, self.path)
+        except OSError as exc:
+            self.abort()
+            raise InputError(f"cannot write {self.path}: {exc.strerror or exc}") from None
+        except BaseException:
+            self.abort()
+            raise
+
+    def abort(self) -> None:
+        """Close and remove the temporary file; ``path`` is left as it was."""
+        if not self.file.closed:
+            self.file.close()
+        self.tmp.unlink(missing_ok=True)
 
 
 def encode_png(rgb) -> bytes:

@@ -18,6 +18,7 @@ matrices, and nothing else handles quaternions.
 
 from __future__ import annotations
 
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,7 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from .._checks import as_float_array, check_transform
 from ..errors import InputError
-from .files import atomic_write
+from .files import AtomicFile, atomic_write
 
 #: Tolerance on the norm of a quaternion read from a file (files are written to ~9 digits).
 QUAT_NORM_TOL = 1e-4
@@ -94,12 +95,78 @@ def write_tum(path, timestamps, poses, header: str | None = None) -> Path:
     lines = [] if header is None else [f"# {line}" for line in header.splitlines()]
     if t.size:
         q = Rotation.from_matrix(T[:, :3, :3]).as_quat()  # scipy's order is x, y, z, w
-        for tk, Tk, qk in zip(t, T, q):
-            numbers = " ".join(f"{v:.9f}" for v in (*Tk[:3, 3], *qk))
-            lines.append(f"{tk:.6f} {numbers}")
+        lines += [tum_line(tk, Tk, qk) for tk, Tk, qk in zip(t, T, q)]
     path = Path(path)
     atomic_write(path, "\n".join(lines) + "\n" if lines else "")
     return path
+
+
+def tum_line(timestamp: float, T_WC, q_xyzw) -> str:
+    """One pose's line (no newline): ``timestamp tx ty tz qx qy qz qw``, the time to the
+    microsecond, the rest to 9 decimals (format in the module docstring).
+
+    Parameters
+    ----------
+    timestamp : float
+        Seconds, finite.
+    T_WC : (4, 4) ndarray
+        The camera pose in the target frame (checked by the caller); its translation is written.
+    q_xyzw : (4,) ndarray
+        Its rotation as a unit quaternion, scalar last (scipy's ``as_quat``).
+    """
+    return f"{timestamp:.6f} " + " ".join(f"{v:.9f}" for v in (*T_WC[:3, 3], *q_xyzw))
+
+
+class TumStream:
+    """A TUM trajectory file written one pose at a time, with the bytes :func:`write_tum`
+    writes for the whole sequence at once, and whole or not at all.
+
+    The header (a track's counts its lost frames) is only known at the end: the lines go to a
+    temporary body (:class:`graphpose.io.files.AtomicFile`), copied under the header into the
+    file at :meth:`close`; :meth:`abort` leaves no file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file; its folder must exist.
+
+    Raises
+    ------
+    InputError
+        If the file cannot be written (the message names it).
+    """
+
+    def __init__(self, path):
+        self._body = AtomicFile(path, suffix="body")
+        self.path = self._body.path
+
+    def add(self, timestamp: float, T_WC) -> None:
+        """One line (:func:`tum_line`); InputError for a pose that is no rigid transform or a
+        time that is not finite."""
+        T = check_transform(T_WC, "T_WC")
+        q = Rotation.from_matrix(T[None, :3, :3]).as_quat()[0]  # scipy's order is x, y, z, w
+        if not np.isfinite(timestamp):
+            raise InputError("timestamps contains NaN or infinite values")
+        self._body.file.write(tum_line(float(timestamp), T, q) + "\n")
+
+    def close(self, header: str) -> None:
+        """Write the file: ``header`` as ``#`` comment lines, then the lines."""
+        out = AtomicFile(self.path)
+        try:
+            out.file.write("".join(f"# {line}\n" for line in header.splitlines()))
+            self._body.file.flush()
+            with open(self._body.tmp, encoding="utf-8", newline="") as body:
+                shutil.copyfileobj(body, out.file)
+        except BaseException:
+            out.abort()
+            raise
+        finally:
+            self._body.abort()
+        out.commit()
+
+    def abort(self) -> None:
+        """Leave no file (the run failed)."""
+        self._body.abort()
 
 
 def read_tum(path) -> TumTrajectory:

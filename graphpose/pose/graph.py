@@ -49,14 +49,13 @@ from gtsam.symbol_shorthand import L, X
 from .._checks import check_in_front, check_number, check_transform
 from ..observations import check_observations
 from ..geometry import hat, params_from_T, to_camera
+from ..robust import HUBER_K, mad_sigma
 from .gauss_newton import reprojection_rms
 from .._deprecated import renamed
 
 #: Standard deviation (metres) of the prior that pins each target point: far below anything
 #: the pixels can resolve (about 1e-6 px at 1 m), yet finite so the marginals exist.
 LANDMARK_SIGMA_M = 1e-8
-#: Huber threshold in units of the pixel sigma (95 % efficiency under Gaussian noise).
-HUBER_K = 1.345
 #: Levenberg-Marquardt stopping tolerances on the cost change. LM brings the pose near the
 #: minimum from afar; the undamped steps after it (cheaper than LM iterations) finish.
 _RELATIVE_TOL = 1e-6
@@ -215,7 +214,7 @@ def _graph_pose(camera, T_WC_guess, Ipts, Wpts, mask, pixel_sigma=None, robust=F
         # plain one, so this solve descends.
         plain = _solve(camera, T_WC_guess, I, W, keys, 1.0, None, marginals=False)
         r = I - camera.project(to_camera(plain[0], W))
-        pixel_sigma = max(1.4826 * float(np.median(np.abs(r))), 1e-12)
+        pixel_sigma = mad_sigma(r, floor=1e-12)
     sigma = 1.0 if pixel_sigma is None else float(pixel_sigma)
     T, cov_tangent, converged, iterations, message = _solve(
         camera, T_WC_guess, I, W, keys, sigma, huber_k if robust else None, from_minimum=from_minimum)

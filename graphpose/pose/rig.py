@@ -31,10 +31,11 @@ import numpy as np
 
 from ..board import Board, check_board
 from ..errors import BoardNotFoundError, InputError
-from ..geometry import T_from_params, hat, invert_transform, params_from_T, pose_difference, rot_x, rot_y, rot_z
+from ..geometry import T_from_params, hat, hats, invert_transform, params_from_T, pose_difference, rot_x, rot_y, rot_z
 from .cross_check import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck
 from .gauss_newton import stacked_huber_weights
-from .graph import HUBER_K, params_cov_from_tangent
+from ..robust import HUBER_K, mad_sigma
+from .graph import params_cov_from_tangent
 from .._deprecated import renamed
 
 _E = np.eye(3)
@@ -168,15 +169,6 @@ def huber(r, jacobians, k):
     ds = np.where(far, (k * k - k * a) / (safe ** 3 * root), 0.0)
     outer = (r.T[:, :, None] * r.T[:, None, :]) * ds[:, None, None]
     return r * s, [s[:, None, None] * J + outer @ J for J in jacobians]
-
-
-def hats(P):
-    """``[p]_x`` for each column of P (3, m): (m, 3, 3)."""
-    out = np.zeros((P.shape[1], 3, 3))
-    out[:, 0, 1], out[:, 0, 2] = -P[2], P[1]
-    out[:, 1, 0], out[:, 1, 2] = P[2], -P[0]
-    out[:, 2, 0], out[:, 2, 1] = -P[1], P[0]
-    return out
 
 
 def _start(rig, obs, board):
@@ -348,7 +340,7 @@ def _solve(rig, obs, found, status, messages, robust, board):
     q, r, w, H, converged, it = _gauss_newton(rig, q0, used, None)
     huber_px = None
     if robust:
-        sigma_r = max(1.4826 * float(np.median(np.abs(r))), 1e-6)
+        sigma_r = mad_sigma(r, floor=1e-6)
         huber_px = HUBER_K * sigma_r
         q, r, w, H, converged, it2 = _gauss_newton(rig, q, used, huber_px)
         it += it2

@@ -12,7 +12,7 @@ import numpy as np
 from .._checks import check_count, check_number, check_range, check_transform
 from ..board import check_board
 from ..board import Board
-from ..geometry import project, rot_x, rot_z, to_camera
+from ..geometry import hat, project, rot_x, rot_z, to_camera
 from ..camera_models import as_camera
 from ..errors import InputError
 from .lens import in_view, view_limit
@@ -212,7 +212,7 @@ def perturb_pose(T_WC, *, rng=None, angle_deg=(8.0, 12.0), offset_m=(0.15, 0.25)
     rng = np.random.default_rng(rng)
     axis, direction = (v / np.linalg.norm(v) for v in rng.normal(size=(2, 3)))
     angle = np.deg2rad(rng.uniform(*angle_range))
-    cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    cross = hat(axis)
     R = np.eye(3) + np.sin(angle) * cross + (1 - np.cos(angle)) * cross @ cross
     T[:3, :3] = T[:3, :3] @ R
     T[:3, 3] += rng.uniform(*offset_range) * direction

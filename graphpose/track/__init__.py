@@ -7,14 +7,10 @@ by :func:`graphpose.track.tracker.track_frames` (a stream of frame results) and
 :func:`graphpose.track.tracker.track_sequence` (all of them at once), with the calibration's
 uncertainty carried into the poses by :mod:`.uncertainty`."""
 
+from .._lazy import lazy_getattr
+
 __all__ = ["track_frames", "track_sequence"]
 
-
-def __getattr__(name: str):
-    # Lazy, as the top-level package is: importing graphpose.track.config (the command
-    # line's options) must not load GTSAM and the detector.
-    if name in __all__:
-        from . import tracker
-
-        return getattr(tracker, name)
-    raise AttributeError(f"module 'graphpose.track' has no attribute {name!r}")
+# Lazy, as the top-level package is: importing graphpose.track.config (the command line's
+# options) must not load GTSAM and the detector.
+__getattr__ = lazy_getattr(__name__, {name: "tracker" for name in __all__})

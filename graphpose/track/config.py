@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._checks import check_number
+from .._checks import MIN_POSE_POINTS, check_number
 from ..errors import InputError
 
 #: Pose models the back end knows (:class:`MotionPrior`).
@@ -203,8 +203,8 @@ class TrackerConfig:
         if self.target not in TARGET_FORMS:
             raise InputError(f"target must be one of {TARGET_FORMS}, got {self.target!r}")
         n = self.min_junctions
-        if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 4:
-            raise InputError(f"min_junctions must be an integer >= 4, got {n!r}")
+        if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < MIN_POSE_POINTS:
+            raise InputError(f"min_junctions must be an integer >= {MIN_POSE_POINTS}, got {n!r}")
         check_number("min_detected_fraction", self.min_detected_fraction, 0.0, maximum=1.0)
         if not isinstance(self.robust, (bool, np.bool_)):
             raise InputError(f"robust must be True or False, got {self.robust!r}")

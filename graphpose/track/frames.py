@@ -18,9 +18,6 @@ from .._checks import as_float_array, check_number, check_timestamps
 from ..errors import InputError
 from ..image import as_grey, read_image
 
-#: Image file name endings read as frames (case-insensitive).
-IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm")
-
 
 def list_frames(folder) -> list:
     """Image files of a folder in file-name order; other files are ignored.
@@ -33,20 +30,20 @@ def list_frames(folder) -> list:
     Returns
     -------
     list of Path
-        Files whose name ends in one of :data:`IMAGE_SUFFIXES`, sorted by name.
+        Files whose name ends in one of :data:`graphpose.image.IMAGE_SUFFIXES`, sorted by name
+        (:func:`graphpose.io.sources.paths.list_images`).
 
     Raises
     ------
     InputError
         If the folder does not exist or holds no image.
     """
+    from ..io.sources.paths import expand_paths
+
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(f"frames folder not found: {folder}")
-    files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
-    if not files:
-        raise InputError(f"no image files ({', '.join(IMAGE_SUFFIXES)}) in {folder}")
-    return files
+    return expand_paths(folder)  # the folder's images, or its message for a folder without any
 
 
 def read_timestamps(path, n_frames: int | None = None) -> np.ndarray:

@@ -74,3 +74,61 @@ def test_the_intrinsics_jacobian_is_at_the_kernels_points():
                                                               observations, p.size)[0]])
         # r = measured - predicted, so d r / d p = -J.
         np.testing.assert_allclose(-(r_up - r_down) / (2 * h), Jp[:, k], rtol=1e-5, atol=1e-6 * np.abs(Jp[:, k]).max())
+
+
+def _linear_problem(rng, n_views=3, m=10, P=2):
+    """A linear least-squares problem in lm's layout: P shared parameters, then 6 a view."""
+    Jp = [rng.normal(size=(2 * m, P)) for _ in range(n_views)]
+    Je = [rng.normal(size=(2 * m, 6)) for _ in range(n_views)]
+    truth = rng.normal(size=P + 6 * n_views)
+    b = [Jp[i] @ truth[:P] + Je[i] @ truth[P + 6 * i: P + 6 * i + 6] + 0.01 * rng.normal(size=2 * m)
+         for i in range(n_views)]
+
+    def views_at(x):  # residuals b - J x, and their Jacobians in lm's sign (r = measured - predicted)
+        return [(b[i] - Jp[i] @ x[:P] - Je[i] @ x[P + 6 * i: P + 6 * i + 6], Jp[i], Je[i]) for i in range(n_views)]
+
+    J = np.zeros((2 * m * n_views, P + 6 * n_views))
+    for i in range(n_views):
+        J[2 * m * i: 2 * m * (i + 1), :P] = Jp[i]
+        J[2 * m * i: 2 * m * (i + 1), P + 6 * i: P + 6 * i + 6] = Je[i]
+    best = np.linalg.lstsq(J, np.concatenate(b), rcond=None)[0]
+    return views_at, best, [rng.uniform(100, 600, size=(2, m)) for _ in range(n_views)]
+
+
+def test_the_shared_lm_loop_solves_a_linear_problem_and_says_so():
+    rng = np.random.default_rng(5)
+    P = 2
+    views_at, best, uvs = _linear_problem(rng, P=P)
+    x0 = np.zeros(best.size)
+    views = views_at(x0)
+    cost = lm._cost(views, None)
+
+    def trial(state, x_new):
+        new = views_at(x_new)
+        return state + 1, new, lm._cost(new, None)
+
+    x, state, views, S, converged, it, message = lm.levenberg_marquardt(
+        x0, 0, views, cost, lambda views, state, x: lm._normal(views, None, P), trial, lm.observed_scale(uvs),
+        None, 50, np.full((P, P), np.nan), "nothing")
+    assert converged and message.startswith("converged")
+    np.testing.assert_allclose(x, best, atol=1e-9)
+    assert state >= 1 and S.shape == (P, P) and it <= 5  # a linear problem: one Gauss-Newton step, then the check
+
+
+def test_the_shared_lm_loop_names_a_singular_system():
+    rng = np.random.default_rng(6)
+    views_at, best, uvs = _linear_problem(rng, P=2)
+    zero = [(r, 0 * Jp, Je) for r, Jp, Je in views_at(np.zeros(best.size))]  # no view constrains the parameters
+    out = lm.levenberg_marquardt(np.zeros(best.size), None, zero, 1.0, lambda v, s, x: lm._normal(zero, None, 2),
+                                 None, lm.observed_scale(uvs), None, 10, np.full((2, 2), np.nan), "a reason")
+    assert out[4:] == (False, 1, "normal equations singular (a reason)")
+
+
+def test_residuals_and_weights_unstack_each_view():
+    r = np.array([0.1, -0.2, 3.0, 4.0])  # two junctions: (0.1, -0.2) and (3, 4), 5 px off
+    residuals, weights = lm.residuals_and_weights([(r, None, None)], 1.0)
+    np.testing.assert_array_equal(residuals[0], [[0.1, 3.0], [-0.2, 4.0]])
+    np.testing.assert_allclose(weights[0], [1.0, 1.0 / 5.0])
+    plain = lm.residuals_and_weights([(r,)], None)[1][0]
+    np.testing.assert_array_equal(plain, [1.0, 1.0])
+    np.testing.assert_array_equal(lm.observed_scale([np.array([[-1.0, 2.0], [3.0, -4.0]])]), [1, 3, 2, 4])

@@ -10,7 +10,8 @@ import pytest
 from graphpose import K_from_params
 from graphpose.camera_models import PinholeCamera
 from graphpose.cli import main
-from graphpose.cli.track_output import JsonStream, TrackSummary, TumStream
+from graphpose.cli.track_output import JsonStream, TrackSummary
+from graphpose.io.tum import TumStream
 from graphpose.errors import InputError
 from graphpose.geometry import T_from_params
 from graphpose.io.cameras import write_camera
@@ -118,3 +119,24 @@ def test_a_run_stopped_by_an_error_leaves_no_file(tmp_path, capsys):
     assert code == 2
     assert "frame 2" in capsys.readouterr().err
     assert list(out.iterdir()) == []
+
+
+def test_abort_on_error_leaves_no_output_and_raises_again(tmp_path):
+    from graphpose.cli.track_output import abort_on_error
+
+    class Line:
+        cleared = 0
+
+        def clear(self):
+            self.cleared += 1
+
+    progress, tum, doc = Line(), TumStream(tmp_path / "t.tum"), None
+    with pytest.raises(KeyboardInterrupt):
+        with abort_on_error(progress, lambda: (tum, doc)):
+            doc = JsonStream(tmp_path / "t.json")  # opened inside the block: aborted too
+            tum.add(0.0, np.eye(4))
+            raise KeyboardInterrupt
+    assert progress.cleared == 1 and list(tmp_path.iterdir()) == []
+    with abort_on_error(progress, lambda: (tum,)):
+        pass
+    assert progress.cleared == 1  # nothing to undo without an error

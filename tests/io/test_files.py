@@ -69,3 +69,22 @@ def test_png_round_trip(tmp_path):
     np.testing.assert_array_equal(imread(grey), rgb[..., 0])
     with pytest.raises(InputError, match="uint8"):
         encode_png(rgb.astype(float))
+
+
+def test_atomic_file_appears_only_at_commit_and_abort_leaves_the_old_file(tmp_path):
+    from graphpose.io.files import AtomicFile
+
+    path = tmp_path / "out.txt"
+    path.write_text("old")
+    f = AtomicFile(path)
+    f.file.write("new\r\nline")  # text, newlines as given
+    assert path.read_text() == "old" and f.tmp.parent == tmp_path and f.tmp.name.startswith(".out.txt.")
+    f.commit()
+    assert path.read_bytes() == b"new\r\nline"
+    g = AtomicFile(path, binary=True, suffix="body")
+    g.file.write(b"half")
+    assert g.tmp.name.endswith(".body")
+    g.abort()
+    assert path.read_bytes() == b"new\r\nline" and sorted(p.name for p in tmp_path.iterdir()) == ["out.txt"]
+    with pytest.raises(InputError, match="cannot write .*nowhere"):
+        AtomicFile(tmp_path / "nowhere" / "x.txt")

@@ -209,3 +209,23 @@ def test_globs_list_files_and_folders(tmp_path, frames):
         expand_paths(tmp_path / "empty.txt")
     with pytest.raises(InputError, match="is read on its own"):
         open_frames([tmp_path / "a.mp4", tmp_path / "f0.png"])
+
+
+def test_list_images_is_every_command_s_rule_for_a_folder(tmp_path):
+    from graphpose.calibrate.frames import source_files
+    from graphpose.io.sources.paths import list_images
+    from graphpose.track.frames import list_frames
+
+    for name in ("b.PNG", "a.jpg", "c.tiff", "notes.txt", "d.png.bak"):
+        (tmp_path / name).write_bytes(b"x")
+    (tmp_path / "e.png").mkdir()  # a folder named like an image is no image
+    want = [tmp_path / "a.jpg", tmp_path / "b.PNG", tmp_path / "c.tiff"]
+    assert list_images(tmp_path) == want
+    assert expand_paths(tmp_path) == want == list_frames(tmp_path) == source_files(tmp_path)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert list_images(empty) == []
+    with pytest.raises(InputError, match=r"no image files \(\.png, .*\) in .*empty$"):
+        expand_paths(str(empty) + os.sep)
+    with pytest.raises(InputError, match="holds no image file"):
+        source_files(empty, "camera 0")

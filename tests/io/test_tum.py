@@ -93,3 +93,15 @@ def test_write_failure_is_an_input_error_and_leaves_no_file(tmp_path):
     with pytest.raises(InputError, match="cannot write .*folder.txt"):
         write_tum(tmp_path / "folder.txt", [0.0], [np.eye(4)])
     assert [p.name for p in tmp_path.iterdir()] == ["folder.txt"]  # no temporary file left behind
+
+
+def test_tum_line_is_write_tums_line():
+    from scipy.spatial.transform import Rotation
+
+    from graphpose.io.tum import tum_line
+
+    T = T_from_params([0.1, -2.0, 3.25, 0.3, -0.2, 1.0])
+    q = Rotation.from_matrix(T[:3, :3]).as_quat()
+    line = tum_line(12.5, T, q)
+    assert line == "12.500000 0.100000000 -2.000000000 3.250000000 " + " ".join(f"{v:.9f}" for v in q)
+    assert "\n" not in line

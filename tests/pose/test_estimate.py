@@ -23,7 +23,7 @@ from graphpose.estimate import (
     estimate_pose_from_points,
     pose_difference,
 )
-from graphpose.pose.graph import HUBER_K
+from graphpose.robust import HUBER_K
 from tests.conftest import BOARD_WPTS as WPTS
 from tests.conftest import PROJECT_K as K
 from tests.conftest import opencv_file

@@ -1,6 +1,7 @@
 """Image files named the ways people name them: folders, files, quoted globs and list files.
 
-:func:`expand_paths` turns what was typed into the image files in order, and
+:func:`expand_paths` turns what was typed into the image files in order (a folder's by
+:func:`list_images`), and
 :class:`ImageFiles` reads them as a :class:`~graphpose.io.sources.base.Recording` whose frames
 have no timestamps of their own (``--timestamps`` or ``--fps`` give them).
 """
@@ -55,9 +56,9 @@ def expand_paths(items) -> list:
         text = os.fspath(item)
         path = Path(text)
         if path.is_dir():
-            files = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
+            files = list_images(path)
             if not files:
-                raise InputError(f"no image files ({', '.join(IMAGE_SUFFIXES)}) in {text}")
+                raise InputError(f"no image files ({', '.join(IMAGE_SUFFIXES)}) in {path}")
             paths += files
         elif path.is_file() and path.suffix.lower() in LIST_SUFFIXES:
             paths += list_file(path)
@@ -71,6 +72,14 @@ def expand_paths(items) -> list:
     if not paths:
         raise InputError("no images given")
     return paths
+
+
+def list_images(folder) -> list:
+    """A folder's image files in name order: its files (not its sub-folders) whose name ends in
+    one of :data:`graphpose.image.IMAGE_SUFFIXES`, in any case; empty when it holds none.
+    Every folder of images graphpose reads (commands, tracks, a rig's cameras) is read with it.
+    """
+    return sorted(p for p in Path(folder).iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
 
 
 def list_file(path) -> list:
