@@ -6,7 +6,7 @@ Each frame's line and record is written once its result is final
 a few numbers a frame for the summary. The bytes are those :func:`graphpose.io.tum.write_tum`
 and :func:`graphpose.io.files.write_json` write for the whole sequence at once, and a file
 still appears whole or not at all: the lines go to a temporary file beside it, which
-replaces it at :meth:`close` (an error or an interruption leaves no file, as before).
+replaces it at :meth:`close` (an error or an interruption leaves no file, never half of one).
 
 The JSON to standard output (``--json -``) is written as it comes too: a run stopped by an
 error there leaves the document unfinished (the error line on stderr and exit code say so).
