@@ -82,7 +82,7 @@ def test_other_pngs_are_left_to_pillow_and_read_as_before(tmp_path):
         Image.fromarray(array).save(tmp_path / f"{name}.png")
         assert decode_grey8((tmp_path / f"{name}.png").read_bytes()) is None
     np.testing.assert_array_equal(read_image(tmp_path / "rgb.png"), np.asarray(Image.fromarray(rgb).convert("L")))
-    assert read_image(tmp_path / "grey16.png").dtype == np.float64  # 16 bits: as float, as before
+    assert read_image(tmp_path / "grey16.png").dtype == np.float64  # 16 bits: as float, not squeezed into 8
     grey = rng.integers(0, 256, (8, 8)).astype(np.uint8)
     interlaced = png(grey, [0] * 8, interlace=1)  # not what its header says, and not ours to read
     assert decode_grey8(interlaced) is None

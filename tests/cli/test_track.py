@@ -66,7 +66,7 @@ def test_an_unreadable_frame_is_lost_and_the_rest_written(rendered, tmp_path, ca
     summary = capsys.readouterr().out
     assert "lost frames: 4" in summary and "unreadable frame files (lost): 4" in summary
     records = json.loads(out.read_text())["frames"]
-    # The frame after the loss is found again by extraction; the others as before.
+    # The frame after the loss is found again by extraction; the others as in the intact run.
     assert [r["status"] for r in records] == intact[:4] + ["lost", "detected"] + intact[6:]
     assert "unreadable" in records[4]["message"] and "frame_00004.png" in records[4]["message"]
     assert len(read_tum(tum)) == 7

@@ -66,7 +66,7 @@ def test_a_large_image_is_read_sparser_with_the_same_estimate(monkeypatch):
     big = np.clip(128 + rng.normal(0.0, 7.0, (3024, 4032)), 0, 255).astype(np.uint8)
     stride = module._stride((3022, 4030), 4)
     assert stride > 4 and -(-3022 // stride) * -(-4030 // stride) <= module.MAX_SAMPLES
-    assert module._stride((478, 638), 4) == 4  # a VGA image is read as before
+    assert module._stride((478, 638), 4) == 4  # a VGA image: every fourth row and column, not thinned further
     sparse_noise, sparse_range = estimate_noise(big), grey_range(big)
     monkeypatch.setattr(module, "MAX_SAMPLES", big.size)  # no cap: every position asked for
     assert sparse_noise == pytest.approx(estimate_noise(big, stride=1), rel=0.02)
@@ -92,7 +92,7 @@ def test_the_noise_floor_removes_the_peaks_of_pure_noise():
 
 
 def test_smoothing_follows_the_noise_over_the_contrast():
-    assert noise_smoothing(0.5, 180.0, 30.0) == SMOOTH_SIGMA  # a clean image: as before
+    assert noise_smoothing(0.5, 180.0, 30.0) == SMOOTH_SIGMA  # a clean image: the default smoothing
     assert noise_smoothing(2.0, 180.0, 30.0) == SMOOTH_SIGMA
     grown = [noise_smoothing(s, 180.0, 30.0) for s in (4.0, 8.0, 12.0)]
     assert SMOOTH_SIGMA < grown[0] < grown[1] < grown[2] <= MAX_SMOOTH_SIGMA
