@@ -26,10 +26,10 @@ from graphpose.io.calibration import write_camera
 from graphpose.io.files import encode_png
 from graphpose.pose.estimate import pose_difference
 from tests.conftest import REPO, opencv_file, real_file
+from tests.helpers import PROJECT_K_OPTION as K_BUNDLED
 
 BUNDLED = REPO / "graphpose" / "data" / "cases.json"
 #: The bundled example's camera as --K (its case file's K): a user's image needs one.
-K_BUNDLED = "564.9,564.3,337.3,226.5"
 KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check", "orientation_ambiguous",
         "junction0_square"}
 

@@ -20,9 +20,9 @@ from graphpose.synth.poses import loose_polygon
 from graphpose.synth.render import render
 from tests.batch.helpers import SIZE, half_K
 from tests.conftest import REPO
+from tests.helpers import PROJECT_K_OPTION as K_OPTION  # the bundled example's camera
 
 BUNDLED = REPO / "graphpose" / "data"
-K_OPTION = "564.9,564.3,337.3,226.5"  # the bundled example's camera
 #: The bundled synthetic_03.png's polygon (clockwise from junction 0's corner), as --bounds.
 BOUNDS = "189.516,83.2248,434.212,168.717,377.418,363.65,111.435,276.632"
 

@@ -13,8 +13,8 @@ from graphpose.io.sources import open_frames
 from graphpose.io.sources.bag_writer import write_bag
 from graphpose.io.sources.video_out import VideoWriter
 from tests.conftest import PROJECT_K
+from tests.helpers import PROJECT_K_OPTION as K_OPTION
 
-K_OPTION = "564.9,564.3,337.3,226.5"
 
 
 @pytest.fixture(scope="module")

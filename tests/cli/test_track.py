@@ -7,12 +7,14 @@ import numpy as np
 import pytest
 from skimage.io import imread
 
-from graphpose import K_from_params, read_tum, render_sequence, write_sequence
+from graphpose import read_tum, render_sequence, write_sequence
 from graphpose.cli import main
 from graphpose.io.files import write_png
 from graphpose.io.tum import write_tum
 from graphpose.pose.estimate import pose_difference
 from tests.conftest import opencv_file
+from tests.conftest import PROJECT_K
+from tests.helpers import PROJECT_K_OPTION as K_OPTION
 
 
 @pytest.fixture(scope="module")
@@ -26,7 +28,6 @@ def rendered(tmp_path_factory):
 
 #: The rendered frames' camera (render-sequence's, the project's) as --K: frames copied out of
 #: their folder no longer bring it.
-K_OPTION = "564.9,564.3,337.3,226.5"
 
 
 def _copy_frames(folder, to):
@@ -189,7 +190,7 @@ def test_all_cpp_back_end_and_robust_fit_match_the_default(tmp_path):
     # frame_landmarks + wnoa (every factor in GTSAM's C++), and --robust (the single-image
     # fit's Huber gate), through the whole tracker on rendered frames: same statuses, and
     # poses within what the motion priors and the pixel sigmas allow.
-    K = K_from_params(564.9, 564.3, 337.3, 226.5)
+    K = PROJECT_K
     seq = render_sequence(K, 8, rng=5, excursions=0)
     folder = write_sequence(seq, tmp_path / "seq")
     bounds = ",".join(f"{u:.3f},{v:.3f}" for u, v in seq.bounds.T)

@@ -19,8 +19,7 @@ from graphpose.detect.lattice import Lattice, grow_lattices, peel, predict, step
 from graphpose.detect.search import downsample, find_candidates, ring_test, search_levels
 from graphpose.synth.render import render
 from graphpose.synth.scenes import random_scene
-
-K = K_from_params(564.9, 564.3, 337.3, 226.5)
+from tests.conftest import PROJECT_K as K
 
 
 def half_turn(board: Board) -> np.ndarray:
@@ -194,7 +193,7 @@ def test_both_edges_of_an_axis_hidden_is_refused_with_the_reason():
 def test_two_boards_without_bounds_are_refused():
     # Two halves of one picture, a whole board in each.
     board = Board(5, 4, 0.03)
-    half = K_from_params(564.9, 564.3, 160.0, 240.0)
+    half = K_from_params(K[0, 0], K[1, 1], 160.0, 240.0)
     left = render(half, T_from_params([0.06, 0.045, -0.6, 0.0, 0.0, 0.2]), board, (320, 480), rng=5).image
     right = render(half, T_from_params([0.06, 0.045, -0.7, 0.0, 0.0, -0.3]), board, (320, 480), rng=6).image
     with pytest.raises(BoardNotFoundError, match="two checkerboards"):
@@ -359,7 +358,7 @@ def test_a_fainter_second_board_is_not_ignored():
     # The second board has a third of the first's contrast: its seeds come late, but it is
     # still seen, and two boards without bounds are refused.
     board = Board(5, 4, 0.03)
-    half = K_from_params(564.9, 564.3, 160.0, 240.0)
+    half = K_from_params(K[0, 0], K[1, 1], 160.0, 240.0)
     left = random_scene(half, board, (320, 480), max_roll_deg=20.0, distance=(0.5, 0.7), rng=500).image
     right = random_scene(half, board, (320, 480), max_roll_deg=20.0, distance=(0.5, 0.7), contrast=0.35, rng=601).image
     assert find_board(right, board).seen.all()

@@ -9,7 +9,7 @@ of cross-junctions among them``).
 import numpy as np
 import pytest
 
-from graphpose import Board, BoardNotFoundError, InputError, K_from_params, extract_junctions
+from graphpose import Board, BoardNotFoundError, InputError, extract_junctions
 from graphpose.detect import find as find_module
 from graphpose.detect.noise import estimate_noise, grey_range
 from graphpose.detect.refine import MAX_SMOOTH_SIGMA, SMOOTH_SIGMA, noise_smoothing
@@ -17,8 +17,7 @@ from graphpose.detect.search import find_candidates, noise_floor
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
 from graphpose.track.frontend import board_symmetries
-
-K = K_from_params(564.9, 564.3, 337.3, 226.5)
+from tests.conftest import PROJECT_K as K
 
 
 def _rendered(seed, board, noise, blur, black=35.0, white=215.0):
@@ -129,7 +128,6 @@ def test_a_faint_board_in_a_bright_scene_is_judged_by_its_own_contrast():
     """A board of 30 grey levels at noise 3, with black and white objects elsewhere in the
     scene: against the whole image's range the noise looks small and the noise-aware search
     never ran (refused on this seed); inside the bounds it is the board's range that counts."""
-    K = K_from_params(564.9, 564.3, 337.3, 226.5)
     board = Board()
     rng = np.random.default_rng(0)
     T = random_pose(K, board, (640, 480), rng=rng)
