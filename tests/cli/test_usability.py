@@ -13,9 +13,9 @@ import pytest
 from graphpose.cli import build_parser, main
 from graphpose.io.files import write_png
 from tests.conftest import REPO
+from tests.helpers import PROJECT_K_OPTION as K_OPTION
 
 BUNDLED = REPO / "graphpose" / "data"
-K_OPTION = "564.9,564.3,337.3,226.5"
 
 
 def err_lines(capsys):
@@ -184,21 +184,3 @@ def test_every_help_gives_the_exit_codes_with_130(capsys):
     for text in helps:
         text = " ".join(text.split())
         assert re.search(r"exit codes: 0 success,.* 2 bad usage or input.*130 interrupted", text), text
-
-
-# --- the failure picture rings the grid its reason counts -------------------------------------
-
-
-def test_the_failure_picture_rings_at_least_the_junctions_its_reason_counts():
-    from graphpose import Board, read_image
-    from graphpose.detect.junctions import extract_junctions
-    from graphpose.errors import BoardNotFoundError
-    from graphpose.viz.failure import failure_evidence
-    from tests.conftest import opencv_file
-
-    image = read_image(opencv_file("left01.jpg"), as_float=False)
-    with pytest.raises(BoardNotFoundError) as refused:
-        extract_junctions(image, None, Board(10, 7, 0.025))
-    seen = refused.value.junctions_seen
-    assert seen == 54  # the 9 x 6 board it names
-    assert failure_evidence(image, None, Board(10, 7, 0.025), seen).lattice.shape[1] >= seen
