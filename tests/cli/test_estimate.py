@@ -91,7 +91,7 @@ def test_script_without_arguments_runs_the_bundled_example(bundled):
     errors = re.findall(r"error vs truth\s+([\d.]+) mm, ([\d.]+) deg", out)
     assert len(errors) == len(bundled.cases)
     for mm, deg in errors:
-        assert float(mm) < 1.5 and float(deg) < 0.05  # measured at most 0.32 mm and 0.014 deg
+        assert float(mm) < 1.5 and float(deg) < 0.05  # regression guard (an earlier run): at most 0.32 mm and 0.014 deg
 
 
 def test_module_json_and_overlay_folder(bundled, tmp_path):
@@ -107,7 +107,7 @@ def test_module_json_and_overlay_folder(bundled, tmp_path):
         T = np.array(record["T_WC"])
         assert T.shape == (4, 4)
         metres, degrees = pose_difference(T, case.true_T_WC)
-        assert metres < 1.5e-3 and degrees < 0.05  # measured at most 0.32 mm and 0.014 deg
+        assert metres < 1.5e-3 and degrees < 0.05  # regression guard (an earlier run): at most 0.32 mm and 0.014 deg
         np.testing.assert_allclose(record["xyz_m"], T[:3, 3])
         assert len(record["rpy_deg"]) == 3 and len(record["sigma_xyz_m"]) == 3
         assert all(s > 0 for s in record["sigma_xyz_m"] + record["sigma_rpy_deg"])
@@ -130,7 +130,7 @@ def test_real_cases_target_01_matches_its_reference(tmp_path):
     first = next(r for r in records if r["image"].endswith("target_01.png"))
     metres, degrees = pose_difference(np.asarray(first["T_WC"]), cases[0].ref_T_WC)
     assert metres < 0.01 and degrees < 0.5  # the goal
-    assert metres < 0.005 and degrees < 0.4  # regression guard: measured 3.2 mm and 0.30 deg
+    assert metres < 0.005 and degrees < 0.4  # regression guard (an earlier run): 3.2 mm and 0.30 deg
     assert first["vs_reference"]["translation_mm"] == pytest.approx(1000 * metres, abs=1e-6)
 
 
@@ -160,7 +160,7 @@ def test_one_image_with_options_guess_overlay_and_json(bundled, tmp_path):
     (record,) = json.loads(out_json.read_text())
     assert record["image"] == str(case.image)
     metres, degrees = pose_difference(np.asarray(record["T_WC"]), case.true_T_WC)
-    assert metres < 1.5e-3 and degrees < 0.05  # measured at most 0.32 mm and 0.014 deg
+    assert metres < 1.5e-3 and degrees < 0.05  # regression guard (an earlier run): at most 0.32 mm and 0.014 deg
     assert png_size(overlay) == (640, 480)
 
 

@@ -203,7 +203,7 @@ def test_all_cpp_back_end_and_robust_fit_match_the_default(tmp_path):
     for name in ("cpp", "robust"):
         np.testing.assert_array_equal(runs[name].timestamps, runs["default"].timestamps)
         assert len(runs[name].timestamps) == 8
-        # Measured: 5 um apart (the priors differ), 0.1 mm from the truth.
+        # Regression guard, from an earlier run of this test: 5 um apart (the priors differ), 0.1 mm from the truth.
         np.testing.assert_allclose(runs[name].poses[:, :3, 3], runs["default"].poses[:, :3, 3], atol=2e-5)
         np.testing.assert_allclose(runs[name].poses[:, :3, 3], seq.T_WC[:, :3, 3], atol=3e-4)
 
