@@ -11,6 +11,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from tests.helpers import PROJECT_K_OPTION
 
 REPO = Path(__file__).resolve().parents[1]
@@ -37,6 +39,7 @@ def test_estimate_on_a_grey_png_imports_nothing_heavy():
     assert result["heavy"] == []
 
 
+@pytest.mark.slow  # the command in a fresh process
 def test_the_program_ends_with_its_code_and_its_output_whole(tmp_path):
     """``python -m graphpose estimate`` ends without Python's teardown (graphpose.cli.entry):
     its report and its JSON file are whole, and a failure keeps its exit code."""

@@ -24,6 +24,7 @@ def radtan_calibration(radtan_set):
     return graphpose.calibrate(radtan_set.images + [blank], model="radtan")
 
 
+@pytest.mark.slow  # a whole calibration of rendered views
 def test_radtan_calibration_finds_the_camera(radtan_set, radtan_calibration):
     c = radtan_calibration
     truth = camera_parameters(radtan_set.camera)

@@ -23,6 +23,7 @@ def rig_file(tmp_path_factory):
     return out, done
 
 
+@pytest.mark.slow  # a whole rig calibration through the CLI
 def test_calibrate_rig_writes_the_rig_the_report_and_the_plot(rig_file):
     out, done = rig_file
     rig = read_camera(out / "rig.yml")
@@ -69,6 +70,7 @@ def test_rig_usage_errors(rig_file, tmp_path):
     assert done.returncode == 2 and "a rig is written as json, opencv, kalibr" in done.stderr
 
 
+@pytest.mark.slow  # tracks a rendered rig sequence through the CLI
 def test_track_rig_writes_camera_0s_poses_frame_by_frame(rig_file, tmp_path):
     out, _ = rig_file
     done = graphpose("track", "--camera", out / "rig.yml", "--rig", OPENCV_DIR / "left0[1-4].jpg",

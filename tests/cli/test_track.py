@@ -55,6 +55,7 @@ def test_render_sequence_then_track(rendered, tmp_path, capsys):
     assert f"{folder / 'truth.tum'} (the rendered sequence's own" in line and "over 8 frames" in line
 
 
+@pytest.mark.slow  # tracks a rendered folder through the CLI
 def test_an_unreadable_frame_is_lost_and_the_rest_written(rendered, tmp_path, capsys):
     # One corrupt frame used to end the run with exit 2 and nothing written.
     frames = _copy_frames(rendered[0], tmp_path / "frames")

@@ -136,6 +136,7 @@ def _phrases(text, n=5):
     return [" ".join(words[i:i + n]) for i in range(len(words) - n + 1)]
 
 
+@pytest.mark.slow  # tracks a rendered sequence with lost frames through the CLI
 def test_each_lost_frame_says_each_phrase_once(lost_frames):
     assert len(lost_frames) >= 10  # the sequence's excursions
     for frame in lost_frames:

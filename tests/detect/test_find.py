@@ -200,6 +200,7 @@ def test_two_boards_without_bounds_are_refused():
         find_board(np.hstack([left, right]), board)
 
 
+@pytest.mark.slow  # many rendered occluded scenes
 @pytest.mark.parametrize("occluder", ["bar", "blob", "reflection"])
 def test_occluded_boards_are_labelled_right_or_refused(occluder):
     board = Board()
@@ -219,6 +220,7 @@ def test_occluded_boards_are_labelled_right_or_refused(occluder):
     assert labelled >= 4  # the test is not passed by refusing every scene
 
 
+@pytest.mark.slow  # many rendered scenes with clutter
 def test_clutter_beside_the_board_changes_nothing():
     board = Board(9, 6, 0.03)
     for seed in range(5):

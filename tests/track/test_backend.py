@@ -77,6 +77,7 @@ def test_backend_target_forms_agree_on_noisy_correspondences(model):
         np.testing.assert_allclose(smoothed, ref_smoothed, atol=1e-7, err_msg=target)
 
 
+@pytest.mark.slow  # 90 frames online and smoothed, beside 90 single-frame solves
 def test_backend_smoothing_beats_single_frames_on_noisy_correspondences():
     n = 90
     t, poses = wavy_trajectory(n)
@@ -107,6 +108,7 @@ def test_backend_segments_after_a_break_have_no_motion_factor():
     np.testing.assert_allclose(result.T_WC, poses[5], atol=1e-7)
 
 
+@pytest.mark.slow  # three lenses x three target forms over a sequence
 @pytest.mark.parametrize("camera", [
     RadTanCamera(K, [-0.288, 0.097, 0.001, -0.0003]),                       # GTSAM's Cal3DS2
     RadTanCamera(K, [-0.25, 0.08, 0.001, -0.0003, 0.02, 0.05, 0.01, 0.002]),  # a custom factor

@@ -27,6 +27,7 @@ def _noisy_run(graph, n, uvs, t, poses, breaks=(50,)):
     return np.array(online)
 
 
+@pytest.mark.slow  # 120 frames through both back ends, nine form x motion pairs
 @pytest.mark.parametrize("target", ["resection", "frame_landmarks", "landmarks"])
 @pytest.mark.parametrize("model", ["constant_velocity", "random_walk", "wnoa"])
 def test_fixed_lag_matches_the_whole_sequence_graph(model, target):
@@ -55,6 +56,7 @@ def test_fixed_lag_matches_the_whole_sequence_graph(model, target):
         np.testing.assert_allclose(lag_smoothed[k].cov, full_smoothed[k].cov, rtol=1e-4, atol=1e-16)
 
 
+@pytest.mark.slow  # 400 frames through both back ends
 @pytest.mark.parametrize("target, model", [("resection", "constant_velocity"), ("frame_landmarks", "wnoa")])
 def test_fixed_lag_keeps_a_bounded_graph(target, model):
     # 400 frames at 30 fps with a loss every 100: the whole-sequence graph grows with every

@@ -28,6 +28,7 @@ def tracked(track_clip):
     return track_sequence(track_clip.images, K, track_clip.bounds, timestamps=track_clip.timestamps, smooth=True)
 
 
+@pytest.mark.slow  # renders and tracks a sequence that leaves the view
 def test_track_reports_out_of_view_frames_lost_and_recovers(track_clip, tracked):
     clip, status = track_clip, tracked.status
     assert status[0] == DETECTED
@@ -78,6 +79,7 @@ def test_track_reads_a_folder(track_clip, tmp_path):
     np.testing.assert_allclose(track.timestamps, [10.0, 10.1, 10.2])
 
 
+@pytest.mark.slow  # tracks a rendered folder
 def test_an_unreadable_frame_file_is_lost_and_the_others_tracked(track_clip, tmp_path):
     # One corrupt file in the middle used to abort the whole run with an InputError.
     for k in range(6):
@@ -221,6 +223,7 @@ def raw_clip(track_clip):
     return [distort_image(image, LENS) for image in track_clip.images[:8]]
 
 
+@pytest.mark.slow  # renders and tracks raw frames through a lens
 def test_raw_frames_track_through_the_camera_model(track_clip, raw_clip):
     track = track_sequence(raw_clip, LENS, timestamps=track_clip.timestamps[:8], smooth=True)
     assert list(track.status) == [DETECTED] + [TRACKED] * 7
@@ -305,6 +308,7 @@ def test_board_symmetries_are_the_turns_of_the_grid():
     np.testing.assert_array_equal(perms[2][perms[2]], perms[1])
 
 
+@pytest.mark.slow  # a rendered sequence tracked twice
 def test_fixed_lag_tracker_matches_the_whole_sequence_graph_through_a_loss(track_clip, tracked):
     # The default back end is the fixed lag (1 s, on this 1.5 s clip); a 0.3 s lag
     # marginalises most frames. Same statuses (lost out of view, re-detected after), online
