@@ -149,6 +149,7 @@ def test_a_worker_killed_mid_run_on_the_cluster(images, cluster):
         client.wait_for_workers(2, timeout=60)
 
 
+@pytest.mark.slow  # a Dask cluster of subprocesses, a worker killed
 def test_an_image_whose_own_task_kills_its_worker_gets_a_crashed_row(images, cluster):
     # One image a task: a task that fails (allowed-failures 0) cannot be split, so its image
     # gets a row that says why, and the others go on.

@@ -37,6 +37,7 @@ def client():
         cluster.close()
 
 
+@pytest.mark.slow  # a local Dask cluster interrupted
 def test_local_cluster_workers_leave_ctrl_c_to_the_client(client):
     ignored = client.run(lambda: signal.getsignal(signal.SIGINT) == signal.SIG_IGN)
     assert list(ignored.values()) == [True, True]

@@ -82,6 +82,7 @@ def test_projection_uncertainty_ties_the_frame_to_the_boards(radtan_calibration)
         c.projection_uncertainty_map(step=32, distance_m="far")
 
 
+@pytest.mark.slow  # two whole fisheye calibrations of rendered views
 def test_fisheye_calibration_needs_the_camera_pass():
     camera = fisheye_camera()
     views = calibration_set(camera, 10, rng=1)  # four boards are found without a camera

@@ -94,6 +94,7 @@ def test_script_without_arguments_runs_the_bundled_example(bundled):
         assert float(mm) < 1.5 and float(deg) < 0.05  # regression guard (an earlier run): at most 0.32 mm and 0.014 deg
 
 
+@pytest.mark.slow  # the command in fresh processes over a folder
 def test_module_json_and_overlay_folder(bundled, tmp_path):
     out_json, folder = tmp_path / "out.json", tmp_path / "overlays"
     result = graphpose("estimate", "--cases", BUNDLED, "--json", out_json, "--overlay", f"{folder}/", "-q")
@@ -145,6 +146,7 @@ def test_readme_robust_run_on_the_real_cases_estimates_all_six(tmp_path):
     assert all(r["status"] == "ok" and r["cross_check"]["agree"] for r in records)
 
 
+@pytest.mark.slow  # the command in fresh processes
 def test_one_image_with_options_guess_overlay_and_json(bundled, tmp_path):
     case = bundled.cases[0]
     guess = tmp_path / "guess.json"
@@ -211,6 +213,7 @@ def test_usage_errors_in_process(args, fragments, capsys):
         assert fragment in line, line
 
 
+@pytest.mark.slow  # the command in many fresh processes
 def test_malformed_values_as_a_user_sees_them():
     one_error_line(graphpose("estimate", "img.png", "--bounds", BOUNDS, "--board", "8by6"),
                    2, "graphpose estimate: error: argument --board", "'8by6'")
@@ -220,6 +223,7 @@ def test_malformed_values_as_a_user_sees_them():
                    2, "graphpose estimate: error: argument --K", "focal lengths must be positive")
 
 
+@pytest.mark.slow  # the command in several fresh processes
 def test_missing_and_unreadable_image_and_guess(tmp_path):
     one_error_line(graphpose("estimate", tmp_path / "nope.png", "--bounds", BOUNDS, "--K", K_BUNDLED),
                    2, "not found", "nope.png")
@@ -318,6 +322,7 @@ def test_an_overlay_folder_that_cannot_be_made_is_an_input_error(bundled, tmp_pa
     assert "cannot create folder" in record["message"] and record["T_WC"] is not None
 
 
+@pytest.mark.slow  # the command in a fresh process over a folder
 def test_batch_goes_on_past_a_bad_image(bundled, blank_png, tmp_path):
     good = bundled.cases[2]
     doc = {"K": bundled.K.tolist(), "cases": [
@@ -465,6 +470,7 @@ def test_parse_positive_accepts():
 
 
 
+@pytest.mark.slow  # the command in a fresh process on a raw image
 def test_a_raw_image_with_its_calibration_file(tmp_path):
     # As docs/cli.md writes it, from the repository's root.
     image = os.path.relpath(opencv_file("left01.jpg"), REPO)  # ../shared/data/opencv_samples/left01.jpg

@@ -153,6 +153,7 @@ def test_a_misspelt_command_is_still_argparses_invalid_choice(capsys):
     assert "invalid choice: 'estmate'" in one_line(capsys)
 
 
+@pytest.mark.slow  # tracks rendered frames through the CLI
 def test_a_lost_frame_has_one_message_not_the_same_words_per_search_area(tmp_path, capsys):
     seq = tmp_path / "seq"
     assert main(["render-sequence", str(seq), "--frames", "6", "--excursions", "0", "--seed", "1", "-q"]) == 0

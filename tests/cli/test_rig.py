@@ -49,6 +49,7 @@ def test_estimate_rig_reports_camera_0s_pose(rig_file, tmp_path):
     assert 0.2 < np.linalg.norm(np.array(record["T_WC"])[:3, 3]) < 1.0
 
 
+@pytest.mark.slow  # a rig calibration through the CLI
 @pytest.mark.parametrize("args,fragment", [
     (["--camera", OPENCV_DIR / "left.opencv.yml"], "holds one camera, not a rig"),
     (["--camera", OPENCV_DIR / "camchain.kalibr.yaml"], "holds one camera, not a rig"),
@@ -59,6 +60,7 @@ def test_a_rig_file_with_one_camera_given_to_rig_is_an_error(args, fragment):
     assert done.returncode == 2 and fragment in done.stderr and len(done.stderr.strip().splitlines()) == 1
 
 
+@pytest.mark.slow  # rig calibrations through the CLI
 def test_rig_usage_errors(rig_file, tmp_path):
     out, _ = rig_file
     done = graphpose("estimate", "--camera", out / "rig.yml", "--rig", OPENCV_DIR / "left05.jpg")

@@ -38,6 +38,7 @@ def _copy_frames(folder, to):
     return to
 
 
+@pytest.mark.slow  # renders and tracks a sequence through the CLI
 def test_render_sequence_then_track(rendered, tmp_path, capsys):
     folder, bounds = rendered
     tum, out = tmp_path / "est.tum", tmp_path / "est.json"
@@ -119,6 +120,7 @@ def test_plot_draws_the_truth_where_it_is_known(rendered, tmp_path, capsys, monk
     assert "(8 of 8 frames matched by timestamp)" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # tracks a sequence and draws it with matplotlib
 def test_plot_is_written(rendered, tmp_path):
     folder, bounds = rendered
     out = tmp_path / "track.png"
@@ -187,6 +189,7 @@ def test_refuses_output_into_a_missing_folder(blank_frames, tmp_path, capsys, op
     assert f"{option}: folder {tmp_path / 'no'} does not exist" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # tracks a rendered sequence three times
 def test_all_cpp_back_end_and_robust_fit_match_the_default(tmp_path):
     # frame_landmarks + wnoa (every factor in GTSAM's C++), and --robust (the single-image
     # fit's Huber gate), through the whole tracker on rendered frames: same statuses, and

@@ -58,6 +58,7 @@ def views(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow  # a whole calibration through the CLI
 def test_calibrate_goes_on_past_an_unreadable_image_and_names_it(views, tmp_path, capsys):
     report = tmp_path / "report.json"
     assert main(["calibrate", str(views), "--board", "8x6x0.0635", "--model", "pinhole", "--out",
@@ -78,6 +79,7 @@ def test_calibrate_with_two_images_says_why_without_a_dangling_list(views, tmp_p
     assert "No board in" not in err[0] and err[0].endswith("views at different tilts")
 
 
+@pytest.mark.slow  # a whole calibration through the CLI
 def test_calibrate_report_has_its_old_name_json_too(views, tmp_path, capsys, monkeypatch):
     import graphpose.calibrate as package
 

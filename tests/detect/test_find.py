@@ -272,6 +272,7 @@ def _large_scene(distance, seed):
     return random_scene(Kc, Board(), size=(2560, 1920), distance=distance, max_tilt_deg=40.0, rng=seed)
 
 
+@pytest.mark.slow  # renders and searches a 12 MP image
 def test_a_large_image_is_searched_at_an_eighth_and_labelled_right():
     board = Board()
     scene = _large_scene((0.8, 1.2), 3)  # squares of about 120 px: 15 at an eighth

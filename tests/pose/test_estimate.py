@@ -87,6 +87,7 @@ def test_target_01_is_near_the_course_reference(real_cases, real_images):
 # ------------------------------------------------------------------ synthetic images
 
 
+@pytest.mark.slow  # renders and estimates many images
 def test_synthetic_images_give_accurate_poses_and_honest_uncertainty():
     from graphpose.synth import poses, render
     rng = np.random.default_rng(2024)
@@ -324,6 +325,7 @@ def opencv_estimates():
     return out
 
 
+@pytest.mark.slow  # 26 raw OpenCV samples, each estimated raw and undistorted (its fixture)
 def test_raw_images_with_their_camera_converge_and_solvers_agree(opencv_estimates):
     rms = []
     for name, (camera, est, _) in opencv_estimates.items():

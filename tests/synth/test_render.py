@@ -512,6 +512,7 @@ def test_distorted_junctions_match_a_brute_force_reference(camera, distance):
             assert np.hypot(*np.linalg.lstsq(G, I[window].ravel() - moved, rcond=None)[0]) > 5e-3
 
 
+@pytest.mark.slow  # renders through a wide fisheye at full size
 @pytest.mark.parametrize("camera, params", [
     (FISHEYE, [0.4, 0.3, -0.15, 0.3, 1.9, 0.2]),  # along a large board: beyond theta_max, and behind
     (WIDE, [0.5, 0.35, -0.2, 0.0, 1.3, 0.0]),  # a board half behind the camera
