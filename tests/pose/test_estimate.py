@@ -339,6 +339,7 @@ def test_raw_images_with_their_camera_converge_and_solvers_agree(opencv_estimate
     assert max(rms) < 0.28
 
 
+@pytest.mark.slow  # its fixture estimates 26 raw OpenCV samples raw and undistorted
 def test_raw_pose_is_the_undistort_first_pose(opencv_estimates):
     for name, (_, raw, flat) in opencv_estimates.items():
         assert_good(flat)
@@ -348,6 +349,7 @@ def test_raw_pose_is_the_undistort_first_pose(opencv_estimates):
         assert dt < 2e-3 and dr < 0.1, (name, dt, dr)
 
 
+@pytest.mark.slow  # its fixture estimates 26 raw OpenCV samples raw and undistorted
 def test_the_lens_model_matters_on_raw_images(opencv_estimates):
     camera, est, _ = opencv_estimates["left01.jpg"]
     pinhole = estimate_pose(read_image(opencv_file("left01.jpg")), None, camera.K, OPENCV_BOARD)
