@@ -264,19 +264,19 @@ def main(quick: bool = False) -> dict:
             goals.append({"figure": f"OpenCV samples {side}: projection uncertainty at the centre, at the boards' "
                                     f"median distance ({s['distance_m']:.2f} m)", "unit": "px",
                           "graphpose": s["at_boards_px"][0], "peer": None,
-                          "goal": "0.013-0.030 (0.67-1.5 x mrcal's 0.020, left; issue 30's figure)" if side == "left"
+                          "goal": "0.013-0.030 (0.67-1.5 x mrcal's 0.020, left)" if side == "left"
                           else "reference (mrcal: not quoted)",
                           "met": bool(0.0134 <= s["at_boards_px"][0] <= 0.030) if side == "left" else None})
             mrcal_rms = {"left": 0.150, "right": 0.147}[side]
             goals.append({"figure": f"OpenCV samples {side}: reprojection RMS with model rational (OpenCV's 8 "
                                     "coefficients; no board warp: not built)", "unit": "px",
                           "graphpose": s["rational_rms_px"], "peer": None,
-                          "goal": f"<= {mrcal_rms} (mrcal's with its warp / OPENCV8; issue 30's figure)",
+                          "goal": f"<= {mrcal_rms} (mrcal's with its warp / OPENCV8)",
                           "met": bool(s["rational_rms_px"] <= mrcal_rms)})
             goals.append({"figure": f"OpenCV samples {side}: cross-validation, odd / even images, median projection "
                                     "difference after the fitted rotation", "unit": "px",
                           "graphpose": s["cross_validation_median_px"], "peer": None,
-                          "goal": "<= 0.089 (mrcal's on the same halves; issue 30's figure)" if side == "left"
+                          "goal": "<= 0.089 (mrcal's on the same halves)" if side == "left"
                           else "reference", "met": bool(s["cross_validation_median_px"] <= 0.089) if side == "left"
                           else None})
     sp = out["speed"]
@@ -325,14 +325,14 @@ def section(out) -> dict:
                              r["centre_sigma_intrinsics_only_px"], r["sigma_px"]])
             else:
                 rows.append([name, r["seed"], 0] + [float("nan")] * 10)
-    blocks.append({"title": "Projection uncertainty and parameter NEES on rendered sets (issue 30)",
+    blocks.append({"title": "Projection uncertainty and parameter NEES on rendered sets",
                    "text": ("Each set calibrated from its rendered images; the projection uncertainty (mrcal's: the camera "
                             "frame tied to the board poses) judged over a 16 x 12 grid covering the image against the "
                             "error after mrcal's alignment (the true camera's point carried into each board's true frame "
                             "and back through the estimated poses' mean), at the boards' median distance and at "
                             "infinity: NEES 2 on average when right; the parameter NEES P (9 radtan, 8 fisheye). Beside "
                             "them the centre's 1-sigma and actual error at the boards' distance, and the intrinsics-only "
-                            "figure at the centre (the map before issue 30)."),
+                            "figure at the centre."),
                    "values": {}, "columns": ["lens", "seed", "used", "parameter NEES", "grid NEES boards",
                                              "grid NEES infinity", "distance m", "median sigma px", "grid error RMS px",
                                              "centre sigma px", "centre error px", "centre intrinsics-only px",
@@ -357,7 +357,7 @@ def section(out) -> dict:
                 "text": ("graphpose RMS {g:.3f} px on {gu} images ({out} junctions left out as outliers), OpenCV "
                          "calibrateCamera {o:.3f} px on {ou}. Projection uncertainty (1-sigma, worst direction) at the "
                          "centre and the four corners (upper left, upper right, lower left, lower right) at the boards' "
-                         "median distance {d:.2f} m: {b}; at infinity: {f}; intrinsics only (the map before issue 30): "
+                         "median distance {d:.2f} m: {b}; at infinity: {f}; intrinsics only: "
                          "{p}. Cross-validation (odd and even images, {h0} + {h1} used, calibrated apart): d^T (C1 + C2)^-1 "
                          "d = {m:.1f} (9 if the noise were all); their projections differ by {cv:.3f} px median over the "
                          "image after the best-fitting rotation (mrcal's projection_diff), against {cp:.3f} px predicted "
@@ -391,7 +391,7 @@ def section(out) -> dict:
                                               "{o:.2f} s ({oc:.2f} s CPU)."),
                    "values": {"images": sp["images"], "g": sp["graphpose_s"], "gc": sp["graphpose_cpu_s"],
                               "o": sp["opencv_s"], "oc": sp["opencv_cpu_s"]}, "columns": [], "formats": [], "rows": []})
-    goal = ("Calibration (issue 20): graphpose.calibrate on rendered raw images of two lenses with exact truth and on "
+    goal = ("Calibration: graphpose.calibrate on rendered raw images of two lenses with exact truth and on "
             "OpenCV's samples, beside OpenCV's calibrateCamera / fisheye.calibrate on its own corners; the reported "
             "covariance judged by the parameters' errors (z, NEES) and by two disjoint halves.")
     return {"goal": goal, "figures": figures, "blocks": blocks}

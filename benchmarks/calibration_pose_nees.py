@@ -2,7 +2,7 @@
 
     python -m benchmarks.calibration_pose_nees [--quick] [--trials N]
 
-Issue 20's "pose with calibration uncertainty" figure, for the benchmark's ``calibration``
+The "pose with calibration uncertainty" figure, for the benchmark's ``calibration``
 section (:mod:`benchmarks.calibration` calls :func:`pose_nees`): each trial renders a fresh
 calibration set of the radtan camera (:func:`graphpose.synth.calibration.calibration_set`),
 calibrates on 8 views (``graphpose.calibrate``), writes the camera file (graphpose JSON, with

@@ -1,4 +1,4 @@
-"""Issue 30's calibration figures, for the benchmark's ``calibration`` section
+"""The calibration's uncertainty and cross-validation figures, for the benchmark's ``calibration`` section
 (:mod:`benchmarks.calibration` calls these):
 
 - :func:`rendered_nees`: rendered radtan (sets of 20 views) and fisheye (sets of 30 views)

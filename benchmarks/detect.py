@@ -89,7 +89,7 @@ def scene(rng, k: int, cls: str, size=(640, 480)):
     extent = max(board.cols, board.rows) + 2
     near = max(near, extent * board.square_m * f / (0.9 * size[1]))  # the sheet must fit the image
     # The scene's seed is drawn before the scene's settings, so the same 1,200 scenes come out
-    # run after run (and as before rng became a keyword at the end of the call).
+    # run after run, whatever order random_scene's own arguments are in.
     seed = int(rng.integers(2**31))
     return random_scene(
         Kc, board, size, occluders=occluders, clutter=clutter,
@@ -264,7 +264,7 @@ def main(quick: bool = False) -> dict:
          "rows": [list(scale["median_ms"].values())]},
     ]
     rolled = result["rolled"]
-    blocks.append({"title": "graphpose given a rolled outline of a partly hidden board (issue 26)",
+    blocks.append({"title": "graphpose given a rolled outline of a partly hidden board",
                    "text": "The outline rolled by one to three vertices names another corner junction 0; right is the "
                            "truth's labels (or a board symmetry's, or the turn the outline names where it maps the grid "
                            "onto itself), a refusal is never wrong. The scenes are drawn from seed 26, apart from "

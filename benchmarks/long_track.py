@@ -1,6 +1,6 @@
 """The speed section's long run: graphpose's tracker over 10,000 frames, memory and time a frame.
 
-Issue 19 asks that tracking over 10,000 rendered frames keep its process memory flat (growth
+The goals: tracking over 10,000 rendered frames keep its process memory flat (growth
 below 2 MB per 1,000 frames), its back end's time per frame flat (the last 100 frames at most
 1.2x frames 100-199) and the whole tracker under 3 ms a frame. Rendering 10,000 frames would
 take the benchmark longer than the tracking, so a few hundred distinct frames of one hand-held
@@ -28,8 +28,8 @@ the next prediction, the reprojection RMS, the result, this benchmark's own book
 given too. After the run, the same files are read again by ``read_image`` and by OpenCV's
 ``imread`` (grey) in turn, the reading's peer.
 
-This module is a block of the speed section rather than a section of its own: issue 19's
-figures then come from one section, ``python -m benchmarks speed``, in one run.
+This module is a block of the speed section rather than a section of its own: the tracking
+goals' figures then come from one section, ``python -m benchmarks speed``, in one run.
 """
 
 from __future__ import annotations

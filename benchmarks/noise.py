@@ -11,7 +11,7 @@ cell. The cells:
   sub-frame renders), shot noise (1 grey level per electron, read noise 2), JPEG (quality 50,
   noise 3), defocus (a 3 px disc, noise 3) and a dark image (a fifth of the exposure, shot and
   read noise, amplified 5 x, vignetting 40 %), blur 1 px unless said;
-- uneven light (issue 26): 1280 x 720 images of boards with squares of 60-80 px (8 x 6),
+- uneven light: 1280 x 720 images of boards with squares of 60-80 px (8 x 6),
   80-100 (7 x 5) and 100-120 (6 x 4), lit by a lamp over one corner junction so that the light
   falls to a quarter at the opposite one (:func:`falling_light`, the cos^4 law), a dark
   exposure with shot and read noise brightened by a gain, JPEG 90: "noise 2" (read noise 1.5,
@@ -72,7 +72,7 @@ ROWS = {
     "dark: exposure 0.2, gain 5, vignetting 0.4": (1.0, None, Degradation(noise_sigma=1.0, shot_gain=0.25,
                                                                           exposure=0.2, vignetting=0.4)),
 }
-#: Uneven light (issue 26: a dark, noisy 1280 x 720 image of a plain board with squares of about
+#: Uneven light (a dark, noisy 1280 x 720 image of a plain board with squares of about
 #: 90 px, the light falling to a quarter across it): boards and their squares' range (px);
 #: boards large enough for the squares' range whose sheet fits the image.
 UNEVEN_SIZE = (1280, 720)
@@ -317,7 +317,7 @@ def main(quick: bool = False) -> dict:
             "findChessboardCornersSB with CALIB_CB_ACCURACY). Found: the junctions lie within "
             f"{TOLERANCE_PX:g} px of the truth in their labelled order (graphpose's trusted ones; OpenCV's, "
             "which name no junction 0, in its order or turned by half a turn); anything else returned is "
-            "wrong (mislabelled, or off: labelled right with a junction too far). Goals (issue 16): in every cell at least the better of classic and SB, with and without "
+            "wrong (mislabelled, or off: labelled right with a junction too far). Goals: in every cell at least the better of classic and SB, with and without "
             "a polygon; 0 wrong; junction RMS at most 0.6 x cornerSubPix's wherever both find the board.")
     return {"goal": goal, "figures": figures, "blocks": blocks}
 

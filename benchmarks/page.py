@@ -7,8 +7,25 @@ prints it, :func:`table` for any table.
 
 from __future__ import annotations
 
+import re
 import string
 from pathlib import Path
+
+#: Texts a run stored before the sections' texts dropped them, as the page now reads them: the
+#: tracker's issue numbers (the tracker is not in the repository; history lives in git and
+#: CHANGELOG.md) and the benchmark's former script name. The JSON keeps what each run wrote (it
+#: is never edited by hand); the next run of a section stores its module's present text.
+_STALE = ((re.compile(r" \(the map before issues? \d+\)"), ""),
+          (re.compile(r"; issues? \d+'s figures?\)"), ")"),
+          (re.compile(r" \(issues? \d+\)"), ""),
+          (re.compile(r"python scripts/bench\.py"), "python -m benchmarks"))
+
+
+def current(text: str) -> str:
+    """``text`` (markdown of stored texts) without the stale references of :data:`_STALE`."""
+    for pattern, replacement in _STALE:
+        text = pattern.sub(replacement, text)
+    return text
 
 
 class _Formatter(string.Formatter):
@@ -73,7 +90,7 @@ def render_section(section) -> str:
         quick = " (quick)" if r.get("quick") else ""
         parts.append(f"*Measured in a run of its own{quick}: {r['date']}, commit {r['commit']}, `{r['command']}`; "
                      f"versions {', '.join(f'{k} {v}' for k, v in r['versions'].items())}.*")
-    return "\n\n".join(parts) + "\n"
+    return current("\n\n".join(parts) + "\n")
 
 
 def render_page(doc) -> str:
@@ -109,7 +126,7 @@ def render_page(doc) -> str:
         "## Summary",
         summarytable(doc["sections"]),
     ]
-    page = "\n\n".join(parts) + "\n"
+    page = current("\n\n".join(parts) + "\n")
     return page + "".join("\n" + render_section(s) for s in doc["sections"])
 
 

@@ -407,7 +407,7 @@ def main(quick: bool = False) -> dict:
             f, b = part()
             figures += f
             blocks.append(b)
-    return {"goal": "Recordings as people make them (issue 28): a video tracked as well as the same decoded frames "
+    return {"goal": "Recordings as people make them: a video tracked as well as the same decoded frames "
                     "from a folder, and better than OpenCV per frame; its TUM timestamps the container's; ROS bags "
                     "giving the folder's poses with their own camera_info; a 10,000-frame video at flat memory and "
                     "under 3 ms a frame; a calibration from a waved clip at least as good as 40 hand-picked frames "

@@ -349,7 +349,7 @@ def main(quick: bool = False) -> dict:
                        "used": p["views_used"], "rej": p["rejected"], "ok": p["ok"], "pairs": p["opencv_pairs"],
                        "ob": p["opencv_baseline_mm"], "orot": p["opencv_rotation_deg"]},
             "columns": [], "formats": [], "rows": []})
-    return {"goal": ("Rigs of cameras (issue 29): calibrate_rig's extrinsics against the truth and OpenCV's "
+    return {"goal": ("Rigs of cameras: calibrate_rig's extrinsics against the truth and OpenCV's "
                      "stereoCalibrate, their honesty (sigmas, NEES), OpenCV's own pair, the rig's pose, and speed."),
             "figures": figures, "blocks": blocks}
 

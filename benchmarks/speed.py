@@ -27,8 +27,8 @@ tracker's time a frame and that of its parts (reading, front end, back end; Open
 beside the reading). GTSAM's solve with its marginals as ``estimate_pose`` runs it (from
 Gauss-Newton's answer, on each real image's trusted junctions) beside ``solvePnPRefineLM`` from
 the same pose; and the command itself on one image in a fresh process beside a six-line OpenCV
-script (:mod:`benchmarks.startup`). Goals: issue 27's (like for like; the memory and tracking
-goals issue 19's).
+script (:mod:`benchmarks.startup`). Goals: like for like, the memory and tracking goals in
+:mod:`benchmarks.long_track`.
 
 Run it as a section of the benchmark: ``python -m benchmarks speed [--quick]`` (or
 ``python -m benchmarks.speed [--quick]``, the same).
@@ -104,8 +104,8 @@ def compare(cv2, items, repeats):
 
 
 #: The stages the issue keeps whatever they cost: reading the file with the project's decoder
-#: and the GTSAM solve with its marginals (issue 19: "the GTSAM solve, its marginals and the
-#: cross-check stay in the default path").
+#: and the GTSAM solve with its marginals (the GTSAM solve, its marginals and the
+#: cross-check stay in the default path).
 KEPT_STAGES = ("read", "GTSAM + marginals")
 
 
@@ -250,7 +250,7 @@ def _per_image(title, rows, peer, fmt=".1f"):
                       r["opencv_ok"]] for r in rows]}
 
 
-#: File to pose: (case, goal ratio to OpenCV classic) as issue 27 sets them (like for like: the
+#: File to pose: (case, goal ratio to OpenCV classic) as the goals set them (like for like: the
 #: GTSAM cross-check and the read included, at most 1.3x at VGA with or without a polygon).
 FILE_GOALS = (("real, polygon", 1.3), ("rendered, polygon", 1.3), ("real, no polygon", 1.3),
               ("rendered, no polygon", 1.3), ("12 MP JPEG, no polygon", 0.6))
@@ -343,7 +343,7 @@ def main(quick: bool = False) -> dict:
             "findChessboardCorners + cornerSubPix; peak memory at 12 MP; and `graphpose track` over a long run. "
             "Also GTSAM's solve with its marginals as estimate_pose runs it beside solvePnPRefineLM from the same "
             "pose, and `graphpose estimate` on one image in a fresh process beside a six-line OpenCV script. "
-            "Single-threaded, each image timed in turn with the peer, medians. Goals (issue 27): file to pose at "
+            "Single-threaded, each image timed in turn with the peer, medians. Goals: file to pose at "
             "most 1.3x the peer's time at 640 x 480 with or without a polygon, 0.6x at 4032 x 3024; the "
             "extraction at most 1.0x; GTSAM's solve at most 4x; the command at most 1.6x the script; less peak memory than the peer at 12 MP through the library's read_image; "
             "over 10,000 frames, tracker memory growing by less than 2 MB per 1,000 frames, the back end's time "

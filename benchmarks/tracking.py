@@ -28,7 +28,7 @@ this run. OpenCV (the peer) is imported here only.
    resection form.
 6. A noisy sequence (:func:`_noisy_sequence`): one trajectory of 150 frames (quick: 60) rendered at
    noise 9 and blur 2.5 and at noise 2, both tracked, OpenCV classic on the noisy frames: frames
-   lost with the board in view, poses against OpenCV's boards, and the ATE ratio (issue 16).
+   lost with the board in view, poses against OpenCV's boards, and the ATE ratio.
 7. A long run: 3,000 rendered frames (quick: 300; supersample 1, kept in memory, whip pans
    every 20 s or so) tracked twice from the frames, with the default fixed-lag back end
    (smoothing on) and with the whole-sequence iSAM2 (``lag_s=None``, today's until the fixed
@@ -284,7 +284,7 @@ def main(quick: bool = False) -> dict:
     return {"goal": GOAL, "figures": figures, "blocks": blocks}
 
 
-#: The noisy sequence's image noise and blur (issue 16), and the reference noise it is held to.
+#: The noisy sequence's image noise and blur, and the reference noise it is held to.
 NOISY = (9.0, 2.5)
 NOISY_REFERENCE = 2.0
 

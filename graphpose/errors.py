@@ -68,8 +68,9 @@ class DegenerateGeometryError(GraphposeError, ValueError):
     that puts the board in front of the camera, image points where the lens model has no ray
     in front of the camera. The detector, the tracker and the calibration catch it as "this
     view gives no pose"; the command line turns it into exit code 1, as a failed estimate,
-    never 2 (:class:`InputError` is for arguments the caller must change). A ``ValueError``,
-    as the :class:`InputError` it used to be, so that callers catching that still do.
+    never 2 (:class:`InputError` is for arguments the caller must change). A ``ValueError``
+    too, as numbers that admit no answer are in Python's own terms, so that a caller catching
+    ``ValueError`` catches it.
     """
 
 

@@ -8,6 +8,7 @@ plumbing only, on small hand-made documents.
 import ast
 import importlib
 import json
+import re
 import subprocess
 import sys
 
@@ -77,3 +78,16 @@ def test_the_long_run_plays_its_frames_forward_and_back():
     order = ping_pong(4, 11)
     np.testing.assert_array_equal(order, [0, 1, 2, 3, 2, 1, 0, 1, 2, 3, 2])
     assert np.all(np.abs(np.diff(order)) == 1)  # continuous: no jump back to the first frame
+
+
+def test_the_page_is_drawn_from_the_json_without_tracker_numbers():
+    # docs/benchmarks.md is what `python -m benchmarks --render` draws from the stored JSON; the
+    # stored texts of earlier runs name tracker issues, which the page leaves out.
+    from benchmarks.page import current, render_page
+
+    doc = json.loads((REPO / "docs" / "benchmarks.json").read_text())
+    page = render_page(doc)
+    assert not re.search(r"issues? \d", page)
+    assert "scripts/bench.py" not in page
+    assert current("Goals (issue 27): at most 1.3x (mrcal's 0.020; issue 30's figure)") == (
+        "Goals: at most 1.3x (mrcal's 0.020)")

@@ -230,6 +230,7 @@ def _argv(command: str, sandbox) -> list:
     return out
 
 
+@pytest.mark.slow  # every documented shell command in a subprocess, on a rendered sandbox
 @pytest.mark.parametrize("where, command, code", COMMANDS, ids=[f"{w}: {c[:60]}" for w, c, _ in COMMANDS])
 def test_the_documented_command_runs(where, command, code, sandbox, monkeypatch):
     from graphpose.cli import main

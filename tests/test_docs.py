@@ -47,6 +47,7 @@ def test_there_are_examples_to_run():
     assert any(page.name == "README.md" for page, _, _ in BLOCKS)
 
 
+@pytest.mark.slow  # each documented Python example in a fresh interpreter
 @pytest.mark.parametrize("block", BLOCKS, ids=_name)
 def test_python_example_runs_on_its_own(block):
     code = block[2]
@@ -96,6 +97,7 @@ def _numbers_and_skeleton(text):
     return numbers, pattern.sub("#", text)
 
 
+@pytest.mark.slow  # the README's first run in a subprocess
 def test_readme_first_run_output_is_what_the_first_run_prints():
     """The README's sample is the first image's report: the same lines, the same numbers up to
     the last digit or two (a detector tweak moves the fifth decimal) or 20 % of a small figure."""

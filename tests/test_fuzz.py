@@ -46,6 +46,7 @@ def test_a_rolled_outline_through_estimate_pose_is_refused_or_right():
         assert run_case(case)["verdict"] in ("refused", "right", "input")
 
 
+@pytest.mark.slow  # renders and searches many hard scenes
 def test_low_contrast_noise_and_a_specular_highlight_without_a_polygon_never_mislabel():
     """The filer's fourth: extract_junctions without a polygon, low contrast, noise 6, a specular
     highlight; 14 junctions trusted, all 78-219 px off. Twenty such scenes: none mislabelled."""

@@ -130,6 +130,7 @@ def test_read_image_refuses_a_decompression_bomb_as_unreadable(tmp_path, monkeyp
             read_image(path, as_float=as_float)
 
 
+@pytest.mark.slow  # reads broken files in subprocesses
 def test_a_broken_file_is_named_truncated_or_corrupt_never_a_missing_plugin(tmp_path):
     cases = {"empty.png": b"", "cut.jpg": b"\xff\xd8\xff\xe0\x00\x10JFIF", "notes.dat": b"hello, not an image"}
     for name, content in cases.items():

@@ -7,9 +7,8 @@ Levenberg-Marquardt that cross-checks it), :mod:`.result` (:class:`Calibration` 
 uncertainty map) and :mod:`.run` (:func:`calibrate`, the steps from images to the result).
 
 ``graphpose.calibrate`` is this package, and it is callable: ``graphpose.calibrate(images,
-...)`` is :func:`calibrate` (the package and the function must share the name the issue gives
-them, so the module object forwards calls; ``from graphpose.calibrate import calibrate`` works
-as well). Names are imported on first use, so that importing the package loads no GTSAM.
+...)`` is :func:`calibrate` (the package and the function share the public name, so the
+module object forwards calls; ``from graphpose.calibrate import calibrate`` works as well). Names are imported on first use, so that importing the package loads no GTSAM.
 """
 
 from __future__ import annotations

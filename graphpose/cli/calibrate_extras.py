@@ -1,5 +1,5 @@
-"""``graphpose calibrate``'s options of issue 30: junctions in and out, cross-validation, and
-the projection uncertainty in the summary.
+"""``graphpose calibrate``'s options for other detectors and for judging a calibration:
+junctions in and out, cross-validation, and the projection uncertainty in the summary.
 
 Kept apart from :mod:`graphpose.cli.calibrate` (which others edit too), which calls
 :func:`add_options`, :func:`check`, :func:`calibrate_from_args` and :func:`after`:
@@ -39,7 +39,7 @@ def parse_size(text: str) -> tuple:
 
 
 def add_options(p: argparse.ArgumentParser) -> None:
-    """Add issue 30's options to the calibrate parser."""
+    """Add the junction, cross-validation and uncertainty options to the calibrate parser."""
     p.add_argument("--corners", type=Path, metavar="FILE",
                    help="calibrate from another detector's junctions instead of images: mrcal's corners.vnl "
                    "(# filename x y level) or graphpose's corners JSON (--corners-out); IMAGES not given")

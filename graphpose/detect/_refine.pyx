@@ -1,4 +1,4 @@
-"""Compiled core of :mod:`graphpose.detect.refine`: the saddle refinement's pixel loops (issue 19).
+"""Compiled core of :mod:`graphpose.detect.refine`: the saddle refinement's pixel loops.
 
 One call per image refines every junction (:func:`refine_grid`): for each, the smoothed patch
 and its squared gradients, the gradient-weighted window about the current estimate, the
@@ -232,7 +232,8 @@ cdef void _window_moments(const double[:, ::1] patch, const float[:, ::1] grad2,
     """The moments of the fit (as :func:`_grid_moments`, about the patch's centre) with the
     window's weights about the estimate at (lu, lv), patch pixels: the squared gradient times
     a smooth taper of the window ``radius``, over the squared distance (at least 1), in single
-    precision as :func:`graphpose.detect.refine._weights` wrote it. Rows and columns beyond the
+    precision (float32 taper and weights: the refined junctions, and the records and figures
+    built on them, are defined at that precision). Rows and columns beyond the
     radius (where the taper is zero) are skipped; a column margin of one pixel keeps the
     single-precision test the judge of the edge.
     """

@@ -281,11 +281,6 @@ def _seed_cross(cands: Candidates, nb: np.ndarray, k: int):
     return best, float(theta0[0])
 
 
-def _parity_ok(theta, theta0, parity):
-    c = np.cos(2 * (theta - theta0))
-    return np.where(parity == 0, c > PARITY_COS, c < -PARITY_COS)
-
-
 def _grow(cands: Candidates, buckets: tuple, nodes: dict, theta0: float, max_nodes: int) -> tuple:
     """Grow ``nodes`` ring by ring until no free neighbouring key passes (see the module).
 

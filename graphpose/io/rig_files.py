@@ -9,7 +9,7 @@ Which way each transform points (``docs/rigs.md``):
   that takes a point from camera n-1's frame into camera n's, ``p_cn = T_cn_cnm1 p_cnm1``
   (graphpose's ``T_Cn_C0 T_C0_Cn-1``). ``cam_overlaps`` lists the other cameras. A camchain
   of several cameras without ``T_cn_cnm1`` holds no extrinsics: it is read as its ``cam0``
-  (or the camera ``name`` picks), as before.
+  (or the camera ``name`` picks), as a single camera's file is read.
 - **OpenCV stereo FileStorage** (``opencv``, two cameras): ``M1 D1 M2 D2 R T E F`` as OpenCV's
   ``stereo_calib`` sample writes them (``R, T`` take a point from camera 1's frame into
   camera 2's: ``p2 = R p1 + T``, metres; ``E = [T]_x R``; ``F = M2^-T E M1^-1``), and

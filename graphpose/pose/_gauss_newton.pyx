@@ -1,4 +1,4 @@
-"""Compiled core of :mod:`graphpose.pose.gauss_newton`: residuals and analytic Jacobians (issue 19).
+"""Compiled core of :mod:`graphpose.pose.gauss_newton`: residuals and analytic Jacobians.
 
 One call projects every target point through the pose ``(x, y, z, roll, pitch, yaw)``, with
 ``C = Cz(yaw) Cy(pitch) Cx(roll)`` and ``p_C = C^T (p_W - t)``, and stacks its residual and its

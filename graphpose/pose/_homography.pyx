@@ -1,4 +1,4 @@
-"""Compiled core of :mod:`graphpose.pose.homography`: the homography split into a first pose (issue 19).
+"""Compiled core of :mod:`graphpose.pose.homography`: the homography split into a first pose.
 
 One call takes the plane-to-image homography ``H ~ K [r1 r2 t_CW]`` apart: ``K^-1 H`` by back
 substitution (``K`` is upper triangular), scaled by the mean norm of its first two columns, its

@@ -303,8 +303,8 @@ def reprojection_rms(residuals) -> float:
 
     One definition for every RMS graphpose reports (the pose's, the tracker's frames', the
     calibration's): the RMS length of the residual vectors, as ``calibrateCamera`` returns
-    it. (Until issue 20 the pose's was the RMS over both coordinates taken apart, 1/sqrt(2)
-    of this.)
+    it (not the RMS over both coordinates taken apart, which is 1/sqrt(2) of this), so that
+    graphpose's figures compare with OpenCV's.
 
     Parameters
     ----------

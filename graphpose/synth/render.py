@@ -49,7 +49,7 @@ image (:func:`graphpose.synth.lens.view_limit`): a board partly behind the camer
 beyond a fisheye's range, is drawn where the model images it. Steps 1-3 are unchanged:
 exact areas of the polylines, blur before pixel integration, the sheet's bounding box. A
 pinhole camera (``K``, or a :class:`~graphpose.PinholeCamera`) takes the path above, with
-straight edges and the same results as before cameras existed.
+straight edges and the images of the exact polygons (no polyline chords).
 
 Around the rendering: :mod:`graphpose.synth.raster` holds the exact areas and the kernel
 (steps 1-2), :mod:`graphpose.synth.poses` the random poses and polygons

@@ -1,4 +1,4 @@
-"""Compiled core of :func:`graphpose.track.factors.resection_factor` (issue 19): the error and the
+"""Compiled core of :func:`graphpose.track.factors.resection_factor`: the error and the
 Jacobian of a frame's junctions, the camera's projection of fixed target points, in one call.
 
 The pose is ``T_WC`` with GTSAM's right perturbation ``T Exp(omega, v)`` (rotation first), so

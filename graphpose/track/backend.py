@@ -9,11 +9,11 @@ Two online back ends take the same factors (:class:`FixedLagGraph`, :class:`Sequ
   factors become one linear prior on the variables it shared them with), so the graph holds
   about ``lag_s * fps`` frames however long the sequence: per-frame time and memory stay
   flat. The online pose of a frame, and its covariance, are the smoother's right after the
-  frame was added (filtered, as before). It keeps each frame's measurements (a few hundred
+  frame was added (filtered: it does not wait for later frames). It keeps each frame's measurements (a few hundred
   bytes) so that :meth:`FixedLagGraph.smooth` can build the whole sequence's graph once, at
   the end, and smooth it in batch.
 - :class:`SequenceGraph` (``TrackerConfig(lag_s=None)``): one iSAM2 over the whole
-  sequence, as before; its per-frame cost and memory grow with the sequence.
+  sequence (no variable is marginalised out); its per-frame cost and memory grow with the sequence.
 
 Both follow one interface, :class:`Backend`, the one the tracker uses (:func:`make_backend`
 picks the back end from ``lag_s``). Around them: the factor model each frame adds (:mod:`graphpose.track.model`,

@@ -52,6 +52,7 @@ def list_file(images, folder):
     return path
 
 
+@pytest.mark.slow  # a local Dask cluster of subprocesses
 def test_command_line_on_the_cluster_every_image_once(images, cluster, tmp_path):
     out = tmp_path / "results.parquet"
     done = batch(list_file(images, tmp_path), "--out", out, "--bounds-file", images.bounds_file,
@@ -74,6 +75,7 @@ def wait_for(condition, proc, timeout=120.0):
         time.sleep(0.005)
 
 
+@pytest.mark.slow  # a Dask cluster of subprocesses, killed and run again
 def test_client_killed_mid_run_then_run_again_does_only_the_rest(images, cluster, tmp_path):
     out = tmp_path / "results.jsonl"
     args = [list_file(images, tmp_path), "--out", out, "--bounds-file", images.bounds_file, "--K",
@@ -94,6 +96,7 @@ def test_client_killed_mid_run_then_run_again_does_only_the_rest(images, cluster
     check_rows(read_results(out), images)
 
 
+@pytest.mark.slow  # a Dask cluster of subprocesses, stopped and run again
 def test_client_stopped_by_sigterm_flushes_its_rows_and_resumes(images, cluster, tmp_path):
     out = tmp_path / "results.parquet"
     args = [list_file(images, tmp_path), "--out", out, "--bounds-file", images.bounds_file, "--K",
@@ -133,6 +136,7 @@ def kill_a_busy_worker(client, stream):
     raise AssertionError("the run ended before a worker could be killed")
 
 
+@pytest.mark.slow  # a Dask cluster of subprocesses, a worker killed
 def test_a_worker_killed_mid_run_on_the_cluster(images, cluster):
     # allowed-failures 0: the killed worker's tasks fail (KilledWorker) and the batch runs their
     # images again one a task, on the other worker or the restarted one.
@@ -145,6 +149,7 @@ def test_a_worker_killed_mid_run_on_the_cluster(images, cluster):
         client.wait_for_workers(2, timeout=60)
 
 
+@pytest.mark.slow  # a Dask cluster of subprocesses, a worker killed
 def test_an_image_whose_own_task_kills_its_worker_gets_a_crashed_row(images, cluster):
     # One image a task: a task that fails (allowed-failures 0) cannot be split, so its image
     # gets a row that says why, and the others go on.

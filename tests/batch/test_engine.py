@@ -37,6 +37,7 @@ def client():
         cluster.close()
 
 
+@pytest.mark.slow  # a local Dask cluster interrupted
 def test_local_cluster_workers_leave_ctrl_c_to_the_client(client):
     ignored = client.run(lambda: signal.getsignal(signal.SIGINT) == signal.SIG_IGN)
     assert list(ignored.values()) == [True, True]
@@ -54,6 +55,7 @@ def test_local_cluster_workers_single_threaded_without_a_malloc_trim_threshold(c
     assert all(address.startswith("tcp://127.0.0.1:") for address in seen)
 
 
+@pytest.mark.slow  # a Dask cluster over 200 paths
 def test_every_image_once_with_the_single_image_pose(images, client):
     rows = list(estimate_many(images.all_paths, images.K, board=images.board, bounds=images.bounds, client=client))
     check_rows(rows, images)
@@ -63,6 +65,7 @@ def test_every_image_once_with_the_single_image_pose(images, client):
     assert all(r["time_s"] > 0 for r in rows)
 
 
+@pytest.mark.slow  # a Dask worker killed and the run repeated
 def test_a_worker_killed_mid_run_loses_and_repeats_nothing(images, client):
     stream = estimate_many(images.all_paths, images.K, board=images.board, bounds=images.bounds, client=client,
                            images_per_task=3)

@@ -36,6 +36,7 @@ def test_boards_far_smaller_than_the_other_views_board_are_refused():
     check_agreement(Board(8, 6, 0.025), LABELS, {k: 200.0 for k in range(7)}, {7: _other(), 8: _other()})
 
 
+@pytest.mark.slow  # searches every OpenCV sample through the CLI
 def test_the_wrong_spec_on_opencvs_samples_exits_1_and_writes_no_file(tmp_path):
     opencv_file("left01.jpg")
     out = tmp_path / "x.json"

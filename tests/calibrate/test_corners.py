@@ -74,6 +74,7 @@ def calibrated():
     return views, graphpose.calibrate(views.images, model="radtan", names=[f"v{i}.png" for i in range(10)])
 
 
+@pytest.mark.slow  # two whole calibrations of OpenCV's samples
 def test_the_same_camera_from_the_written_corners(calibrated, tmp_path):
     views, c = calibrated
     path = tmp_path / "corners.vnl"

@@ -27,6 +27,7 @@ def _problem(seed):
     return camera, poses, observations
 
 
+@pytest.mark.slow  # whole calibrations, three times
 @pytest.mark.parametrize("seed", [0, 1])
 def test_the_stop_does_not_depend_on_the_costs_last_bits(seed, monkeypatch):
     # Near the minimum a step promises less than the cost's rounding. Where the cost's last

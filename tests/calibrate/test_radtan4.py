@@ -31,6 +31,7 @@ def test_calibration_model_names_what_radtan4_holds():
     assert not np.any(calibration_model("radtan")[1])
 
 
+@pytest.mark.slow  # a whole calibration through the CLI
 def test_radtan4_through_the_command_line_writes_a_kalibr_camchain_read_back(views, tmp_path, capsys):
     out = tmp_path / "camchain.yaml"
     code = main(["calibrate", str(views), "--board", "8x6x63.5mm", "--model", "radtan4",

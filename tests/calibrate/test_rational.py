@@ -49,6 +49,7 @@ def test_files_hold_it_or_refuse_it(tmp_path):
         write_camera(tmp_path / "k.yaml", camera, format="kalibr")
 
 
+@pytest.mark.slow  # a whole calibration with the rational model
 def test_calibration_with_the_weak_prior_converges_and_agrees():
     truth = RationalCamera(K, D, (640, 480))
     board = Board()

@@ -35,6 +35,7 @@ def calibrated(rendered):
     return calibrate_rig(frames=rendered.images, board=BOARD)
 
 
+@pytest.mark.slow  # whole rig calibrations of rendered views
 def test_extrinsics_within_three_sigmas_of_the_truth(calibrated, rendered):
     assert calibrated.ok, calibrated.summary
     s = calibrated.parameter_names.index("cam1.x")
@@ -72,6 +73,7 @@ def test_each_camera_carries_its_block_of_the_joint_covariance(calibrated):
     assert 0 < e["baseline_sigma_m"] < 1e-3 and 0 < e["rotation_sigma_deg"] < 0.1
 
 
+@pytest.mark.slow  # a rig calibration of rendered views
 def test_no_view_seen_by_two_cameras_together_is_an_error(rendered):
     from graphpose import calibrate_rig
 

@@ -62,6 +62,7 @@ def test_the_derivative_matches_finite_differences(camera, distance):
         np.testing.assert_allclose(J[:, :, k], numeric.T, atol=1e-4 * max(1.0, np.max(np.abs(numeric))), err_msg=k)
 
 
+@pytest.mark.slow  # whole calibrations of rendered sets
 def test_nees_against_the_aligned_error_is_two():
     # One simulated geometry (exact projections), the noise drawn again and again: the grid's
     # NEES against the error after mrcal's alignment averages 2 (two coordinates), at the

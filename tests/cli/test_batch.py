@@ -85,6 +85,7 @@ def test_missing_inputs_are_an_error(tmp_path, capsys):
     assert "matches no file" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # a local Dask cluster run twice
 def test_local_cluster_run_then_a_second_run_with_nothing_left(same_pose_images, tmp_path):
     folder, K, poly, expected = same_pose_images
     out = tmp_path / "r.jsonl"
@@ -160,6 +161,7 @@ def test_a_rerun_with_other_parameters_is_refused_never_reported_as_done(done_be
     assert len(read_results(out)) == 4  # nothing written
 
 
+@pytest.mark.slow  # a batch of raw images on a Dask cluster
 def test_raw_images_with_a_kalibr_camchain_and_a_case_file_without_bounds(tmp_path):
     # OpenCV's raw samples through the batch's own local cluster: the right camera is cam1 of the
     # camchain; the case file's cases have no bounds (searched whole). 26 of 26 in the report.

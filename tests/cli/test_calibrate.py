@@ -103,6 +103,7 @@ def calibrated_run(views, tmp_path_factory):
     return code, stdout.getvalue(), stderr.getvalue(), out
 
 
+@pytest.mark.slow  # a whole calibration through the CLI
 def test_calibrate_writes_the_camera_the_report_and_the_picture(views, calibrated_run):
     from graphpose.camera_models import MODELS
 

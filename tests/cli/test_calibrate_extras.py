@@ -20,6 +20,7 @@ def shots(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow  # whole calibrations through the CLI, twice, and a cross-validation
 def test_corners_out_in_and_cross_validation(shots, capsys, tmp_path):
     vnl, cv = tmp_path / "corners.vnl", tmp_path / "cv.png"
     code = main(["calibrate", str(shots), "--board", "8x6x0.0635", "--out", str(tmp_path / "cam.json"),

@@ -26,10 +26,10 @@ from graphpose.io.cameras import write_camera
 from graphpose.io.files import encode_png
 from graphpose.estimate import pose_difference
 from tests.conftest import REPO, opencv_file, real_file
+from tests.helpers import PROJECT_K_OPTION as K_BUNDLED
 
 BUNDLED = REPO / "graphpose" / "data" / "cases.json"
 #: The bundled example's camera as --K (its case file's K): a user's image needs one.
-K_BUNDLED = "564.9,564.3,337.3,226.5"
 KEYS = {"image", *POSE_KEYS, "converged", "iterations", "junctions", "trusted", "cross_check", "orientation_ambiguous",
         "junction0_square"}
 
@@ -91,9 +91,10 @@ def test_script_without_arguments_runs_the_bundled_example(bundled):
     errors = re.findall(r"error vs truth\s+([\d.]+) mm, ([\d.]+) deg", out)
     assert len(errors) == len(bundled.cases)
     for mm, deg in errors:
-        assert float(mm) < 1.5 and float(deg) < 0.05  # measured at most 0.32 mm and 0.014 deg
+        assert float(mm) < 1.5 and float(deg) < 0.05  # regression guard (an earlier run): at most 0.32 mm and 0.014 deg
 
 
+@pytest.mark.slow  # the command in fresh processes over a folder
 def test_module_json_and_overlay_folder(bundled, tmp_path):
     out_json, folder = tmp_path / "out.json", tmp_path / "overlays"
     result = graphpose("estimate", "--cases", BUNDLED, "--json", out_json, "--overlay", f"{folder}/", "-q")
@@ -107,7 +108,7 @@ def test_module_json_and_overlay_folder(bundled, tmp_path):
         T = np.array(record["T_WC"])
         assert T.shape == (4, 4)
         metres, degrees = pose_difference(T, case.true_T_WC)
-        assert metres < 1.5e-3 and degrees < 0.05  # measured at most 0.32 mm and 0.014 deg
+        assert metres < 1.5e-3 and degrees < 0.05  # regression guard (an earlier run): at most 0.32 mm and 0.014 deg
         np.testing.assert_allclose(record["xyz_m"], T[:3, 3])
         assert len(record["rpy_deg"]) == 3 and len(record["sigma_xyz_m"]) == 3
         assert all(s > 0 for s in record["sigma_xyz_m"] + record["sigma_rpy_deg"])
@@ -130,7 +131,7 @@ def test_real_cases_target_01_matches_its_reference(tmp_path):
     first = next(r for r in records if r["image"].endswith("target_01.png"))
     metres, degrees = pose_difference(np.asarray(first["T_WC"]), cases[0].ref_T_WC)
     assert metres < 0.01 and degrees < 0.5  # the goal
-    assert metres < 0.005 and degrees < 0.4  # regression guard: measured 3.2 mm and 0.30 deg
+    assert metres < 0.005 and degrees < 0.4  # regression guard (an earlier run): 3.2 mm and 0.30 deg
     assert first["vs_reference"]["translation_mm"] == pytest.approx(1000 * metres, abs=1e-6)
 
 
@@ -145,6 +146,7 @@ def test_readme_robust_run_on_the_real_cases_estimates_all_six(tmp_path):
     assert all(r["status"] == "ok" and r["cross_check"]["agree"] for r in records)
 
 
+@pytest.mark.slow  # the command in fresh processes
 def test_one_image_with_options_guess_overlay_and_json(bundled, tmp_path):
     case = bundled.cases[0]
     guess = tmp_path / "guess.json"
@@ -160,7 +162,7 @@ def test_one_image_with_options_guess_overlay_and_json(bundled, tmp_path):
     (record,) = json.loads(out_json.read_text())
     assert record["image"] == str(case.image)
     metres, degrees = pose_difference(np.asarray(record["T_WC"]), case.true_T_WC)
-    assert metres < 1.5e-3 and degrees < 0.05  # measured at most 0.32 mm and 0.014 deg
+    assert metres < 1.5e-3 and degrees < 0.05  # regression guard (an earlier run): at most 0.32 mm and 0.014 deg
     assert png_size(overlay) == (640, 480)
 
 
@@ -211,6 +213,7 @@ def test_usage_errors_in_process(args, fragments, capsys):
         assert fragment in line, line
 
 
+@pytest.mark.slow  # the command in many fresh processes
 def test_malformed_values_as_a_user_sees_them():
     one_error_line(graphpose("estimate", "img.png", "--bounds", BOUNDS, "--board", "8by6"),
                    2, "graphpose estimate: error: argument --board", "'8by6'")
@@ -220,6 +223,7 @@ def test_malformed_values_as_a_user_sees_them():
                    2, "graphpose estimate: error: argument --K", "focal lengths must be positive")
 
 
+@pytest.mark.slow  # the command in several fresh processes
 def test_missing_and_unreadable_image_and_guess(tmp_path):
     one_error_line(graphpose("estimate", tmp_path / "nope.png", "--bounds", BOUNDS, "--K", K_BUNDLED),
                    2, "not found", "nope.png")
@@ -318,6 +322,7 @@ def test_an_overlay_folder_that_cannot_be_made_is_an_input_error(bundled, tmp_pa
     assert "cannot create folder" in record["message"] and record["T_WC"] is not None
 
 
+@pytest.mark.slow  # the command in a fresh process over a folder
 def test_batch_goes_on_past_a_bad_image(bundled, blank_png, tmp_path):
     good = bundled.cases[2]
     doc = {"K": bundled.K.tolist(), "cases": [
@@ -465,6 +470,7 @@ def test_parse_positive_accepts():
 
 
 
+@pytest.mark.slow  # the command in a fresh process on a raw image
 def test_a_raw_image_with_its_calibration_file(tmp_path):
     # As docs/cli.md writes it, from the repository's root.
     image = os.path.relpath(opencv_file("left01.jpg"), REPO)  # ../shared/data/opencv_samples/left01.jpg

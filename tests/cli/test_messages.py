@@ -20,9 +20,9 @@ from graphpose.synth.poses import loose_polygon
 from graphpose.synth.render import render
 from tests.batch.helpers import SIZE, half_K
 from tests.conftest import REPO
+from tests.helpers import PROJECT_K_OPTION as K_OPTION  # the bundled example's camera
 
 BUNDLED = REPO / "graphpose" / "data"
-K_OPTION = "564.9,564.3,337.3,226.5"  # the bundled example's camera
 #: The bundled synthetic_03.png's polygon (clockwise from junction 0's corner), as --bounds.
 BOUNDS = "189.516,83.2248,434.212,168.717,377.418,363.65,111.435,276.632"
 
@@ -153,6 +153,7 @@ def test_a_misspelt_command_is_still_argparses_invalid_choice(capsys):
     assert "invalid choice: 'estmate'" in one_line(capsys)
 
 
+@pytest.mark.slow  # tracks rendered frames through the CLI
 def test_a_lost_frame_has_one_message_not_the_same_words_per_search_area(tmp_path, capsys):
     seq = tmp_path / "seq"
     assert main(["render-sequence", str(seq), "--frames", "6", "--excursions", "0", "--seed", "1", "-q"]) == 0

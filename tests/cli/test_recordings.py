@@ -13,8 +13,8 @@ from graphpose.io.sources import open_frames
 from graphpose.io.sources.bag_writer import write_bag
 from graphpose.io.sources.video_out import VideoWriter
 from tests.conftest import PROJECT_K
+from tests.helpers import PROJECT_K_OPTION as K_OPTION
 
-K_OPTION = "564.9,564.3,337.3,226.5"
 
 
 @pytest.fixture(scope="module")
@@ -35,6 +35,7 @@ def clip(track_clip, tmp_path_factory):
     return folder, decoded, bag
 
 
+@pytest.mark.slow  # encodes, decodes and tracks a video twice
 def test_track_video_as_its_decoded_frames(clip, tmp_path, capsys):
     folder, decoded, _ = clip
     assert main(["track", str(folder / "clip.mkv"), "--K", K_OPTION, "--tum", str(tmp_path / "v.tum"),
@@ -68,6 +69,7 @@ def test_track_bag_without_the_topic(clip, capsys):
     assert "has no topic /left/image_raw; its image topics: /camera/image_raw (sensor_msgs/msg/Image, 24" in err
 
 
+@pytest.mark.slow  # encodes and tracks a cut video
 def test_track_truncated_video_writes_what_came_before(clip, tmp_path, capsys):
     folder, _, _ = clip
     data = (folder / "clip.mkv").read_bytes()
@@ -86,6 +88,7 @@ def test_track_truncated_video_writes_what_came_before(clip, tmp_path, capsys):
     assert f"{n} frames:" in captured.out
 
 
+@pytest.mark.slow  # encodes a video overlay frame by frame
 def test_overlay_video_has_every_frame(clip, tmp_path, capsys):
     folder, _, _ = clip
     out = tmp_path / "overlay.mp4"
@@ -147,6 +150,7 @@ def test_estimate_every_nth_frame_names_index_and_time(clip, tmp_path, capsys):
     assert "--every and --topic go with one video or ROS bag" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # a video through graphpose batch on a Dask cluster
 def test_batch_rows_name_frame_and_time(clip, tmp_path, capsys):
     """One task a chunk of frames, each worker opening the video and seeking to its chunk; and a
     list file of the decoded frames gives the same poses."""
@@ -170,6 +174,7 @@ def test_batch_rows_name_frame_and_time(clip, tmp_path, capsys):
         np.testing.assert_allclose(files[str(decoded / f"frame_{k:03d}.png")]["T_WC"], rows[k]["T_WC"], atol=1e-9)
 
 
+@pytest.mark.slow  # whole calibrations through the CLI
 def test_calibrate_takes_globs_and_list_files(tmp_path, capsys):
     from graphpose.synth.calibration import calibration_set, radtan_camera
 
@@ -200,6 +205,7 @@ def waved(tmp_path_factory):
     return path, clip
 
 
+@pytest.mark.slow  # a whole calibration from a video
 def test_calibrate_chooses_views_from_a_video(waved, tmp_path, capsys):
     path, clip = waved
     report = tmp_path / "report.json"

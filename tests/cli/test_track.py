@@ -7,12 +7,14 @@ import numpy as np
 import pytest
 from skimage.io import imread
 
-from graphpose import K_from_params, read_tum, render_sequence, write_sequence
+from graphpose import read_tum, render_sequence, write_sequence
 from graphpose.cli import main
 from graphpose.io.files import write_png
 from graphpose.io.tum import write_tum
 from graphpose.estimate import pose_difference
 from tests.conftest import opencv_file
+from tests.conftest import PROJECT_K
+from tests.helpers import PROJECT_K_OPTION as K_OPTION
 
 
 @pytest.fixture(scope="module")
@@ -26,7 +28,6 @@ def rendered(tmp_path_factory):
 
 #: The rendered frames' camera (render-sequence's, the project's) as --K: frames copied out of
 #: their folder no longer bring it.
-K_OPTION = "564.9,564.3,337.3,226.5"
 
 
 def _copy_frames(folder, to):
@@ -37,6 +38,7 @@ def _copy_frames(folder, to):
     return to
 
 
+@pytest.mark.slow  # renders and tracks a sequence through the CLI
 def test_render_sequence_then_track(rendered, tmp_path, capsys):
     folder, bounds = rendered
     tum, out = tmp_path / "est.tum", tmp_path / "est.json"
@@ -54,6 +56,7 @@ def test_render_sequence_then_track(rendered, tmp_path, capsys):
     assert f"{folder / 'truth.tum'} (the rendered sequence's own" in line and "over 8 frames" in line
 
 
+@pytest.mark.slow  # tracks a rendered folder through the CLI
 def test_an_unreadable_frame_is_lost_and_the_rest_written(rendered, tmp_path, capsys):
     # One corrupt frame used to end the run with exit 2 and nothing written.
     frames = _copy_frames(rendered[0], tmp_path / "frames")
@@ -66,7 +69,7 @@ def test_an_unreadable_frame_is_lost_and_the_rest_written(rendered, tmp_path, ca
     summary = capsys.readouterr().out
     assert "lost frames: 4" in summary and "unreadable frame files (lost): 4" in summary
     records = json.loads(out.read_text())["frames"]
-    # The frame after the loss is found again by extraction; the others as before.
+    # The frame after the loss is found again by extraction; the others as in the intact run.
     assert [r["status"] for r in records] == intact[:4] + ["lost", "detected"] + intact[6:]
     assert "unreadable" in records[4]["message"] and "frame_00004.png" in records[4]["message"]
     assert len(read_tum(tum)) == 7
@@ -117,6 +120,7 @@ def test_plot_draws_the_truth_where_it_is_known(rendered, tmp_path, capsys, monk
     assert "(8 of 8 frames matched by timestamp)" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # tracks a sequence and draws it with matplotlib
 def test_plot_is_written(rendered, tmp_path):
     folder, bounds = rendered
     out = tmp_path / "track.png"
@@ -185,11 +189,12 @@ def test_refuses_output_into_a_missing_folder(blank_frames, tmp_path, capsys, op
     assert f"{option}: folder {tmp_path / 'no'} does not exist" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # tracks a rendered sequence three times
 def test_all_cpp_back_end_and_robust_fit_match_the_default(tmp_path):
     # frame_landmarks + wnoa (every factor in GTSAM's C++), and --robust (the single-image
     # fit's Huber gate), through the whole tracker on rendered frames: same statuses, and
     # poses within what the motion priors and the pixel sigmas allow.
-    K = K_from_params(564.9, 564.3, 337.3, 226.5)
+    K = PROJECT_K
     seq = render_sequence(K, 8, rng=5, excursions=0)
     folder = write_sequence(seq, tmp_path / "seq")
     bounds = ",".join(f"{u:.3f},{v:.3f}" for u, v in seq.bounds.T)
@@ -202,7 +207,7 @@ def test_all_cpp_back_end_and_robust_fit_match_the_default(tmp_path):
     for name in ("cpp", "robust"):
         np.testing.assert_array_equal(runs[name].timestamps, runs["default"].timestamps)
         assert len(runs[name].timestamps) == 8
-        # Measured: 5 um apart (the priors differ), 0.1 mm from the truth.
+        # Regression guard, from an earlier run of this test: 5 um apart (the priors differ), 0.1 mm from the truth.
         np.testing.assert_allclose(runs[name].poses[:, :3, 3], runs["default"].poses[:, :3, 3], atol=2e-5)
         np.testing.assert_allclose(runs[name].poses[:, :3, 3], seq.T_WC[:, :3, 3], atol=3e-4)
 

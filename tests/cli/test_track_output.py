@@ -81,6 +81,7 @@ def test_summary_counts_as_it_goes():
     assert "median 5.0 ms a frame" in text and "lost frames: 1" in text and "unreadable frame files (lost): 1" in text
 
 
+@pytest.mark.slow  # tracks a rendered sequence through the CLI
 def test_records_say_the_kind_of_sigma(tmp_path, capsys):
     # A rendered sequence with a calibrated camera file: each record says its sigmas include
     # the calibration, with the pixel noise's share beside them, and the sigmas are larger.
@@ -104,6 +105,7 @@ def test_records_say_the_kind_of_sigma(tmp_path, capsys):
         assert np.all(np.array(c["sigma_rpy_deg"]) > np.array(c["sigma_pixel_rpy_deg"]))
 
 
+@pytest.mark.slow  # tracks a rendered sequence through the CLI
 def test_a_run_stopped_by_an_error_leaves_no_file(tmp_path, capsys):
     # Frame 2 of another size stops the run when it is reached, after two frames were written
     # to the temporary files: exit 2, and neither file nor temporary is left.

@@ -13,9 +13,9 @@ import pytest
 from graphpose.cli import build_parser, main
 from graphpose.io.files import write_png
 from tests.conftest import REPO
+from tests.helpers import PROJECT_K_OPTION as K_OPTION
 
 BUNDLED = REPO / "graphpose" / "data"
-K_OPTION = "564.9,564.3,337.3,226.5"
 
 
 def err_lines(capsys):
@@ -58,6 +58,7 @@ def views(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow  # a whole calibration through the CLI
 def test_calibrate_goes_on_past_an_unreadable_image_and_names_it(views, tmp_path, capsys):
     report = tmp_path / "report.json"
     assert main(["calibrate", str(views), "--board", "8x6x0.0635", "--model", "pinhole", "--out",
@@ -78,6 +79,7 @@ def test_calibrate_with_two_images_says_why_without_a_dangling_list(views, tmp_p
     assert "No board in" not in err[0] and err[0].endswith("views at different tilts")
 
 
+@pytest.mark.slow  # a whole calibration through the CLI
 def test_calibrate_report_has_its_old_name_json_too(views, tmp_path, capsys, monkeypatch):
     import graphpose.calibrate as package
 
@@ -136,6 +138,7 @@ def _phrases(text, n=5):
     return [" ".join(words[i:i + n]) for i in range(len(words) - n + 1)]
 
 
+@pytest.mark.slow  # tracks a rendered sequence with lost frames through the CLI
 def test_each_lost_frame_says_each_phrase_once(lost_frames):
     assert len(lost_frames) >= 10  # the sequence's excursions
     for frame in lost_frames:
@@ -184,21 +187,3 @@ def test_every_help_gives_the_exit_codes_with_130(capsys):
     for text in helps:
         text = " ".join(text.split())
         assert re.search(r"exit codes: 0 success,.* 2 bad usage or input.*130 interrupted", text), text
-
-
-# --- the failure picture rings the grid its reason counts -------------------------------------
-
-
-def test_the_failure_picture_rings_at_least_the_junctions_its_reason_counts():
-    from graphpose import Board, read_image
-    from graphpose.detect.junctions import extract_junctions
-    from graphpose.errors import BoardNotFoundError
-    from graphpose.viz.failure import failure_evidence
-    from tests.conftest import opencv_file
-
-    image = read_image(opencv_file("left01.jpg"), as_float=False)
-    with pytest.raises(BoardNotFoundError) as refused:
-        extract_junctions(image, bounds=None, board=Board(10, 7, 0.025))
-    seen = refused.value.junctions_seen
-    assert seen == 54  # the 9 x 6 board it names
-    assert failure_evidence(image, None, Board(10, 7, 0.025), seen).lattice.shape[1] >= seen

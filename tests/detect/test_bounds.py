@@ -49,6 +49,7 @@ def samples():
     return out
 
 
+@pytest.mark.slow  # every OpenCV sample at four bounds each
 def test_bounds_from_the_corner_nearest_the_upper_left_find_every_opencv_sample_with_junction_0_there(samples):
     turned = []
     for name, image, camera, free in samples:

@@ -19,8 +19,7 @@ from graphpose.detect.lattice import Lattice, grow_lattices, peel, predict, step
 from graphpose.detect.search import downsample, find_candidates, ring_test, search_levels
 from graphpose.synth.render import render
 from graphpose.synth.scenes import random_scene
-
-K = K_from_params(564.9, 564.3, 337.3, 226.5)
+from tests.conftest import PROJECT_K as K
 
 
 def half_turn(board: Board) -> np.ndarray:
@@ -194,13 +193,14 @@ def test_both_edges_of_an_axis_hidden_is_refused_with_the_reason():
 def test_two_boards_without_bounds_are_refused():
     # Two halves of one picture, a whole board in each.
     board = Board(5, 4, 0.03)
-    half = K_from_params(564.9, 564.3, 160.0, 240.0)
+    half = K_from_params(K[0, 0], K[1, 1], 160.0, 240.0)
     left = render(half, T_from_params([0.06, 0.045, -0.6, 0.0, 0.0, 0.2]), board, (320, 480), rng=5).image
     right = render(half, T_from_params([0.06, 0.045, -0.7, 0.0, 0.0, -0.3]), board, (320, 480), rng=6).image
     with pytest.raises(BoardNotFoundError, match="two checkerboards"):
         find_board(np.hstack([left, right]), board)
 
 
+@pytest.mark.slow  # many rendered occluded scenes
 @pytest.mark.parametrize("occluder", ["bar", "blob", "reflection"])
 def test_occluded_boards_are_labelled_right_or_refused(occluder):
     board = Board()
@@ -220,6 +220,7 @@ def test_occluded_boards_are_labelled_right_or_refused(occluder):
     assert labelled >= 4  # the test is not passed by refusing every scene
 
 
+@pytest.mark.slow  # many rendered scenes with clutter
 def test_clutter_beside_the_board_changes_nothing():
     board = Board(9, 6, 0.03)
     for seed in range(5):
@@ -271,6 +272,7 @@ def _large_scene(distance, seed):
     return random_scene(Kc, Board(), size=(2560, 1920), distance=distance, max_tilt_deg=40.0, rng=seed)
 
 
+@pytest.mark.slow  # renders and searches a 12 MP image
 def test_a_large_image_is_searched_at_an_eighth_and_labelled_right():
     board = Board()
     scene = _large_scene((0.8, 1.2), 3)  # squares of about 120 px: 15 at an eighth
@@ -359,7 +361,7 @@ def test_a_fainter_second_board_is_not_ignored():
     # The second board has a third of the first's contrast: its seeds come late, but it is
     # still seen, and two boards without bounds are refused.
     board = Board(5, 4, 0.03)
-    half = K_from_params(564.9, 564.3, 160.0, 240.0)
+    half = K_from_params(K[0, 0], K[1, 1], 160.0, 240.0)
     left = random_scene(half, board, (320, 480), max_roll_deg=20.0, distance=(0.5, 0.7), rng=500).image
     right = random_scene(half, board, (320, 480), max_roll_deg=20.0, distance=(0.5, 0.7), contrast=0.35, rng=601).image
     assert find_board(right, board).seen.all()

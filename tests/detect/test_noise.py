@@ -9,7 +9,7 @@ of cross-junctions among them``).
 import numpy as np
 import pytest
 
-from graphpose import Board, BoardNotFoundError, InputError, K_from_params, extract_junctions
+from graphpose import Board, BoardNotFoundError, InputError, extract_junctions
 from graphpose.detect import find as find_module
 from graphpose.detect.noise import estimate_noise, grey_range
 from graphpose.detect.refine import MAX_SMOOTH_SIGMA, SMOOTH_SIGMA, noise_smoothing
@@ -17,8 +17,7 @@ from graphpose.detect.search import find_candidates, noise_floor
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
 from graphpose.track.frontend import board_symmetries
-
-K = K_from_params(564.9, 564.3, 337.3, 226.5)
+from tests.conftest import PROJECT_K as K
 
 
 def _rendered(seed, board, noise, blur, black=35.0, white=215.0):
@@ -66,7 +65,7 @@ def test_a_large_image_is_read_sparser_with_the_same_estimate(monkeypatch):
     big = np.clip(128 + rng.normal(0.0, 7.0, (3024, 4032)), 0, 255).astype(np.uint8)
     stride = module._stride((3022, 4030), 4)
     assert stride > 4 and -(-3022 // stride) * -(-4030 // stride) <= module.MAX_SAMPLES
-    assert module._stride((478, 638), 4) == 4  # a VGA image is read as before
+    assert module._stride((478, 638), 4) == 4  # a VGA image: every fourth row and column, not thinned further
     sparse_noise, sparse_range = estimate_noise(big), grey_range(big)
     monkeypatch.setattr(module, "MAX_SAMPLES", big.size)  # no cap: every position asked for
     assert sparse_noise == pytest.approx(estimate_noise(big, stride=1), rel=0.02)
@@ -92,7 +91,7 @@ def test_the_noise_floor_removes_the_peaks_of_pure_noise():
 
 
 def test_smoothing_follows_the_noise_over_the_contrast():
-    assert noise_smoothing(0.5, 180.0, 30.0) == SMOOTH_SIGMA  # a clean image: as before
+    assert noise_smoothing(0.5, 180.0, 30.0) == SMOOTH_SIGMA  # a clean image: the default smoothing
     assert noise_smoothing(2.0, 180.0, 30.0) == SMOOTH_SIGMA
     grown = [noise_smoothing(s, 180.0, 30.0) for s in (4.0, 8.0, 12.0)]
     assert SMOOTH_SIGMA < grown[0] < grown[1] < grown[2] <= MAX_SMOOTH_SIGMA
@@ -129,7 +128,6 @@ def test_a_faint_board_in_a_bright_scene_is_judged_by_its_own_contrast():
     """A board of 30 grey levels at noise 3, with black and white objects elsewhere in the
     scene: against the whole image's range the noise looks small and the noise-aware search
     never ran (refused on this seed); inside the bounds it is the board's range that counts."""
-    K = K_from_params(564.9, 564.3, 337.3, 226.5)
     board = Board()
     rng = np.random.default_rng(0)
     T = random_pose(K, board, (640, 480), rng=rng)

@@ -11,6 +11,7 @@ from graphpose.detect._refine import (fit_through_lens, fit_weighted_grid, lens_
 from graphpose.detect.refine import _RING_COS, _RING_SIN, _gaussian_kernel, _lagrange
 from graphpose.synth.calibration import fisheye_camera
 from graphpose.synth.render import render
+from tests.conftest import PROJECT_K
 
 
 def weighted_lstsq(v, W, x, y):
@@ -213,11 +214,11 @@ def reference_refine(image, start, radius, sigma, max_iter=8, tol=0.02, slack=2)
 
 def test_refinement_kernel_follows_the_numpy_refinement():
     from graphpose.synth.render import render
-    from graphpose import Board, K_from_params
+    from graphpose import Board
     from graphpose.synth.poses import random_pose
 
     rng = np.random.default_rng(8)
-    K = K_from_params(564.9, 564.3, 337.3, 226.5)
+    K = PROJECT_K
     R = render(K, random_pose(K, Board(), (640, 480), rng=rng), Board(), (640, 480), noise_sigma=2.0, rng=rng)
     truth = R.junctions[:, :12]
     start = truth + rng.uniform(-2, 2, truth.shape)

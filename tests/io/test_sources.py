@@ -8,15 +8,14 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from graphpose import K_from_params, PinholeCamera
+from graphpose import PinholeCamera
 from graphpose.errors import InputError
 from graphpose.io.files import write_png
 from graphpose.io.sources import BrokenRecordingError, ImageFiles, expand_paths, open_frames
 from graphpose.io.sources.bag_writer import BAG_FORMATS, write_bag
 from graphpose.io.sources.ros_images import camera_info_camera, compressed_grey, image_grey
 from graphpose.io.sources.video_out import VideoWriter
-
-K = K_from_params(564.9, 564.3, 337.3, 226.5)
+from tests.conftest import PROJECT_K as K
 
 
 @pytest.fixture(scope="module")

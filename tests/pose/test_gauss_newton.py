@@ -28,23 +28,7 @@ from graphpose.synth.poses import perturb_pose
 from tests.conftest import BOARD_WPTS as WPTS
 from tests.conftest import LENS_CAMERAS, real_file
 from tests.conftest import PROJECT_K as K
-
-
-def random_pose(rng, distance=(0.6, 1.5), max_tilt_deg=35.0):
-    """A camera looking at the board's centre from the front, like the real images."""
-    centre = WPTS.mean(axis=1)
-    tilt, az = np.radians(rng.uniform(0, max_tilt_deg)), rng.uniform(0, 2 * np.pi)
-    c = centre + rng.uniform(*distance) * np.array(
-        [np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), -np.cos(tilt)])
-    z = centre + rng.normal(0, 0.03, 3) * [1, 1, 0] - c
-    z /= np.linalg.norm(z)
-    x = np.array([1.0, 0.0, 0.0]) - z[0] * z
-    x /= np.linalg.norm(x)
-    C = np.column_stack([x, np.cross(z, x), z])
-    C = C @ C_from_rpy(0, 0, np.radians(rng.uniform(-20, 20)))
-    T = np.eye(4)
-    T[:3, :3], T[:3, 3] = C, c
-    return T
+from tests.helpers import facing_pose
 
 
 def perturb(rng, T, max_deg, max_m):
@@ -76,7 +60,7 @@ def test_jacobian_matches_reference_case_to_its_decimals():
 def test_jacobian_matches_central_differences_on_random_poses():
     rng = np.random.default_rng(1)
     for _ in range(100):
-        T = random_pose(rng=rng)
+        T = facing_pose(rng=rng)
         p = params_from_T(T)
         W = WPTS[:, rng.integers(0, WPTS.shape[1], 1)] + rng.normal(0, 0.05, (3, 1)) * [[1], [1], [0]]
         J = find_jacobian(K, T, W)
@@ -88,14 +72,14 @@ def test_jacobian_with_skew_and_off_plane_points_matches_differences():
     rng = np.random.default_rng(2)
     Ks = K.copy()
     Ks[0, 1] = 3.0
-    T = random_pose(rng=rng)
+    T = facing_pose(rng=rng)
     W = WPTS + rng.normal(0, 0.05, WPTS.shape)
     np.testing.assert_allclose(projection_jacobians(Ks, T, W), numeric_jacobian(Ks, params_from_T(T), W),
                                rtol=1e-6, atol=1e-6 * 600)
 
 
 def test_stacked_jacobian_rows_are_the_single_point_jacobians():
-    T = random_pose(rng=np.random.default_rng(3))
+    T = facing_pose(rng=np.random.default_rng(3))
     J = projection_jacobians(K, T, WPTS)
     assert J.shape == (2 * WPTS.shape[1], 6)
     for j in (0, 7, 47):
@@ -105,7 +89,7 @@ def test_stacked_jacobian_rows_are_the_single_point_jacobians():
 def test_exact_correspondences_give_the_exact_pose():
     rng = np.random.default_rng(4)
     for _ in range(20):
-        T = random_pose(rng=rng)
+        T = facing_pose(rng=rng)
         I = project(K, T, WPTS)
         T_est = pose_estimate_nls(K, perturb(rng, T, 10, 0.2), I, WPTS)
         np.testing.assert_allclose(T_est, T, atol=1e-9)
@@ -113,7 +97,7 @@ def test_exact_correspondences_give_the_exact_pose():
 
 def test_result_fields_and_noise_estimate():
     rng = np.random.default_rng(5)
-    T = random_pose(rng=rng)
+    T = facing_pose(rng=rng)
     I = project(K, T, WPTS) + rng.normal(0, 0.3, WPTS[:2].shape)
     res = gauss_newton(I, WPTS, K, guess=perturb(rng, T, 10, 0.2))
     assert res.converged and res.message == "converged"
@@ -132,7 +116,7 @@ def test_result_fields_and_noise_estimate():
 
 def test_covariance_matches_the_spread_of_repeated_estimates():
     rng = np.random.default_rng(6)
-    T = random_pose(rng=rng)
+    T = facing_pose(rng=rng)
     I0 = project(K, T, WPTS)
     errors, covs = [], []
     for _ in range(300):
@@ -147,7 +131,7 @@ def test_covariance_matches_the_spread_of_repeated_estimates():
 
 def test_mask_leaves_out_untrusted_points():
     rng = np.random.default_rng(7)
-    T = random_pose(rng=rng)
+    T = facing_pose(rng=rng)
     I = project(K, T, WPTS)
     I[:, [3, 20]] += [[40.0, -25.0], [15.0, 30.0]]
     mask = np.ones(48, dtype=bool)
@@ -161,7 +145,7 @@ def test_mask_leaves_out_untrusted_points():
 
 def test_huber_kernel_resists_an_outlier():
     rng = np.random.default_rng(8)
-    T = random_pose(rng=rng)
+    T = facing_pose(rng=rng)
     I = project(K, T, WPTS) + rng.normal(0, 0.2, WPTS[:2].shape)
     I[:, 10] += [30.0, 30.0]
     plain = gauss_newton(I, WPTS, K, guess=T)
@@ -172,14 +156,14 @@ def test_huber_kernel_resists_an_outlier():
 
 def test_iteration_cap_reports_non_convergence():
     rng = np.random.default_rng(9)
-    T = random_pose(rng=rng)
+    T = facing_pose(rng=rng)
     res = gauss_newton(project(K, T, WPTS), WPTS, K, guess=perturb(rng, T, 20, 0.3), max_iterations=2)
     assert not res.converged and res.iterations == 2 and "cap" in res.message
 
 
 def test_pose_estimate_nls_raises_when_it_does_not_converge(monkeypatch):
     rng = np.random.default_rng(10)
-    T = random_pose(rng=rng)
+    T = facing_pose(rng=rng)
     monkeypatch.setattr(sys.modules["graphpose.course"], "MAX_ITERATIONS", 1)
     with pytest.raises(ConvergenceError, match="did not converge"):
         pose_estimate_nls(K, perturb(rng, T, 20, 0.3), project(K, T, WPTS), WPTS)
@@ -188,7 +172,7 @@ def test_pose_estimate_nls_raises_when_it_does_not_converge(monkeypatch):
 def test_damping_keeps_a_poor_start_from_diverging():
     # A guess far off: the plain Gauss-Newton step would throw points behind the camera.
     rng = np.random.default_rng(11)
-    T = random_pose(rng=rng)
+    T = facing_pose(rng=rng)
     I = project(K, T, WPTS)
     guess = perturb(rng, T, 40, 0.4)
     guess[:3, 3] = T[:3, 3] + 0.45 * (T[:3, :3] @ [0, 0, 1.0])  # close up to the board
@@ -201,7 +185,7 @@ def test_convergence_basin_reaches_the_linear_initialiser_pose():
     rng = np.random.default_rng(12)
     good = reported = wrong = 0
     for _ in range(150):
-        T = random_pose(rng=rng)
+        T = facing_pose(rng=rng)
         I = project(K, T, WPTS) + rng.normal(0, 0.2, WPTS[:2].shape)
         T_lin = gauss_newton(I, WPTS, K, guess=pose_from_homography(I, WPTS, K)).T_WC
         for _ in range(MAX_GUESS_DRAWS):
@@ -311,7 +295,7 @@ def test_jacobian_through_the_lens_matches_central_differences(model):
     camera = CAMERAS[model]
     rng = np.random.default_rng(20)
     for _ in range(20):
-        T = random_pose(rng=rng)
+        T = facing_pose(rng=rng)
         W = WPTS + rng.normal(0, 0.02, WPTS.shape) * [[1], [1], [0]]
         J = projection_jacobians(camera, T, W)
         np.testing.assert_allclose(J, numeric_camera_jacobian(camera, params_from_T(T), W),
@@ -327,7 +311,7 @@ def test_exact_distorted_correspondences_give_the_exact_pose(model):
     camera = CAMERAS[model]
     rng = np.random.default_rng(21)
     for _ in range(5):
-        T = random_pose(rng=rng)
+        T = facing_pose(rng=rng)
         I = camera.project(to_camera(T, WPTS))
         res = gauss_newton(I, WPTS, camera, guess=perturb(rng, T, 10, 0.2))
         assert res.converged, res.message
@@ -342,7 +326,7 @@ def test_exact_distorted_correspondences_give_the_exact_pose(model):
 def test_points_left_out_by_the_mask_may_be_nan():
     # Unseen junctions of a partial board are NaN: the solver uses the others.
     rng = np.random.default_rng(22)
-    T = random_pose(rng=rng)
+    T = facing_pose(rng=rng)
     camera = CAMERAS["radtan"]
     I = camera.project(to_camera(T, WPTS))
     I[:, :16] = np.nan

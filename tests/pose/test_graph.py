@@ -25,15 +25,7 @@ from graphpose.synth.poses import perturb_pose
 from tests.conftest import BOARD_WPTS as WPTS
 from tests.conftest import LENS_CAMERAS
 from tests.conftest import PROJECT_K as K
-
-
-def random_pose(rng):
-    """Camera 0.6-1.5 m in front of the board, tilted up to 35 degrees, turned +-20 about its axis."""
-    C = T_from_params([0, 0, 0, rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6), rng.uniform(-0.35, 0.35)])[:3, :3]
-    T = np.eye(4)
-    T[:3, :3] = C
-    T[:3, 3] = WPTS.mean(axis=1) - rng.uniform(0.6, 1.5) * C[:, 2]
-    return T
+from tests.helpers import random_pose
 
 
 def guess_near(T, rng):

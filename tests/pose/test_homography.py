@@ -8,17 +8,7 @@ from graphpose.geometry import homography_dlt
 from graphpose.pose.homography import on_target_plane, pose_from_homography
 from tests.conftest import BOARD_WPTS as WPTS
 from tests.conftest import PROJECT_K as K
-
-
-def random_pose(rng):
-    """Camera 0.6-1.5 m in front of the board, tilted up to 35 degrees, turned +-20 about its axis."""
-    centre = WPTS.mean(axis=1)
-    params = [0, 0, 0, rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6), rng.uniform(-0.35, 0.35)]
-    C = T_from_params(params)[:3, :3]
-    T = np.eye(4)
-    T[:3, :3] = C
-    T[:3, 3] = centre - rng.uniform(0.6, 1.5) * C[:, 2]
-    return T
+from tests.helpers import random_pose
 
 
 def test_exact_points_give_the_exact_pose():

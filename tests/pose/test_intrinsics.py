@@ -59,6 +59,7 @@ def nees(errors, cov):
     return np.array([e @ np.linalg.solve(c, e) for e, c in zip(errors, cov)])
 
 
+@pytest.mark.slow  # 1,000 full solves (Monte Carlo)
 def test_monte_carlo_pose_errors_match_the_propagated_covariance():
     # Each trial: a calibration error drawn from COV_K and fresh pixel noise; the pose is
     # solved with the wrong camera, which carries COV_K. The 6-D NEES against the reported
@@ -86,6 +87,7 @@ def test_monte_carlo_pose_errors_match_the_propagated_covariance():
     assert np.all((ratio > 0.8) & (ratio < 1.2)), ratio
 
 
+@pytest.mark.slow  # renders and solves many calibration draws
 def test_rendered_image_spread_over_calibration_draws_is_the_calibration_term():
     # One rendered raw image, its junctions extracted once; the calibration drawn again and
     # again: the pose's spread is D COV_K D^T, the difference of the two covariances.

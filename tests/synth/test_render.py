@@ -438,6 +438,7 @@ def test_distorted_render_is_point_symmetric_about_a_centred_junction(camera):
     assert np.abs(saddle_point(patch).ravel() + [314, 234] - truth).max() < 1e-6
 
 
+@pytest.mark.slow  # renders at several supersamplings
 @pytest.mark.parametrize("camera, distance", LENSES)
 def test_finer_polylines_and_supersampling_barely_change_distorted_junctions(camera, distance):
     # Halving the chords (a quarter of the sagitta) and doubling the fine grid move the
@@ -511,6 +512,7 @@ def test_distorted_junctions_match_a_brute_force_reference(camera, distance):
             assert np.hypot(*np.linalg.lstsq(G, I[window].ravel() - moved, rcond=None)[0]) > 5e-3
 
 
+@pytest.mark.slow  # renders through a wide fisheye at full size
 @pytest.mark.parametrize("camera, params", [
     (FISHEYE, [0.4, 0.3, -0.15, 0.3, 1.9, 0.2]),  # along a large board: beyond theta_max, and behind
     (WIDE, [0.5, 0.35, -0.2, 0.0, 1.3, 0.0]),  # a board half behind the camera
@@ -558,6 +560,7 @@ def test_board_beyond_the_lens_range_renders_what_the_model_images(camera, param
     assert flat.mean() > 0.8 and np.abs(I - centre)[flat].max() < 1e-9
 
 
+@pytest.mark.slow  # many poses through strong lenses
 @pytest.mark.parametrize("camera, distance", LENSES)
 def test_random_pose_keeps_the_distorted_sheet_in_view(camera, distance):
     rng = np.random.default_rng(21)

@@ -19,6 +19,7 @@ def short():
     return render_sequence(K, 6, rng=3, excursions=0, supersample=1)
 
 
+@pytest.mark.slow  # renders a sequence
 def test_short_sequence_truth(short):
     assert short.images.shape == (6, 480, 640) and short.images.dtype == np.uint8
     np.testing.assert_allclose(short.timestamps, np.arange(6) / 30.0)
@@ -58,6 +59,7 @@ def test_motion_is_smooth_and_excursions_leave_view():
         assert visible[run[0] - 10] == 48 and visible[run[-1] + 10] == 48
 
 
+@pytest.mark.slow  # renders a long sequence with excursions out of view
 def test_out_of_view_frames_render(tmp_path):
     seq = render_sequence(K, 40, rng=1, excursions=1, supersample=1, noise_sigma=0.0)
     assert seq.out_of_view.any()

@@ -1,5 +1,5 @@
-"""The back ends and their factor model: graphpose.track.backend (the interface),
-graphpose.track.fixed_lag, graphpose.track.sequence_graph, graphpose.track.model."""
+"""The back ends: graphpose.track.backend (the interface, make_backend) and the whole-sequence
+graph (graphpose.track.sequence_graph); the fixed lag and the factor model have their own files."""
 
 import gtsam
 import numpy as np
@@ -8,44 +8,27 @@ import pytest
 from graphpose import (
     Board,
     FisheyeCamera,
-    InputError,
     RadTanCamera,
-    T_from_params,
     project,
 )
 from graphpose.geometry import to_camera
 from graphpose.track.backend import Backend, make_backend
 from graphpose.track.config import MotionPrior
-from graphpose.track.fixed_lag import FixedLagGraph
-from graphpose.track.model import FrameMeasurement, landmark_stride, motion_noise
+from graphpose.track.model import FrameMeasurement
 from graphpose.track.sequence_graph import SequenceGraph
 from graphpose.track.smoothing import smooth_frames
 from tests.conftest import BOARD_WPTS as W
 from tests.conftest import PROJECT_K as K
+from tests.helpers import wavy_trajectory
 
 BOARD = Board()
 ALL = np.arange(BOARD.n)
 
 
-def _trajectory(n):
-    t = np.arange(n) / 30.0
-    params = np.column_stack([0.22 + 0.1 * np.sin(t), 0.16 + 0.05 * np.sin(1.3 * t), -0.9 + 0.2 * np.sin(0.7 * t),
-                              0.1 * np.sin(0.9 * t), 0.1 * np.sin(1.1 * t), 0.05 * np.sin(0.5 * t)])
-    return t, np.array([T_from_params(p) for p in params])
-
-
-def test_motion_noise_is_rotation_then_translation_and_robust_when_asked():
-    prior = MotionPrior(sigma_rot_rad=0.002, sigma_trans_m=0.0003, huber=None)
-    np.testing.assert_array_equal(motion_noise(prior).sigmas(), prior.sigmas())
-    robust = motion_noise(MotionPrior(huber=2.0))
-    assert isinstance(robust, gtsam.noiseModel.Robust)
-    assert not isinstance(motion_noise(prior), gtsam.noiseModel.Robust)
-
-
 @pytest.mark.parametrize("target, model", [("resection", "constant_velocity"), ("landmarks", "constant_velocity"),
                                            ("frame_landmarks", "constant_velocity"), ("resection", "wnoa")])
 def test_backend_recovers_exact_poses(target, model):
-    t, poses = _trajectory(8)
+    t, poses = wavy_trajectory(8)
     graph = SequenceGraph(K, BOARD, MotionPrior(model, 1.0, 1.0), target=target)  # no pull
     rng = np.random.default_rng(1)
     for k in range(8):
@@ -67,7 +50,7 @@ def test_backend_target_forms_agree_on_noisy_correspondences(model):
     # motion prior moves the new pose by microns: an iSAM2 that never relinearised it (a
     # landmark at the root of the Bayes tree) stayed ~8 um off.
     n = 20
-    t, poses = _trajectory(n)
+    t, poses = wavy_trajectory(n)
     rng = np.random.default_rng(3)
     uvs = [project(K, T, W) + rng.normal(0, 0.1, (2, BOARD.n)) for T in poses]
     ids_of = [ALL if k % 5 else ALL[k % 7:] for k in range(n)]  # some frames see fewer junctions
@@ -94,20 +77,10 @@ def test_backend_target_forms_agree_on_noisy_correspondences(model):
         np.testing.assert_allclose(smoothed, ref_smoothed, atol=1e-7, err_msg=target)
 
 
-def test_backend_frame_landmark_keys_are_distinct():
-    board = Board(20, 10)
-    assert landmark_stride(board) == 1000 and landmark_stride(BOARD) == 100
-    graph = SequenceGraph(K, board, MotionPrior(), target="frame_landmarks")
-    keys = {graph.landmark_key(k, j) for k in range(30) for j in range(200)}
-    assert len(keys) == 30 * 200
-    assert gtsam.Symbol(graph.landmark_key(300, 3)).string() == "l300003"
-    with pytest.raises(InputError, match="target must be one of"):
-        SequenceGraph(K, BOARD, MotionPrior(), target="points")
-
-
+@pytest.mark.slow  # 90 frames online and smoothed, beside 90 single-frame solves
 def test_backend_smoothing_beats_single_frames_on_noisy_correspondences():
     n = 90
-    t, poses = _trajectory(n)
+    t, poses = wavy_trajectory(n)
     rng = np.random.default_rng(2)
     graph = SequenceGraph(K, BOARD, MotionPrior())
     single, online = [], []
@@ -126,7 +99,7 @@ def test_backend_smoothing_beats_single_frames_on_noisy_correspondences():
 
 
 def test_backend_segments_after_a_break_have_no_motion_factor():
-    t, poses = _trajectory(6)
+    t, poses = wavy_trajectory(6)
     graph = SequenceGraph(K, BOARD, MotionPrior("random_walk", 1e-9, 1e-9))
     graph.add_frame(0, t[0], project(K, poses[0], W), ALL, poses[0], 0.1)
     graph.break_segment()
@@ -135,13 +108,14 @@ def test_backend_segments_after_a_break_have_no_motion_factor():
     np.testing.assert_allclose(result.T_WC, poses[5], atol=1e-7)
 
 
+@pytest.mark.slow  # three lenses x three target forms over a sequence
 @pytest.mark.parametrize("camera", [
     RadTanCamera(K, [-0.288, 0.097, 0.001, -0.0003]),                       # GTSAM's Cal3DS2
     RadTanCamera(K, [-0.25, 0.08, 0.001, -0.0003, 0.02, 0.05, 0.01, 0.002]),  # a custom factor
     FisheyeCamera(K, [0.03, -0.01, 0.002, -0.0005]),                         # GTSAM's Cal3Fisheye
 ], ids=["radtan", "rational", "fisheye"])
 def test_backend_target_forms_project_through_the_lens(camera):
-    t, poses = _trajectory(6)
+    t, poses = wavy_trajectory(6)
     rng = np.random.default_rng(4)
     uvs = [camera.project(to_camera(T, W)) for T in poses]
     for target in ("resection", "landmarks", "frame_landmarks"):
@@ -152,96 +126,9 @@ def test_backend_target_forms_project_through_the_lens(camera):
                                        atol=1e-6, err_msg=target)
 
 
-def _noisy_run(graph, n, uvs, t, poses, breaks=(50,)):
-    online = []
-    for k in range(n):
-        if k in breaks:
-            graph.break_segment()
-        online.append(graph.add_frame(k, t[k], uvs[k], ALL, poses[k], 0.1).T_WC)
-    return np.array(online)
-
-
-@pytest.mark.parametrize("target", ["resection", "frame_landmarks", "landmarks"])
-@pytest.mark.parametrize("model", ["constant_velocity", "random_walk", "wnoa"])
-def test_fixed_lag_matches_the_whole_sequence_graph(model, target):
-    # A lag of 0.3 s (9 frames) over 120 frames: most frames are marginalised. The online
-    # poses differ only by the linearisation frozen in the marginal priors: measured at most
-    # 0.53 um (constant velocity), 0.02 um (wnoa), and 96 um for the Huber-robust random walk,
-    # which on this motion is in its linear regime and reweights lazily (the whole-sequence
-    # iSAM2 itself is 17 um off its own filtered optimum there). The noise moves the poses by
-    # about 2 mm. Batch smoothing rebuilds the same graph: measured within 0.11 um.
-    n = 120
-    t, poses = _trajectory(n)
-    rng = np.random.default_rng(3)
-    uvs = [project(K, T, W) + rng.normal(0, 0.1, (2, BOARD.n)) for T in poses]
-    full = SequenceGraph(K, BOARD, MotionPrior(model), target=target)
-    lag = FixedLagGraph(K, BOARD, MotionPrior(model), target=target, lag_s=0.3)
-    full_online, lag_online = _noisy_run(full, n, uvs, t, poses), _noisy_run(lag, n, uvs, t, poses)
-    assert lag.frames == full.frames == list(range(n))
-    assert len(lag.estimate()) < 12 < n  # only the lag's frames are left
-    assert np.max(np.abs(full_online[:, :3, 3] - poses[:, :3, 3])) > 1e-3  # the noise shows
-    online_atol = {"constant_velocity": 2e-6, "random_walk": 2e-4, "wnoa": 1e-7}[model]
-    np.testing.assert_allclose(lag_online, full_online, atol=online_atol)
-    full_smoothed, lag_smoothed = full.smooth(), lag.smooth()
-    for k in range(n):
-        np.testing.assert_allclose(lag_smoothed[k].T_WC, full_smoothed[k].T_WC, atol=1e-6)
-        np.testing.assert_allclose(lag_smoothed[k].cov, full_smoothed[k].cov, rtol=1e-4, atol=1e-16)
-
-
-@pytest.mark.parametrize("target, model", [("resection", "constant_velocity"), ("frame_landmarks", "wnoa")])
-def test_fixed_lag_keeps_a_bounded_graph(target, model):
-    # 400 frames at 30 fps with a loss every 100: the whole-sequence graph grows with every
-    # frame, the fixed lag's holds the last 0.5 s (15 frames) and a few marginal priors.
-    n, lag_s = 400, 0.5
-    t, poses = _trajectory(n)
-    per_frame = {"resection": (2, 1), "frame_landmarks": (2 * BOARD.n + 1, BOARD.n + 2)}[target]
-    full = SequenceGraph(K, BOARD, MotionPrior(model), target=target)
-    lag = FixedLagGraph(K, BOARD, MotionPrior(model), target=target, lag_s=lag_s)
-    sizes, full_sizes = [], []
-    for k in range(n):
-        if k % 100 == 0:
-            full.break_segment()
-            lag.break_segment()
-        uv = project(K, poses[k], W)
-        result = lag.add_frame(k, t[k], uv, ALL, poses[k], 0.1)
-        np.testing.assert_allclose(result.T_WC, full.add_frame(k, t[k], uv, ALL, poses[k], 0.1).T_WC, atol=2e-6)
-        sizes.append(lag.size())
-        full_sizes.append(full.size())
-    sizes, full_sizes = np.array(sizes), np.array(full_sizes)
-    window = round(lag_s * 30) + 1
-    bound = (window + 2) * np.array(per_frame)
-    assert np.all(sizes <= bound), (sizes.max(axis=0), bound)
-    assert np.all(sizes[100:].max(axis=0) == sizes[100:200].max(axis=0))  # flat once the lag is full
-    assert np.all(full_sizes[-1] >= n * np.array(per_frame) - 2 * n)  # the whole graph does grow
-    assert len(lag.measurements) == n  # kept for the batch smoothing, small
-
-
-def test_fixed_lag_starts_a_segment_after_a_gap_longer_than_the_lag():
-    # Frames 0-2 at 30 fps, then frame 3 five seconds later without a break: its
-    # predecessors are marginalised, so no motion factor can reach them (it used to be
-    # "key not found").
-    t, poses = _trajectory(4)
-    t = np.array([0.0, 1 / 30, 2 / 30, 5.0])
-    graph = FixedLagGraph(K, BOARD, MotionPrior("random_walk", 1e-6, 1e-6), lag_s=1.0)
-    for k in range(3):
-        graph.add_frame(k, t[k], project(K, poses[0], W), ALL, poses[0], 0.1)
-    result = graph.add_frame(3, t[3], project(K, poses[3], W), ALL, poses[3], 0.1)
-    np.testing.assert_allclose(result.T_WC, poses[3], atol=1e-7)  # not dragged onto frame 2
-    assert [m.new_segment for m in graph.measurements] == [True, False, False, True]
-    np.testing.assert_allclose(graph.smooth()[3].T_WC, poses[3], atol=1e-7)
-
-
-def test_fixed_lag_refuses_a_bad_lag_and_make_backend_picks_the_form():
-    with pytest.raises(InputError, match="lag_s"):
-        FixedLagGraph(K, BOARD, MotionPrior(), lag_s=0.0)
-    assert isinstance(make_backend(K, BOARD, MotionPrior(), lag_s=None), SequenceGraph)
-    graph = make_backend(K, BOARD, MotionPrior(), target="frame_landmarks", lag_s=1.5)
-    assert isinstance(graph, FixedLagGraph) and graph.lag_s == 1.5 and graph.target == "frame_landmarks"
-
-
 @pytest.mark.parametrize("lag_s", [1.0, None])
 def test_both_back_ends_offer_the_whole_interface(lag_s):
-    t, poses = _trajectory(4)
+    t, poses = wavy_trajectory(4)
     graph = make_backend(K, BOARD, MotionPrior(), target="frame_landmarks", lag_s=lag_s)
     assert isinstance(graph, Backend) and graph.lag_s == lag_s
     assert gtsam.Symbol(graph.landmark_key(300, 3)).string() == "l30003"
@@ -262,4 +149,3 @@ def test_both_back_ends_offer_the_whole_interface(lag_s):
     for k, result in graph.smooth().items():
         np.testing.assert_allclose(rebuilt[k].T_WC, result.T_WC, atol=1e-9)
         np.testing.assert_allclose(rebuilt[k].cov, result.cov, rtol=1e-6, atol=1e-14)
-

@@ -92,6 +92,7 @@ def help_example():
     return render_sequence(K, 60, rng=3, excursions=1, supersample=1)
 
 
+@pytest.mark.slow  # renders and tracks a panning sequence
 def test_the_board_is_found_again_after_a_pan_when_the_sheet_was_cut_by_the_border(help_example):
     # Re-detection after a loss searches around the last frame whose junctions were all in
     # the image. It used to take only frames whose whole SHEET (margin included) was in the

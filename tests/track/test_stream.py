@@ -48,6 +48,7 @@ def _same(a: FrameResult, b: FrameResult):
     np.testing.assert_allclose(a.rms_px, b.rms_px, rtol=1e-12)
 
 
+@pytest.mark.slow  # a rendered stream tracked twice
 def test_the_stream_gives_the_lists_results(clip, listed):
     online = list(track_frames(clip.images, K, bounds=clip.bounds, timestamps=clip.timestamps))
     smoothed = list(track_frames(clip.images, K, bounds=clip.bounds, timestamps=clip.timestamps, smooth=True))
@@ -61,6 +62,7 @@ def test_the_stream_gives_the_lists_results(clip, listed):
     assert max(np.abs(a.T_WC - b.T_WC).max() for a, b in zip(online, smoothed)) > 1e-9
 
 
+@pytest.mark.slow  # a long rendered stream
 def test_the_stream_keeps_no_result_it_gave(clip):
     # Memory flat however long the run: once the caller lets a result go, nothing holds it
     # but (until the next frame) the stream itself. Counted, never timed.

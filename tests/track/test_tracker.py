@@ -29,6 +29,7 @@ def tracked(track_clip):
                           smooth=True)
 
 
+@pytest.mark.slow  # renders and tracks a sequence that leaves the view
 def test_track_reports_out_of_view_frames_lost_and_recovers(track_clip, tracked):
     clip, status = track_clip, tracked.status
     assert status[0] == DETECTED
@@ -45,7 +46,7 @@ def test_track_reports_out_of_view_frames_lost_and_recovers(track_clip, tracked)
 
 
 def test_track_accuracy_against_truth(track_clip, tracked):
-    # Regression guards with room for platform noise (measured RMSE about 0.12 mm online,
+    # Regression guards from an earlier run of this test, with room for platform noise (measured RMSE about 0.12 mm online,
     # 0.11 mm smoothed); smoothing must not hurt.
     found = tracked.found
     rmse_mm = {}
@@ -58,8 +59,8 @@ def test_track_accuracy_against_truth(track_clip, tracked):
     for f in tracked.frames:
         if f.status != LOST:
             assert f.junctions >= TrackerConfig().min_junctions
-            assert f.rms_px < 0.1  # measured at most 0.016 px
-            assert np.all(f.sigma > 0) and np.all(f.sigma[:3] < 0.001)  # measured at most 0.15 mm
+            assert f.rms_px < 0.1  # regression guard (an earlier run): at most 0.016 px
+            assert np.all(f.sigma > 0) and np.all(f.sigma[:3] < 0.001)  # regression guard (an earlier run): at most 0.15 mm
 
 
 def test_track_without_any_polygon_searches_the_whole_image(track_clip):
@@ -79,6 +80,7 @@ def test_track_reads_a_folder(track_clip, tmp_path):
     np.testing.assert_allclose(track.timestamps, [10.0, 10.1, 10.2])
 
 
+@pytest.mark.slow  # tracks a rendered folder
 def test_an_unreadable_frame_file_is_lost_and_the_others_tracked(track_clip, tmp_path):
     # One corrupt file in the middle used to abort the whole run with an InputError.
     for k in range(6):
@@ -222,13 +224,14 @@ def raw_clip(track_clip):
     return [distort_image(image, LENS) for image in track_clip.images[:8]]
 
 
+@pytest.mark.slow  # renders and tracks raw frames through a lens
 def test_raw_frames_track_through_the_camera_model(track_clip, raw_clip):
     track = track_sequence(raw_clip, LENS, timestamps=track_clip.timestamps[:8], smooth=True)
     assert list(track.status) == [DETECTED] + [TRACKED] * 7
     for which in ("online", "smoothed"):
         err = [pose_difference(T, track_clip.T_WC[k])[0] for k, T in enumerate(track.poses(which))]
-        assert max(err) < 0.5e-3, (which, err)  # measured 0.11 mm online, 0.08 mm smoothed
-    assert max(f.rms_px for f in track.frames) < 0.1  # measured 0.015 px at most
+        assert max(err) < 0.5e-3, (which, err)  # regression guard (an earlier run): 0.11 mm online, 0.08 mm smoothed
+    assert max(f.rms_px for f in track.frames) < 0.1  # regression guard (an earlier run): 0.015 px at most
     # Tracked as if the frames were undistorted, the same frames fit much worse.
     pinhole = track_sequence(raw_clip[:3], K, timestamps=track_clip.timestamps[:3])
     found = [f for f in pinhole.frames if f.T_WC is not None]
@@ -306,6 +309,7 @@ def test_board_symmetries_are_the_turns_of_the_grid():
     np.testing.assert_array_equal(perms[2][perms[2]], perms[1])
 
 
+@pytest.mark.slow  # a rendered sequence tracked twice
 def test_fixed_lag_tracker_matches_the_whole_sequence_graph_through_a_loss(track_clip, tracked):
     # The default back end is the fixed lag (1 s, on this 1.5 s clip); a 0.3 s lag
     # marginalises most frames. Same statuses (lost out of view, re-detected after), online

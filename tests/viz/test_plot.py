@@ -26,6 +26,7 @@ def small_track(n=12, lost=(5, 6)):
     return Track(tuple(frames), None, TrackerConfig())
 
 
+@pytest.mark.slow  # a trajectory picture through matplotlib
 def test_plot_track_writes_a_png_with_truth(tmp_path):
     track = small_track()
     truth = np.array([T_from_params([0.1 + 0.01 * k, 0.1, -1.0, 0.0, 0.0, 0.01 * k]) for k in range(12)])

@@ -23,6 +23,7 @@ def rig_file(tmp_path_factory):
     return out, done
 
 
+@pytest.mark.slow  # a whole rig calibration through the CLI
 def test_calibrate_rig_writes_the_rig_the_report_and_the_plot(rig_file):
     out, done = rig_file
     rig = read_camera(out / "rig.yml")
@@ -48,6 +49,7 @@ def test_estimate_rig_reports_camera_0s_pose(rig_file, tmp_path):
     assert 0.2 < np.linalg.norm(np.array(record["T_WC"])[:3, 3]) < 1.0
 
 
+@pytest.mark.slow  # a rig calibration through the CLI
 @pytest.mark.parametrize("args,fragment", [
     (["--camera", OPENCV_DIR / "left.opencv.yml"], "holds one camera, not a rig"),
     (["--camera", OPENCV_DIR / "camchain.kalibr.yaml"], "holds one camera, not a rig"),
@@ -58,6 +60,7 @@ def test_a_rig_file_with_one_camera_given_to_rig_is_an_error(args, fragment):
     assert done.returncode == 2 and fragment in done.stderr and len(done.stderr.strip().splitlines()) == 1
 
 
+@pytest.mark.slow  # rig calibrations through the CLI
 def test_rig_usage_errors(rig_file, tmp_path):
     out, _ = rig_file
     done = graphpose("estimate", "--camera", out / "rig.yml", "--rig", OPENCV_DIR / "left05.jpg")
@@ -69,6 +72,7 @@ def test_rig_usage_errors(rig_file, tmp_path):
     assert done.returncode == 2 and "a rig is written as json, opencv, kalibr" in done.stderr
 
 
+@pytest.mark.slow  # tracks a rendered rig sequence through the CLI
 def test_track_rig_writes_camera_0s_poses_frame_by_frame(rig_file, tmp_path):
     out, _ = rig_file
     done = graphpose("track", "--camera", out / "rig.yml", "--rig", OPENCV_DIR / "left0[1-4].jpg",
