@@ -22,7 +22,7 @@ from pathlib import Path
 import benchmarks
 from benchmarks import compare
 from benchmarks._common import REPO
-from benchmarks.page import render_section, write_page
+from benchmarks.page import current_texts, render_section, write_page
 
 JSON_PATH = REPO / "docs" / "benchmarks.json"
 PAGE_PATH = REPO / "docs" / "benchmarks.md"
@@ -155,7 +155,7 @@ def main(argv=None) -> int:
                         "of every section and for --render; a run of some sections writes only when given this)")
     parser.add_argument("--page", type=Path, help="the page rendered from them (default: the JSON's path "
                         "with .md, docs/benchmarks.md for docs/benchmarks.json)")
-    parser.add_argument("--render", action="store_true", help="measure nothing: redraw the page from the JSON")
+    parser.add_argument("--render", action="store_true", help="measure nothing: redraw the page from the JSON (its stored texts brought up to date, figures untouched)")
     parser.add_argument("--compare", type=Path, metavar="PREVIOUS", help="after measuring, print every accuracy "
                         "figure beside PREVIOUS's (an earlier run's JSON) with its change (benchmarks.compare)")
     parser.add_argument("--update", action="store_true", help="measure the SECTIONs named and put them in place "
@@ -176,7 +176,11 @@ def main(argv=None) -> int:
         except (OSError, ValueError) as exc:
             print(f"benchmarks: cannot read {args.json}: {exc}", file=sys.stderr)
             return 2
-        write_page(doc, args.page)
+        texts = current_texts(doc)
+        if texts != doc:  # stored prose with stale references: brought up to date, figures untouched
+            args.json.write_text(json.dumps(texts, indent=1, allow_nan=False) + "\n")
+            print(f"brought the stored texts of {args.json} up to date")
+        write_page(texts, args.page)
         print(f"wrote {args.page} from {args.json}")
         return 0
     # argparse checks an empty nargs="*" default against choices, so SECTION is checked here.

@@ -13,8 +13,9 @@ from pathlib import Path
 
 #: Texts a run stored before the sections' texts dropped them, as the page now reads them: the
 #: tracker's issue numbers (the tracker is not in the repository; history lives in git and
-#: CHANGELOG.md) and the benchmark's former script name. The JSON keeps what each run wrote (it
-#: is never edited by hand); the next run of a section stores its module's present text.
+#: CHANGELOG.md) and the benchmark's former script name. ``python -m benchmarks --render`` brings
+#: the JSON's stored prose up to date the same way (:func:`current_texts`; figures are never
+#: touched), and the next run of a section stores its module's present text.
 _STALE = ((re.compile(r" \(the map before issues? \d+\)"), ""),
           (re.compile(r"; issues? \d+'s figures?\)"), ")"),
           (re.compile(r" \(issues? \d+\)"), ""),
@@ -26,6 +27,18 @@ def current(text: str) -> str:
     for pattern, replacement in _STALE:
         text = pattern.sub(replacement, text)
     return text
+
+
+def current_texts(doc):
+    """``doc`` (a run's JSON, parsed) with :func:`current` applied to every string in it: the
+    stored prose brought up to date; numbers, and so every figure, are left as they are."""
+    if isinstance(doc, str):
+        return current(doc)
+    if isinstance(doc, list):
+        return [current_texts(v) for v in doc]
+    if isinstance(doc, dict):
+        return {k: current_texts(v) for k, v in doc.items()}
+    return doc
 
 
 class _Formatter(string.Formatter):

@@ -91,3 +91,26 @@ def test_the_page_is_drawn_from_the_json_without_tracker_numbers():
     assert "scripts/bench.py" not in page
     assert current("Goals (issue 27): at most 1.3x (mrcal's 0.020; issue 30's figure)") == (
         "Goals: at most 1.3x (mrcal's 0.020)")
+
+
+def test_render_brings_the_stored_texts_up_to_date_and_leaves_every_figure(tmp_path):
+    # --render rewrites the JSON's stale prose (benchmarks.page.current_texts), never a number.
+    doc = json.loads((REPO / "docs" / "benchmarks.json").read_text())
+    section = doc["sections"][0]
+    section["goal"] = "Goals (issue 27): " + section["goal"]
+    section["figures"][0]["figure"] += " (issue 27)"
+    path = tmp_path / "b.json"
+    path.write_text(json.dumps(doc))
+    assert cli.main(["--render", "--json", str(path), "--page", str(tmp_path / "b.md")]) == 0
+    after = json.loads(path.read_text())
+    assert after["sections"][0]["goal"] == "Goals: " + doc["sections"][0]["goal"].split(": ", 1)[1]
+    assert not re.search(r"issues? \d", path.read_text() + (tmp_path / "b.md").read_text())
+
+    def numbers(d):
+        if isinstance(d, dict):
+            return [x for v in d.values() for x in numbers(v)]
+        if isinstance(d, list):
+            return [x for v in d for x in numbers(v)]
+        return [] if isinstance(d, str) else [d]
+
+    assert numbers(after) == numbers(doc)
