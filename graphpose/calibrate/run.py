@@ -48,6 +48,7 @@ from ..board import Board
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 from ..camera_models import calibration_model
 from ..robust import HUBER_K, mad_sigma  # noqa: F401  (HUBER_K: calibrate's default, named here too)
+from ..pose.gauss_newton import reprojection_rms
 from .result import Calibration, SolverCrossCheck
 
 #: An image whose RMS exceeds this many times the median image's is rejected.
@@ -158,11 +159,9 @@ def _detect(searched, board, camera):
 
 
 def _rms(r):
-    """sqrt(mean(du^2 + dv^2)) of residuals (2, m): the definition of
-    :func:`graphpose.pose.gauss_newton.reprojection_rms`, summed a junction at a time. The two
-    round differently in the last bit (a third of the figures), so each keeps its own sum and
-    every reported figure stays as it was."""
-    return float(np.sqrt(np.mean(np.sum(r * r, axis=0)))) if r.size else float("nan")
+    """The calibration's RMS of residuals (2, m): :func:`graphpose.pose.gauss_newton.reprojection_rms`
+    summed a junction at a time (``by_junction``), the order every calibration report uses."""
+    return reprojection_rms(r, by_junction=True)
 
 
 def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):

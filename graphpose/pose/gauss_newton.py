@@ -298,7 +298,7 @@ def reprojection_cost(residuals, huber_px=None) -> float:
     return float(np.sum(np.where(e <= huber_px, 0.5 * e * e, huber_px * (e - 0.5 * huber_px))))
 
 
-def reprojection_rms(residuals) -> float:
+def reprojection_rms(residuals, *, by_junction: bool = False) -> float:
     """The RMS reprojection error, OpenCV's definition: ``sqrt(mean(du^2 + dv^2))``.
 
     One definition for every RMS graphpose reports (the pose's, the tracker's frames', the
@@ -310,6 +310,10 @@ def reprojection_rms(residuals) -> float:
     ----------
     residuals : (2, m) ndarray
         Measured minus predicted pixels of the used points (trusted: no NaN).
+    by_junction : bool
+        Sum each junction's squared length first, then their mean: the same figure, rounded
+        differently in the last bit (the order the calibration's reports have always used, so
+        that a report's figures stay reproducible); False sums every coordinate at once.
 
     Returns
     -------
@@ -319,6 +323,8 @@ def reprojection_rms(residuals) -> float:
     r = np.asarray(residuals, dtype=float)
     if r.size == 0:
         return float("nan")
+    if by_junction:
+        return float(np.sqrt(np.mean(np.sum(r * r, axis=0))))
     return float(np.sqrt(np.sum(r * r) / r.shape[1]))
 
 

@@ -406,3 +406,13 @@ def test_compiled_normal_equations_match_the_stacked_jacobian(huber_px):
     np.testing.assert_allclose(g, (J * w[:, None]).T @ r, rtol=1e-12, atol=1e-12 * np.max(np.abs(g)))
     assert cost == pytest.approx(reprojection_cost(r.reshape(-1, 2).T, huber_px or None), rel=1e-13)
     assert chi2 == pytest.approx(float(r @ (w * r)), rel=1e-13)
+
+
+def test_reprojection_rms_by_junction_is_the_same_figure():
+    from graphpose.pose.gauss_newton import reprojection_rms
+
+    r = np.random.default_rng(5).normal(0.0, 0.3, (2, 137))
+    expected = np.sqrt(np.mean(r[0] ** 2 + r[1] ** 2))  # OpenCV's definition, written out
+    assert reprojection_rms(r) == pytest.approx(expected, rel=1e-14)
+    assert reprojection_rms(r, by_junction=True) == pytest.approx(expected, rel=1e-14)
+    assert np.isnan(reprojection_rms(np.zeros((2, 0)), by_junction=True))
