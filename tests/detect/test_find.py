@@ -13,10 +13,7 @@ from graphpose import Board, BoardNotFoundError, InputError, K_from_params
 from graphpose.geometry import T_from_params
 from graphpose.detect import find as find_module
 from graphpose.detect.find import find_board
-from graphpose.detect.grid import fit_homography
-from graphpose.detect.identify import identify
-from graphpose.detect.lattice import Lattice, grow_lattices, peel, predict, step_lengths
-from graphpose.detect.search import downsample, find_candidates, ring_test, search_levels
+from graphpose.detect.search import find_candidates, search_levels
 from graphpose.synth.render import render
 from graphpose.synth.scenes import random_scene
 from tests.conftest import PROJECT_K as K
@@ -31,86 +28,6 @@ def label_error(found, truth: np.ndarray, perm=None) -> float:
     """Largest distance (px) between seen junctions and the true junctions of their labels."""
     idx = np.arange(truth.shape[1]) if perm is None else perm
     return float(np.max(np.hypot(*(found.points[:, found.seen] - truth[:, idx[found.seen]]))))
-
-
-@pytest.mark.parametrize("seed", range(4))
-def test_candidates_lie_on_every_junction_of_a_board_at_any_rotation(seed):
-    R = random_scene(K, Board(), max_roll_deg=180.0, rng=seed).rendering
-    cands = find_candidates(R.image)
-    d = np.min(np.hypot(*(cands.points[:, :, None] - R.junctions[:, None, :])), axis=0)
-    assert d.max() < 1.5, d.max()
-
-
-def test_ring_test_tells_junctions_from_corners_and_edges():
-    R = render(K, T_from_params([0.22, 0.16, -1.0, 0.0, 0.0, 0.1]), Board(), rng=2, margin=1.0)
-    cands = find_candidates(R.image)
-    square = 0.0635 * 565 / 1.0
-    junction = ring_test(cands.view, R.junctions, 0.35 * square)[0]
-    corners = ring_test(cands.view, R.outline, 0.35 * square)[0]  # sheet corners: L-shaped
-    mid_edge = 0.5 * (R.junctions[:, 0] + R.junctions[:, 1])  # on a square's edge
-    edge = ring_test(cands.view, mid_edge[:, None], 0.35 * square)[0]
-    assert junction.min() > 0.5 and corners.max() < 0 and edge.max() < 0
-
-
-def test_predict_extrapolates_a_straight_line_and_completes_a_parallelogram():
-    line = {(0, 0): (0.0, 0.0), (1, 0): (10.0, 1.0), (2, 0): (20.0, 2.0)}
-    (u, v), step = predict(line, (3, 0))
-    assert (u, v) == pytest.approx((30.0, 3.0)) and step == pytest.approx(np.hypot(10, 1))
-    square = {(0, 0): (0.0, 0.0), (1, 0): (10.0, 0.0), (0, 1): (0.0, 10.0)}
-    assert predict(square, (1, 1))[0] == pytest.approx((10.0, 10.0))
-    assert predict({(0, 0): (0.0, 0.0)}, (5, 5)) is None
-
-
-def test_step_lengths_are_the_mean_distance_to_the_lattice_neighbours_present():
-    rng = np.random.default_rng(4)
-    nodes = {(i, j): np.array([31.0 * i + 3.0 * j, 29.0 * j - 2.0 * i]) + rng.normal(0, 0.5, 2)
-             for i in range(-3, 4) for j in range(-2, 3) if rng.random() < 0.7}
-    nodes[(9, 9)] = np.array([500.0, 500.0])  # no neighbours: NaN
-    keys = list(nodes)
-    for key, got in zip(keys, step_lengths(nodes, keys)):
-        i, j = key
-        d = [np.hypot(*(nodes[k] - nodes[key])) for k in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)) if k in nodes]
-        assert (np.isnan(got) and not d) or got == pytest.approx(np.mean(d), abs=1e-12)
-    # A lattice's own step lengths, read from its arrays, are the same numbers.
-    lattice = Lattice(np.array(keys), np.array([nodes[k] for k in keys]).T, 0.0)
-    assert np.array_equal(lattice.step_lengths(), step_lengths(nodes, keys), equal_nan=True)
-
-
-def test_peel_drops_strays_with_fewer_than_two_neighbours():
-    nodes = {(i, j): np.zeros(2) for i in range(3) for j in range(3)}
-    nodes[(5, 0)] = nodes[(3, 0)] = np.zeros(2)  # (3, 0) has one neighbour, (5, 0) none
-    assert set(peel(nodes)) == {(i, j) for i in range(3) for j in range(3)}
-
-
-def test_peel_keeps_what_dropping_strays_one_pass_at_a_time_keeps():
-    rng = np.random.default_rng(8)
-    for _ in range(20):
-        nodes = {(int(i), int(j)): np.array([i, j], float) for i, j in rng.integers(-4, 5, (30, 2))}
-        left = dict(nodes)  # the plain reference: whole passes over a dict until none drops
-        while drop := [k for k in left if sum((k[0] + a, k[1] + b) in left for a, b in
-                                              ((1, 0), (-1, 0), (0, 1), (0, -1))) < 2]:
-            for k in drop:
-                del left[k]
-        assert list(peel(nodes)) == list(left)
-
-
-def test_lattice_of_a_clean_board_holds_every_junction_right_handed():
-    R = random_scene(K, Board(), rng=3).rendering
-    cands = find_candidates(R.image)
-    lattice = next(lat for _, lat in grow_lattices(cands) if lat is not None)
-    assert len(lattice.keys) == 48
-    extent = lattice.keys.max(axis=0) - lattice.keys.min(axis=0) + 1
-    assert sorted(extent) == [6, 8]
-    # Right-handed: the key step (1, 0) turned by +90 degrees in (u, v) is the step (0, 1).
-    nodes = lattice.as_dict()
-    i, j = lattice.keys[np.argmin(np.abs(lattice.keys - lattice.keys.mean(axis=0)).sum(axis=1))]
-    a, b = nodes[(i + 1, j)] - nodes[(i, j)], nodes[(i, j + 1)] - nodes[(i, j)]
-    assert a[0] * b[1] - a[1] * b[0] > 0
-    # The growth's homography is the fit of its keys to its points, and the labelling it
-    # spares is the labelling of the same lattice without it.
-    assert np.array_equal(lattice.homography, fit_homography(lattice.keys.T.astype(float), lattice.points))
-    bare = identify(Lattice(lattice.keys, lattice.points, lattice.theta0), cands.view, Board())
-    assert np.array_equal(bare.index, identify(lattice, cands.view, Board()).index)
 
 
 @pytest.mark.parametrize("seed", range(12))
@@ -236,33 +153,6 @@ def test_small_squares_are_found_at_full_resolution():
     assert found.seen.all()
     truth = scene.rendering.junctions
     assert min(label_error(found, truth), label_error(found, truth, half_turn(board))) < 1.5
-
-
-@pytest.mark.parametrize("shape, levels", [
-    ((480, 640), [1, 0]), ((800, 1000), [1, 0]), ((802, 1000), [2, 1, 0]), ((1080, 1920), [2, 1, 0]),
-    ((1600, 2400), [2, 1, 0]), ((1602, 2400), [3, 2, 1, 0]), ((3024, 4032), [3, 2, 1, 0]),
-    ((6000, 8000), [4, 3, 2, 1, 0]), ((3, 3), [1, 0])])
-def test_search_levels_start_where_the_shorter_side_is_at_most_400_px(shape, levels):
-    assert list(search_levels(shape)) == levels
-
-
-@pytest.mark.parametrize("level", range(6))
-@pytest.mark.parametrize("dtype", [np.uint8, np.float64])
-def test_downsample_is_the_exact_block_mean(level, dtype):
-    rng = np.random.default_rng(level)
-    image = (rng.integers(0, 256, (75, 101)) if dtype == np.uint8 else rng.random((75, 101))).astype(dtype)
-    s = 2**level
-    h, w = 75 // s * s, 101 // s * s
-    mean = image[:h, :w].astype(float).reshape(h // s, s, w // s, s).mean(axis=(1, 3))
-    out = downsample(image, level)
-    assert out.dtype == np.float32 and out.shape == mean.shape
-    np.testing.assert_allclose(out, mean, rtol=0, atol=0 if dtype == np.uint8 else 1e-6)
-
-
-@pytest.mark.parametrize("level", [-1, 1.5])
-def test_find_candidates_refuses_a_level_that_is_no_whole_number_from_0(level):
-    with pytest.raises(InputError, match="level must be a whole number >= 0"):
-        find_candidates(np.zeros((64, 64), np.uint8), level=level)
 
 
 def _large_scene(distance, seed):

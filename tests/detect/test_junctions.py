@@ -311,15 +311,6 @@ def test_bad_options_raise_input_error(small_case):
         refine_junctions(R.image, R.junctions, "wide")
 
 
-def test_junctions_that_fix_no_homography_mean_no_board():
-    from graphpose.detect.grid import fit_homography
-
-    one_row = np.array([[0.0, 1, 2, 3, 4, 5], [0, 0, 0, 0, 0, 0]])
-    pixels = np.array([[10.0, 20, 30, 40, 50, 60], [5, 6, 7, 8, 9, 10]])
-    with pytest.raises(BoardNotFoundError, match="do not fix a homography"):
-        fit_homography(one_row, pixels)
-
-
 def test_a_partly_covered_raw_image_keeps_its_labels_through_the_lens():
     # OpenCV's raw sample with its distortion, a round grey patch (a hand, say) over its
     # right-hand columns. The rest keep their labels and positions; the covered junctions

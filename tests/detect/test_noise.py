@@ -13,7 +13,6 @@ from graphpose import Board, BoardNotFoundError, InputError, extract_junctions
 from graphpose.detect import find as find_module
 from graphpose.detect.noise import estimate_noise, grey_range
 from graphpose.detect.refine import MAX_SMOOTH_SIGMA, SMOOTH_SIGMA, noise_smoothing
-from graphpose.detect.search import find_candidates, noise_floor
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
 from graphpose.track.frontend import board_symmetries
@@ -80,14 +79,6 @@ def test_noise_estimate_checks_its_input():
         estimate_noise(np.zeros((2, 9)))
     with pytest.raises(InputError, match="stride"):
         estimate_noise(np.zeros((9, 9)), stride=0)
-
-
-def test_the_noise_floor_removes_the_peaks_of_pure_noise():
-    image = np.random.default_rng(1).normal(128.0, 10.0, (240, 320))
-    assert find_candidates(image).points.shape[1] > 300  # relative to the strongest: noise is all there is
-    cands = find_candidates(image, noise=10.0)
-    assert cands.points.shape[1] == 0 or cands.points.shape[1] < 3
-    assert noise_floor(10.0, 2) == pytest.approx(noise_floor(10.0, 1) / 4)
 
 
 def test_smoothing_follows_the_noise_over_the_contrast():
