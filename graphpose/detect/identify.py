@@ -331,7 +331,28 @@ def _side(view, grid, keys, side, dark_parity, light) -> str:
     # much of the side). One compiled call (``_identify.side_verdict``).
     verdict = _identify.side_verdict(P, value, expect, rows, _DEPTH_SQUARES, float(width), float(height),
                                      float(light.mid), float(light.contrast), ALTERNATES, PLAIN)
+    if verdict == _identify.EDGE and not _plain_at_every_depth(P, value, expect, rows, width, height, light):
+        return "unknown"
     return _VERDICTS[verdict]
+
+
+def _plain_at_every_depth(P, value, expect, rows, width, height, light) -> bool:
+    """Is the square beyond an edge plain at each of its depths (:data:`BEYOND_DEPTHS`), as it
+    must be on average (``_identify.side_verdict``)? A bar narrower than a square lying along the
+    line of junctions beyond the lattice's hides that line, and the board's next squares show
+    on one side of it within the square beyond (before the bar, or past it): plain on average
+    over the square, not at each of its depths. At each depth, the pairs of neighbouring rows
+    whose darkness differs as the pattern says must stay under :data:`PLAIN` on average (a bar
+    lies along the whole side; a real edge's clutter catches a pair or two)."""
+    inside = (P[:, 0] >= 0) & (P[:, 1] >= 0) & (P[:, 0] <= width - 1) & (P[:, 1] <= height - 1)
+    dark = np.where(inside, np.clip((light.mid - value) / (0.5 * light.contrast), -1.0, 1.0), np.nan)
+    pair = np.flatnonzero(np.diff(rows) == 1)
+    for d in np.flatnonzero(_DEPTH_SQUARES == 1):
+        o = -0.5 * (dark[pair, d] - dark[pair + 1, d]) * expect[pair]  # square 1: the outer one's colour turned
+        o = o[np.isfinite(o)]
+        if o.size >= 2 and o.mean() > PLAIN:
+            return False
+    return True
 
 
 def _grey(view, points, step) -> np.ndarray:
