@@ -43,7 +43,7 @@ from .board import Board, check_board
 from .camera_models import as_camera
 from .detect import extract_junctions
 from .errors import BoardNotFoundError, DegenerateGeometryError, InputError
-from .geometry import pose_difference, to_camera  # pose_difference: re-exported, public here too
+from .geometry import hat, pose_difference, to_camera  # pose_difference: re-exported, public here too
 from .observations import MIN_JUNCTIONS, check_observations
 from .pose.covariance import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
 from .pose.cross_check import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck, cross_check  # noqa: F401  (re-exported)
@@ -55,6 +55,11 @@ from ._deprecated import renamed
 
 #: A minimum counts as clearly worse when its cost exceeds the other's by this fraction.
 _COST_MARGIN = 1e-6
+#: A planar target's pose is refused when the pose with the target tilted the other way about
+#: the line of sight to it (the second minimum of a small or distant board's weak perspective)
+#: fits within this chi-square of it (5 sigma of the residuals' own noise): the view cannot tell
+#: the two tilts apart, and the covariance of either describes only its own minimum.
+FLIP_CHI2 = 25.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -272,6 +277,8 @@ def _estimate_pose_from_points(camera, Ipts, Wpts, guess, mask, robust) -> PoseE
     converged, message = gn.converged, "ok" if gn.converged else f"Gauss-Newton: {gn.message}"
     if guess is not None and gn.converged and on_target_plane(Wpts):
         converged, message = _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn)
+    if converged and on_target_plane(Wpts):
+        converged, message = _compare_with_flip(camera, Ipts, Wpts, mask, huber_px, gn)
     check = cross_check(gn, graph)
     cov, kind = graph.cov, SIGMA_PIXEL
     if getattr(camera, "covariance", None) is not None:
@@ -337,6 +344,55 @@ def _compare_with_linear_start(camera, Ipts, Wpts, mask, huber_px, gn):
             f"{dt:.3g} m and {dr:.3g} deg from a better one (cost {theirs:.6g}) found from "
             f"the homography start: the guess is too far off; retry with guess=None")
     return True, "ok"
+
+
+def _compare_with_flip(camera, Ipts, Wpts, mask, huber_px, gn):
+    """Whether the pose with the target tilted the other way (:func:`_flipped`) fits clearly
+    worse (:data:`FLIP_CHI2`) once Gauss-Newton has refined it; (ok, message)."""
+    start = _flipped(gn.T_WC, Wpts[:, mask])
+    if start is None:
+        return True, "ok"  # seen face-on: the two tilts are one
+    try:
+        other = gauss_newton(Ipts, Wpts, camera, guess=start, mask=mask, huber_px=huber_px, check=False)
+    except (InputError, DegenerateGeometryError):
+        return True, "ok"  # the other tilt puts points behind the camera
+    if not other.converged:
+        return True, "ok"
+    mine = reprojection_cost(gn.residuals[:, mask], huber_px)
+    theirs = reprojection_cost(other.residuals[:, mask], huber_px)
+    dof = 2 * int(mask.sum()) - 6
+    dt, dr = pose_difference(gn.T_WC, other.T_WC)
+    if dof <= 0 or (dt <= AGREE_TRANSLATION_M and dr <= AGREE_ROTATION_DEG):
+        return True, "ok"
+    chi2 = (theirs - mine) / max(mine / dof, 1e-300)  # in the residuals' own variance
+    if chi2 < FLIP_CHI2:
+        return False, (
+            f"the board's tilt is ambiguous: a pose {dr:.3g} deg and {dt:.3g} m away, the board tilted the "
+            f"other way, fits the {int(mask.sum())} junctions almost as well (chi-square {chi2:.3g} more, "
+            f"need {FLIP_CHI2:g}); show more of the board, or from nearer")
+    return True, "ok"
+
+
+def _flipped(T_WC, Wpts):
+    """The pose (4, 4) with the target plane's normal reflected about the line of sight to the
+    centre of the points ``Wpts`` (3, n) (turned about that centre), or None when the target is
+    seen face-on there."""
+    C = T_WC[:3, :3]
+    centre = to_camera(T_WC, Wpts.mean(axis=1, keepdims=True))[:, 0]
+    sight = centre / np.linalg.norm(centre)
+    normal = C.T[:, 2]  # the target's z axis in the camera frame
+    other = 2.0 * (normal @ sight) * sight - normal
+    axis = np.cross(normal, other)
+    sin, cos = float(np.linalg.norm(axis)), float(normal @ other)
+    if sin < 1e-9:
+        return None
+    Kx = hat(axis / sin)
+    turn = np.eye(3) + sin * Kx + (1.0 - cos) * (Kx @ Kx)  # Rodrigues: normal onto other
+    R_CW = turn @ C.T
+    t_CW = turn @ (-C.T @ T_WC[:3, 3] - centre) + centre
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R_CW.T, -R_CW.T @ t_CW
+    return T
 
 
 def estimate_pose(image, camera, *, board: Board = Board(), bounds=None, guess=None,

@@ -155,8 +155,8 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
         raise BoardNotFoundError(
             f"only part of the board is seen ({len(lattice.keys)} of {board.n} junctions) and its squares "
             f"({step:.0f} px) are too small to tell its edges from something lying across it")
-    dark_parity, mid, contrast = _square_colours(view, grid, keys)
-    sides = {side: _side(view, grid, keys, side, dark_parity, mid, contrast) for side in SIDES}
+    dark_parity, light = _square_colours(view, grid, keys)
+    sides = {side: _side(view, grid, keys, side, dark_parity, light) for side in SIDES}
     lo, hi = keys.min(axis=0), keys.max(axis=0)
     extent = hi - lo + 1
     # Junction 0's outer corner square is dark. When the four corner squares share one
@@ -205,9 +205,10 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
 
 
 def _square_colours(view, grid, keys):
-    """(dark parity of ``i + j`` of a square's upper-left key, mid grey, dark-light contrast),
-    from the squares whose four nodes (``keys`` (M, 2), C-contiguous int64, on their
-    :class:`KeyGrid`) are seen."""
+    """(dark parity of ``i + j`` of a square's upper-left key, the board's light), from the
+    squares whose four nodes (``keys`` (M, 2), C-contiguous int64, on their :class:`KeyGrid`)
+    are seen: the light is a :class:`_Light`, the board's mid grey and dark-light contrast
+    (fitted across the board where they vary, :func:`_fit_light`)."""
     # Each key as a square's upper-left corner: its node, the next along i, along j, and both;
     # the squares with all four seen, their centres, first sides and parities in one compiled
     # call (``_identify.whole_squares``).
@@ -218,17 +219,71 @@ def _square_colours(view, grid, keys):
     if m == 0:
         raise BoardNotFoundError("the junctions found enclose no whole square of the board")
     centres, parity = centres[:, :m], parity[:m]
-    value = _grey(view, centres, median(steps[:m]))
+    step = median(steps[:m])
+    value = _grey(view, centres, step)
     even = median(value[parity == 0]) if np.any(parity == 0) else np.nan
     odd = median(value[parity == 1]) if np.any(parity == 1) else np.nan
     if not np.isfinite(even):
         even = 2 * np.mean(value) - odd
     if not np.isfinite(odd):
         odd = 2 * np.mean(value) - even
-    return (0 if even < odd else 1), 0.5 * (even + odd), max(abs(odd - even), 1e-12)
+    dark_parity = 0 if even < odd else 1
+    flat = _Light(0.5 * (even + odd), max(abs(odd - even), 1e-12))
+    return dark_parity, _fit_light(centres, value, np.where(parity == dark_parity, -1.0, 1.0), step, flat)
 
 
-def _side(view, grid, keys, side, dark_parity, mid, contrast) -> str:
+#: The board's light is taken as even (one mid grey and contrast for all of it) unless its
+#: contrast, fitted across the board, falls below this fraction of its largest over the whole
+#: squares: a lamp to one side, vignetting. Under such light the far squares' light grey can
+#: fall below the near ones' mid grey, and a side's outer band would not seem to alternate.
+EVEN_LIGHT = 0.6
+
+
+@dataclass(frozen=True)
+class _Light:
+    """The board's grey at a point: ``mid + s contrast / 2`` (s = +1 on a light square, -1 on
+    a dark one), each of ``mid`` and ``contrast`` a constant or, with ``slope``, affine in the
+    image position (u, v) about ``centre``, scaled by ``step``; contrast no smaller than
+    ``floor`` (never extrapolated below the darkest square's)."""
+
+    mid: float
+    contrast: float
+    slope: np.ndarray | None = None  # (2, 2): rows mid, contrast; columns du, dv (per step)
+    centre: np.ndarray | None = None
+    step: float = 1.0
+    floor: float = 1e-12
+
+    def at(self, points) -> tuple:
+        """(mid, contrast) at ``points`` (2, ...)."""
+        if self.slope is None:
+            return self.mid, self.contrast
+        d = (np.asarray(points, dtype=float) - self.centre.reshape((2,) + (1,) * (np.ndim(points) - 1))) / self.step
+        mid = self.mid + self.slope[0, 0] * d[0] + self.slope[0, 1] * d[1]
+        contrast = self.contrast + self.slope[1, 0] * d[0] + self.slope[1, 1] * d[1]
+        return mid, np.maximum(contrast, self.floor)
+
+
+def _fit_light(centres, value, sign, step, flat) -> _Light:
+    """The board's light from its whole squares' centres (2, m), grey levels (m,) and colours
+    (``sign`` +1 light, -1 dark): ``flat`` (one mid grey and contrast) where the light is even
+    (:data:`EVEN_LIGHT`), else the mid grey and the contrast each affine in the position."""
+    m = value.size
+    if m < 8 or np.sum(sign > 0) < 3 or np.sum(sign < 0) < 3:
+        return flat
+    centre = centres.mean(axis=1)
+    d = (centres - centre[:, None]) / step
+    A = np.column_stack([np.ones(m), d[0], d[1], 0.5 * sign, 0.5 * sign * d[0], 0.5 * sign * d[1]])
+    coef, _, rank, _ = np.linalg.lstsq(A, value, rcond=None)
+    if rank < 6:
+        return flat
+    contrast = coef[3] + coef[4] * d[0] + coef[5] * d[1]
+    if contrast.min() <= 0 or contrast.min() >= EVEN_LIGHT * contrast.max():
+        return flat
+    return _Light(float(coef[0]), float(coef[3]), np.array([[coef[1], coef[2]], [coef[4], coef[5]]]), centre,
+                  float(step), float(contrast.min()))
+
+
+def _side(view, grid, keys, side, dark_parity, light) -> str:
     """Evidence on one lattice side (see the module docstring); ``keys`` (M, 2) C-contiguous
     int64, as :func:`identify` makes them for the kernels.
 
@@ -258,7 +313,14 @@ def _side(view, grid, keys, side, dark_parity, mid, contrast) -> str:
         return "unknown"
     P, rows, expect, steps = P[:m], rows[:m], expect[:m], steps[:m]
     height, width = view.shape
-    value = _grey(view, P.transpose(1, 0, 2).reshape(2, -1), median(steps)).reshape(m, depths.size)
+    points = P.transpose(1, 0, 2).reshape(2, -1)
+    value = _grey(view, points, median(steps)).reshape(m, depths.size)
+    if light.slope is not None:
+        # Under uneven light each sample is judged against the board's light where it lies:
+        # its grey in units of half the local contrast about the local mid grey.
+        mid, contrast = (x.reshape(m, depths.size) for x in light.at(points))
+        value = (value - mid) / (0.5 * contrast)
+        light = _Light(0.0, 2.0)
     # Each sample as +1 for the dark squares' grey, -1 for the light ones' (NaN outside the
     # image); the outer band must alternate with the lattice's colours. Square k beyond the
     # outer one has the outer square's colour times (-1)^k: pairs of neighbouring rows on
@@ -267,9 +329,30 @@ def _side(view, grid, keys, side, dark_parity, mid, contrast) -> str:
     # the square beyond it (one pair in four may catch clutter), and the squares do not come
     # back farther out (a bar or a fold lying across the board would show them again, along
     # much of the side). One compiled call (``_identify.side_verdict``).
-    verdict = _identify.side_verdict(P, value, expect, rows, _DEPTH_SQUARES, float(width), float(height), float(mid),
-                                     float(contrast), ALTERNATES, PLAIN)
+    verdict = _identify.side_verdict(P, value, expect, rows, _DEPTH_SQUARES, float(width), float(height),
+                                     float(light.mid), float(light.contrast), ALTERNATES, PLAIN)
+    if verdict == _identify.EDGE and not _plain_at_every_depth(P, value, expect, rows, width, height, light):
+        return "unknown"
     return _VERDICTS[verdict]
+
+
+def _plain_at_every_depth(P, value, expect, rows, width, height, light) -> bool:
+    """Is the square beyond an edge plain at each of its depths (:data:`BEYOND_DEPTHS`), as it
+    must be on average (``_identify.side_verdict``)? A bar narrower than a square lying along the
+    line of junctions beyond the lattice's hides that line, and the board's next squares show
+    on one side of it within the square beyond (before the bar, or past it): plain on average
+    over the square, not at each of its depths. At each depth, the pairs of neighbouring rows
+    whose darkness differs as the pattern says must stay under :data:`PLAIN` on average (a bar
+    lies along the whole side; a real edge's clutter catches a pair or two)."""
+    inside = (P[:, 0] >= 0) & (P[:, 1] >= 0) & (P[:, 0] <= width - 1) & (P[:, 1] <= height - 1)
+    dark = np.where(inside, np.clip((light.mid - value) / (0.5 * light.contrast), -1.0, 1.0), np.nan)
+    pair = np.flatnonzero(np.diff(rows) == 1)
+    for d in np.flatnonzero(_DEPTH_SQUARES == 1):
+        o = -0.5 * (dark[pair, d] - dark[pair + 1, d]) * expect[pair]  # square 1: the outer one's colour turned
+        o = o[np.isfinite(o)]
+        if o.size >= 2 and o.mean() > PLAIN:
+            return False
+    return True
 
 
 def _grey(view, points, step) -> np.ndarray:
