@@ -1,12 +1,17 @@
 """graphpose.camera_models.radtan: the radial-tangential and rational cameras against OpenCV's
 definitions and GTSAM's Cal3DS2, their inverse on the unfolded branch only, OpenCV's five
-parameters."""
+parameters, the rational model's twelve and their Jacobian."""
 
 import numpy as np
 import pytest
 
-from graphpose.camera_models import PinholeCamera, RadTanCamera
+from graphpose import InputError
+from graphpose.camera_models import MODELS, PinholeCamera, RadTanCamera, RationalCamera
 from tests.camera_models.helpers import CAMERAS, K_SAMPLE, RADTAN, normalised, points_in_view, whole_image
+
+# The rational model's camera (model="rational", mrcal's OPENCV8).
+K = [[530.0, 0.0, 322.0], [0.0, 528.0, 241.0], [0.0, 0.0, 1.0]]
+D = [-0.25, 0.08, 0.001, -0.0005, 0.01, 0.05, -0.02, 0.01]
 
 
 @pytest.mark.parametrize("count", list(RADTAN))
@@ -106,3 +111,23 @@ def test_radtan_parameters_are_opencvs_five():
     np.testing.assert_array_equal(p[4:], [-0.288, 0.097, 0.001, -0.0003, 0.0])
     p[8] = 0.02
     assert camera.with_parameters(p).distortion.tolist() == [-0.288, 0.097, 0.001, -0.0003, 0.02]
+
+
+def test_twelve_parameters_and_their_jacobian():
+    camera = RationalCamera(K, D, (640, 480))
+    assert camera.model == "rational" and MODELS["rational"].parameter_names == camera.parameter_names
+    assert len(camera.parameter_names) == 12
+    p = camera.parameters
+    np.testing.assert_array_equal(p[4:], D)
+    P = np.array([[0.1, -0.3, 0.4], [0.05, 0.2, -0.1], [1.0, 1.2, 0.9]])
+    J = camera.parameter_jacobian(P)
+    for k in range(12):
+        dp = np.zeros(12)
+        dp[k] = 1e-6 * max(1.0, abs(p[k]))
+        numeric = (camera.with_parameters(p + dp).project(P)
+                   - camera.with_parameters(p - dp).project(P)) / (2 * dp[k])
+        np.testing.assert_allclose(J[:, :, k], numeric.T, rtol=1e-5, atol=1e-6)
+    # Projects as the 8-coefficient radial-tangential camera, and equals it.
+    assert camera == RadTanCamera(K, D, (640, 480))
+    with pytest.raises(InputError, match="8 coefficients"):
+        RationalCamera(K, D[:5])
