@@ -1,38 +1,18 @@
-"""model="rational": OpenCV's 8-coefficient model (mrcal's OPENCV8) as a calibration model:
-its Jacobian in the twelve parameters, the files that hold it and those that refuse it, and a
-calibration with the weak prior that holds its near-degenerate direction."""
+"""model="rational": OpenCV's 8-coefficient model (mrcal's OPENCV8) as a calibration model: the
+files that hold it and those that refuse it, and a calibration with the weak prior that holds its
+near-degenerate direction (its Jacobian in the twelve parameters: tests/camera_models/test_radtan.py)."""
 
 import numpy as np
 import pytest
 
-from graphpose import Board, InputError, RadTanCamera, read_camera, write_camera
+from graphpose import Board, InputError, read_camera, write_camera
 from graphpose.calibrate import lm
-from graphpose.camera_models import MODELS, RationalCamera
+from graphpose.camera_models import RationalCamera
 from graphpose.geometry import to_camera
 from graphpose.synth.poses import random_pose
 
 K = [[530.0, 0.0, 322.0], [0.0, 528.0, 241.0], [0.0, 0.0, 1.0]]
 D = [-0.25, 0.08, 0.001, -0.0005, 0.01, 0.05, -0.02, 0.01]
-
-
-def test_twelve_parameters_and_their_jacobian():
-    camera = RationalCamera(K, D, (640, 480))
-    assert camera.model == "rational" and MODELS["rational"].parameter_names == camera.parameter_names
-    assert len(camera.parameter_names) == 12
-    p = camera.parameters
-    np.testing.assert_array_equal(p[4:], D)
-    P = np.array([[0.1, -0.3, 0.4], [0.05, 0.2, -0.1], [1.0, 1.2, 0.9]])
-    J = camera.parameter_jacobian(P)
-    for k in range(12):
-        dp = np.zeros(12)
-        dp[k] = 1e-6 * max(1.0, abs(p[k]))
-        numeric = (camera.with_parameters(p + dp).project(P)
-                   - camera.with_parameters(p - dp).project(P)) / (2 * dp[k])
-        np.testing.assert_allclose(J[:, :, k], numeric.T, rtol=1e-5, atol=1e-6)
-    # Projects as the 8-coefficient radial-tangential camera, and equals it.
-    assert camera == RadTanCamera(K, D, (640, 480))
-    with pytest.raises(InputError, match="8 coefficients"):
-        RationalCamera(K, D[:5])
 
 
 def test_files_hold_it_or_refuse_it(tmp_path):

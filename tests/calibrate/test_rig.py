@@ -1,10 +1,10 @@
-"""calibrate_rig on a rendered rig with truth, the matching of frames, and its bad-input errors."""
+"""calibrate_rig on a rendered rig with truth, and its bad-input errors (the matching of frames:
+tests/calibrate/test_frames.py)."""
 
 import numpy as np
 import pytest
 
 from graphpose import Board, InputError
-from graphpose.calibrate.frames import file_number, match_frames
 from graphpose.geometry import T_from_params, params_from_T
 from graphpose.rig import Rig
 from graphpose.synth.calibration import radtan_camera
@@ -99,18 +99,6 @@ def test_a_camera_with_fewer_than_three_views_is_an_error(rendered):
     frames = [(v[0], v[1] if k < 2 else None) for k, v in enumerate(rendered.images)]
     with pytest.raises(InputError, match="camera 1 has 2 images; a camera of a rig needs at least 3"):
         calibrate_rig(frames=frames, board=BOARD)
-
-
-def test_frames_match_by_number_or_timestamp():
-    assert file_number("left07.jpg") == 7 and file_number("cam2/img_0012.png") == 12
-    with pytest.raises(InputError, match="no frame number"):
-        file_number("left.jpg")
-    assert match_frames([[1, 2, 4], [2, 3, 4]]) == [(0, None), (1, 0), (None, 1), (2, 2)]
-    # Timestamps in seconds within a tolerance; each camera gives at most one frame a view.
-    views = match_frames([[0.0, 0.1, 0.2], [0.004, 0.103, 0.35]], tolerance=0.01)
-    assert views == [(0, 0), (1, 1), (2, None), (None, 2)]
-    with pytest.raises(InputError, match="repeat"):
-        match_frames([[1, 1], [1, 2]])
 
 
 def test_sources_by_glob_match_opencv_pairs(tmp_path):

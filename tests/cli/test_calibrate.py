@@ -14,7 +14,7 @@ from graphpose.cli import main
 from graphpose.io.cameras import write_camera
 from graphpose.synth import poses, render
 from tests.conftest import LENS_CAMERAS
-from tests.pose.test_intrinsics import COV_K
+from tests.pose.test_covariance import COV_K
 
 BOARD = Board()
 SIZE = (640, 480)

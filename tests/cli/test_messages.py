@@ -193,21 +193,6 @@ def test_track_plot_without_matplotlib_fails_before_tracking(monkeypatch, tmp_pa
     assert not (tmp_path / "t.png").exists()
 
 
-def test_the_install_hint_fits_how_graphpose_was_installed(monkeypatch, tmp_path):
-    import graphpose._extras as extras
-
-    assert extras.checkout_root() == REPO  # the tests run from this checkout
-    assert extras.install_hint("plot") == f'pip install -e ".[plot]" (in {REPO})'
-    monkeypatch.setattr(extras, "checkout_root", lambda: None)  # as from a wheel
-    assert extras.install_hint("plot") == 'pip install "graphpose[plot]"'
-    monkeypatch.setattr(extras, "install_hint", lambda extra: f"HINT {extra}")
-    with pytest.raises(Exception, match="Parquet results needs no_such_module_here .the batch extra.: HINT batch"):
-        extras.require("no_such_module_here", "batch", "Parquet results")
-
-
-# --- paths as given -----------------------------------------------------------------------
-
-
 def test_case_file_paths_keep_their_symbolic_links(tmp_path, capsys, monkeypatch):
     os.symlink(BUNDLED, tmp_path / "linked")
     (tmp_path / "cases.json").write_text(json.dumps({"K": [[564.9, 0, 337.3], [0, 564.3, 226.5], [0, 0, 1]],

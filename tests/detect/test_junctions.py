@@ -82,11 +82,6 @@ def test_real_images_fit_a_pose_at_least_as_well_as_opencv(real_cases, real_junc
         assert pose_rms(real_cases.K, case.guess_T_WC, J.points) <= limit, case.image.name
 
 
-def test_cross_junctions_is_extract_junctions_points(real_cases, real_images, real_junctions):
-    case, image, J = real_junctions[1]
-    np.testing.assert_array_equal(cross_junctions(image, case.bounds, Board().world_points()), J.points)
-
-
 def test_colour_16_bit_and_8_bit_images_agree(real_images):
     case, image = real_images[0]
     grey8 = np.rint(image * 255).astype(np.uint8)
@@ -209,15 +204,6 @@ def test_bad_image_raises_input_error(small_case, image, message):
     _, poly = small_case
     with pytest.raises(InputError, match=message):
         extract_junctions(image, bounds=poly)
-
-
-def test_wpts_not_a_grid_raises_input_error(small_case):
-    R, poly = small_case
-    W = Board().world_points()
-    with pytest.raises(InputError, match="grid"):
-        cross_junctions(R.image, poly, W[:, ::-1])
-    with pytest.raises(InputError, match="Wpts"):
-        cross_junctions(R.image, poly, W[:2])
 
 
 @pytest.mark.parametrize("kind", ["blank", "noise"])

@@ -1,11 +1,12 @@
-"""Tests of graphpose.detect.saddle: exact quadrics, synthetic cross-junctions, the batched form, errors."""
+"""Tests of graphpose.detect.saddle: the batched fit (against the course's one-patch saddle_point, whose
+own tests of exact quadrics and synthetic cross-junctions are in tests/test_course.py), weights, errors."""
 
 import numpy as np
 import pytest
 from scipy.ndimage import gaussian_filter
 from scipy.special import erf
 
-from graphpose import InputError, SaddleError, fit_saddles, saddle_point
+from graphpose import InputError, fit_saddles, saddle_point
 
 
 def quadric(h, w, coeffs):
@@ -14,62 +15,12 @@ def quadric(h, w, coeffs):
     return a * u * u + b * u * v + g * v * v + d * u + e * v + z
 
 
-def saddle_of(coeffs):
-    a, b, g, d, e, _ = coeffs
-    return np.linalg.solve([[2 * a, b], [b, 2 * g]], [-d, -e])
-
-
 def junction(size, centre, angles=(0.3, 1.9), sigma=1.0):
     """A blurred cross-junction: two straight edges through ``centre`` at the given angles."""
     v, u = np.mgrid[0:size, 0:size].astype(float)
     d = [(u - centre[0]) * np.sin(a) - (v - centre[1]) * np.cos(a) for a in angles]
     s = np.sqrt(2.0) * sigma
     return 0.5 + 0.4 * erf(d[0] / s) * erf(d[1] / s)
-
-
-def test_exact_quadric_anywhere_in_the_patch():
-    rng = np.random.default_rng(1)
-    for _ in range(20):
-        a, g = rng.uniform(-1, 1, 2)
-        b = np.sqrt(abs(4 * a * g)) + rng.uniform(0.5, 2.0)  # 4ag - b^2 < 0
-        centre = rng.uniform(0.5, 7.5, 2)
-        d, e = -np.array([[2 * a, b], [b, 2 * g]]) @ centre
-        coeffs = (a, b, g, d, e, rng.uniform(-1, 1))
-        pt = saddle_point(quadric(9, 9, coeffs))
-        assert pt.shape == (2, 1)
-        np.testing.assert_allclose(pt[:, 0], saddle_of(coeffs), atol=1e-9)
-
-
-def test_rectangular_patch_uses_u_as_column():
-    coeffs = (0.0, 1.0, 0.0, -5.0, -2.0, 0.0)  # (u - 2)(v - 5) - 10
-    np.testing.assert_allclose(saddle_point(quadric(8, 5, coeffs))[:, 0], [2.0, 5.0], atol=1e-9)
-
-
-@pytest.mark.parametrize("angles", [(0.3, 1.9), (0.0, np.pi / 2), (0.7, 2.0), (-0.4, 1.0)])
-@pytest.mark.parametrize("sigma", [0.8, 1.5])
-def test_smoothed_synthetic_junction_centred_patch(angles, sigma):
-    # A junction at the centre of a point-symmetric window: the fit is unbiased by symmetry,
-    # whatever the angle between the edges (perspective makes them non-perpendicular).
-    size = 11
-    centre = np.array([5.0, 5.0])
-    P = gaussian_filter(junction(size, centre, angles, sigma), 1.0)
-    np.testing.assert_allclose(saddle_point(P)[:, 0], centre, atol=0.01)
-
-
-def test_smoothed_synthetic_junction_off_centre_within_0_01_px():
-    # Off the patch centre the quadric pulls towards the centre, so the patch is resampled
-    # around the estimate until it is centred (what refinement does); a few rounds converge.
-    rng = np.random.default_rng(7)
-    for _ in range(5):
-        truth = np.array([20.0, 20.0]) + rng.uniform(-0.5, 0.5, 2)
-        angles = (rng.uniform(0, np.pi), 0.0)
-        angles = (angles[0], angles[0] + rng.uniform(1.2, 1.9))
-        estimate = np.array([20.0, 20.0])
-        for _ in range(8):
-            image = junction(41, truth - estimate + 20.0, angles)
-            P = gaussian_filter(image, 1.0)[15:26, 15:26]
-            estimate = estimate + saddle_point(P)[:, 0] - 5.0
-        assert np.max(np.abs(estimate - truth)) < 0.01
 
 
 def test_batched_fit_matches_single_fits_and_flags_bad_patches():
@@ -93,29 +44,6 @@ def test_uniform_weights_give_the_unweighted_fit():
     weighted = fit_saddles(patches, weights=np.full((9, 9), 2.0))
     np.testing.assert_allclose(weighted.points, plain.points, atol=1e-9)
     np.testing.assert_allclose(weighted.coeffs, plain.coeffs, atol=1e-9)
-
-
-def test_not_a_saddle_raises():
-    with pytest.raises(SaddleError, match="not a saddle"):
-        saddle_point(quadric(7, 7, (1.0, 0.0, 1.0, -6.0, -6.0, 0.0)))
-    with pytest.raises(SaddleError, match="not a saddle"):
-        saddle_point(np.ones((7, 7)))
-
-
-def test_saddle_outside_the_patch_raises():
-    with pytest.raises(SaddleError, match="outside"):
-        saddle_point(quadric(7, 7, (0.0, 1.0, 0.0, -9.0, -1.0, 0.0)))
-
-
-@pytest.mark.parametrize(
-    "bad, message",
-    [(np.zeros((0, 0)), "I is empty"), (np.zeros(9), "I must be 2-D"), (np.zeros((3, 3, 3)), "2-D"),
-     (np.zeros((2, 5)), "at least 3 x 3"),
-     (np.full((5, 5), np.nan), "NaN"), ([[1, 2, 3], [4, 5]], "I must be a rectangular array of real numbers")],
-)
-def test_bad_patch_raises_input_error(bad, message):
-    with pytest.raises(InputError, match=message):
-        saddle_point(bad)
 
 
 def test_bad_batch_raises_input_error():

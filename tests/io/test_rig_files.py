@@ -7,7 +7,7 @@ import yaml
 from graphpose import FisheyeCamera, InputError, PinholeCamera, RadTanCamera
 from graphpose.geometry import T_from_params
 from graphpose.io.cameras import read_camera, write_camera
-from graphpose.rig import Rig, rig_parameter_names, stereo_rectify
+from graphpose.rig import Rig, rig_parameter_names
 
 K = np.array([[500.0, 0.0, 320.0], [0.0, 501.0, 240.0], [0.0, 0.0, 1.0]])
 
@@ -118,14 +118,3 @@ def test_rig_formats_refuse_what_they_cannot_hold(tmp_path):
         write_camera(tmp_path / "x.yml", rig5, "kalibr")
     with pytest.raises(InputError, match=r"T_C0_C\[0\] must be the identity"):
         Rig(_rig(2).cameras, [T_from_params([0.1, 0, 0, 0, 0, 0])] * 2)
-
-
-def test_stereo_rectify_makes_the_pair_row_aligned():
-    rig = _rig(2)
-    rect = stereo_rectify(rig)
-    pair = rig.stereo()
-    # Rectified, camera 2's origin lies on camera 1's x axis.
-    t = rect["R2"] @ pair["T"]
-    assert abs(t[1]) < 1e-12 and abs(t[2]) < 1e-12
-    assert np.allclose(rect["R2"], rect["R1"] @ pair["R"].T, atol=1e-12)
-    assert rect["P2"][0, 3] == pytest.approx(rect["P1"][0, 0] * t[0])

@@ -1,28 +1,104 @@
-"""Each camera answers for its calibration parameters: names in OpenCV's order that match the
-vector, round trips through ``from_parameters`` and ``with_parameters``, the analytic
-``parameter_jacobian`` against central differences, the cameras' covariance, and the one
-registry of model names (every ``--model`` the command line takes)."""
+"""graphpose.camera_models.base: what every camera does (projection and its Jacobian, inverses
+over whole images, calibration parameters and their Jacobian, the covariance, frozen values), the
+pinhole camera, as_camera and check_image_size. (docs/cameras.md's examples run in
+tests/test_docs.py, with every page's.)"""
 
 import dataclasses
 
 import numpy as np
 import pytest
 
-from graphpose import FisheyeCamera, InputError, PinholeCamera, RadTanCamera, read_camera, write_camera
-from graphpose.camera_models import HELD_MODELS, MODELS, RationalCamera, calibration_model, model_class
-from graphpose.cli import build_parser
+from graphpose import InputError
+from graphpose.geometry import T_from_params, to_camera
+from graphpose.geometry import project as pinhole_project
+from graphpose.camera_models import (
+    MODELS,
+    UNPROJECT_TOL,
+    FisheyeCamera,
+    PinholeCamera,
+    RadTanCamera,
+    RationalCamera,
+    as_camera,
+    check_image_size,
+    model_class,
+)
+from tests.camera_models.helpers import (
+    CAMERAS,
+    K,
+    K_FISHEYE,
+    K_SAMPLE,
+    FISHEYE,
+    RADTAN,
+    RATIONAL,
+    cameras,
+    points_in_view,
+    whole_image,
+)
+from tests.helpers import central_difference
 
-K = [[533.5, 0.0, 341.6], [0.0, 531.0, 235.2], [0.0, 0.0, 1.0]]
-K_SKEW = [[300.0, 0.9, 640.0], [0.0, 310.0, 512.0], [0.0, 0.0, 1.0]]
-RATIONAL = (2.5, 1.2, 0.0005, -0.0004, 0.05, 2.8, 2.0, 0.3)
-CAMERAS = {
-    "pinhole": PinholeCamera([[500.0, 1.5, 320.0], [0.0, 510.0, 240.0], [0, 0, 1]], (640, 480)),
-    "radtan4": RadTanCamera(K, (-0.288, 0.097, 0.001, -0.0003), (640, 480)),
-    "radtan5": RadTanCamera(K, (-0.35, 0.15, 0.001, -0.0003, -0.03), (640, 480)),
-    "rational": RadTanCamera(K, RATIONAL, (640, 480)),
-    "rational_model": RationalCamera(K, RATIONAL, (640, 480)),
-    "fisheye": FisheyeCamera(K_SKEW, (-0.013, -0.004, 0.0035, -0.001), (1280, 1024)),
-}
+
+# ---- projection, the pinhole ----------------------------------------------------------------
+
+
+def test_pinhole_camera_is_the_seed_projection():
+    K = [[500.0, 1.5, 320.0], [0.0, 510.0, 240.0], [0.0, 0.0, 1.0]]
+    T = T_from_params([0.1, 0.05, -1.0, 0.1, -0.2, 0.3])
+    W = np.random.default_rng(4).uniform(-0.2, 0.2, (3, 50)) * [[1], [1], [0]]
+    np.testing.assert_allclose(PinholeCamera(K).project(to_camera(T, W)),
+                               pinhole_project(K, T, W), rtol=1e-13)
+
+
+@pytest.mark.parametrize("camera", cameras(), ids=lambda c: f"{c.model}{c.distortion.size}")
+def test_project_jacobian_matches_central_differences(camera):
+    rng = np.random.default_rng(8)
+    max_angle = np.radians(100 if camera.model == "fisheye" else 35)
+    P = points_in_view(camera, 500, rng, max_angle)
+    P[:, 0] = [0.0, 0.0, 1.3]  # on the axis
+    uv, J = camera.project_jacobian(P)
+    np.testing.assert_allclose(uv, camera.project(P), rtol=0, atol=1e-12)
+    ref = central_difference(camera.project, P)
+    scale = np.abs(ref).max(axis=(1, 2), keepdims=True)
+    np.testing.assert_allclose(J / scale, ref / scale, rtol=0, atol=1e-7)
+
+
+def test_gtsam_cal3_s2_is_the_pinhole():
+    pytest.importorskip("gtsam")
+    camera = cameras()[0]
+    P = points_in_view(camera, 50, np.random.default_rng(11))
+    cal = camera.gtsam_calibration()
+    theirs = np.array([cal.uncalibrate(P[:2, j] / P[2, j]) for j in range(50)]).T
+    np.testing.assert_allclose(theirs, camera.project(P), rtol=0, atol=1e-9)
+
+
+# ---- inverses over whole images -------------------------------------------------------------
+
+
+@pytest.mark.parametrize("camera", cameras()[:4], ids=lambda c: f"{c.model}{c.distortion.size}")
+def test_unproject_round_trip_over_whole_image(camera):
+    uv = whole_image(camera, step=2.0)
+    rays = camera.unproject(uv)
+    assert not np.isnan(rays).any()
+    np.testing.assert_allclose(np.linalg.norm(rays, axis=0), 1.0, atol=1e-14)
+    # The stated accuracy: UNPROJECT_TOL normalised units, i.e. 1e-12 f pixels.
+    assert np.abs(camera.project(rays) - uv).max() <= UNPROJECT_TOL * 2 * camera.fx
+    # And back: rays through projected pixels are the same rays.
+    np.testing.assert_allclose(camera.unproject(camera.project(rays)), rays, atol=1e-12)
+
+
+@pytest.mark.parametrize("camera", cameras()[1:], ids=lambda c: f"{c.model}{c.distortion.size}")
+def test_distort_and_undistort_are_inverse(camera):
+    xy = np.random.default_rng(6).uniform(-0.5, 0.5, (2, 1000))
+    np.testing.assert_allclose(camera.undistort(camera.distort(xy)), xy, atol=1e-11)
+    uv = np.random.default_rng(7).uniform([0, 0], camera.size, (1000, 2)).T
+    ideal = camera.undistort_pixels(uv)
+    ok = ~np.isnan(ideal[0])
+    assert ok.mean() > 0.5
+    np.testing.assert_allclose(camera.distort_pixels(ideal[:, ok]), uv[:, ok], atol=1e-8)
+    np.testing.assert_allclose(camera.pinhole().project(camera.unproject(uv[:, ok])),
+                               ideal[:, ok], atol=1e-8)
+
+
+# ---- calibration parameters -----------------------------------------------------------------
 
 
 def points(camera, rng, n=40):
@@ -43,29 +119,6 @@ def test_parameter_names_are_opencvs_order():
     assert MODELS["rational"].parameter_names == MODELS["radtan"].parameter_names + ("k4", "k5", "k6")
     with pytest.raises(InputError, match="unknown camera model 'omni'.*pinhole, radtan, rational, fisheye"):
         model_class("omni")
-
-
-def test_one_registry_covers_every_model_the_command_line_takes(tmp_path):
-    # The registry is the model names of the camera file, the calibration and --model: one dict.
-    assert {name: cls.model for name, cls in MODELS.items()} == {name: name for name in MODELS}
-    by_model = {"pinhole": "pinhole", "radtan": "radtan5", "rational": "rational_model", "fisheye": "fisheye"}
-    assert set(by_model) == set(MODELS)
-    for name, key in by_model.items():  # the camera file reads each model's name as its class
-        write_camera(tmp_path / f"{name}.json", CAMERAS[key])
-        back = read_camera(tmp_path / f"{name}.json")
-        assert type(back) is MODELS[name] and back == CAMERAS[key]
-    (tmp_path / "omni.json").write_text('{"model": "omni", "K": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}')
-    with pytest.raises(InputError, match="models are pinhole, radtan, rational, fisheye$"):
-        read_camera(tmp_path / "omni.json")
-    parser = build_parser()
-    calibrate = parser._subparsers._group_actions[0].choices["calibrate"]
-    choices = next(a.choices for a in calibrate._actions if "--model" in a.option_strings)
-    assert set(choices) == set(MODELS) | set(HELD_MODELS)
-    for name in choices:
-        cls, held = calibration_model(name)
-        assert cls in MODELS.values() and held.shape == (len(cls.parameter_names),)
-    with pytest.raises(InputError, match="unknown camera model 'omni'.*pinhole, radtan, rational, fisheye, radtan4"):
-        calibration_model("omni")
 
 
 @pytest.mark.parametrize("name", CAMERAS)
@@ -95,15 +148,7 @@ def test_parameters_match_their_names_and_round_trip(name):
                                         rational=RATIONAL[5:]) == CAMERAS["rational"]
 
 
-def test_radtan_parameters_are_opencvs_five():
-    camera = CAMERAS["radtan4"]
-    p = camera.parameters
-    np.testing.assert_array_equal(p[4:], [-0.288, 0.097, 0.001, -0.0003, 0.0])
-    p[8] = 0.02
-    assert camera.with_parameters(p).distortion.tolist() == [-0.288, 0.097, 0.001, -0.0003, 0.02]
-
-
-def central_difference(camera, P, h=1e-6):
+def parameter_central_difference(camera, P, h=1e-6):
     p = camera.parameters
     J = np.empty((P.shape[1], 2, p.size))
     for i in range(p.size):
@@ -122,7 +167,7 @@ def test_parameter_jacobian_matches_central_differences(name):
     P = points(camera, np.random.default_rng(5))
     J = camera.parameter_jacobian(P)
     assert J.shape == (P.shape[1], 2, len(camera.parameter_names))
-    num = central_difference(camera, P)
+    num = parameter_central_difference(camera, P)
     scale = np.max(np.abs(num), axis=(0, 1))  # per parameter
     np.testing.assert_allclose(J / scale, num / scale, rtol=0, atol=1e-7)
 
@@ -200,3 +245,60 @@ def test_from_parameters_refuses_bad_vectors():
         RationalCamera.from_parameters(CAMERAS["radtan5"].parameters)
     with pytest.raises(InputError, match="no skew"):
         RadTanCamera.from_parameters(CAMERAS["radtan5"].parameters, skew=0.5)
+
+
+# ---- objects, coercion, checks --------------------------------------------------------------
+
+
+def test_cameras_are_frozen_values():
+    a = RadTanCamera(K_SAMPLE, RADTAN["4"], (640, 480))
+    b = RadTanCamera(np.array(K_SAMPLE), np.r_[RADTAN["4"], 0.0], [640, 480])
+    assert a == b and hash(a) == hash(b)  # k3 written as 0 is the same camera
+    assert a != RadTanCamera(K_SAMPLE, RADTAN["4"])  # size unknown
+    assert a != a.pinhole() and a.pinhole() == PinholeCamera(K_SAMPLE, (640, 480))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        a.K = np.eye(3)
+    with pytest.raises(ValueError):
+        a.K[0, 0] = 1.0
+    with pytest.raises(ValueError):
+        a.distortion[0] = 1.0
+
+
+def test_as_camera():
+    camera = as_camera(K_SAMPLE)
+    assert isinstance(camera, PinholeCamera) and camera.size is None
+    np.testing.assert_array_equal(camera.K, K_SAMPLE)
+    fisheye = FisheyeCamera(K_FISHEYE, FISHEYE)
+    assert as_camera(fisheye) is fisheye
+    with pytest.raises(InputError, match="focal lengths"):
+        as_camera([[0.0, 0, 1], [0, 1, 1], [0, 0, 1]])
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: RadTanCamera(K_SAMPLE, [0.1] * 6), r"6 distortion coefficients: 6 fits no model"),
+    (lambda: RadTanCamera(K_SAMPLE, [0.1] * 14), r"14 coefficients are OpenCV's thin-prism"),
+    (lambda: FisheyeCamera(K_SAMPLE, [0.1] * 5), r"FisheyeCamera got 5 .*RadTanCamera takes 5"),
+    (lambda: RadTanCamera(K_SAMPLE, [0.1, np.nan, 0, 0]), "NaN"),
+    (lambda: RadTanCamera(K_SAMPLE, np.zeros((2, 4))), "vector of coefficients"),
+    (lambda: RadTanCamera([[500, 2, 320], [0, 500, 240], [0, 0, 1]], [0] * 4), "no skew"),
+    (lambda: PinholeCamera([[500, 0, 320], [0, -500, 240], [0, 0, 1]]), "focal lengths"),
+    (lambda: PinholeCamera([[500, 0, np.inf], [0, 500, 240], [0, 0, 1]]), "NaN or infinite"),
+    (lambda: PinholeCamera(K_SAMPLE, (640, 0)), "size height"),
+    (lambda: cameras()[0].project(np.zeros((2, 3))), r"P_C must have shape \(3, N\)"),
+    (lambda: cameras()[0].unproject([[np.nan], [1.0]]), "uv contains NaN"),
+])
+def test_invalid_input_is_refused(make, message):
+    with pytest.raises(InputError, match=message):
+        make()
+
+
+def test_check_image_size():
+    camera = RadTanCamera(K_SAMPLE, RADTAN["4"], (640, 480))
+    check_image_size(camera, (480, 640))
+    check_image_size(camera, np.zeros((480, 640, 3)))
+    check_image_size(K_SAMPLE, (1, 1))  # size unknown: anything goes
+    with pytest.raises(InputError, match=r"left01.png is 800 x 600 pixels but the camera is "
+                                         r"calibrated for 640 x 480"):
+        check_image_size(camera, (600, 800), what="left01.png")
+    with pytest.raises(InputError, match="height, width"):
+        check_image_size(camera, (480,))
