@@ -14,7 +14,7 @@ from graphpose import (
     project,
 )
 from graphpose.geometry import to_camera
-from graphpose.viz.overlay import COLOURS, draw_overlay, glyph
+from graphpose.viz.overlay import COLOURS, draw_overlay
 
 K = np.array([[500.0, 0.0, 320.0], [0.0, 500.0, 240.0], [0.0, 0.0, 1.0]])
 BOARD = Board(4, 3, 0.05)
@@ -147,13 +147,6 @@ def test_bad_inputs():
         draw_overlay(np.zeros((10, 10)), estimate, K, BOARD, bounds=np.zeros((4, 2)))
     with pytest.raises(InputError, match=r"bounds must have shape \(2, m\) with m >= 3 vertices .* got \(2, 2\)"):
         draw_overlay(np.zeros((10, 10)), estimate, K, BOARD, bounds=np.zeros((2, 2)))
-
-
-def test_font():
-    assert glyph("0").shape == (9, 5)
-    assert glyph("g")[7:].any() and not glyph("A")[7:].any()  # descenders below the baseline
-    np.testing.assert_array_equal(glyph("\u20ac"), glyph("?"))
-    assert not glyph(" ").any()
 
 
 def test_the_grid_is_drawn_through_the_lens():
