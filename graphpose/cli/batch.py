@@ -148,7 +148,8 @@ def run(args) -> int:
             stream = estimate_many(todo, camera, board=board, bounds=bounds, robust=args.robust,
                                    client=args.scheduler, workers=args.workers,
                                    images_per_task=args.images_per_task)
-            counts, seconds = _write_all(stream, results, len(todo), target["camera"])
+            counts, seconds = _write_all(stream, results, len(todo), target["camera"],
+                                         board_given=args.board is not None)
     if not args.quiet:
         print(_summary(counts, kept, seconds, args.out))
         print("camera: {}; board: {}".format(*target_words(target)))
@@ -185,7 +186,7 @@ def _refuse_other_parameters(results, paths, wanted, out) -> None:
                      f"give another --out for these parameters, or remove {out} to redo them")
 
 
-def _write_all(stream, results, total, camera):
+def _write_all(stream, results, total, camera, board_given=False):
     """Write each record of ``stream`` as it comes, its ``camera`` key the run's (which names
     the file), with a progress bar; (status counts, seconds from the first record to the last)."""
     from ..batch.work import BOARD_NOT_FOUND
@@ -199,7 +200,7 @@ def _write_all(stream, results, total, camera):
         for record in stream:
             record["camera"] = camera
             if record["status"] == BOARD_NOT_FOUND and record.get("message"):
-                record["message"] = board_hint(record["message"])  # how to give the board: --board
+                record["message"] = board_hint(record["message"], board_given)  # how to give the board
             results.write(record)
             counts[record["status"]] += 1
             last = time.monotonic()

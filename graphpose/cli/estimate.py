@@ -143,7 +143,8 @@ def run(args) -> int:
     try:
         for i, (job, overlay) in enumerate(zip(jobs, overlays)):
             progress.show(i, Path(job.name).name)
-            record, code = _run_one(job, camera, board, target, args.robust, overlay, report, progress)
+            record, code = _run_one(job, camera, board, target, args.robust, overlay, report, progress,
+                                        board_given=args.board is not None)
             records.append(record)
             codes.append(code)
         if jobs and jobs[0].recording is not None:
@@ -162,7 +163,7 @@ def run(args) -> int:
     return max(codes)
 
 
-def _run_one(job, camera, board, target, robust, overlay, report, progress):
+def _run_one(job, camera, board, target, robust, overlay, report, progress, board_given=False):
     """Estimate one image, report it and draw it; returns its JSON record and exit code.
 
     Every failure of this image, writing its overlay included, is reported and recorded here,
@@ -176,7 +177,7 @@ def _run_one(job, camera, board, target, robust, overlay, report, progress):
         try:
             estimate = estimate_pose(image, camera, bounds=job.bounds, board=board, guess=job.guess, robust=robust)
         except BoardNotFoundError as exc:
-            raise BoardNotFoundError(board_hint(str(exc))) from None
+            raise BoardNotFoundError(board_hint(str(exc), board_given)) from None
         # An unreliable pose is drawn too: the picture shows why.
         if overlay is not None:
             _write_overlay(overlay, image, estimate, camera, board, job)

@@ -252,13 +252,16 @@ class Progress:
             self._shown = 0
 
 
-def board_hint(message: str) -> str:
+def board_hint(message: str, given: bool = False) -> str:
     """``message`` with how to give the board when it says the board found is not the spec's
-    (the detector's ``found a 9 x 6 board ...; the board spec says 8 x 6``): the default board,
-    and the ``--board`` option of ``graphpose estimate`` and ``graphpose batch``, whose messages
-    it completes."""
+    (the detector's ``found a 9 x 6 board ...; the board spec says 8 x 6``): the default board
+    when no ``--board`` was ``given``, else how ``--board`` is read; for ``graphpose estimate``
+    and ``graphpose batch``, whose messages it completes."""
     if "board spec" not in message:
         return message
+    how = ("COLSxROWSxSQUARE_M: inner junctions along a row and down a column, and the square's side in "
+           "metres")
+    if given:
+        return f"{message} (check --board {how})"
     d = Board()
-    return (f"{message} (the default board is {d.cols}x{d.rows}x{d.square_m}; give yours with --board "
-            f"COLSxROWSxSQUARE_M: inner junctions along a row and down a column, and the square's side in metres)")
+    return f"{message} (the default board is {d.cols}x{d.rows}x{d.square_m}; give yours with --board {how})"

@@ -137,6 +137,10 @@ def test_a_board_of_another_size_names_the_default_and_how_to_give_the_board(tmp
     line = one_line(capsys)
     assert "found a 9 x 6 board of junctions; the board spec says 8 x 6" in line, line
     assert "the default board is 8x6x0.0635; give yours with --board COLSxROWSxSQUARE_M" in line
+    assert main(["estimate", str(path), "--K", k, "--board", "8x6x0.02", "-q"]) == 1  # a wrong spec given
+    line = one_line(capsys)
+    assert "the board spec says 8 x 6 (check --board COLSxROWSxSQUARE_M" in line, line
+    assert "default board" not in line
     assert main(["estimate", str(path), "--K", k, "--board", "9x6x0.02", "-q"]) == 0  # as told
 
 
