@@ -29,6 +29,7 @@ def _doc(*figures):
     return {"sections": [{"name": "pose", "figures": list(figures), "blocks": []}]}
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_the_benchmark_sets_up_no_path_by_hand():
     for path in sorted((REPO / "benchmarks").glob("*.py")):
         tree = ast.parse(path.read_text(), str(path))

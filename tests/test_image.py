@@ -26,6 +26,7 @@ def test_as_grey_rejects(image, message):
         as_grey(image)
 
 
+@pytest.mark.slow  # 0.5 s or so on two idle cores: a render, a calibration or a subprocess
 def test_read_image_errors(tmp_path):
     with pytest.raises(InputError, match="not found"):
         read_image(tmp_path / "missing.png")
@@ -108,6 +109,7 @@ def test_read_image_as_uint8_reads_16_bit_files_as_float(tmp_path):
     np.testing.assert_allclose(grey, [[0.0, 1.0], [0.2, 0.4]])
 
 
+@pytest.mark.slow  # 0.5 s or so on two idle cores: a render, a calibration or a subprocess
 def test_read_image_as_uint8_errors_as_the_float_path(tmp_path):
     junk = tmp_path / "junk.png"
     junk.write_bytes(b"not a png")

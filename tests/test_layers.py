@@ -21,6 +21,7 @@ import from ``graphpose.detect`` itself, only the names of its ``__all__``.
 
 from __future__ import annotations
 
+import pytest
 import ast
 from pathlib import Path
 
@@ -130,10 +131,12 @@ def test_every_module_has_a_layer():
         group_of(_module_name(path))  # KeyError names a module that has none
 
 
+@pytest.mark.slow  # 0.5 s or so on two idle cores: a render, a calibration or a subprocess
 def test_imports_run_one_way():
     assert violations() == []
 
 
+@pytest.mark.slow  # 0.6 s or so on two idle cores: a render, a calibration or a subprocess
 def test_the_check_finds_a_backward_import(tmp_path):
     """A copy of the package with one planted import from a higher layer fails the check."""
     import shutil
@@ -245,6 +248,7 @@ def detect_seam_imports(package: Path = PACKAGE) -> list:
     return found
 
 
+@pytest.mark.slow  # 0.8 s or so on two idle cores: a render, a calibration or a subprocess
 def test_no_subpackage_imports_another_ones_private_names():
     assert private_imports() == []
 
@@ -261,6 +265,7 @@ def _copy(tmp_path):
     return copy
 
 
+@pytest.mark.slow  # 0.7 s or so on two idle cores: a render, a calibration or a subprocess
 def test_the_check_finds_a_private_import_across_subpackages(tmp_path):
     """A copy of the package with a planted import of another subpackage's private name (and
     one of a private module's name) fails the check; within a subpackage, and from the

@@ -24,6 +24,7 @@ def frames():
     return rig, views, both
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_the_rig_pose_is_near_the_truth_and_the_solvers_agree(frames):
     rig, views, both = frames
     for k in both[:2]:

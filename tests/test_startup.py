@@ -29,6 +29,7 @@ print(json.dumps({"code": code, "lines": out.getvalue().count("\\n"),
 """ % (HEAVY,)
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_estimate_on_a_grey_png_imports_nothing_heavy():
     image = REPO / "graphpose" / "data" / "synthetic_01.png"
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]))

@@ -43,6 +43,7 @@ def test_local_cluster_workers_leave_ctrl_c_to_the_client(client):
     assert list(ignored.values()) == [True, True]
 
 
+@pytest.mark.slow  # 0.9 s or so on two idle cores: a render, a calibration or a subprocess
 def test_local_cluster_workers_single_threaded_without_a_malloc_trim_threshold(client):
     names = ("MALLOC_TRIM_THRESHOLD_", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")
     seen = client.run(lambda: [os.environ.get(k) for k in names])
@@ -80,6 +81,7 @@ def test_a_worker_killed_mid_run_loses_and_repeats_nothing(images, client):
     assert busy[0] not in client.nthreads()
 
 
+@pytest.mark.slow  # 1.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_one_polygon_for_all_and_the_whole_image_for_the_rest(images, client):
     paths = images.paths[:3]
     poly = images.bounds[paths[0]]
@@ -92,6 +94,7 @@ def test_one_polygon_for_all_and_the_whole_image_for_the_rest(images, client):
                 [want[k] for k in ("status", "message", "T_WC")]
 
 
+@pytest.mark.slow  # 2.5 s or so on two idle cores: a render, a calibration or a subprocess
 def test_closing_the_stream_early_cancels_the_rest(images, client):
     stream = estimate_many(images.paths, images.K, board=images.board, bounds=images.bounds, client=client,
                            images_per_task=1)
@@ -115,6 +118,7 @@ def test_closing_the_stream_early_cancels_the_rest(images, client):
     ({"task_seconds": -1.0}, "task_seconds"),
     ({"paths": "one.png"}, "list of image paths"),
 ])
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_bad_arguments_fail_before_any_cluster_starts(images, kwargs, fragment):
     args = {"paths": ["a.png"], "K": images.K, "board": Board(), **kwargs}
     with pytest.raises(InputError, match=fragment):

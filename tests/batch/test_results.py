@@ -35,6 +35,7 @@ def records(tmp_path_factory):
     return rows
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 @pytest.mark.parametrize("name", ["r.parquet", "r.jsonl", "r.ndjson"])
 def test_rows_read_back_as_written(records, tmp_path, name):
     with open_results(tmp_path / name) as results:

@@ -34,6 +34,7 @@ def test_the_same_camera_from_the_written_corners(calibrated, tmp_path):
         calibrate_corners(read_corners(path, Board()), "radtan", board=Board())
 
 
+@pytest.mark.slow  # 2.0 s or so on two idle cores: a render, a calibration or a subprocess
 def test_single_outliers_are_left_out_and_named(calibrated):
     views, c = calibrated
     rng = np.random.default_rng(0)

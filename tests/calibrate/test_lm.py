@@ -56,6 +56,7 @@ def test_the_stop_does_not_depend_on_the_costs_last_bits(seed, monkeypatch):
     assert np.max(np.abs(fit.camera.parameters - p_best) / sd) < 1e-9
 
 
+@pytest.mark.slow  # 0.5 s or so on two idle cores: a render, a calibration or a subprocess
 def test_the_intrinsics_jacobian_is_at_the_kernels_points():
     # _evaluate projects and differentiates the points the pose kernel placed (once): its
     # intrinsics Jacobian matches central differences of the residuals.

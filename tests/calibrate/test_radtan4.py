@@ -53,6 +53,7 @@ def test_radtan4_through_the_command_line_writes_a_kalibr_camchain_read_back(vie
     assert "k3" in captured.out
 
 
+@pytest.mark.slow  # 0.9 s or so on two idle cores: a render, a calibration or a subprocess
 def test_kalibr_still_refuses_the_five_coefficient_radtan_and_names_radtan4(views, tmp_path, capsys):
     assert main(["calibrate", str(views), "--board", "8x6x0.0635", "--model", "radtan",
                  "--out", str(tmp_path / "c.yaml"), "--format", "kalibr"]) == 2

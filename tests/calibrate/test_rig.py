@@ -46,12 +46,14 @@ def test_extrinsics_within_three_sigmas_of_the_truth(calibrated, rendered):
     assert calibrated.parameter_names[-6:] == ("cam1.x", "cam1.y", "cam1.z", "cam1.roll", "cam1.pitch", "cam1.yaw")
 
 
+@pytest.mark.slow  # 2.3 s or so on two idle cores: a render, a calibration or a subprocess
 def test_the_two_solvers_land_on_the_same_parameters(calibrated):
     check = calibrated.cross_check
     assert check.max_difference <= check.tolerance == 1e-6
     assert np.allclose(check.gtsam, check.lm, rtol=1e-6, atol=1e-9)
 
 
+@pytest.mark.slow  # 1.9 s or so on two idle cores: a render, a calibration or a subprocess
 def test_views_one_camera_sees_count_and_blanks_are_named(calibrated, rendered):
     status = np.array(calibrated.status)
     for v, row in enumerate(rendered.seen):
@@ -84,6 +86,7 @@ def test_no_view_seen_by_two_cameras_together_is_an_error(rendered):
         calibrate_rig(frames=frames, board=BOARD)
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_images_of_different_sizes_within_a_camera_are_an_error(rendered):
     from graphpose import calibrate_rig
 
@@ -93,6 +96,7 @@ def test_images_of_different_sizes_within_a_camera_are_an_error(rendered):
         calibrate_rig(frames=frames, board=BOARD)
 
 
+@pytest.mark.slow  # 0.5 s or so on two idle cores: a render, a calibration or a subprocess
 def test_a_camera_with_fewer_than_three_views_is_an_error(rendered):
     from graphpose import calibrate_rig
 

@@ -44,6 +44,7 @@ def test_radtan_calibration_finds_the_camera(radtan_set, radtan_calibration):
         assert np.allclose(T[:3, 3], rendering.T_WC[:3, 3], atol=2e-3)
 
 
+@pytest.mark.slow  # 2.1 s or so on two idle cores: a render, a calibration or a subprocess
 def test_an_image_without_a_board_is_named_and_the_others_go_on(radtan_calibration):
     c = radtan_calibration
     assert c.status == ("used",) * 10 + ("no board",)
@@ -52,6 +53,7 @@ def test_an_image_without_a_board_is_named_and_the_others_go_on(radtan_calibrati
     assert all(m.startswith("board found in pass 1") for m in c.message[:10])
 
 
+@pytest.mark.slow  # 1.9 s or so on two idle cores: a render, a calibration or a subprocess
 def test_uncertainty_map_and_coverage(radtan_calibration):
     c = radtan_calibration
     us, vs, sigma = c.uncertainty_map(step=32)
@@ -105,6 +107,7 @@ def test_fisheye_calibration_needs_the_camera_pass():
                             model="fisheye")
 
 
+@pytest.mark.slow  # 0.5 s or so on two idle cores: a render, a calibration or a subprocess
 def test_pinhole_calibration():
     camera = PinholeCamera([[600.0, 0.0, 318.0], [0.0, 598.0, 243.0], [0.0, 0.0, 1.0]], (640, 480))
     views = calibration_set(camera, 6, rng=5)
@@ -114,6 +117,7 @@ def test_pinhole_calibration():
     assert np.all(np.abs(z) < 3.0), z
 
 
+@pytest.mark.slow  # 0.8 s or so on two idle cores: a render, a calibration or a subprocess
 def test_an_image_that_does_not_fit_is_rejected(radtan_set):
     # A view taken after the zoom moved: the focal length 5 % longer.
     other = radtan_set.camera
@@ -125,6 +129,7 @@ def test_an_image_that_does_not_fit_is_rejected(radtan_set):
     assert c.ok
 
 
+@pytest.mark.slow  # 0.6 s or so on two idle cores: a render, a calibration or a subprocess
 def test_an_image_rejected_and_not_found_again_stays_rejected(radtan_set, monkeypatch):
     """A view the first solve rejects, which the pass with the camera then does not find: its
     first junctions stand, from a start of its own (the solve kept no pose for it)."""
@@ -144,6 +149,7 @@ def test_an_image_rejected_and_not_found_again_stays_rejected(radtan_set, monkey
     assert c.ok
 
 
+@pytest.mark.slow  # 0.2 s or so on two idle cores: a render, a calibration or a subprocess
 def test_the_cross_check_failing_is_reported(radtan_set, monkeypatch):
     monkeypatch.setattr(calibrate_run, "CROSS_CHECK_TOL", 0.0)
     c = graphpose.calibrate(radtan_set.images[:5])
@@ -170,12 +176,14 @@ def test_bad_input(radtan_set):
         graphpose.calibrate(same)
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_progress_is_reported(radtan_set):
     seen = []
     graphpose.calibrate(radtan_set.images[:4], progress=lambda *a: seen.append(a))
     assert seen[0] == ("first pass", 1, 4) and ("pass 2", 4, 4) in seen and seen[-1][0] == "solve"
 
 
+@pytest.mark.slow  # 0.8 s or so on two idle cores: a render, a calibration or a subprocess
 def test_calibration_set_truth_and_coverage():
     camera = radtan_camera()
     views = calibration_set(camera, 6, rng=11)

@@ -46,6 +46,7 @@ def _chain(camera, poses, b, q, distance):
     return perturbed.project(acc / len(poses))
 
 
+@pytest.mark.slow  # 0.5 s or so on two idle cores: a render, a calibration or a subprocess
 @pytest.mark.parametrize("camera", [radtan_camera(), fisheye_camera()], ids=["radtan", "fisheye"])
 @pytest.mark.parametrize("distance", [0.7, None])
 def test_the_derivative_matches_finite_differences(camera, distance):

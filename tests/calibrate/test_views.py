@@ -55,6 +55,7 @@ def recording():
     return Frames(images)
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_each_frame_gets_the_reason_it_was_or_was_not_used(recording):
     choice = choose_views(recording, Board(), max_views=10)
     assert isinstance(choice, ViewChoice) and choice.scan_every == 1

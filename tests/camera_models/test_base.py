@@ -73,6 +73,7 @@ def test_gtsam_cal3_s2_is_the_pinhole():
 # ---- inverses over whole images -------------------------------------------------------------
 
 
+@pytest.mark.slow  # 0.3 s or so on two idle cores: a render, a calibration or a subprocess
 @pytest.mark.parametrize("camera", cameras()[:4], ids=lambda c: f"{c.model}{c.distortion.size}")
 def test_unproject_round_trip_over_whole_image(camera):
     uv = whole_image(camera, step=2.0)

@@ -47,6 +47,7 @@ def test_points_behind_are_nan_and_fisheye_sees_past_90_degrees():
     assert np.all(np.isfinite(J[:3])) and np.all(np.isnan(J[3:]))
 
 
+@pytest.mark.slow  # 0.3 s or so on two idle cores: a render, a calibration or a subprocess
 def test_fisheye_unproject_over_whole_image_to_its_edge():
     camera = FisheyeCamera(K_FISHEYE, FISHEYE, (1280, 1024))
     uv = whole_image(camera, step=2.0)

@@ -49,6 +49,7 @@ def test_unproject_is_nan_past_a_radial_fold():
                                atol=1e-12)
 
 
+@pytest.mark.slow  # 0.3 s or so on two idle cores: a render, a calibration or a subprocess
 def test_unproject_answers_only_on_the_unfolded_branch():
     # Pincushion then a fold (k2 < 0) with strong tangential terms: where Newton ends on
     # the folded-back branch (the lens map turns the image over there) the answer is NaN.

@@ -45,6 +45,7 @@ def same_pose_images(tmp_path_factory):
     return folder, K, poly, expected
 
 
+@pytest.mark.slow  # 0.6 s or so on two idle cores: a render, a calibration or a subprocess
 def test_importing_and_parsing_loads_no_dask_nor_pyarrow():
     code = ("import sys, graphpose, graphpose.batch, graphpose.cli.batch; from graphpose.cli import build_parser; "
             "build_parser(); heavy = sorted({m.split('.')[0] for m in sys.modules} & {'dask', 'distributed', "
@@ -147,6 +148,7 @@ def test_a_rerun_with_the_same_parameters_skips_and_exits_1_while_an_image_has_n
     (["--K", "300,300,160,120"], "made with another camera"),
     (["--bounds", "0,0,319,0,319,239,0,239"], "made with another bounds"),
 ])
+@pytest.mark.slow  # 0.3 s or so on two idle cores: a render, a calibration or a subprocess
 def test_a_rerun_with_other_parameters_is_refused_never_reported_as_done(done_before, capsys, change, words):
     out, command = done_before
     option, *value = change

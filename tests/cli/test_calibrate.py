@@ -143,6 +143,7 @@ def test_calibrate_writes_the_camera_the_report_and_the_picture(views, calibrate
     assert stderr == ""  # no progress bar off a terminal, no note
 
 
+@pytest.mark.slow  # 3.7 s or so on two idle cores: a render, a calibration or a subprocess
 def test_the_calibrated_camera_file_carries_into_estimate(views, calibrated_run, capsys):
     folder, _ = views
     out = calibrated_run[3]
@@ -176,6 +177,7 @@ def one_calibration(views, monkeypatch):
     return folder
 
 
+@pytest.mark.slow  # 0.6 s or so on two idle cores: a render, a calibration or a subprocess
 @pytest.mark.parametrize("fmt", ["opencv", "ros"])
 def test_other_formats_and_the_note_that_they_drop_the_covariance(one_calibration, tmp_path, capsys, fmt):
     folder = one_calibration
@@ -191,6 +193,7 @@ def test_other_formats_and_the_note_that_they_drop_the_covariance(one_calibratio
     assert camera.model == "radtan" and camera.covariance is None and camera.size == (640, 480)
 
 
+@pytest.mark.slow  # 0.8 s or so on two idle cores: a render, a calibration or a subprocess
 def test_kalibr_takes_the_fisheye_and_pinhole_models(one_calibration, tmp_path, capsys):
     folder = one_calibration
     files = [str(folder / f"view_{k:02d}.png") for k in range(6)]
@@ -200,6 +203,7 @@ def test_kalibr_takes_the_fisheye_and_pinhole_models(one_calibration, tmp_path, 
     assert camera.model == "pinhole" and camera.size == (640, 480)
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_json_report_on_stdout_and_a_progress_bar_on_a_terminal(one_calibration, tmp_path, capsys, monkeypatch):
     import io
 
@@ -218,6 +222,7 @@ def test_json_report_on_stdout_and_a_progress_bar_on_a_terminal(one_calibration,
     assert terminal.getvalue().endswith("\r")  # cleared at the end
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_a_failed_calibration_exits_1_and_writes_the_report_only(views, tmp_path, capsys, monkeypatch):
     from graphpose.calibrate import run as calibrate_run
 
@@ -234,6 +239,7 @@ def test_a_failed_calibration_exits_1_and_writes_the_report_only(views, tmp_path
     assert list(json.loads((tmp_path / "r.json").read_text())) == REPORT_KEYS
 
 
+@pytest.mark.slow  # 0.8 s or so on two idle cores: a render, a calibration or a subprocess
 def test_usage_and_input_errors_exit_2_with_one_line(views, tmp_path, capsys, monkeypatch):
     folder, _ = views
     board = ["--board", "8x6x0.0635"]

@@ -47,6 +47,7 @@ def test_corners_out_in_and_cross_validation(shots, capsys, tmp_path):
     assert main(["calibrate", "--corners", str(vnl), "--board", "8x6x0.0635", "--out", str(tmp_path / "3.json"), "-q"]) == 0
 
 
+@pytest.mark.slow  # 1.6 s or so on two idle cores: a render, a calibration or a subprocess
 def test_usage_errors(shots, capsys, tmp_path):
     for argv, message in (
             ([str(shots), "--corners", "x.vnl"], "either IMAGES or --corners"),

@@ -75,6 +75,7 @@ def blank_png(tmp_path_factory):
 # --- the default run ------------------------------------------------------------------------
 
 
+@pytest.mark.slow  # 0.6 s or so on two idle cores: a render, a calibration or a subprocess
 def test_script_without_arguments_runs_the_bundled_example(bundled):
     result = subprocess.run([sys.executable, str(REPO / "scripts" / "estimate.py")], cwd=REPO,
                             capture_output=True, text=True, timeout=300)
@@ -121,6 +122,7 @@ def test_module_json_and_overlay_folder(bundled, tmp_path):
     assert not list(tmp_path.glob(".*.tmp")) and not list(folder.glob(".*.tmp"))
 
 
+@pytest.mark.slow  # 0.8 s or so on two idle cores: a render, a calibration or a subprocess
 def test_real_cases_target_01_matches_its_reference(tmp_path):
     cases_file = real_file("cases.json")
     result = graphpose("estimate", "--cases", cases_file, "--json", tmp_path / "real.json", "-q")
@@ -135,6 +137,7 @@ def test_real_cases_target_01_matches_its_reference(tmp_path):
     assert first["vs_reference"]["translation_mm"] == pytest.approx(1000 * metres, abs=1e-6)
 
 
+@pytest.mark.slow  # 0.8 s or so on two idle cores: a render, a calibration or a subprocess
 def test_readme_robust_run_on_the_real_cases_estimates_all_six(tmp_path):
     # `graphpose estimate --cases ../shared/data/rob501/cases.json --no-guess --robust` once
     # failed 5 of 6 images: GTSAM's robust polish stopped just above its threshold.
@@ -166,6 +169,7 @@ def test_one_image_with_options_guess_overlay_and_json(bundled, tmp_path):
     assert png_size(overlay) == (640, 480)
 
 
+@pytest.mark.slow  # 0.6 s or so on two idle cores: a render, a calibration or a subprocess
 def test_json_to_stdout(bundled):
     case = bundled.cases[1]
     bounds = ",".join(f"{u:g},{v:g}" for u, v in case.bounds.T)
@@ -255,6 +259,7 @@ def test_readme_polygon_over_a_corner_of_the_board(capsys):
                         r"from the corner nearest junction 0, its first edge along a row", line), line
 
 
+@pytest.mark.slow  # 0.8 s or so on two idle cores: a render, a calibration or a subprocess
 def test_no_board_found_exits_1(blank_png, tmp_path):
     out_json = tmp_path / "out.json"
     line = one_error_line(graphpose("estimate", blank_png, "--bounds", BOUNDS, "--K", K_BUNDLED, "--json", out_json,
@@ -292,6 +297,7 @@ def test_no_convergence_exits_1(bundled, tmp_path, monkeypatch, capsys):
     assert png_size(tmp_path / "o.png") == (640, 480)  # the picture shows what went wrong
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_a_failed_overlay_write_is_that_images_error_and_the_batch_goes_on(bundled, tmp_path, capsys):
     doc = {"K": bundled.K.tolist(), "cases": [
         {"image": str(c.image), "bounds": c.bounds.tolist()} for c in bundled.cases[:2]]}
@@ -491,6 +497,7 @@ def test_a_raw_image_with_its_calibration_file(tmp_path):
     assert dt < 1e-9 and dr < 1e-7
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_an_image_without_bounds_is_searched_whole_and_flagged_when_symmetric(tmp_path):
     real_file("target_01.png")
     result = graphpose("estimate", "../shared/data/rob501/target_01.png", "--K", K_BUNDLED, "--json",

@@ -52,6 +52,7 @@ def test_track_video_as_its_decoded_frames(clip, tmp_path, capsys):
     assert doc["frames"][5]["file"].endswith("clip.mkv#5") and doc["frames"][5]["index"] == 5
 
 
+@pytest.mark.slow  # 5.7 s or so on two idle cores: a render, a calibration or a subprocess
 def test_track_bag_takes_its_camera_info(clip, tmp_path, capsys):
     folder, _, bag = clip
     assert main(["track", str(bag), "--tum", str(tmp_path / "b.tum")]) == 0
@@ -61,6 +62,7 @@ def test_track_bag_takes_its_camera_info(clip, tmp_path, capsys):
     assert len(tum) == 24 and tum.timestamps[0] == pytest.approx(50.0)
 
 
+@pytest.mark.slow  # 5.2 s or so on two idle cores: a render, a calibration or a subprocess
 def test_track_bag_without_the_topic(clip, capsys):
     _, _, bag = clip
     assert main(["track", str(bag), "--topic", "/left/image_raw"]) == 2
@@ -123,6 +125,7 @@ def test_track_unreadable_encoding(tmp_path, capsys):
     assert "topic /cam/image: image encoding 'yuv422' is not one graphpose reads (mono8" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # 0.3 s or so on two idle cores: a render, a calibration or a subprocess
 def test_globs_and_list_files(clip, tmp_path, capsys):
     _, decoded, _ = clip
     pattern = str(decoded / "frame_00[0-5].png")

@@ -23,6 +23,7 @@ def test_render_sequence_usage_errors(tmp_path, capsys, args, message):
     assert not (tmp_path / "seq").exists()
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_render_sequence_into_a_file_is_a_usage_error(tmp_path, capsys):
     (tmp_path / "seq").write_text("in the way")
     assert main(["render-sequence", str(tmp_path / "seq"), "--frames", "2", "--excursions", "0", "-q"]) == 2

@@ -39,6 +39,7 @@ def test_calibrate_rig_writes_the_rig_the_report_and_the_plot(rig_file):
     assert "baseline" in done.stdout and (out / "rig.png").read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.slow  # 3.7 s or so on two idle cores: a render, a calibration or a subprocess
 def test_estimate_rig_reports_camera_0s_pose(rig_file, tmp_path):
     out, _ = rig_file
     done = graphpose("estimate", "--camera", out / "rig.yml", "--rig", OPENCV_DIR / "left05.jpg",

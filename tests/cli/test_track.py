@@ -80,6 +80,7 @@ def test_an_unreadable_frame_is_lost_and_the_rest_written(rendered, tmp_path, ca
     assert len(read_tum(tum)) == 0
 
 
+@pytest.mark.slow  # 0.7 s or so on two idle cores: a render, a calibration or a subprocess
 def test_counter_clockwise_bounds_are_the_same_input_error_in_estimate_and_track(rendered, capsys):
     folder, bounds = rendered
     values = bounds.split(",")
@@ -94,6 +95,7 @@ def test_counter_clockwise_bounds_are_the_same_input_error_in_estimate_and_track
     assert estimate_error.endswith(track_error.split("error: ", 1)[1])
 
 
+@pytest.mark.slow  # 1.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_plot_draws_the_truth_where_it_is_known(rendered, tmp_path, capsys, monkeypatch):
     # --plot never drew the truth, although the picture's title promised it. (That a truth
     # given to plot_track is drawn: tests/viz/test_plot.py.)

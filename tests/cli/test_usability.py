@@ -71,6 +71,7 @@ def test_calibrate_goes_on_past_an_unreadable_image_and_names_it(views, tmp_path
     assert entry["status"] == "unreadable" and "view_03b.png" in entry["message"]
 
 
+@pytest.mark.slow  # 0.7 s or so on two idle cores: a render, a calibration or a subprocess
 def test_calibrate_with_two_images_says_why_without_a_dangling_list(views, tmp_path, capsys):
     two = [str(views / "view_00.png"), str(views / "view_01.png")]
     assert main(["calibrate", *two, "--board", "8x6x0.0635", "--out", str(tmp_path / "c.json")]) == 2
@@ -94,6 +95,7 @@ def test_calibrate_report_has_its_old_name_json_too(views, tmp_path, capsys, mon
     capsys.readouterr()
 
 
+@pytest.mark.slow  # 1.5 s or so on two idle cores: a render, a calibration or a subprocess
 def test_the_calibration_plot_labels_images_by_file_name(views):
     matplotlib = pytest.importorskip("matplotlib")
     matplotlib.use("Agg")

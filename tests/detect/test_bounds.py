@@ -69,6 +69,7 @@ def test_bounds_from_the_corner_nearest_the_upper_left_find_every_opencv_sample_
     assert len(turned) >= 3  # boards turned by more than 90 degrees: once refused (5 of these 26)
 
 
+@pytest.mark.slow  # 0.3 s or so on two idle cores: a render, a calibration or a subprocess
 def test_bounds_a_quarter_turn_off_are_refused_and_say_so(samples):
     name, image, camera, free = next(s for s in samples if s[0] == "left05.jpg")
     bounds, _ = user_bounds(free, OPENCV_BOARD)

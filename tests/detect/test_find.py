@@ -30,6 +30,7 @@ def label_error(found, truth: np.ndarray, perm=None) -> float:
     return float(np.max(np.hypot(*(found.points[:, found.seen] - truth[:, idx[found.seen]]))))
 
 
+@pytest.mark.slow  # 0.6 s or so on two idle cores: a render, a calibration or a subprocess
 @pytest.mark.parametrize("seed", range(12))
 def test_an_asymmetric_board_is_labelled_as_the_truth_at_any_rotation(seed):
     # 9 x 6 junctions = 10 x 7 squares: a half turn changes the pattern, so the square
@@ -41,6 +42,7 @@ def test_an_asymmetric_board_is_labelled_as_the_truth_at_any_rotation(seed):
     assert found.seen.all() and label_error(found, scene.rendering.junctions) < 1.5
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 @pytest.mark.parametrize("seed", range(8))
 def test_a_symmetric_board_is_flagged_and_labelled_by_the_upper_left_rule(seed):
     board = Board()
@@ -81,6 +83,7 @@ def test_a_board_spec_that_does_not_match_the_image_is_refused(spec):
         find_board(scene.image, spec)
 
 
+@pytest.mark.slow  # 0.3 s or so on two idle cores: a render, a calibration or a subprocess
 def test_a_board_cut_by_the_image_edge_keeps_its_labels_from_the_edge_that_is_seen():
     board = Board(9, 6, 0.03)
     labelled = 0
@@ -219,6 +222,7 @@ def test_a_partial_board_above_half_resolution_is_searched_again_at_half(monkeyp
     assert find_board(image, board) is part
 
 
+@pytest.mark.slow  # 0.5 s or so on two idle cores: a render, a calibration or a subprocess
 def test_small_squares_on_a_large_image_fall_back_to_finer_levels():
     board = Board()
     scene = _large_scene((7.0, 7.5), 5)  # squares of about 20 px: 5 at a quarter, too small
@@ -230,6 +234,7 @@ def test_small_squares_on_a_large_image_fall_back_to_finer_levels():
     assert min(label_error(found, truth), label_error(found, truth, half_turn(board))) < 1.5
 
 
+@pytest.mark.slow  # 0.5 s or so on two idle cores: a render, a calibration or a subprocess
 def test_square_boards_with_odd_sides_put_a_dark_corner_at_junction_0():
     # 5 x 5 junctions = 6 x 6 squares: a quarter turn changes the colours, so only the half
     # turn is ambiguous; junction 0's corner square is dark in every labelling returned.

@@ -102,6 +102,7 @@ def ragged_keys(rng, min_side, drop):
     return keys[rng.random(len(keys)) > rng.choice(drop)]
 
 
+@pytest.mark.slow  # 0.6 s or so on two idle cores: a render, a calibration or a subprocess
 def test_the_side_geometry_is_the_plain_one_on_random_lattices():
     from graphpose.detect import _identify
     from graphpose.detect.identify import _DEPTHS, FLAT_SIDE, SIDES

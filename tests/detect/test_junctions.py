@@ -95,6 +95,7 @@ def test_colour_16_bit_and_8_bit_images_agree(real_images):
 # ------------------------------------------------------------------------------ synthetic
 
 
+@pytest.mark.slow  # 0.5 s or so on two idle cores: a render, a calibration or a subprocess
 @pytest.mark.parametrize("noise, blur, limit", [(2.0, 1.0, 0.03), (6.0, 2.0, 0.07)])
 def test_synthetic_rms_error_against_truth(noise, blur, limit):
     errors = []

@@ -55,6 +55,7 @@ def test_noise_estimate_ignores_smooth_shading_and_reads_quantisation():
     assert grey_range(noisy) == pytest.approx(np.percentile(noisy[::3, ::3], 99) - np.percentile(noisy[::3, ::3], 1), rel=0.01)
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_a_large_image_is_read_sparser_with_the_same_estimate(monkeypatch):
     """At 12 MP the estimate reads at most MAX_SAMPLES positions, and reads the same noise as
     every position would."""
@@ -98,6 +99,7 @@ def test_smoothing_follows_the_noise_over_the_contrast():
     (2, Board(9, 6, 0.03), 12.0, 3.0, 35.0, 215.0),
     (3, Board(), 6.0, 2.0, 100.0, 135.0),  # low contrast
 ])
+@pytest.mark.slow  # 0.2 s or so on two idle cores: a render, a calibration or a subprocess
 def test_noisy_blurred_and_low_contrast_boards_are_found_and_labelled(seed, board, noise, blur, black, white):
     R = _rendered(seed, board, noise, blur, black, white)
     J = extract_junctions(R.image, bounds=None, board=board)
@@ -132,6 +134,7 @@ def test_a_faint_board_in_a_bright_scene_is_judged_by_its_own_contrast():
     assert np.max(np.hypot(*(J.points - r.junctions))) < 0.5
 
 
+@pytest.mark.slow  # 0.3 s or so on two idle cores: a render, a calibration or a subprocess
 def test_noisy_images_are_never_mislabelled():
     # Boards of every symmetry, some partly off the image: found right or refused.
     boards = [Board(), Board(7, 5, 0.04), Board(6, 6, 0.04), Board(9, 6, 0.03)]

@@ -27,6 +27,7 @@ def cameras():
     return read_camera(FOLDER / "left.opencv.yml"), read_camera(FOLDER / "right.opencv.xml")
 
 
+@pytest.mark.slow  # 0.3 s or so on two idle cores: a render, a calibration or a subprocess
 @pytest.mark.parametrize("side", ["left", "right"])
 def test_every_sample_is_found_whole_without_a_polygon(cameras, side):
     camera = cameras[0] if side == "left" else cameras[1]
@@ -45,6 +46,7 @@ def test_every_sample_is_found_whole_without_a_polygon(cameras, side):
         assert image[v[0], u[0]] < image[v[1], u[1]] - 0.3, (side, k)
 
 
+@pytest.mark.slow  # 0.6 s or so on two idle cores: a render, a calibration or a subprocess
 def test_junction_0_is_the_same_physical_corner_in_every_image(cameras):
     left, right = cameras
     rig = []

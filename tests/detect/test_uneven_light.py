@@ -14,6 +14,7 @@ from graphpose.synth.render import render, render_ideal
 SIZE = (1280, 720)
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 @pytest.mark.parametrize("seed", [0, 1])
 def test_a_board_lit_from_one_corner_is_found_where_its_far_light_squares_are_darker_than_its_mid_grey(seed):
     """Before, the outer squares near the dark corner (their light grey below the board's mid

@@ -55,6 +55,7 @@ def left_camera():
     return read_camera(opencv_file("left.opencv.yml"))
 
 
+@pytest.mark.slow  # 0.5 s or so on two idle cores: a render, a calibration or a subprocess
 def test_every_left_sample_refuses_an_8x6_spec_naming_the_9x6_board(left_camera):
     for k in LEFT:
         image = read_image(OPENCV_DIR / f"left{k:02d}.jpg")
@@ -65,6 +66,7 @@ def test_every_left_sample_refuses_an_8x6_spec_naming_the_9x6_board(left_camera)
             assert "9 x 6" in str(exc.value) and "8 x 6" in str(exc.value)
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_the_command_line_gives_no_pose_and_names_the_board(left_camera):
     """left05.jpg: the small picture on the monitor was taken as the 8 x 6 board (exit 0)."""
     run = subprocess.run([sys.executable, "-m", "graphpose", "estimate", str(opencv_file("left05.jpg")),

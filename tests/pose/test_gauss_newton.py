@@ -143,6 +143,7 @@ def test_damping_keeps_a_poor_start_from_diverging():
     np.testing.assert_allclose(res.T_WC, T, atol=1e-8)
 
 
+@pytest.mark.slow  # 0.3 s or so on two idle cores: a render, a calibration or a subprocess
 def test_convergence_basin_reaches_the_linear_initialiser_pose():
     rng = np.random.default_rng(12)
     good = reported = wrong = 0

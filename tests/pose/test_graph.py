@@ -228,6 +228,7 @@ def test_custom_projection_factor_jacobians_match_differences_of_gtsam_retract(m
                                        atol=1e-6 * np.max(np.abs(A)))
 
 
+@pytest.mark.slow  # 1.0 s or so on two idle cores: a render, a calibration or a subprocess
 @pytest.mark.parametrize("model", CAMERAS)
 def test_graph_and_gauss_newton_agree_on_distorted_correspondences(model):
     camera = CAMERAS[model]

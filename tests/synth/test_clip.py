@@ -1,5 +1,6 @@
 """graphpose.synth.clip: a calibration clip's truth and its frames."""
 
+import pytest
 import numpy as np
 
 from graphpose import Board
@@ -17,6 +18,7 @@ def pinhole_camera():
     return PinholeCamera([[530.0, 0.0, 322.5], [0.0, 528.0, 241.0], [0.0, 0.0, 1.0]], size=(640, 480))
 
 
+@pytest.mark.slow  # 0.3 s or so on two idle cores: a render, a calibration or a subprocess
 def test_the_clip_is_its_poses_truth():
     camera = pinhole_camera()
     clip = calibration_clip(camera, seconds=3.0, fps=10.0, rng=1, board=BOARD)
@@ -52,6 +54,7 @@ def test_frames_blur_only_where_the_junctions_move_fast():
     np.testing.assert_array_equal(blurred.subframes[fast] > 1, half[fast - 1] > 1.5)
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_a_sharp_noise_free_frame_is_the_render_at_its_pose():
     clip = calibration_clip(pinhole_camera(), seconds=1.0, fps=4.0, rng=3, board=BOARD, blur_threshold_px=1e6,
                             noise_sigma=0.0)

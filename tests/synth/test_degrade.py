@@ -122,6 +122,7 @@ def test_motion_blur_of_a_fronto_parallel_board_is_a_box_along_the_motion():
 
 @pytest.mark.parametrize("kind, tolerance", [("defocus 4", 0.002), ("gaussian 4", 0.002), ("motion 4", 0.015),
                                              ("vignetting 0.6", 0.03)])
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_the_truth_is_where_a_saddle_fit_of_the_blurred_image_lands(pose, kind, tolerance):
     # Without the renderer's illumination gradient, whose slope biases a saddle fit under a wide
     # blur (0.026 px at blur 4), so that only the degradation is measured. Measured: defocus

@@ -182,6 +182,7 @@ def test_board_partly_outside_the_image_renders_the_visible_part():
 # ------------------------------------------------------------------ poses and polygons
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_random_pose_keeps_the_sheet_in_view():
     rng = np.random.default_rng(11)
     board = Board()
@@ -258,6 +259,7 @@ def test_perturb_pose_moves_by_the_requested_amounts():
         (lambda T: perturb_pose(T, offset_m=(0.1, np.inf), rng=0), "offset_m must be"),
     ],
 )
+@pytest.mark.slow  # 0.3 s or so on two idle cores: a render, a calibration or a subprocess
 def test_input_errors(call, match):
     T = T_from_params([0.2, 0.1, -1.0, 0.0, 0.0, 0.0])
     with pytest.raises(InputError, match=match):
@@ -267,6 +269,7 @@ def test_input_errors(call, match):
 # ------------------------------------------------------------------ bundled data
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_bundled_data_regenerates_identically(tmp_path):
     spec = importlib.util.spec_from_file_location("make_data", REPO / "scripts" / "make_data.py")
     make_data = importlib.util.module_from_spec(spec)
@@ -418,6 +421,7 @@ def _dense_grey(camera, T, board, uv, n, size=(640, 480), margin=0.5):
     return (100.0 * (sheet & ~black)).reshape(uv.shape[1], -1).mean(axis=1)
 
 
+@pytest.mark.slow  # 0.5 s or so on two idle cores: a render, a calibration or a subprocess
 @pytest.mark.parametrize("camera, distance", LENSES)
 def test_distorted_junctions_match_a_brute_force_reference(camera, distance):
     # Independent of the polylines, the clipping and the rasteriser: each pixel of a 9 x 9
@@ -518,6 +522,7 @@ def test_random_pose_keeps_the_distorted_sheet_in_view(camera, distance):
     assert np.all(np.hypot(*(inner - r.outline)) > 1.0)
 
 
+@pytest.mark.slow  # 0.2 s or so on two idle cores: a render, a calibration or a subprocess
 def test_principal_point_shift_translates_the_distorted_image():
     # The premise of image_gradients and junction_information with a lens: moving cx, cy by
     # whole pixels moves the raw image by as many pixels.

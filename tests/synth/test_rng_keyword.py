@@ -1,11 +1,13 @@
 """rng is a keyword everywhere (issue 18): every signature in the package takes it after ``*``."""
 
+import pytest
 import ast
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[2] / "graphpose"
 
 
+@pytest.mark.slow  # 0.6 s or so on two idle cores: a render, a calibration or a subprocess
 def test_rng_is_keyword_only_in_every_signature():
     # Read from the source (ast): every function of the package that takes an rng takes it as a
     # keyword, apart from a converter whose one argument it is.

@@ -35,6 +35,7 @@ def test_a_scene_is_the_seeds_own():
     np.testing.assert_array_equal(a.visible, b.visible)
 
 
+@pytest.mark.slow  # 0.5 s or so on two idle cores: a render, a calibration or a subprocess
 @pytest.mark.parametrize("kind", ["bar", "blob", "reflection"])
 def test_an_occluder_hides_the_junctions_under_it_and_only_those(kind):
     for seed in range(4):

@@ -34,6 +34,7 @@ def test_short_sequence_truth(short):
     assert np.all((uv.min(axis=1) > short.bounds.min(axis=1)) & (uv.max(axis=1) < short.bounds.max(axis=1)))
 
 
+@pytest.mark.slow  # 0.5 s or so on two idle cores: a render, a calibration or a subprocess
 def test_board_is_dark_where_truth_says(short):
     # Grey level at the middle of the upper-left (black) square is darker than the next (white).
     s = Board().square_m
@@ -68,6 +69,7 @@ def test_out_of_view_frames_render(tmp_path):
     assert seq.images[k].min() > 40
 
 
+@pytest.mark.slow  # 0.3 s or so on two idle cores: a render, a calibration or a subprocess
 def test_write_sequence_round_trip(short, tmp_path):
     out = write_sequence(short, tmp_path / "seq")
     assert sorted(p.name for p in out.glob("*.png")) == [f"frame_{k:05d}.png" for k in range(6)]

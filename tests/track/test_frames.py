@@ -97,6 +97,7 @@ def test_frame_sources_that_are_not_sequences():
         FrameSource(5)
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_bad_frames_are_errors_naming_the_frame(tmp_path):
     nan_frame = _grey(1) / 255.0
     nan_frame[3, 3] = np.nan

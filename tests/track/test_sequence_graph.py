@@ -35,6 +35,7 @@ def test_backend_recovers_exact_poses(target, model):
         np.testing.assert_allclose(graph.estimate()[k], poses[k], atol=1e-6)
 
 
+@pytest.mark.slow  # 1.0 s or so on two idle cores: a render, a calibration or a subprocess
 @pytest.mark.parametrize("model", ["constant_velocity", "random_walk", "wnoa"])
 def test_backend_target_forms_agree_on_noisy_correspondences(model):
     # The three forms minimise the same cost (up to the 1e-8 m landmark pins): online and

@@ -78,6 +78,7 @@ def test_the_stream_keeps_no_result_it_gave(clip):
     assert all(r() is None for r in given)
 
 
+@pytest.mark.slow  # 0.8 s or so on two idle cores: a render, a calibration or a subprocess
 def test_a_fixed_lag_without_measurements_holds_only_the_indices(clip, listed):
     kept, bare = (FixedLagGraph(K, BOARD, MotionPrior(), keep_measurements=keep) for keep in (True, False))
     for f in listed.frames[:6]:
@@ -91,6 +92,7 @@ def test_a_fixed_lag_without_measurements_holds_only_the_indices(clip, listed):
     assert sorted(kept.smooth()) == list(range(6))
 
 
+@pytest.mark.slow  # 1.0 s or so on two idle cores: a render, a calibration or a subprocess
 def test_a_calibrated_camera_widens_every_tracked_pose(clip, listed):
     plain = PinholeCamera(K)
     camera = plain.with_parameters(plain.parameters, COV_K)

@@ -45,6 +45,7 @@ def test_track_reports_out_of_view_frames_lost_and_recovers(track_clip, tracked)
         assert (f.cov is None) == (f.status == LOST)
 
 
+@pytest.mark.slow  # 1.2 s or so on two idle cores: a render, a calibration or a subprocess
 def test_track_accuracy_against_truth(track_clip, tracked):
     # Regression guards from an earlier run of this test, with room for platform noise (measured RMSE about 0.12 mm online,
     # 0.11 mm smoothed); smoothing must not hurt.
@@ -95,6 +96,7 @@ def test_an_unreadable_frame_file_is_lost_and_the_others_tracked(track_clip, tmp
     assert list(track_sequence(tmp_path, K, bounds=track_clip.bounds).status)[:3] == [LOST, DETECTED, TRACKED]
 
 
+@pytest.mark.slow  # 0.7 s or so on two idle cores: a render, a calibration or a subprocess
 def test_every_frame_reports_the_time_of_its_parts(track_clip, tmp_path):
     for k in range(4):
         write_png(tmp_path / f"f{k:02d}.png", track_clip.images[k])
@@ -238,6 +240,7 @@ def test_raw_frames_track_through_the_camera_model(track_clip, raw_clip):
     assert all(f.rms_px > 5 * max(g.rms_px for g in track.frames) for f in found)
 
 
+@pytest.mark.slow  # 1.7 s or so on two idle cores: a render, a calibration or a subprocess
 def test_a_frame_of_another_size_than_the_calibration_is_refused(raw_clip):
     with pytest.raises(InputError, match=r"frame 1 is 320 x 240 pixels but the camera is calibrated for 640 x 480"):
         track_sequence([raw_clip[0], raw_clip[1][::2, ::2]], LENS)

@@ -50,6 +50,7 @@ def test_a_blank_image_gives_no_lattice():
     assert found.lattice.shape == (2, 0)
 
 
+@pytest.mark.slow  # 0.4 s or so on two idle cores: a render, a calibration or a subprocess
 def test_the_failure_picture_draws_the_evidence_and_the_reason():
     R = _rendered()
     image = R.image.copy()

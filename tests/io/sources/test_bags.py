@@ -15,6 +15,7 @@ def _bag_path(tmp_path, fmt, compressed):
     return tmp_path / (f"{fmt}-{compressed}" + (".bag" if fmt == "ros1" else ""))
 
 
+@pytest.mark.slow  # 0.6 s or so on two idle cores: a render, a calibration or a subprocess
 @pytest.mark.parametrize("fmt", BAG_FORMATS)
 @pytest.mark.parametrize("compressed", [False, True])
 def test_bags_hold_the_frames_their_stamps_and_camera(tmp_path, frames, fmt, compressed):
