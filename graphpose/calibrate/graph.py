@@ -5,7 +5,7 @@ Variables: the calibration ``K(0)``; the camera pose ``X(i)`` (``T_WC``) of view
 
 - pinhole: GTSAM's ``GeneralSFMFactor2Cal3_S2`` on ``X(i)``, the target point ``L(j)`` and a
   ``Cal3_S2``; fisheye: ``GeneralSFMFactor2Cal3Fisheye`` with a ``Cal3Fisheye`` (GTSAM's own
-  projection code, checked against graphpose's in ``tests/test_camera_models.py``; it projects
+  projection code, checked against graphpose's in ``tests/camera_models/``; it projects
   through ``(x/z, y/z)``, so the junctions must lie in front of the camera). The target
   points are variables pinned by very tight priors (:data:`LANDMARK_SIGMA_M`), as in the
   pose graph, and GTSAM's calibrations carry a skew the calibration does not

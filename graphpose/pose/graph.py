@@ -20,7 +20,7 @@ The projection factor follows the camera (:mod:`graphpose.camera_models`): GTSAM
 calibration of :meth:`graphpose.camera_models.Camera.gtsam_calibration`, and, for a camera GTSAM
 has no calibration for (the rational radial-tangential model), a ``CustomFactor`` around
 graphpose's own projection and its analytic Jacobian. GTSAM's calibrations were checked
-against graphpose's projection (``tests/test_camera_models.py``), so the second solver keeps its
+against graphpose's projection (``tests/camera_models/``), so the second solver keeps its
 independent projection code wherever GTSAM has one.
 
 Covariance conventions
