@@ -21,3 +21,11 @@ def renamed(old: str, new: str, convert=None) -> property:
 
     get.__doc__ = f"Deprecated: ``{new}``" + (" (in the old unit)." if convert else ".")
     return property(get)
+
+
+def ignored_rng(rng, who: str) -> None:
+    """Warn (DeprecationWarning, at the caller's caller) when ``who``'s deprecated ``rng`` is
+    given: the calibrations draw nothing, so it is ignored; it goes in the next release."""
+    if rng is not None:
+        warnings.warn(f"{who}'s rng is deprecated and ignored (the calibration draws nothing)",
+                      DeprecationWarning, stacklevel=3)

@@ -43,7 +43,7 @@ from .board import Board, check_board
 from .camera_models import as_camera
 from .detect import extract_junctions
 from .errors import BoardNotFoundError, DegenerateGeometryError, InputError
-from .geometry import hat, pose_difference, to_camera  # pose_difference: re-exported, public here too
+from .geometry import pose_difference, so3_exp, to_camera  # pose_difference: re-exported, public here too
 from .observations import MIN_JUNCTIONS, check_observations
 from .pose.covariance import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
 from .pose.cross_check import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck, cross_check  # noqa: F401  (re-exported)
@@ -383,11 +383,10 @@ def _flipped(T_WC, Wpts):
     normal = C.T[:, 2]  # the target's z axis in the camera frame
     other = 2.0 * (normal @ sight) * sight - normal
     axis = np.cross(normal, other)
-    sin, cos = float(np.linalg.norm(axis)), float(normal @ other)
+    sin = float(np.linalg.norm(axis))
     if sin < 1e-9:
         return None
-    Kx = hat(axis / sin)
-    turn = np.eye(3) + sin * Kx + (1.0 - cos) * (Kx @ Kx)  # Rodrigues: normal onto other
+    turn = so3_exp(axis / sin * np.arctan2(sin, float(normal @ other)))  # normal onto other
     R_CW = turn @ C.T
     t_CW = turn @ (-C.T @ T_WC[:3, 3] - centre) + centre
     T = np.eye(4)

@@ -32,7 +32,6 @@ where junctions are down-weighted).
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -45,6 +44,7 @@ from ..errors import InputError
 from ..geometry import T_from_params, invert_transform, params_from_T, relative_pose, so3_exp, so3_log
 from ..rig import Rig, rig_parameter_names
 from .frames import file_number, match_frames, source_files
+from .._deprecated import ignored_rng
 from ..robust import HUBER_K, mad_sigma
 from .run import CROSS_CHECK_TOL, MIN_IMAGES, REJECT_FLOOR_PX, REJECT_RATIO, SIGMA_FLOOR_PX, _rms
 from .result import SolverCrossCheck
@@ -310,9 +310,7 @@ def calibrate_rig(sources=None, model="radtan", *, board: Board = Board(), frame
     """
     check_board(board)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
-    if rng is not None:
-        warnings.warn("calibrate's rng is deprecated and ignored (the calibration draws nothing)",
-                      DeprecationWarning, stacklevel=2)
+    ignored_rng(rng, "calibrate_rig")
     views, view_names = _views(sources, frames)
     C, V = len(views[0]), len(views)
     models = [model] * C if isinstance(model, str) else list(model)

@@ -37,7 +37,6 @@ whole is what the projection uncertainty propagates); the pixel noise reported i
 
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -47,6 +46,7 @@ from ..board import check_board
 from ..board import Board
 from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 from ..camera_models import calibration_model
+from .._deprecated import ignored_rng
 from ..robust import HUBER_K, mad_sigma  # noqa: F401  (HUBER_K: calibrate's default, named here too)
 from ..pose.gauss_newton import reprojection_rms
 from .result import Calibration, SolverCrossCheck
@@ -280,9 +280,7 @@ def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=No
     cls, held = calibration_model(model)
     check_board(board)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
-    if rng is not None:
-        warnings.warn("calibrate's rng is deprecated and ignored (the calibration draws nothing)",
-                      DeprecationWarning, stacklevel=2)
+    ignored_rng(rng, "calibrate")
     images, labels, size, unreadable = _load(images, names)
     report = progress or (lambda stage, done, total: None)
     n = len(images)
