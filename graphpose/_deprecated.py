@@ -23,7 +23,7 @@ def renamed(old: str, new: str, convert=None) -> property:
     return property(get)
 
 
-def ignored_rng(rng, who: str) -> None:
+def ignored_rng(who: str, *, rng) -> None:
     """Warn (DeprecationWarning, at the caller's caller) when ``who``'s deprecated ``rng`` is
     given: the calibrations draw nothing, so it is ignored; it goes in the next release."""
     if rng is not None:

@@ -310,7 +310,7 @@ def calibrate_rig(sources=None, model="radtan", *, board: Board = Board(), frame
     """
     check_board(board)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
-    ignored_rng(rng, "calibrate_rig")
+    ignored_rng("calibrate_rig", rng=rng)
     views, view_names = _views(sources, frames)
     C, V = len(views[0]), len(views)
     models = [model] * C if isinstance(model, str) else list(model)

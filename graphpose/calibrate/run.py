@@ -280,7 +280,7 @@ def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=No
     cls, held = calibration_model(model)
     check_board(board)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
-    ignored_rng(rng, "calibrate")
+    ignored_rng("calibrate", rng=rng)
     images, labels, size, unreadable = _load(images, names)
     report = progress or (lambda stage, done, total: None)
     n = len(images)
