@@ -187,6 +187,8 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
         M, t = min(found, key=lambda f: _bounds_mismatch(f, H, board, bounds))
         _check_bounds_order((M, t), H, board, bounds)
         _check_bounds_fit((M, t), found, H, board, bounds, extent)
+        if len(keys) < board.n:  # a part: its labels rest on the edges its sides show
+            _check_bounds_enclose((M, t), H, board, bounds, extent)
         ambiguous = False
     else:
         if len(found) > 1 and not all(_symmetric_pair(found[0], f, board) for f in found[1:]):
@@ -588,6 +590,38 @@ def _check_bounds_fit(fit, found, H, board, bounds, extent) -> None:
         f"on the {board.cols} x {board.rows} board, and the bounds do not outline it under one of them alone "
         "(are they started at junction 0's corner, their first edge along a row?); show more of the board "
         "(two opposite edges of each axis)")
+
+
+#: Bounds given with a partly seen board may cut into the board the labels place by at most this
+#: (squares, on either board axis, at any vertex): bounds round the board, however rough, leave
+#: every junction inside; a vertex a whole line of junctions inside says the labels are wrong.
+_ENCLOSE_INSIDE = -1.0
+
+
+def _check_bounds_enclose(fit, H, board, bounds, extent) -> None:
+    """Refuse the labels of a partly seen board when the bounds leave out junctions they place.
+
+    The labels of a part of a board come from the edges its sides show. Something bright or
+    plain beside the part (a specular highlight over the rest of the board, a bar) can pass
+    for the board's margin, and would put the part at the board's corner. The bounds, given
+    round the whole board, are a check independent of that evidence: under the right labels
+    every corner junction lies inside them (within :data:`_ENCLOSE_INSIDE`).
+    """
+    M, t = fit
+    q = np.linalg.solve(H, np.vstack([np.asarray(bounds, dtype=float), np.ones(4)]))
+    if np.any(q[2] * np.sign(q[2, 0]) <= 0):
+        return  # a vertex beyond the part's horizon: the homography says nothing there
+    c, r = M @ (q[:2] / q[2]) + t[:, None]
+    right, low = board.cols - 1, board.rows - 1
+    out_c = np.array([-c[0], c[1] - right, c[2] - right, -c[3]])
+    out_r = np.array([-r[0], -r[1], r[2] - low, r[3] - low])
+    worst = min(out_c.min(), out_r.min())
+    if worst < _ENCLOSE_INSIDE:
+        raise BoardNotFoundError(
+            f"the part of the board seen ({extent[0]} x {extent[1]} junctions) and the bounds disagree: "
+            f"labelled from the edges its sides show, the board would reach {-worst:.1f} squares beyond "
+            "the bounds (something bright or plain beside the part, such as a highlight, may pass for "
+            "the board's margin); show more of the board")
 
 
 #: Bounds outline a board under a labelling when each vertex lies beyond its corner junction by

@@ -373,6 +373,41 @@ def board_smoothing(image: np.ndarray, points: np.ndarray, square: np.ndarray, n
     return noise_smoothing(noise, contrast, median(square[~np.isnan(square)]))
 
 
+def _deleted_offsets(H, grid, flat, fitted) -> np.ndarray:
+    """Distance (px) of each point from the grid homography fitted without it.
+
+    ``H`` is fitted to the ``fitted`` columns of ``grid`` (2, n) and ``flat`` (2, n). A point
+    outside the fit is judged by its plain residual; a point inside it by its deleted residual,
+    ``(I - A_i)^-1 e_i``, with ``A_i`` its 2 x 2 block of the fit's hat matrix (the fit
+    linearised in H's eight free entries, ``H[2, 2] = 1``): to first order, its distance from
+    the homography fitted to the others. NaN where ``flat`` is NaN; inf for a point the
+    others do not fix at all.
+    """
+    n = grid.shape[1]
+    x = np.vstack([grid, np.ones(n)])
+    w = H[2] @ x
+    p = (H[:2] @ x) / w
+    e = flat - p
+    A = np.zeros((n, 2, 8))
+    A[:, 0, 0:3] = (x / w).T
+    A[:, 1, 3:6] = (x / w).T
+    A[:, 0, 6:8] = -(p[0] * x[:2] / w).T
+    A[:, 1, 6:8] = -(p[1] * x[:2] / w).T
+    Af = A[fitted].reshape(-1, 8)
+    scale = np.linalg.norm(Af, axis=0)
+    Q = np.linalg.qr(Af / scale)[0].reshape(-1, 2, 8)  # the hat blocks of the fitted points: Q_i Q_i^T
+    hat = np.einsum("nik,njk->nij", Q, Q)
+    D = np.eye(2) - hat
+    det = D[:, 0, 0] * D[:, 1, 1] - D[:, 0, 1] * D[:, 1, 0]
+    ef = e[:, fitted].T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        du = (D[:, 1, 1] * ef[:, 0] - D[:, 0, 1] * ef[:, 1]) / det
+        dv = (D[:, 0, 0] * ef[:, 1] - D[:, 1, 0] * ef[:, 0]) / det
+    off = np.hypot(*e)
+    off[fitted] = np.where(det > 1e-12, np.hypot(du, dv), np.inf)
+    return off
+
+
 def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None, undistorted=None) -> Junctions:
     """Fit the grid homography to the refined points and decide what to trust.
 
@@ -397,11 +432,13 @@ def _judge(points, ok, residual, square, grid, seen, ambiguous, lens=None, undis
     trusted = ok.copy()
     for _ in range(4):
         H = fit_homography(grid[:, trusted], flat[:, trusted])
-        with np.errstate(invalid="ignore"):
-            off = np.hypot(*(apply_homography(H, grid) - flat))
+        off = _deleted_offsets(H, grid, flat, trusted)
         # The board's own spread sets the gate: five of its sigmas (the median distance of
         # a 2-D normal is 1.18 sigma), between 0.3 px and 1 px, and never a fraction of a
         # small square more. A junction a sticker or a bar half covers is pulled further.
+        # Each junction is judged against the grid the *other* junctions draw: on a small
+        # part of a board a junction pulls the homography towards itself, and its plain
+        # residual hides much of its error.
         sigma = median(off[trusted]) / 1.18
         limit = np.minimum(np.clip(5.0 * sigma, _GATE_PX[0], _GATE_PX[1]), np.maximum(_GRID_TOLERANCE * square, _GATE_PX[0]))
         with np.errstate(invalid="ignore"):

@@ -191,3 +191,19 @@ def test_a_lattice_of_another_size_than_the_spec_is_refused_as_a_mismatch():
     lattice, view = _lattice_of(scene)
     with pytest.raises(BoardMismatchError, match="found a 8 x 6 board of junctions; the board spec says"):
         identify(lattice, view, Board(7, 5))
+
+
+def test_bounds_that_leave_out_junctions_the_labels_place_refuse_them():
+    # A part of a 6 x 6 board whose sides passed for edges (a highlight beside it taken for the
+    # margin) is placed at the board's corner; bounds round the whole board say otherwise.
+    from graphpose.detect.identify import _check_bounds_enclose
+    from graphpose.errors import BoardNotFoundError
+    board = Board(6, 6, 0.04)
+    H = np.array([[20.0, 0.0, 100.0], [0.0, 20.0, 80.0], [0.0, 0.0, 1.0]])  # grid key -> pixel
+    fit = (np.eye(2, dtype=int), np.array([0, 0]))
+    # Round the board the labels place (one square out, a rough hand): accepted.
+    around = np.array([[80.0, 222.0, 218.0, 78.0], [58.0, 61.0, 202.0, 200.0]])
+    _check_bounds_enclose(fit, H, board, around, np.array([3, 3]))
+    # The same bounds 3 squares along: the labels put two lines of junctions outside them.
+    with pytest.raises(BoardNotFoundError, match="bounds disagree"):
+        _check_bounds_enclose(fit, H, board, around + [[60.0], [0.0]], np.array([3, 3]))

@@ -505,3 +505,46 @@ def test_refine_junctions_unchecked_is_the_checked_refinement():
         unchecked = refine_junctions(image, start, half, smooth_sigma=0.8, check=False)
         for a, b in zip(checked, unchecked):
             np.testing.assert_array_equal(a, b)
+
+
+def _part_of_a_grid(rng, cols=4, rows=3, noise=0.05):
+    """A small part of a board seen through a random homography: grid (2, n), points (2, n)."""
+    grid = np.stack(np.meshgrid(np.arange(cols, dtype=float), np.arange(rows, dtype=float))).reshape(2, -1)
+    H = np.array([[22.0, 3.0, 300.0], [-4.0, 21.0, 200.0], [1e-3, -2e-3, 1.0]]) + rng.normal(0, [[1, 1, 5], [1, 1, 5], [1e-4, 1e-4, 0]])
+    from graphpose.geometry import apply_homography
+    return grid, apply_homography(H, grid) + rng.normal(0, noise, (2, grid.shape[1]))
+
+
+def test_deleted_offsets_are_the_distances_from_the_grid_fitted_without_each_point():
+    from graphpose.detect.grid import fit_homography
+    from graphpose.detect.junctions import _deleted_offsets
+    from graphpose.geometry import apply_homography
+    rng = np.random.default_rng(4)
+    grid, points = _part_of_a_grid(rng)
+    fitted = np.ones(grid.shape[1], dtype=bool)
+    fitted[5] = False  # one point outside the fit is judged by its plain residual
+    H = fit_homography(grid[:, fitted], points[:, fitted])
+    off = _deleted_offsets(H, grid, points, fitted)
+    assert off[5] == pytest.approx(np.hypot(*(apply_homography(H, grid[:, 5:6])[:, 0] - points[:, 5])))
+    for i in np.flatnonzero(fitted):
+        others = fitted.copy()
+        others[i] = False
+        Hi = fit_homography(grid[:, others], points[:, others])
+        loo = np.hypot(*(apply_homography(Hi, grid[:, i:i + 1])[:, 0] - points[:, i]))
+        assert off[i] == pytest.approx(loo, rel=0.05, abs=2e-3)  # first order in the noise
+    plain = np.hypot(*(apply_homography(H, grid) - points))
+    assert np.all(off[fitted] > plain[fitted])  # a point in the fit pulls it towards itself
+
+
+def test_a_junction_pulled_a_pixel_on_a_small_part_of_a_board_is_not_trusted():
+    # On a 4 x 3 part a corner junction pulls the homography towards itself, and its plain
+    # residual shows about half its error (under the gate); judged against the grid the others
+    # draw, it is caught.
+    from graphpose.detect.junctions import _judge
+    rng = np.random.default_rng(2)
+    grid, points = _part_of_a_grid(rng, noise=0.15)
+    points[:, 0] += [0.85, -0.75]  # 1.1 px off
+    n = grid.shape[1]
+    ok, seen = np.ones(n, dtype=bool), np.ones(n, dtype=bool)
+    J = _judge(points, ok, np.full(n, 0.01), np.full(n, 20.0), grid, seen, False)
+    assert not J.trusted[0] and J.trusted.sum() == n - 1
