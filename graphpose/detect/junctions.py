@@ -66,7 +66,7 @@ class Junctions:
         True where the saddle fit converged to a saddle inside its window, the window lies
         inside the image, a ring around the point looks like a cross-junction, its fit
         residual is at most 1.5 times the board's median, and the point agrees with the
-        homography fitted to the trusted junctions (within five times the board's own
+        homography fitted to the other trusted junctions (within five times the board's own
         spread, 0.3 to 1 px, and 8 % of the square).
         Untrusted points that were seen are still the best estimate available (refined, or
         predicted by the grid where refinement failed); a pose should use the trusted ones.
