@@ -48,7 +48,7 @@ from .observations import MIN_JUNCTIONS, check_observations
 from .pose.covariance import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
 from .pose.cross_check import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck, cross_check  # noqa: F401  (re-exported)
 from .pose.gauss_newton import GNResult, gauss_newton, huber_weights, reprojection_cost
-from .pose.graph import GraphResult, graph_pose
+from .pose.graph import POLISH_STEP, GraphResult, graph_pose
 from .robust import HUBER_K, mad_sigma
 from .pose.homography import on_target_plane, pose_from_homography
 from ._deprecated import renamed
@@ -204,7 +204,8 @@ def fit_pose(Ipts, Wpts, camera, *, guess=None, mask=None, robust: bool = False,
 
     The pose path of :func:`estimate_pose` without its GTSAM cross-check, shared with the
     tracker's front end (:mod:`graphpose.track.frontend`): start from ``guess``, or from the
-    homography initialiser when None; Gauss-Newton on the used points; with ``robust``, the
+    homography initialiser when None; Gauss-Newton on the used points, until its step is below
+    :data:`graphpose.pose.graph.POLISH_STEP` (GTSAM's, 1e-10 m and rad); with ``robust``, the
     pixel sigma estimated robustly (1.4826 x the median absolute residual) and Gauss-Newton
     again from the same start with a Huber kernel at :data:`graphpose.robust.HUBER_K` of
     those sigmas, so that outlying points are down-weighted.
@@ -252,11 +253,14 @@ def _fit_pose(camera, Ipts, Wpts, guess, mask, robust):
     """:func:`fit_pose` on checked inputs: the pipeline's core and (through ``check=False``) the
     tracker's front end call it on what they checked or made themselves."""
     start = pose_from_homography(Ipts[:, mask], Wpts[:, mask], camera, check=False) if guess is None else guess
-    gn = gauss_newton(Ipts, Wpts, camera, guess=start, mask=mask, check=False)
+    # Gauss-Newton runs until its step is below GTSAM's (POLISH_STEP): one more compiled
+    # iteration where its default (1e-9) would stop, and GTSAM, started at its answer,
+    # confirms it in one linearisation instead of two.
+    gn = gauss_newton(Ipts, Wpts, camera, guess=start, mask=mask, tol=POLISH_STEP, check=False)
     if robust:
         pixel_sigma = mad_sigma(gn.residuals[:, mask], floor=1e-12)
         gn = gauss_newton(Ipts, Wpts, camera, guess=start, mask=mask, huber_px=HUBER_K * pixel_sigma,
-                          pixel_sigma=pixel_sigma, check=False)
+                          pixel_sigma=pixel_sigma, tol=POLISH_STEP, check=False)
     return gn, start
 
 
