@@ -2,18 +2,21 @@
 
 The graph has one ``Pose3`` variable ``X(0)`` (the camera pose T_WC, GTSAM's own convention:
 the camera looks along its +z with x right and y down, as in :mod:`graphpose.geometry`), one
-``Point3`` variable per trusted junction (key ``j``, the junction's index), one projection
-factor per trusted junction (:func:`projection_factor`) and one very tight
-``PriorFactorPoint3`` per landmark that pins it to its target position. A tight prior rather
-than ``NonlinearEquality`` keeps the linearised system non-singular, so the marginals exist.
-Levenberg-Marquardt minimises the same reprojection cost as :mod:`graphpose.pose.gauss_newton`,
-then undamped Gauss-Newton steps polish its answer; the pipeline holds the two solvers against
-each other. Started at Gauss-Newton's converged answer (``from_minimum``, as the pipeline
-starts it), the undamped steps alone confirm that minimum, and Levenberg-Marquardt runs only
-where they do not. The graph is a star about the pose, eliminated in the ordering without
-fill-in (every landmark, then the pose); the marginal covariance comes from the elimination of
-the last polishing step (no second linearisation and elimination for ``gtsam.Marginals``),
-and only where it is reported.
+``Point3`` variable per trusted junction (key ``j``, the junction's index, valued at its exact
+target position) and one projection factor per trusted junction (:func:`projection_factor`).
+The target points are known, so the solve moves the pose alone: undamped Gauss-Newton steps,
+each GTSAM's linearisation of the factors and GTSAM's elimination of the pose's block of its
+Hessian (the points held exact), run until the pose step is below :data:`POLISH_STEP`; the pose's
+conditional, without parents, is its marginal, so the covariance comes from the last step (no
+second linearisation and elimination for ``gtsam.Marginals``), and only where it is reported.
+Started at Gauss-Newton's converged answer (``from_minimum``, as the pipeline starts it), these
+steps alone confirm that minimum. Where they do not, or without the flag, Levenberg-Marquardt
+first minimises the same reprojection cost as :mod:`graphpose.pose.gauss_newton` on the graph
+with one very tight ``PriorFactorPoint3`` per point that pins it to its target position (a tight
+prior rather than ``NonlinearEquality`` keeps the linearised system non-singular; the points held
+exact are its limit), eliminated in the star ordering without fill-in (every point, then the
+pose); the undamped steps polish its answer. The pipeline holds the two solvers against each
+other.
 
 The projection factor follows the camera (:mod:`graphpose.camera_models`): GTSAM's own
 ``GenericProjectionFactorCal3_S2``, ``...Cal3DS2`` or ``...Cal3Fisheye`` with the
@@ -318,10 +321,23 @@ def _build(camera, T_WC_guess, I, W, keys, sigma, huber_k):
             add(projection_factor(camera, uv, pixel_noise, POSE_KEY, key, calibration))
     # 4. The initial values: the guessed pose and the exact target points (held there: see
     #    step 6; Levenberg-Marquardt's graph pins them with priors, step 4b).
-    insert = initial.insertPoint3
-    for key, point in zip(key_list, W.T.copy()):
-        insert(key, point)
+    if not np.any(W[2]):
+        # A target on the plane z = 0 (every board): all its points in one call, each
+        # (x, y) backprojected at depth 1 by _PLANE_CAMERA, which gives (x, y, 0) exactly.
+        gtsam.utilities.insertBackprojections(initial, _PLANE_CAMERA, keys.astype(float), np.ascontiguousarray(W[:2]),
+                                              1.0)
+    else:
+        insert = initial.insertPoint3
+        for key, point in zip(key_list, W.T.copy()):
+            insert(key, point)
     return graph, initial, gtsam.Ordering([POSE_KEY, *key_list])
+
+
+#: A camera 1 m behind the plane z = 0 looking along +z, with fx = fy = 1 and no offset or skew:
+#: GTSAM's backprojection of the pixel (x, y) at depth 1 is (1 x + 0, 1 y + 0, 1 - 1) = (x, y, 0),
+#: exact in floating point (no rounding in a product by 1 or a sum with 0).
+_PLANE_CAMERA = gtsam.PinholeCameraCal3_S2(gtsam.Pose3(gtsam.Rot3(), np.array([0.0, 0.0, -1.0])),
+                                           gtsam.Cal3_S2(1.0, 1.0, 0.0, 0.0, 0.0))
 
 
 def _pinned(factors, keys, W):
@@ -440,7 +456,7 @@ def _answer(polished, W, marginals, iterations, converged):
     # 7. Marginal covariance of the pose: tangent order (rotation rad, translation m), body
     #    frame. It is the last step's elimination's (what gtsam.Marginals would eliminate
     #    again), linearised less than POLISH_STEP from the result: the same to rounding. The
-    #    pose's conditional, eliminated last, is its marginal: the inverse of its information
+    #    pose's conditional, the only one, is its marginal: the inverse of its information
     #    (as GaussianBayesTree.marginalCovariance inverts its root clique's).
     cov = np.linalg.inv(bayes_net.back().information()) if marginals else np.full((6, 6), np.nan)
     T = result.atPose3(POSE_KEY).matrix()
