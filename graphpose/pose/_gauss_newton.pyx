@@ -11,7 +11,7 @@ the Huber kernel's weights), so the stacked Jacobian is never formed. The caller
 input first.
 """
 
-from libc.math cimport cos, sin, sqrt
+from libc.math cimport INFINITY, cos, isfinite, sin, sqrt
 
 
 cdef void _rotation_and_partials(const double[::1] p, double[:, :, ::1] R) noexcept nogil:
@@ -147,6 +147,45 @@ def chain_jacobians(const double[:, :, ::1] G, const double[:, :, ::1] R, const 
             _chain(R, A, j, G[j, 0, 0], G[j, 0, 1], G[j, 0, 2], G[j, 1, 0], G[j, 1, 1], G[j, 1, 2], J)
 
 
+cdef (double, double) _normal_equations(const double[:, ::1] K, const double[::1] p, const double[:, ::1] I,
+                                        const double[:, ::1] W, double huber_px, double[:, :, ::1] R,
+                                        double[:, ::1] A, double[::1] r, double[::1] z, double[:, ::1] H,
+                                        double[::1] g) noexcept nogil:
+    """The body of :func:`pinhole_normal_equations`: (cost, chi2), the rest in place."""
+    cdef Py_ssize_t n = W.shape[1], j
+    cdef int a, b
+    cdef double du, dv, e, w, cost = 0.0, chi2 = 0.0
+    cdef double J[12]
+    for a in range(6):
+        g[a] = 0.0
+        for b in range(6):
+            H[a, b] = 0.0
+    _points(p, W, R, A)
+    for j in range(n):
+        _pinhole_point(K, R, A, I, j, r, z, J)
+        du, dv = r[2 * j], r[2 * j + 1]
+        w = 1.0
+        e = du * du + dv * dv
+        if huber_px > 0.0:
+            e = sqrt(e)
+            if e <= huber_px:
+                cost += 0.5 * e * e
+            else:
+                w = huber_px / e
+                cost += huber_px * (e - 0.5 * huber_px)
+        else:
+            cost += 0.5 * e
+        chi2 += w * (du * du + dv * dv)
+        for a in range(6):
+            g[a] += w * (J[a] * du + J[6 + a] * dv)
+            for b in range(a, 6):
+                H[a, b] += w * (J[a] * J[b] + J[6 + a] * J[6 + b])
+    for a in range(6):
+        for b in range(a):
+            H[a, b] = H[b, a]
+    return cost, chi2
+
+
 def pinhole_normal_equations(const double[:, ::1] K, const double[::1] p, const double[:, ::1] I,
                              const double[:, ::1] W, double huber_px, double[:, :, ::1] R,
                              double[:, ::1] A, double[::1] r, double[::1] z, double[:, ::1] H,
@@ -173,36 +212,131 @@ def pinhole_normal_equations(const double[:, ::1] K, const double[::1] p, const 
     chi2 : float
         ``sum w r^2``.
     """
-    cdef Py_ssize_t n = W.shape[1], j
-    cdef int a, b
-    cdef double du, dv, e, w, cost = 0.0, chi2 = 0.0
-    cdef double J[12]
+    cdef (double, double) out
     with nogil:
-        for a in range(6):
-            g[a] = 0.0
-            for b in range(6):
-                H[a, b] = 0.0
-        _points(p, W, R, A)
-        for j in range(n):
-            _pinhole_point(K, R, A, I, j, r, z, J)
-            du, dv = r[2 * j], r[2 * j + 1]
-            w = 1.0
-            e = du * du + dv * dv
-            if huber_px > 0.0:
-                e = sqrt(e)
-                if e <= huber_px:
-                    cost += 0.5 * e * e
-                else:
-                    w = huber_px / e
-                    cost += huber_px * (e - 0.5 * huber_px)
+        out = _normal_equations(K, p, I, W, huber_px, R, A, r, z, H, g)
+    return out
+
+
+cdef int _solve6(const double[:, ::1] H, double lam, const double[::1] g, double* x) noexcept nogil:
+    """x = (H + lam diag(H))^-1 g for a 6 x 6 H by Gaussian elimination with partial pivoting
+    (LAPACK's dgesv's algorithm); 1 where a pivot is exactly zero (singular), else 0."""
+    cdef double M[6][7]
+    cdef int i, j, k, piv
+    cdef double big, t, f
+    for i in range(6):
+        for j in range(6):
+            M[i][j] = H[i, j]
+        M[i][i] += lam * H[i, i]
+        M[i][6] = g[i]
+    for k in range(6):
+        piv, big = k, -1.0
+        for i in range(k, 6):
+            t = M[i][k] if M[i][k] >= 0.0 else -M[i][k]
+            if t > big or t != t:  # the first largest (a NaN is taken, as idamax would not fail)
+                piv, big = i, t
+                if t != t:
+                    break
+        if M[piv][k] == 0.0:
+            return 1
+        if piv != k:
+            for j in range(k, 7):
+                t = M[k][j]; M[k][j] = M[piv][j]; M[piv][j] = t
+        for i in range(k + 1, 6):
+            f = M[i][k] / M[k][k]
+            for j in range(k + 1, 7):
+                M[i][j] -= f * M[k][j]
+    for i in range(5, -1, -1):
+        t = M[i][6]
+        for j in range(i + 1, 6):
+            t -= M[i][j] * x[j]
+        x[i] = t / M[i][i]
+    return 0
+
+
+def pinhole_gauss_newton(const double[:, ::1] K, double[::1] p, const double[:, ::1] I,
+                         const double[:, ::1] W, double huber_px, double cost, double chi2,
+                         double[:, :, ::1] R, double[:, ::1] A, double[::1] r, double[::1] z,
+                         double[:, ::1] H, double[::1] g, double[::1] r2, double[::1] z2,
+                         double[:, ::1] H2, double[::1] g2, double tol, int max_iterations,
+                         double min_depth, double cost_rtol, int max_polish_steps, double lambda_max):
+    """The damped Gauss-Newton loop of :func:`graphpose.pose.gauss_newton.gauss_newton` for a
+    pinhole camera, every step in compiled code; the same rules, in the same order.
+
+    ``p`` (6,) holds the start and gets the answer; ``cost``, ``chi2``, ``r``, ``z``, ``H``, ``g``
+    come in as :func:`pinhole_normal_equations` gave them at the start and leave as at the
+    answer; ``r2``, ``z2``, ``H2``, ``g2`` are work space of the same shapes for a trial step.
+
+    Returns
+    -------
+    status : int
+        0 the iteration cap, 1 converged (the undamped step below ``tol``), 2 converged at the
+        cost's rounding limit, 3 the normal equations singular, 4 damped steps cannot lower the
+        cost, 5 the damped system singular (the caller raises as ``numpy.linalg.solve`` would).
+    iterations, cost, chi2
+        At the answer.
+    """
+    cdef Py_ssize_t n = W.shape[1], j
+    cdef int it = 0, polish_steps = 0, status = 0, i, a, b, polishing, in_front
+    cdef double lam = 0.0, step, promise, cost_new, chi2_new, t
+    cdef double delta_gn[6]
+    cdef double delta[6]
+    cdef double p_new[6]
+    cdef double[::1] pn = p_new
+    with nogil:
+        while it < max_iterations:
+            it += 1
+            if _solve6(H, 0.0, g, delta_gn):
+                status = 3
+                break
+            step, promise = 0.0, 0.0
+            for i in range(6):
+                t = delta_gn[i] if delta_gn[i] >= 0.0 else -delta_gn[i]
+                if t > step or t != t:
+                    step = t
+                promise += g[i] * delta_gn[i]
+            if step < tol:
+                status = 1
+                break
+            polishing = 0.5 * promise <= cost_rtol * cost
+            if polishing:
+                polish_steps += 1
+                if polish_steps > max_polish_steps:
+                    status = 2
+                    break
+            if lam == 0.0 or polishing:
+                for i in range(6):
+                    delta[i] = delta_gn[i]
+            elif _solve6(H, lam, g, delta):
+                status = 5
+                break
+            for i in range(6):
+                p_new[i] = p[i] + delta[i]
+            cost_new, chi2_new = _normal_equations(K, pn, I, W, huber_px, R, A, r2, z2, H2, g2)
+            in_front = 1
+            for j in range(n):
+                if not (z2[j] > min_depth):  # (NaN depths fail too)
+                    in_front = 0
+            if not in_front:
+                cost_new = INFINITY
+            if not isfinite(cost_new):
+                cost_new = INFINITY
+            if cost_new < cost or (polishing and cost_new <= cost * (1.0 + 100 * cost_rtol)):
+                for i in range(6):
+                    p[i] = p_new[i]
+                for j in range(2 * n):
+                    r[j] = r2[j]
+                for j in range(n):
+                    z[j] = z2[j]
+                for a in range(6):
+                    g[a] = g2[a]
+                    for b in range(6):
+                        H[a, b] = H2[a, b]
+                cost, chi2 = cost_new, chi2_new
+                lam = 0.0 if lam < 1e-6 else lam / 10.0
             else:
-                cost += 0.5 * e
-            chi2 += w * (du * du + dv * dv)
-            for a in range(6):
-                g[a] += w * (J[a] * du + J[6 + a] * dv)
-                for b in range(a, 6):
-                    H[a, b] += w * (J[a] * J[b] + J[6 + a] * J[6 + b])
-        for a in range(6):
-            for b in range(a):
-                H[a, b] = H[b, a]
-    return cost, chi2
+                lam = 1e-4 if lam == 0.0 else lam * 10.0
+                if lam > lambda_max:
+                    status = 4
+                    break
+    return status, it, cost, chi2

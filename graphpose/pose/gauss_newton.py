@@ -41,7 +41,8 @@ from ..errors import ConvergenceError, InputError
 # The compiled kernels (pose's own, private module): camera_points (target points into each
 # camera's frame) and chain_jacobians (the projection's chain rule) are shared with the
 # calibration's solvers, which import them from here, the module that documents them.
-from ._gauss_newton import camera_points, chain_jacobians, pinhole_normal_equations, pinhole_residuals
+from ._gauss_newton import (camera_points, chain_jacobians, pinhole_gauss_newton, pinhole_normal_equations,
+                            pinhole_residuals)
 from .._deprecated import renamed
 
 #: Default iteration cap (damped and undamped steps both count).
@@ -358,6 +359,9 @@ def _solve(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, t
     I, W = np.ascontiguousarray(Ipts[:, mask]), np.ascontiguousarray(Wpts[:, mask])
     r, depth, cost, chi2, H, g = _normal(camera, p, I, W, huber_px)
     check_in_front(depth, "the guess", np.flatnonzero(mask))
+    if isinstance(camera, PinholeCamera):
+        return _pinhole_solve(camera, p, I, W, mask, huber_px, pixel_sigma, max_iterations, tol,
+                              (r, depth, cost, chi2, H, g))
     lam, converged, message, it, polish_steps = 0.0, False, "iteration cap reached", 0, 0
     while it < max_iterations:
         it += 1
@@ -394,6 +398,31 @@ def _solve(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, t
             if lam > _LAMBDA_MAX:
                 message = "damped steps cannot lower the cost"
                 break
+    return _result(camera, p, I, W, mask, huber_px, pixel_sigma, H, r, chi2, converged, it, message)
+
+
+#: What the compiled loop's status (:func:`graphpose.pose._gauss_newton.pinhole_gauss_newton`) means:
+#: (converged, message).
+_STATUS = {0: (False, "iteration cap reached"), 1: (True, "converged"),
+           2: (True, "converged (step at the rounding limit)"),
+           3: (False, "normal equations singular (gimbal lock or degenerate points)"),
+           4: (False, "damped steps cannot lower the cost")}
+
+
+def _pinhole_solve(camera, p, I, W, mask, huber_px, pixel_sigma, max_iterations, tol, start) -> GNResult:
+    """:func:`_solve`'s loop for a pinhole, in one compiled call with the same rules
+    (:func:`graphpose.pose._gauss_newton.pinhole_gauss_newton`): ``start`` is the normal
+    equations at ``p``."""
+    r, z, cost, chi2, H, g = start
+    n = W.shape[1]
+    p = np.array(p, dtype=float)
+    status, it, cost, chi2 = pinhole_gauss_newton(
+        camera.K, p, I, W, 0.0 if huber_px is None else float(huber_px), cost, chi2, np.empty((4, 3, 3)),
+        np.empty((12, n)), r, z, H, g, np.empty(2 * n), np.empty(n), np.empty((6, 6)), np.empty(6), float(tol),
+        int(max_iterations), MIN_DEPTH, _COST_RTOL, _MAX_POLISH_STEPS, _LAMBDA_MAX)
+    if status == 5:
+        raise np.linalg.LinAlgError("Singular matrix")  # as numpy.linalg.solve on the damped system
+    converged, message = _STATUS[status]
     return _result(camera, p, I, W, mask, huber_px, pixel_sigma, H, r, chi2, converged, it, message)
 
 
