@@ -11,7 +11,17 @@ the Huber kernel's weights), so the stacked Jacobian is never formed. The caller
 input first.
 """
 
-from libc.math cimport INFINITY, cos, isfinite, sin, sqrt
+from cython.view cimport array as cvarray
+from libc.math cimport INFINITY, NAN, cos, isfinite, sin, sqrt
+
+
+#: The camera models the compiled loop knows (:func:`gauss_newton_loop`).
+cdef enum:
+    _PINHOLE = 0
+    _RADTAN = 1
+PINHOLE = _PINHOLE
+RADTAN = _RADTAN
+cdef double[::1] _NO_COEFFICIENTS = cvarray(shape=(8,), itemsize=sizeof(double), format="d")
 
 
 cdef void _rotation_and_partials(const double[::1] p, double[:, :, ::1] R) noexcept nogil:
@@ -92,6 +102,45 @@ cdef inline void _pinhole_point(const double[:, ::1] K, const double[:, :, ::1] 
                     0.0, K[1, 1] * iz, (K[1, 2] - v) * iz, rows)
 
 
+cdef inline void _radtan_point(const double[:, ::1] K, const double[::1] c, const double[:, :, ::1] R,
+                               const double[:, ::1] A, const double[:, ::1] I, Py_ssize_t j, double[::1] r,
+                               double[::1] z, double* rows) noexcept nogil:
+    """Point j through OpenCV's radial-tangential lens (rational model included) with the
+    focal lengths and centre of ``K`` (no skew) and ``c`` = (k1, k2, p1, p2, k3, k4, k5, k6):
+    :class:`graphpose.camera_models.RadTanCamera`'s projection and Jacobian, written out (a
+    point at or behind z = 0 gives NaN, as the model does)."""
+    cdef double X = A[0, j], Y = A[1, j], Zc = A[2, j]
+    cdef double Z = Zc if Zc > 0.0 else NAN
+    cdef double x = X / Z, y = Y / Z, r2, a, b, g, xd, yd, da, db, dg, d00, d01, d11, iz, fx = K[0, 0], fy = K[1, 1]
+    cdef double k1 = c[0], k2 = c[1], p1 = c[2], p2 = c[3], k3 = c[4], k4 = c[5], k5 = c[6], k6 = c[7]
+    cdef bint rational = k4 != 0.0 or k5 != 0.0 or k6 != 0.0
+    r2 = x * x + y * y
+    a = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    if rational:
+        b = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+        g = a / b
+    else:
+        g = a
+    xd = x * g + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
+    yd = y * g + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
+    z[j] = Zc
+    r[2 * j] = I[0, j] - (fx * xd + K[0, 2])
+    r[2 * j + 1] = I[1, j] - (fy * yd + K[1, 2])
+    if rows != NULL:
+        da = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
+        if rational:
+            db = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
+            dg = (da * b - a * db) / (b * b)
+        else:
+            dg = da
+        d00 = g + 2.0 * x * x * dg + 2.0 * p1 * y + 6.0 * p2 * x
+        d01 = 2.0 * x * y * dg + 2.0 * p1 * x + 2.0 * p2 * y
+        d11 = g + 2.0 * y * y * dg + 6.0 * p1 * y + 2.0 * p2 * x
+        iz = 1.0 / Z
+        _chain_rows(R, A, j, fx * d00 * iz, fx * d01 * iz, -fx * (d00 * x + d01 * y) * iz,
+                    fy * d01 * iz, fy * d11 * iz, -fy * (d01 * x + d11 * y) * iz, rows)
+
+
 def pinhole_residuals(const double[:, ::1] K, const double[::1] p, const double[:, ::1] I,
                       const double[:, ::1] W, double[:, :, ::1] R, double[:, ::1] A, double[::1] r,
                       double[::1] z, double[:, ::1] J, bint jacobian):
@@ -147,11 +196,12 @@ def chain_jacobians(const double[:, :, ::1] G, const double[:, :, ::1] R, const 
             _chain(R, A, j, G[j, 0, 0], G[j, 0, 1], G[j, 0, 2], G[j, 1, 0], G[j, 1, 1], G[j, 1, 2], J)
 
 
-cdef (double, double) _normal_equations(const double[:, ::1] K, const double[::1] p, const double[:, ::1] I,
+cdef (double, double) _normal_equations(int model, const double[::1] c, const double[:, ::1] K,
+                                        const double[::1] p, const double[:, ::1] I,
                                         const double[:, ::1] W, double huber_px, double[:, :, ::1] R,
                                         double[:, ::1] A, double[::1] r, double[::1] z, double[:, ::1] H,
                                         double[::1] g) noexcept nogil:
-    """The body of :func:`pinhole_normal_equations`: (cost, chi2), the rest in place."""
+    """The body of :func:`normal_equations`: (cost, chi2), the rest in place."""
     cdef Py_ssize_t n = W.shape[1], j
     cdef int a, b
     cdef double du, dv, e, w, cost = 0.0, chi2 = 0.0
@@ -162,7 +212,10 @@ cdef (double, double) _normal_equations(const double[:, ::1] K, const double[::1
             H[a, b] = 0.0
     _points(p, W, R, A)
     for j in range(n):
-        _pinhole_point(K, R, A, I, j, r, z, J)
+        if model == _RADTAN:
+            _radtan_point(K, c, R, A, I, j, r, z, J)
+        else:
+            _pinhole_point(K, R, A, I, j, r, z, J)
         du, dv = r[2 * j], r[2 * j + 1]
         w = 1.0
         e = du * du + dv * dv
@@ -214,7 +267,18 @@ def pinhole_normal_equations(const double[:, ::1] K, const double[::1] p, const 
     """
     cdef (double, double) out
     with nogil:
-        out = _normal_equations(K, p, I, W, huber_px, R, A, r, z, H, g)
+        out = _normal_equations(_PINHOLE, _NO_COEFFICIENTS, K, p, I, W, huber_px, R, A, r, z, H, g)
+    return out
+
+
+def normal_equations(int model, const double[::1] c, const double[:, ::1] K, const double[::1] p,
+                     const double[:, ::1] I, const double[:, ::1] W, double huber_px, double[:, :, ::1] R,
+                     double[:, ::1] A, double[::1] r, double[::1] z, double[:, ::1] H, double[::1] g):
+    """:func:`pinhole_normal_equations` for the camera ``model`` (:data:`PINHOLE`, or
+    :data:`RADTAN` with its eight coefficients ``c``; ``K`` its focal lengths and centre)."""
+    cdef (double, double) out
+    with nogil:
+        out = _normal_equations(model, c, K, p, I, W, huber_px, R, A, r, z, H, g)
     return out
 
 
@@ -254,17 +318,18 @@ cdef int _solve6(const double[:, ::1] H, double lam, const double[::1] g, double
     return 0
 
 
-def pinhole_gauss_newton(const double[:, ::1] K, double[::1] p, const double[:, ::1] I,
+def gauss_newton_loop(int model, const double[::1] c, const double[:, ::1] K, double[::1] p, const double[:, ::1] I,
                          const double[:, ::1] W, double huber_px, double cost, double chi2,
                          double[:, :, ::1] R, double[:, ::1] A, double[::1] r, double[::1] z,
                          double[:, ::1] H, double[::1] g, double[::1] r2, double[::1] z2,
                          double[:, ::1] H2, double[::1] g2, double tol, int max_iterations,
                          double min_depth, double cost_rtol, int max_polish_steps, double lambda_max):
     """The damped Gauss-Newton loop of :func:`graphpose.pose.gauss_newton.gauss_newton` for a
-    pinhole camera, every step in compiled code; the same rules, in the same order.
+    camera ``model`` (:data:`PINHOLE`, or :data:`RADTAN` with its coefficients ``c``; see
+    :func:`normal_equations`), every step in compiled code; the same rules, in the same order.
 
     ``p`` (6,) holds the start and gets the answer; ``cost``, ``chi2``, ``r``, ``z``, ``H``, ``g``
-    come in as :func:`pinhole_normal_equations` gave them at the start and leave as at the
+    come in as :func:`normal_equations` gave them at the start and leave as at the
     answer; ``r2``, ``z2``, ``H2``, ``g2`` are work space of the same shapes for a trial step.
 
     Returns
@@ -312,7 +377,7 @@ def pinhole_gauss_newton(const double[:, ::1] K, double[::1] p, const double[:, 
                 break
             for i in range(6):
                 p_new[i] = p[i] + delta[i]
-            cost_new, chi2_new = _normal_equations(K, pn, I, W, huber_px, R, A, r2, z2, H2, g2)
+            cost_new, chi2_new = _normal_equations(model, c, K, pn, I, W, huber_px, R, A, r2, z2, H2, g2)
             in_front = 1
             for j in range(n):
                 if not (z2[j] > min_depth):  # (NaN depths fail too)
