@@ -54,7 +54,7 @@ from graphpose.detect.junctions import extract_junctions
 from graphpose.image import read_image
 from graphpose.io.files import encode_png
 from graphpose.estimate import estimate_pose
-from graphpose.estimate import fit_pose
+from graphpose.estimate import _compare_with_flip, fit_pose
 from graphpose.pose.graph import graph_pose
 from graphpose.synth.poses import loose_polygon, random_pose
 from graphpose.synth.render import render
@@ -113,8 +113,8 @@ def stages(cv2, items, repeats):
     """graphpose's median time per stage (ms) over the images, beside OpenCV's imread and its
     whole classic chain from the same files (timed in the same rounds), and the share of that
     chain the kept stages (:data:`KEPT_STAGES`) take by themselves."""
-    names = ("read", "find board", "refine and judge", "start + Gauss-Newton", "GTSAM + marginals", "total",
-             "OpenCV imread", "OpenCV classic chain")
+    names = ("read", "find board", "refine and judge", "start + Gauss-Newton", "tilt check", "GTSAM + marginals",
+             "total", "OpenCV imread", "OpenCV classic chain")
     per = {n: [] for n in names}
     W = BOARD.world_points()
     for path, bounds, camera in items:
@@ -126,10 +126,12 @@ def stages(cv2, items, repeats):
         calls = {
             "read": partial(read_image, path, as_float=False),
             "find board": partial(find_board, image, BOARD, bounds),
-            "extract": partial(extract_junctions, image, bounds, BOARD, camera=cam),
-            "start + Gauss-Newton": partial(fit_pose, cam, J.points, W, mask=J.trusted),
+            "extract": partial(extract_junctions, image, bounds=bounds, board=BOARD, camera=cam),
+            "start + Gauss-Newton": partial(fit_pose, J.points, W, cam, mask=J.trusted),
+            # the tilt-ambiguity check: Gauss-Newton again from the board tilted the other way
+            "tilt check": partial(_compare_with_flip, cam, J.points, W, J.trusted, None, gn),
             # as estimate_pose runs it: from Gauss-Newton's converged answer (from_minimum)
-            "GTSAM + marginals": partial(graph_pose, cam, gn.T_WC, J.points, W, mask=J.trusted,
+            "GTSAM + marginals": partial(graph_pose, J.points, W, cam, guess=gn.T_WC, mask=J.trusted,
                                          from_minimum=gn.converged),
             "total": partial(ours, path, bounds, cam),
             "OpenCV imread": partial(cv2.imread, str(path), cv2.IMREAD_GRAYSCALE),

@@ -43,12 +43,12 @@ from .board import Board, check_board
 from .camera_models import as_camera
 from .detect import extract_junctions
 from .errors import BoardNotFoundError, DegenerateGeometryError, InputError
-from .geometry import pose_difference, so3_exp, to_camera  # pose_difference: re-exported, public here too
+from .geometry import apply_homography, pose_difference, so3_exp, to_camera  # pose_difference: re-exported, public here too
 from .observations import MIN_JUNCTIONS, check_observations
 from .pose.covariance import SIGMA_CALIBRATION, SIGMA_PIXEL, pose_cov_with_intrinsics
 from .pose.cross_check import AGREE_ROTATION_DEG, AGREE_TRANSLATION_M, CrossCheck, cross_check  # noqa: F401  (re-exported)
 from .pose.gauss_newton import GNResult, gauss_newton, huber_weights, reprojection_cost
-from .pose.graph import GraphResult, graph_pose
+from .pose.graph import POLISH_STEP, GraphResult, graph_pose
 from .robust import HUBER_K, mad_sigma
 from .pose.homography import on_target_plane, pose_from_homography
 from ._deprecated import renamed
@@ -204,7 +204,8 @@ def fit_pose(Ipts, Wpts, camera, *, guess=None, mask=None, robust: bool = False,
 
     The pose path of :func:`estimate_pose` without its GTSAM cross-check, shared with the
     tracker's front end (:mod:`graphpose.track.frontend`): start from ``guess``, or from the
-    homography initialiser when None; Gauss-Newton on the used points; with ``robust``, the
+    homography initialiser when None; Gauss-Newton on the used points, until its step is below
+    :data:`graphpose.pose.graph.POLISH_STEP` (GTSAM's, 1e-10 m and rad); with ``robust``, the
     pixel sigma estimated robustly (1.4826 x the median absolute residual) and Gauss-Newton
     again from the same start with a Huber kernel at :data:`graphpose.robust.HUBER_K` of
     those sigmas, so that outlying points are down-weighted.
@@ -252,18 +253,22 @@ def _fit_pose(camera, Ipts, Wpts, guess, mask, robust):
     """:func:`fit_pose` on checked inputs: the pipeline's core and (through ``check=False``) the
     tracker's front end call it on what they checked or made themselves."""
     start = pose_from_homography(Ipts[:, mask], Wpts[:, mask], camera, check=False) if guess is None else guess
-    gn = gauss_newton(Ipts, Wpts, camera, guess=start, mask=mask, check=False)
+    # Gauss-Newton runs until its step is below GTSAM's (POLISH_STEP): one more compiled
+    # iteration where its default (1e-9) would stop, and GTSAM, started at its answer,
+    # confirms it in one linearisation instead of two.
+    gn = gauss_newton(Ipts, Wpts, camera, guess=start, mask=mask, tol=POLISH_STEP, check=False)
     if robust:
         pixel_sigma = mad_sigma(gn.residuals[:, mask], floor=1e-12)
         gn = gauss_newton(Ipts, Wpts, camera, guess=start, mask=mask, huber_px=HUBER_K * pixel_sigma,
-                          pixel_sigma=pixel_sigma, check=False)
+                          pixel_sigma=pixel_sigma, tol=POLISH_STEP, check=False)
     return gn, start
 
 
-def _estimate_pose_from_points(camera, Ipts, Wpts, guess, mask, robust) -> PoseEstimate:
+def _estimate_pose_from_points(camera, Ipts, Wpts, guess, mask, robust, start=None) -> PoseEstimate:
     """The core of :func:`estimate_pose_from_points`, on checked inputs: :func:`estimate_pose`
-    calls it after its own checks, so nothing is checked twice."""
-    gn, start = _fit_pose(camera, Ipts, Wpts, guess, mask, robust)
+    calls it after its own checks, so nothing is checked twice. ``start`` (without a
+    ``guess``) stands for the homography start, where the caller has it already."""
+    gn, start = _fit_pose(camera, Ipts, Wpts, guess if start is None else start, mask, robust)
     pixel_sigma = gn.sigma_px if robust else None  # the robust fit's own sigma (fit_pose)
     huber_px = None if pixel_sigma is None else HUBER_K * pixel_sigma
     # GTSAM starts where Gauss-Newton ended (from the shared start if it failed): the same
@@ -442,10 +447,28 @@ def estimate_pose(image, camera, *, board: Board = Board(), bounds=None, guess=N
     junctions = extract_junctions(image, bounds=bounds, board=board, camera=camera)
     _check_geometry(junctions.trusted, board)
     # Unseen junctions are NaN and untrusted: the solvers use the trusted ones only.
+    start = None if guess is not None else _start_through_lens(junctions, board, camera)
     estimate = _estimate_pose_from_points(camera, junctions.points, board.world_points(), guess, junctions.trusted,
-                                          robust)
+                                          robust, start)
     return dataclasses.replace(estimate, junctions=junctions,
                                orientation_ambiguous=bool(junctions.orientation_ambiguous))
+
+
+def _start_through_lens(junctions, board, camera):
+    """For a camera with lens distortion, the homography start (:func:`pose_from_homography`)
+    from the junctions' own grid homography, which maps the board's grid to the lens's
+    distortion-free pixels (:attr:`graphpose.detect.Junctions.homography`, fitted to the
+    trusted junctions' undistorted positions as their fits gave them): the same start, without
+    inverting the lens at every junction again. None for a pinhole (its start is cheap) or where
+    that homography gives no start (then the usual one is tried, and reports why)."""
+    if not np.any(camera.distortion):
+        return None
+    trusted = junctions.trusted
+    flat = apply_homography(junctions.homography, board.grid_indices()[:, trusted].astype(float))
+    try:
+        return pose_from_homography(flat, board.world_points()[:, trusted], as_camera(camera.K), check=False)
+    except (InputError, DegenerateGeometryError):
+        return None
 
 
 def _check_geometry(trusted, board) -> None:

@@ -25,7 +25,6 @@ from ..io.cases import bundled_cases_path, load_cases, load_pose
 from ..io.files import write_png
 from ..estimate import estimate_pose, pose_difference
 from ..pose.covariance import SIGMA_PIXEL
-from ..viz.overlay import draw_overlay
 from ..io.sources import BrokenRecordingError, expand_paths, is_recording
 from . import EXIT_OK, UsageError, error_line, exit_code, exit_codes_help, prefix, print_error
 from .recordings import RateProgress, add_every_option, add_topic_option, camera_note, open_source, recording_camera
@@ -218,6 +217,8 @@ def _read(job):
 
 def _write_overlay(path: Path, image, estimate, camera, board, job) -> None:
     """Draw ``estimate`` on ``image`` into the PNG ``path``, creating its folder if needed."""
+    from ..viz.overlay import draw_overlay  # only with --overlay: not in every command's start
+
     _make_folder(path)
     write_png(path, draw_overlay(image, estimate, camera, board, bounds=job.bounds, label=Path(job.name).name))
 

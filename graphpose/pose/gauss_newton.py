@@ -36,12 +36,13 @@ from .._checks import (
 )
 from ..observations import check_observations
 from ..geometry import T_from_params, params_from_T
-from ..camera_models import PinholeCamera, as_camera
+from ..camera_models import PinholeCamera, RadTanCamera, as_camera
 from ..errors import ConvergenceError, InputError
 # The compiled kernels (pose's own, private module): camera_points (target points into each
 # camera's frame) and chain_jacobians (the projection's chain rule) are shared with the
 # calibration's solvers, which import them from here, the module that documents them.
-from ._gauss_newton import camera_points, chain_jacobians, pinhole_normal_equations, pinhole_residuals
+from ._gauss_newton import (PINHOLE, RADTAN, camera_points, chain_jacobians, gauss_newton_loop, normal_equations,
+                            pinhole_residuals)
 from .._deprecated import renamed
 
 #: Default iteration cap (damped and undamped steps both count).
@@ -333,19 +334,36 @@ def _cost(r, huber_px):
     return reprojection_cost(r.reshape(-1, 2).T, huber_px)
 
 
-def _normal(camera, p, I, W, huber_px):
+def _compiled_model(camera):
+    """(model, coefficients (8,)) of a camera the compiled kernels project
+    (:func:`graphpose.pose._gauss_newton.normal_equations`: the pinhole and OpenCV's
+    radial-tangential lens, rational model included), or None."""
+    if isinstance(camera, PinholeCamera):
+        return PINHOLE, _NO_COEFFICIENTS
+    if isinstance(camera, RadTanCamera):
+        return RADTAN, np.ascontiguousarray(camera.coefficients, dtype=float)
+    return None
+
+
+#: The pinhole's (absent) lens coefficients for the compiled kernels.
+_NO_COEFFICIENTS = np.zeros(8)
+
+
+def _normal(camera, p, I, W, huber_px, compiled=None):
     """At the pose parameters ``p``: the residuals (2m,) stacked ``(u0, v0, u1, ...)``, the depths
     (m,), the cost (:func:`reprojection_cost`), ``chi2 = sum w r^2`` and the weighted normal
     equations ``H = J^T W J`` (6, 6), ``g = J^T W r`` (6,) of a step (``W`` the Huber kernel's
-    weights, :func:`huber_weights`; all 1 without it). For the pinhole one compiled call
-    (:func:`graphpose.pose._gauss_newton.pinhole_normal_equations`) sums them without forming
-    the stacked Jacobian; for a lens model, from :func:`_residual`'s."""
-    if isinstance(camera, PinholeCamera):
+    weights, :func:`huber_weights`; all 1 without it). For a camera the compiled kernels project
+    (``compiled``, :func:`_compiled_model`: the pinhole and the radial-tangential lens) one
+    compiled call (:func:`graphpose.pose._gauss_newton.normal_equations`) sums them without
+    forming the stacked Jacobian; for another lens model, from :func:`_residual`'s."""
+    compiled = _compiled_model(camera) if compiled is None else compiled
+    if compiled:
         n = W.shape[1]
         r, z, H, g = np.empty(2 * n), np.empty(n), np.empty((6, 6)), np.empty(6)
-        cost, chi2 = pinhole_normal_equations(camera.K, np.ascontiguousarray(p, dtype=float), I, W,
-                                              0.0 if huber_px is None else float(huber_px),
-                                              np.empty((4, 3, 3)), np.empty((12, n)), r, z, H, g)
+        cost, chi2 = normal_equations(compiled[0], compiled[1], camera.K, np.ascontiguousarray(p, dtype=float), I, W,
+                                      0.0 if huber_px is None else float(huber_px), np.empty((4, 3, 3)),
+                                      np.empty((12, n)), r, z, H, g)
         return r, z, cost, chi2, H, g
     r, z, J = _residual(camera, p, I, W, True)
     w = stacked_huber_weights(r, huber_px)
@@ -356,8 +374,12 @@ def _normal(camera, p, I, W, huber_px):
 
 def _solve(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, tol) -> GNResult:
     I, W = np.ascontiguousarray(Ipts[:, mask]), np.ascontiguousarray(Wpts[:, mask])
-    r, depth, cost, chi2, H, g = _normal(camera, p, I, W, huber_px)
+    compiled = _compiled_model(camera)
+    r, depth, cost, chi2, H, g = _normal(camera, p, I, W, huber_px, compiled)
     check_in_front(depth, "the guess", np.flatnonzero(mask))
+    if compiled:
+        return _compiled_solve(camera, compiled, p, I, W, mask, huber_px, pixel_sigma, max_iterations, tol,
+                               (r, depth, cost, chi2, H, g))
     lam, converged, message, it, polish_steps = 0.0, False, "iteration cap reached", 0, 0
     while it < max_iterations:
         it += 1
@@ -394,6 +416,32 @@ def _solve(camera, p, Ipts, Wpts, mask, huber_px, pixel_sigma, max_iterations, t
             if lam > _LAMBDA_MAX:
                 message = "damped steps cannot lower the cost"
                 break
+    return _result(camera, p, I, W, mask, huber_px, pixel_sigma, H, r, chi2, converged, it, message)
+
+
+#: What the compiled loop's status (:func:`graphpose.pose._gauss_newton.gauss_newton_loop`) means:
+#: (converged, message).
+_STATUS = {0: (False, "iteration cap reached"), 1: (True, "converged"),
+           2: (True, "converged (step at the rounding limit)"),
+           3: (False, "normal equations singular (gimbal lock or degenerate points)"),
+           4: (False, "damped steps cannot lower the cost")}
+
+
+def _compiled_solve(camera, compiled, p, I, W, mask, huber_px, pixel_sigma, max_iterations, tol, start) -> GNResult:
+    """:func:`_solve`'s loop for a camera the compiled kernels project (``compiled``,
+    :func:`_compiled_model`), in one compiled call with the same rules
+    (:func:`graphpose.pose._gauss_newton.gauss_newton_loop`): ``start`` is the normal
+    equations at ``p``."""
+    r, z, cost, chi2, H, g = start
+    n = W.shape[1]
+    p = np.array(p, dtype=float)
+    status, it, cost, chi2 = gauss_newton_loop(
+        compiled[0], compiled[1], camera.K, p, I, W, 0.0 if huber_px is None else float(huber_px), cost, chi2, np.empty((4, 3, 3)),
+        np.empty((12, n)), r, z, H, g, np.empty(2 * n), np.empty(n), np.empty((6, 6)), np.empty(6), float(tol),
+        int(max_iterations), MIN_DEPTH, _COST_RTOL, _MAX_POLISH_STEPS, _LAMBDA_MAX)
+    if status == 5:
+        raise np.linalg.LinAlgError("Singular matrix")  # as numpy.linalg.solve on the damped system
+    converged, message = _STATUS[status]
     return _result(camera, p, I, W, mask, huber_px, pixel_sigma, H, r, chi2, converged, it, message)
 
 

@@ -2,18 +2,21 @@
 
 The graph has one ``Pose3`` variable ``X(0)`` (the camera pose T_WC, GTSAM's own convention:
 the camera looks along its +z with x right and y down, as in :mod:`graphpose.geometry`), one
-``Point3`` variable per trusted junction (key ``j``, the junction's index), one projection
-factor per trusted junction (:func:`projection_factor`) and one very tight
-``PriorFactorPoint3`` per landmark that pins it to its target position. A tight prior rather
-than ``NonlinearEquality`` keeps the linearised system non-singular, so the marginals exist.
-Levenberg-Marquardt minimises the same reprojection cost as :mod:`graphpose.pose.gauss_newton`,
-then undamped Gauss-Newton steps polish its answer; the pipeline holds the two solvers against
-each other. Started at Gauss-Newton's converged answer (``from_minimum``, as the pipeline
-starts it), the undamped steps alone confirm that minimum, and Levenberg-Marquardt runs only
-where they do not. The graph is a star about the pose, eliminated in the ordering without
-fill-in (every landmark, then the pose); the marginal covariance comes from the elimination of
-the last polishing step (no second linearisation and elimination for ``gtsam.Marginals``),
-and only where it is reported.
+``Point3`` variable per trusted junction (key ``j``, the junction's index, valued at its exact
+target position) and one projection factor per trusted junction (:func:`projection_factor`).
+The target points are known, so the solve moves the pose alone: undamped Gauss-Newton steps,
+each GTSAM's linearisation of the factors and GTSAM's elimination of the pose's block of its
+Hessian (the points held exact), run until the pose step is below :data:`POLISH_STEP`; the pose's
+conditional, without parents, is its marginal, so the covariance comes from the last step (no
+second linearisation and elimination for ``gtsam.Marginals``), and only where it is reported.
+Started at Gauss-Newton's converged answer (``from_minimum``, as the pipeline starts it), these
+steps alone confirm that minimum. Where they do not, or without the flag, Levenberg-Marquardt
+first minimises the same reprojection cost as :mod:`graphpose.pose.gauss_newton` on the graph
+with one very tight ``PriorFactorPoint3`` per point that pins it to its target position (a tight
+prior rather than ``NonlinearEquality`` keeps the linearised system non-singular; the points held
+exact are its limit), eliminated in the star ordering without fill-in (every point, then the
+pose); the undamped steps polish its answer. The pipeline holds the two solvers against each
+other.
 
 The projection factor follows the camera (:mod:`graphpose.camera_models`): GTSAM's own
 ``GenericProjectionFactorCal3_S2``, ``...Cal3DS2`` or ``...Cal3Fisheye`` with the
@@ -62,14 +65,16 @@ _RELATIVE_TOL = 1e-6
 _ABSOLUTE_TOL = 1e-12
 _MAX_ITERATIONS = 100
 #: Undamped Gauss-Newton steps after Levenberg-Marquardt (see step 6 of the graph's solve):
-#: at most this many, until the pose step (rad, m) is below _POLISH_STEP. The steps converge
+#: at most this many, until the pose step (rad, m) is below POLISH_STEP (public: the
+#: pipeline's Gauss-Newton stops at the same step, so that one step of GTSAM's confirms its
+#: answer). The steps converge
 #: linearly: at a rate of 0.01-0.2 on plain least squares, but 0.35-0.6 with the Huber
 #: kernel, whose steps GTSAM computes by iterative reweighting (the weights are frozen in
 #: each linearisation, so the step overshoots along the down-weighted residuals). From where
 #: Levenberg-Marquardt stops (~1e-6) the six real images need 9-18 robust steps; 50 allows a
 #: rate up to about 0.75.
 _POLISH_ITERATIONS = 50
-_POLISH_STEP = 1e-10
+POLISH_STEP = 1e-10
 
 
 @dataclass(frozen=True)
@@ -248,7 +253,7 @@ def _solve(camera, T_WC_guess, I, W, keys, sigma, huber_k, marginals=True, from_
     Returns (T_WC, tangent covariance (NaN unless ``marginals``), converged, iterations,
     failure message or "").
     """
-    graph, initial, ordering = _build(camera, T_WC_guess, I, W, keys, sigma, huber_k)
+    factors, initial, ordering = _build(camera, T_WC_guess, I, W, keys, sigma, huber_k)
     if from_minimum:
         # 5a. The guess is a converged minimum of the same cost (Gauss-Newton's answer): the
         #     undamped steps of step 6 alone confirm it, without Levenberg-Marquardt's own
@@ -256,20 +261,22 @@ def _solve(camera, T_WC_guess, I, W, keys, sigma, huber_k, marginals=True, from_
         #     again). Where they do not converge from it (or the system is indeterminate), the
         #     solve below runs from the same guess, as if the guess had not been taken as one.
         try:
-            solved = _polish(graph, initial, ordering)
+            solved = _polish(factors, initial, ordering)
         except RuntimeError:
             solved = None
         if solved is not None and solved[2]:
-            return _answer(solved, W, marginals, 0, np.isfinite(graph.error(solved[0])))
-    # 5. Optimise with Levenberg-Marquardt from the guess.
+            return _answer(solved, W, marginals, 0, np.isfinite(factors.error(solved[0])))
+    # 5. Optimise with Levenberg-Marquardt from the guess, on the whole graph: the projection
+    #    factors and a tight prior pinning each target point (step 4b).
+    graph = _pinned(factors, keys, W)
     params = gtsam.LevenbergMarquardtParams()
     params.setRelativeErrorTol(_RELATIVE_TOL)
     params.setAbsoluteErrorTol(_ABSOLUTE_TOL)
     params.setMaxIterations(_MAX_ITERATIONS)
-    params.setOrdering(ordering)
+    params.setOrdering(gtsam.Ordering([*keys.tolist(), POSE_KEY]))
     optimizer = gtsam.LevenbergMarquardtOptimizer(graph, initial, params)
     try:
-        return _optimise(graph, optimizer, ordering, W, marginals)
+        return _optimise(factors, optimizer, ordering, W, marginals)
     except RuntimeError as exc:
         # From a far-off guess the linearised system can become indeterminate (GTSAM's
         # IndeterminateSystemException): that is a failed solve, reported, not a crash.
@@ -283,10 +290,13 @@ def _solve(camera, T_WC_guess, I, W, keys, sigma, huber_k, marginals=True, from_
 #: GTSAM's vectorised ``utilities.insertProjectionFactors`` takes them as floats, exact below
 #: 2^53, which a ``Symbol`` such as ``L(j)`` is not).
 POSE_KEY = X(0)
+#: The ordering of the pose alone, for the elimination of its block (step 6).
+_POSE_ORDERING = gtsam.Ordering([POSE_KEY])
 
 
 def _build(camera, T_WC_guess, I, W, keys, sigma, huber_k):
-    """Steps 1-4 of the solve: the graph, its initial values and its elimination ordering."""
+    """Steps 1-4 of the solve: the projection factors, the initial values and the ordering of
+    their linearisation's Hessian (the pose, then every target point)."""
     # 1. Create the factor graph and the camera calibration (pixels; None where GTSAM has
     #    no calibration for the model: then a custom factor on graphpose's projection).
     graph = gtsam.NonlinearFactorGraph()
@@ -297,30 +307,50 @@ def _build(camera, T_WC_guess, I, W, keys, sigma, huber_k):
     if huber_k is not None:
         pixel_noise = gtsam.noiseModel.Robust.Create(
             gtsam.noiseModel.mEstimator.Huber.Create(huber_k), pixel_noise)
-    #    Landmark pin: isotropic over the target point's (x, y, z), metres.
-    landmark_noise = gtsam.noiseModel.Isotropic.Sigma(3, LANDMARK_SIGMA_M)
-    # 3. One projection factor per trusted junction, one tight prior per target point. A
-    #    pinhole's factors are GTSAM's GenericProjectionFactorCal3_S2, added in one call
-    #    (utilities.insertProjectionFactors); the other models' one at a time.
+    # 3. One projection factor per trusted junction. A pinhole's factors are GTSAM's
+    #    GenericProjectionFactorCal3_S2, added in one call (utilities.insertProjectionFactors);
+    #    the other models' one at a time.
     initial = gtsam.Values()
     initial.insert(POSE_KEY, gtsam.Pose3(T_WC_guess))
+    key_list = keys.tolist()
     if type(calibration).__name__ == "Cal3_S2":
         gtsam.utilities.insertProjectionFactors(graph, POSE_KEY, keys.astype(float), I, pixel_noise, calibration)
-        keys = keys.tolist()
     else:
-        keys = keys.tolist()
         add = graph.add
-        for key, uv in zip(keys, I.T.copy()):
+        for key, uv in zip(key_list, I.T.copy()):
             add(projection_factor(camera, uv, pixel_noise, POSE_KEY, key, calibration))
-    # 4. The priors and the initial values: the guessed pose and the exact target points.
-    add_prior, insert = graph.addPriorPoint3, initial.insertPoint3
-    for key, point in zip(keys, W.T.copy()):
+    # 4. The initial values: the guessed pose and the exact target points (held there: see
+    #    step 6; Levenberg-Marquardt's graph pins them with priors, step 4b).
+    if not np.any(W[2]):
+        # A target on the plane z = 0 (every board): all its points in one call, each
+        # (x, y) backprojected at depth 1 by _PLANE_CAMERA, which gives (x, y, 0) exactly.
+        gtsam.utilities.insertBackprojections(initial, _PLANE_CAMERA, keys.astype(float), np.ascontiguousarray(W[:2]),
+                                              1.0)
+    else:
+        insert = initial.insertPoint3
+        for key, point in zip(key_list, W.T.copy()):
+            insert(key, point)
+    return graph, initial, gtsam.Ordering([POSE_KEY, *key_list])
+
+
+#: A camera 1 m behind the plane z = 0 looking along +z, with fx = fy = 1 and no offset or skew:
+#: GTSAM's backprojection of the pixel (x, y) at depth 1 is (1 x + 0, 1 y + 0, 1 - 1) = (x, y, 0),
+#: exact in floating point (no rounding in a product by 1 or a sum with 0).
+_PLANE_CAMERA = gtsam.PinholeCameraCal3_S2(gtsam.Pose3(gtsam.Rot3(), np.array([0.0, 0.0, -1.0])),
+                                           gtsam.Cal3_S2(1.0, 1.0, 0.0, 0.0, 0.0))
+
+
+def _pinned(factors, keys, W):
+    """Step 4b: the projection ``factors`` and one tight ``PriorFactorPoint3`` per target point
+    (isotropic over its x, y, z, metres: :data:`LANDMARK_SIGMA_M`), the graph
+    Levenberg-Marquardt descends on. A tight prior rather than ``NonlinearEquality`` keeps the
+    linearised system non-singular."""
+    graph = gtsam.NonlinearFactorGraph(factors)
+    landmark_noise = gtsam.noiseModel.Isotropic.Sigma(3, LANDMARK_SIGMA_M)
+    add_prior = graph.addPriorPoint3
+    for key, point in zip(keys.tolist(), W.T.copy()):
         add_prior(key, point, landmark_noise)
-        insert(key, point)
-    # The elimination ordering: every target point, then the pose. The graph is a star about
-    # the pose, so this is the ordering without fill-in (COLAMD's own finds it too, at a
-    # cost in every elimination), and the pose's marginal is the root clique's.
-    return graph, initial, gtsam.Ordering([*keys, POSE_KEY])
+    return graph
 
 
 #: GTSAM's projection factor for each calibration :meth:`graphpose.camera_models.Camera.gtsam_calibration` gives.
@@ -380,32 +410,41 @@ def projection_factor(camera, uv, noise, pose_key, point_key, calibration=None):
     return gtsam.CustomFactor(noise, [pose_key, point_key], error)
 
 
-def _optimise(graph, optimizer, ordering, W, marginals=True):
+def _optimise(factors, optimizer, ordering, W, marginals=True):
     """Steps 5-7 of :func:`_solve`; GTSAM may raise RuntimeError on an indeterminate system."""
     result = optimizer.optimize()
     converged = optimizer.iterations() < _MAX_ITERATIONS and np.isfinite(optimizer.error())
-    return _answer(_polish(graph, result, ordering), W, marginals, int(optimizer.iterations()),
+    return _answer(_polish(factors, result, ordering), W, marginals, int(optimizer.iterations()),
                    converged)
 
 
-def _polish(graph, values, ordering):
+def _polish(factors, values, ordering):
     """Step 6: undamped Gauss-Newton steps from ``values``; (values, last elimination, polished).
+
+    Each step is GTSAM's: the projection ``factors`` linearised at ``values``, their Hessian
+    (``GaussianFactorGraph.augmentedHessian``, in ``ordering``: the pose first) and the pose's block of
+    it, with the target points held at their exact positions (what the tight priors of
+    Levenberg-Marquardt's graph approximate to 1e-8 m), eliminated by GTSAM as a
+    ``HessianFactor`` on the pose alone; its conditional, without parents, is the pose's
+    marginal (step 7). The step retracts the pose; the points stay put.
 
     Levenberg-Marquardt stops when the cost stops falling visibly, which along weakly
     observed directions (tilt against sideways translation) can leave 1e-7 m; the steps,
     computed from the gradient, stay accurate below the cost's rounding noise. They converge
     linearly (rate 0.01-0.2 with 1 px noise on plain least squares, 0.35-0.6 with the Huber
-    kernel's reweighted steps), so they run until the pose step is below _POLISH_STEP; if
+    kernel's reweighted steps), so they run until the pose step is below POLISH_STEP; if
     they never get there within _POLISH_ITERATIONS, ``polished`` is False.
     """
+    values = gtsam.Values(values)
     for _ in range(_POLISH_ITERATIONS):
-        # Sequential elimination in the star ordering: the pose comes last, so its
-        # conditional has no parents and is its marginal (step 7); a Bayes tree would hold
-        # the same conditional in its root clique, at more cost.
-        bayes_net = graph.linearize(values).eliminateSequential(ordering)
-        delta = bayes_net.optimize()
-        values = values.retract(delta)
-        if np.abs(delta.at(POSE_KEY)).max() < _POLISH_STEP:
+        # [A b]^T [A b] of the whitened linearisation, the pose's six columns first
+        augmented = factors.linearize(values).augmentedHessian(ordering)
+        pose_block = gtsam.GaussianFactorGraph()
+        pose_block.add(gtsam.HessianFactor(POSE_KEY, augmented[:6, :6], augmented[:6, -1], augmented[-1, -1]))
+        bayes_net = pose_block.eliminateSequential(_POSE_ORDERING)
+        delta = bayes_net.optimize().at(POSE_KEY)
+        values.update(POSE_KEY, values.atPose3(POSE_KEY).retract(delta))
+        if np.abs(delta).max() < POLISH_STEP:
             return values, bayes_net, True
     return values, bayes_net, False
 
@@ -416,8 +455,8 @@ def _answer(polished, W, marginals, iterations, converged):
     result, bayes_net, done = polished
     # 7. Marginal covariance of the pose: tangent order (rotation rad, translation m), body
     #    frame. It is the last step's elimination's (what gtsam.Marginals would eliminate
-    #    again), linearised less than _POLISH_STEP from the result: the same to rounding. The
-    #    pose's conditional, eliminated last, is its marginal: the inverse of its information
+    #    again), linearised less than POLISH_STEP from the result: the same to rounding. The
+    #    pose's conditional, the only one, is its marginal: the inverse of its information
     #    (as GaussianBayesTree.marginalCovariance inverts its root clique's).
     cov = np.linalg.inv(bayes_net.back().information()) if marginals else np.full((6, 6), np.nan)
     T = result.atPose3(POSE_KEY).matrix()

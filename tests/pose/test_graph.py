@@ -320,3 +320,57 @@ def test_an_indeterminate_system_from_a_flagged_start_is_reported_as_without_the
     flagged, plain = graph_pose(*args, guess=guess, from_minimum=True), graph_pose(*args, guess=guess)
     assert not flagged.converged and "Indeterminate" in flagged.message
     assert flagged.message == plain.message and flagged.iterations == plain.iterations
+
+
+# ------------------------------------------------------------------ the graph's construction
+
+
+@pytest.mark.parametrize("planar", [True, False], ids=["board", "off the plane"])
+def test_the_values_hold_the_target_points_exactly(planar):
+    # A board's points go in through one backprojection call, the others one at a time:
+    # either way the values are the target points bit for bit.
+    from graphpose.pose.graph import POSE_KEY, _build
+
+    rng = np.random.default_rng(5)
+    W = WPTS * rng.choice([1e-3, 1.0, 7.3, 1e3], WPTS.shape)
+    if planar:
+        W[2] = 0.0
+    else:
+        W[2] = rng.uniform(-0.2, 0.2, 48)
+    keys = np.arange(3, 51)
+    T = T_from_params([0.2, 0.15, -1.0, 0.1, -0.2, 0.3])
+    _, values, _ = _build(as_camera(K), T, np.zeros((2, 48)), W, keys, 1.0, None)
+    points = np.array([values.atPoint3(int(k)) for k in keys]).T
+    np.testing.assert_array_equal(points, W)
+    np.testing.assert_allclose(values.atPose3(POSE_KEY).matrix(), T, atol=1e-15)
+
+
+@pytest.mark.parametrize("robust", [False, True], ids=["plain", "robust"])
+def test_the_covariance_is_gtsams_marginal_of_the_pinned_graph(robust):
+    # The polish eliminates the pose's block with the target points held exact; gtsam.Marginals
+    # on the graph with the points pinned by their 1e-8 m priors gives the same covariance.
+    from graphpose.pose.graph import POSE_KEY, _build, _pinned
+
+    rng = np.random.default_rng(6)
+    T = random_pose(rng=rng)
+    I = project(K, T, WPTS) + rng.normal(0, 0.3, (2, 48))
+    I[:, 7] += 3.0
+    res = graph_pose(I, WPTS, K, guess=guess_near(T, rng), pixel_sigma=0.3, robust=robust)
+    assert res.converged
+    keys = np.arange(48)
+    factors, values, _ = _build(as_camera(K), res.T_WC, I, WPTS, keys, 0.3, 1.345 if robust else None)
+    marginal = gtsam.Marginals(_pinned(factors, keys, WPTS), values).marginalCovariance(POSE_KEY)
+    np.testing.assert_allclose(res.cov_tangent, marginal, rtol=1e-6)
+
+
+def test_points_off_the_plane_agree_with_gauss_newton():
+    rng = np.random.default_rng(7)
+    W = WPTS.copy()
+    W[2] = rng.uniform(-0.1, 0.1, 48)
+    T = random_pose(rng=rng)
+    I = project(K, T, W) + rng.normal(0, 0.3, (2, 48))
+    g = gauss_newton(I, W, K, guess=guess_near(T, rng))
+    res = graph_pose(I, W, K, guess=g.T_WC, from_minimum=True)
+    assert res.converged and res.iterations == 0
+    assert max(pose_difference(res.T_WC, g.T_WC)) < 1e-8
+    np.testing.assert_allclose(res.cov, g.cov, rtol=1e-4)
