@@ -366,7 +366,7 @@ def calibrate_rig(sources=None, model="radtan", *, board: Board = Board(), frame
         for _ in range(2):
             huber_px = huber_k * mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
             fit = solve_rig_lm(fit.cameras, fit.T_C0_C, fit.poses, packed, huber_px,
-                               max_iterations=SCREENING_ITERATIONS)
+                               max_iterations=SCREENING_ITERATIONS, exact_curvature=False)
         rms = np.array([_rms(r) for r in fit.residuals])
         limit = max(REJECT_RATIO * float(np.median(rms)), REJECT_FLOOR_PX)
         order = np.argsort(-rms)

@@ -89,44 +89,53 @@ def _factor(template, views, c, sigma, huber_k):
     def error(factor, values, jacobians):
         ks = factor.keys()
         camera = template.with_parameters(values.atVector(ks[0]))
-        p0, dX = [], []
+        p0 = []
         for k, (_, _, W) in enumerate(views):
             T = values.atPose3(ks[first + k])
             R, t = T.rotation().matrix(), T.translation()
-            q = R.T @ (W - t[:, None])
-            p0.append(q)
-            dX.append(np.concatenate([hats(q), np.broadcast_to(-np.eye(3), (q.shape[1], 3, 3))], axis=2))
-        p0, dX = np.hstack(p0), np.concatenate(dX)
-        p, dE = p0, None
+            p0.append(R.T @ (W - t[:, None]))
+        p = p0 = np.hstack(p0)
         if c > 0:
             Te = values.atPose3(ks[1])
             Re, te = Te.rotation().matrix(), Te.translation()
             p = Re.T @ (p0 - te[:, None])
-            dX = Re.T @ dX
-            dE = np.concatenate([hats(p), np.broadcast_to(-np.eye(3), (m, 3, 3))], axis=2)
+        if jacobians is None:
+            # The cost alone (GTSAM's trial steps): no derivatives.
+            with np.errstate(divide="ignore", invalid="ignore"):
+                pred = camera.project(p)
+            if not np.all(np.isfinite(pred)):
+                return np.full(2 * m, 2.0 * camera.fx / sigma)
+            r = (pred - uv_all) / sigma
+            if huber_k is not None:
+                r, _ = huber(r, [], huber_k)
+            return r.T.ravel()
         with np.errstate(divide="ignore", invalid="ignore"):
             pred, G = camera.project_jacobian(p)
         if not np.all(np.isfinite(pred)):
-            if jacobians is not None:
-                jacobians[0] = np.zeros((2 * m, len(camera.parameter_names)))
-                for i in range(1, len(ks)):
-                    jacobians[i] = np.zeros((2 * m, 6))
+            jacobians[0] = np.zeros((2 * m, len(camera.parameter_names)))
+            for i in range(1, len(ks)):
+                jacobians[i] = np.zeros((2 * m, 6))
             return np.full(2 * m, 2.0 * camera.fx / sigma)
+        # GTSAM's right perturbations T Exp(omega, v): dP = P x omega - v, for every pose.
+        dX = np.concatenate([hats(p0), np.broadcast_to(-np.eye(3), (m, 3, 3))], axis=2)
+        dE = None
+        if c > 0:
+            dX = Re.T @ dX
+            dE = np.concatenate([hats(p), np.broadcast_to(-np.eye(3), (m, 3, 3))], axis=2)
         r = (pred - uv_all) / sigma
         Js = [camera.parameter_jacobian(p) / sigma, G @ dX / sigma]
         if dE is not None:
             Js.append(G @ dE / sigma)
         if huber_k is not None:
             r, Js = huber(r, Js, huber_k)
-        if jacobians is not None:
-            jacobians[0] = np.ascontiguousarray(Js[0].reshape(2 * m, -1))
-            if dE is not None:
-                jacobians[1] = np.ascontiguousarray(Js[2].reshape(2 * m, 6))
-            JX = Js[1]
-            for k in range(len(views)):
-                block = np.zeros((m, 2, 6))
-                block[at[k]: at[k + 1]] = JX[at[k]: at[k + 1]]
-                jacobians[first + k] = block.reshape(2 * m, 6)
+        jacobians[0] = np.ascontiguousarray(Js[0].reshape(2 * m, -1))
+        if dE is not None:
+            jacobians[1] = np.ascontiguousarray(Js[2].reshape(2 * m, 6))
+        JX = Js[1]
+        for k in range(len(views)):
+            block = np.zeros((m, 2, 6))
+            block[at[k]: at[k + 1]] = JX[at[k]: at[k + 1]]
+            jacobians[first + k] = block.reshape(2 * m, 6)
         return r.T.ravel()
 
     return gtsam.CustomFactor(gtsam.noiseModel.Unit.Create(2 * m), keys, error)

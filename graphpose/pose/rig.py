@@ -13,10 +13,18 @@ Levenberg-Marquardt over one ``Pose3`` with one custom factor per camera, starte
 Gauss-Newton's answer; they must agree to
 :data:`~graphpose.pose.cross_check.AGREE_TRANSLATION_M` and
 :data:`~graphpose.pose.cross_check.AGREE_ROTATION_DEG`. The start is the homography pose of the
-camera that sees most junctions, carried to camera 0. The covariance is ``sigma^2 (J^T W
-J)^-1`` with the pixel noise ``sigma`` from the residuals, ``sqrt(sum w r^2 / (2M - 6))``
-(GTSAM's marginal at that sigma is the same to the cross-check's precision); the rig's own
-calibration is taken as exact.
+camera that sees most junctions, carried to camera 0.
+
+Each camera is weighed by its own pixel noise (:func:`camera_noise`, from its residuals):
+Gauss-Newton with every camera alike first, then twice with each camera's rows divided by its
+noise (relative to the pooled noise, so that the residuals stay in pixels); the cameras of a
+rig need not see the board equally sharply (a fisheye's junctions, on smaller squares, are
+noisier than a radtan camera's beside it), and the maximum-likelihood pose weighs each by
+its own noise. The covariance is ``(J^T W J)^-1`` with ``W`` each junction's ``w /
+sigma_c^2`` (Huber weight, its camera's noise), the noises scaled together so that the
+weighted residuals' ``sum / (2M - 6)`` is one (GTSAM's marginal with those sigmas is the same
+to the cross-check's precision); with one camera it is ``sigma^2 (J^T W J)^-1``, ``sigma``
+from the residuals. The rig's own calibration is taken as exact.
 
 A board whose pattern is unchanged by a half turn may be labelled from opposite corners in
 two cameras (each camera names junction 0 by the image's upper left): a camera whose pose
@@ -60,7 +68,10 @@ class RigPoseEstimate:
     sigma_xyz_m, sigma_rpy_rad : (3,) ndarray
         1-sigmas from ``cov``.
     sigma_px : float
-        The pixel noise behind ``cov``, from the residuals.
+        The pixel noise of every junction used, pooled: ``sqrt(sum w r^2 / (2M - 6))``.
+    camera_sigma_px : tuple of float
+        Per camera the pixel noise its junctions were weighed by in the pose and ``cov``
+        (from its own residuals), NaN where it saw no board.
     converged : bool
     iterations : int
     rms_px : float
@@ -86,6 +97,7 @@ class RigPoseEstimate:
     sigma_xyz_m: np.ndarray
     sigma_rpy_rad: np.ndarray
     sigma_px: float
+    camera_sigma_px: tuple
     converged: bool
     iterations: int
     rms_px: float
@@ -211,14 +223,15 @@ def _half_turn(board):
     return board.world_points()[:, ::-1]
 
 
-def _gauss_newton(rig, q, obs, huber_px):
-    """Gauss-Newton on q = T_WC0's parameters; returns q, residuals per camera, weights, H,
-    converged, iterations."""
+def _gauss_newton(rig, q, obs, huber_px, scale=None):
+    """Gauss-Newton on q = T_WC0's parameters; returns q, residuals, weights, H, converged,
+    iterations. ``scale``: per stacked residual, 1 / its camera's pixel noise (the residuals,
+    the Jacobian and ``huber_px`` are then in sigmas); None: pixels, every camera alike."""
     it, converged = 0, False
     H = np.full((6, 6), np.nan)
     while it < MAX_ITERATIONS:
         it += 1
-        r, J = _linearise(rig, q, obs)
+        r, J = _linearise(rig, q, obs, scale)
         w = stacked_huber_weights(r, huber_px)
         Jw = J if w is None else J * w[:, None]
         H = Jw.T @ J
@@ -232,13 +245,13 @@ def _gauss_newton(rig, q, obs, huber_px):
         if np.all(np.abs(delta) <= STEP_SIGMAS * np.sqrt(np.abs(np.diag(Hi)))) or np.max(np.abs(delta)) < 1e-15:
             converged = True
             break
-    r, J = _linearise(rig, q, obs)
+    r, J = _linearise(rig, q, obs, scale)
     w = stacked_huber_weights(r, huber_px)
     Jw = J if w is None else J * w[:, None]
     return q, r, w, Jw.T @ J, converged, it
 
 
-def _linearise(rig, q, obs):
+def _linearise(rig, q, obs, scale=None):
     rs, Js = [], []
     for c, uv, W in obs:
         p, Jq, _ = rig_points(q, W, rig.T_C0_C[c])
@@ -246,18 +259,67 @@ def _linearise(rig, q, obs):
             pred, G = rig.cameras[c].project_jacobian(p)
         rs.append((uv - pred).T.ravel())
         Js.append((G @ Jq).reshape(-1, 6))
-    return np.concatenate(rs), np.vstack(Js)
+    r, J = np.concatenate(rs), np.vstack(Js)
+    return (r, J) if scale is None else (r * scale, J * scale[:, None])
+
+
+def _positions(obs):
+    """Per camera its place among the cameras that saw the board, None where it saw none."""
+    out, k = [], 0
+    for o in obs:
+        out.append(None if o is None else k)
+        k += o is not None
+    return out
+
+
+def camera_noise(r, w, counts, robust, floor=1e-12):
+    """Each camera's pixel noise from its residuals of a joint fit.
+
+    Parameters
+    ----------
+    r : (2M,) ndarray
+        The stacked residuals, camera after camera, pixels.
+    w : (2M,) ndarray or None
+        Their Huber weights (None: all one).
+    counts : sequence of int
+        Each camera's junctions, in order (summing to M).
+    robust : bool
+        1.4826 x the median absolute residual (outliers do not inflate it), else
+        ``sqrt(sum w r^2 / d_c)``: ``d_c = 2 m_c (1 - 6 / 2M)``, the camera's share of the
+        ``2M - 6`` degrees of freedom, so that the whitened residuals sum to ``2M - 6``.
+
+    floor : float
+        The smallest noise returned, pixels (rendered points fit to almost nothing).
+
+    Returns
+    -------
+    (n,) ndarray
+        Pixels.
+    """
+    M = sum(counts)
+    out, at = [], 0
+    for m in counts:
+        rc = r[at: at + 2 * m]
+        if robust:
+            out.append(mad_sigma(rc.reshape(m, 2).T, floor=floor))
+        else:
+            wc = 1.0 if w is None else w[at: at + 2 * m]
+            dof = 2 * m * (1.0 - 6.0 / (2 * M)) if M > 3 else 1.0
+            out.append(max(float(np.sqrt(np.sum(wc * rc * rc) / dof)), floor))
+        at += 2 * m
+    return np.array(out)
 
 
 def _graph(rig, T_WC0, obs, sigma, huber_k):
-    """GTSAM's Levenberg-Marquardt over one Pose3 (``T_WC0``), one custom factor per camera;
-    returns (T, cov in params, converged)."""
+    """GTSAM's Levenberg-Marquardt over one Pose3 (``T_WC0``), one custom factor per camera
+    (``sigma``: one pixel noise, or one per camera of ``obs``); returns (T, cov in params,
+    converged)."""
     import gtsam
     from gtsam.symbol_shorthand import X
 
     graph = gtsam.NonlinearFactorGraph()
-    for c, uv, W in obs:
-        graph.add(_camera_factor(rig.cameras[c], rig.T_C0_C[c], uv, W, X(0), sigma, huber_k))
+    for (c, uv, W), s in zip(obs, np.broadcast_to(sigma, (len(obs),))):
+        graph.add(_camera_factor(rig.cameras[c], rig.T_C0_C[c], uv, W, X(0), float(s), huber_k))
     initial = gtsam.Values()
     initial.insert(X(0), gtsam.Pose3(T_WC0))
     params = gtsam.LevenbergMarquardtParams()
@@ -336,23 +398,40 @@ def estimate_rig_pose_from_points(rig, observations, board, *, robust: bool = Fa
 def _solve(rig, obs, found, status, messages, robust, board):
     T0, obs_all, notes = _start(rig, obs, board)
     used = [o for o in obs_all if o is not None]
+    counts = [o[1].shape[1] for o in used]
     q0 = params_from_T(T0)
+    # 1. Every camera alike (pixels), from the homography start.
     q, r, w, H, converged, it = _gauss_newton(rig, q0, used, None)
-    huber_px = None
-    if robust:
-        sigma_r = mad_sigma(r, floor=1e-6)
-        huber_px = HUBER_K * sigma_r
-        q, r, w, H, converged, it2 = _gauss_newton(rig, q, used, huber_px)
-        it += it2
+    # 2. Each camera weighed by its own pixel noise (from its residuals of step 1), twice
+    # (step 1 spreads a noisier camera's misfit over every camera): a camera whose junctions
+    # are noisier (a fisheye's, a blurred image's) counts for less, as the maximum-likelihood
+    # pose has it. The weights are relative (1 for a camera as noisy as the junctions pooled),
+    # so that the residuals stay in pixels of that pooled noise; the Huber kernel, if any, at
+    # HUBER_K of it (in each camera's own sigmas).
+    huber_px, scale = None, np.ones(r.size)
+    for _ in range(2):
+        noise = camera_noise(r / scale, w, counts, robust, floor=1e-6 if robust else 1e-12)
+        pooled = float(np.sqrt(np.sum(np.array(counts) * noise ** 2) / sum(counts)))
+        relative = pooled / noise  # each camera's weight's square root
+        scale = np.repeat(relative, [2 * m for m in counts])
+        if robust:
+            huber_px = HUBER_K * pooled
+        q, r, w, H, converged_w, it_w = _gauss_newton(rig, q, used, huber_px, scale)
+        converged, it = converged and converged_w, it + it_w
     M = r.size // 2
     wr2 = r * r if w is None else w * r * r
-    sigma = float(np.sqrt(np.sum(wr2) / max(2 * M - 6, 1)))
+    sigma_w = float(np.sqrt(np.sum(wr2) / max(2 * M - 6, 1)))  # the pooled noise the weighted fit leaves
     try:
-        cov = np.linalg.inv(H) * sigma ** 2
+        cov = np.linalg.inv(H) * sigma_w ** 2
     except np.linalg.LinAlgError:
         cov = np.full((6, 6), np.nan)
+    noise = sigma_w / relative  # each camera's noise behind cov, pixels
+    r = r / scale  # pixels of each camera again
+    wr2 = r * r if w is None else w * r * r
+    sigma = float(np.sqrt(np.sum(wr2) / max(2 * M - 6, 1)))
     T = T_from_params(q)
-    T_g, _, g_converged = _graph(rig, T, used, max(sigma, 1e-9), None if huber_px is None else huber_px / max(sigma, 1e-9))
+    s_w = max(sigma_w, 1e-9)
+    T_g, _, g_converged = _graph(rig, T, used, s_w / relative, None if huber_px is None else huber_px / s_w)
     dt, dr = pose_difference(T, T_g)
     agree = bool(converged and g_converged and dt <= AGREE_TRANSLATION_M and dr <= AGREE_ROTATION_DEG)
     residuals, at = [], 0
@@ -372,6 +451,7 @@ def _solve(rig, obs, found, status, messages, robust, board):
     sd = np.sqrt(np.abs(np.diag(cov)))
     return RigPoseEstimate(
         T_WC=T, params=q, cov=cov, sigma_xyz_m=sd[:3], sigma_rpy_rad=sd[3:], sigma_px=sigma,
+        camera_sigma_px=tuple(float(noise[k]) if k is not None else float("nan") for k in _positions(obs_all)),
         converged=bool(converged), iterations=it, rms_px=rms, junctions=tuple(found),
         residuals=tuple(residuals), status=tuple(status), messages=tuple(messages),
         cross_check=CrossCheck(translation_m=float(dt), rotation_deg=float(dr), agree=agree), message=message)
