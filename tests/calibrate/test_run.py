@@ -274,3 +274,15 @@ def test_auto_keeps_the_warp_only_where_the_views_constrain_it():
     strong = SimpleNamespace(information=np.diag([1.0] * 4 + [0.0] + [1.0] * 4 + [1e8, 1e8]))
     assert not calibrate_run._warp_constrained(weak, 0.1, board)  # sag sigma 1.4 mm
     assert calibrate_run._warp_constrained(strong, 0.1, board)  # 0.014 mm
+
+
+@pytest.mark.slow  # two calibrations from junctions: 2 s or so under load
+def test_auto_takes_the_board_as_flat_where_the_warp_is_not_constrained(monkeypatch):
+    camera, board, corners = _bent_corners((0.0, 0.0), n=6, seed=12)
+    flat = calibrate_run.calibrate_corners(corners, "radtan", board=board, size=camera.size, warp=False)
+    monkeypatch.setattr(calibrate_run, "WARP_MAX_SIGMA", 0.0)  # no sag's sigma is small enough
+    auto = calibrate_run.calibrate_corners(corners, "radtan", board=board, size=camera.size)
+    assert auto.ok and auto.warp_m is None and "sags" not in auto.summary
+    sd = flat.sigmas
+    # The same flat solve, but for its Huber threshold (from a median reached by another path).
+    np.testing.assert_array_less(np.abs(auto.parameters - flat.parameters), 1e-2 * sd)
