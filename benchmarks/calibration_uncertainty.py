@@ -128,6 +128,10 @@ def samples_uncertainty(files, board):
     plain = worst_direction_sigma(J @ cal.cov @ J.transpose(0, 2, 1))
     cv = cross_validate(cal, board=board)
     rational = graphpose.calibrate(files, "rational", board=board)
+    # The flat board beside it (warp=False): the RMS and the cross-validation without the warp.
+    flat = graphpose.calibrate(files, "radtan", board=board, warp=False)
+    rational_flat = graphpose.calibrate(files, "rational", board=board, warp=False)
+    cv_flat = cross_validate(flat, board=board, warp=False)
     d = cv.halves[0].parameters - cv.halves[1].parameters
     C = cv.halves[0].cov + cv.halves[1].cov
     return {"halves_mahalanobis": float(d @ np.linalg.solve(C, d)), "halves_z": (d / np.sqrt(np.diag(C))).tolist(),"distance_m": cal.board_distance_m, "at_boards_px": at.tolist(), "at_infinity_px": far.tolist(),
@@ -135,7 +139,37 @@ def samples_uncertainty(files, board):
             "rational_rms_px": rational.rms_px if rational.ok else float("nan"), "rational_ok": rational.ok,
             "outliers": int(sum(o.size for o in cal.outliers)),
             "cross_validation_median_px": cv.median_px, "cross_validation_predicted_median_px": cv.predicted_median_px,
-            "halves_used": [h.status.count("used") for h in cv.halves]}
+            "halves_used": [h.status.count("used") for h in cv.halves],
+            "warp_used": cal.warp_m is not None, "sag_mm": cal.sag_mm, "sag_sigma_mm": cal.sag_sigma_mm,
+            "halves_sag_mm": [h.sag_mm for h in cv.halves],
+            "flat_rms_px": flat.rms_px, "rational_flat_rms_px": rational_flat.rms_px if rational_flat.ok else float("nan"),
+            "rational_warp_used": rational.warp_m is not None,
+            "cross_validation_flat_median_px": cv_flat.median_px,
+            "cross_validation_flat_predicted_median_px": cv_flat.predicted_median_px}
+
+
+def bent_board(quick, seed=70_000, sag_m=0.003):
+    """A rendered radtan set of a board bent by ``sag_m`` at its centre (mrcal's warp, half along
+    each axis) beside the same poses' flat set: the projection error over the image against the
+    true camera, the sag found and its sigma; and the bent set calibrated as flat."""
+    camera = radtan_camera()
+    n = 10 if quick else 20
+    warp = (0.5 * sag_m, 0.5 * sag_m)
+    flat_set = calibration_set(camera, n, rng=seed)
+    bent_set = calibration_set(camera, n, rng=seed, warp=warp)
+    flat = graphpose.calibrate(flat_set.images, "radtan")
+    bent = graphpose.calibrate(bent_set.images, "radtan", warp=True)
+    bent_flat = graphpose.calibrate(bent_set.images, "radtan", warp=False)
+    sag = bent.sag_mm
+    return {"views": n, "sag_true_mm": 1000 * sag_m, "sag_mm": sag, "sag_sigma_mm": bent.sag_sigma_mm,
+            "sag_z": (sag - 1000 * sag_m) / bent.sag_sigma_mm, "warp_m": np.asarray(bent.warp_m).tolist(),
+            "flat_set_sag_mm": flat.sag_mm, "flat_set_sag_sigma_mm": flat.sag_sigma_mm,
+            "flat_projection_px": _whole_image_error(flat.camera, camera),
+            "bent_projection_px": _whole_image_error(bent.camera, camera),
+            "bent_as_flat_projection_px": _whole_image_error(bent_flat.camera, camera),
+            "ratio": _whole_image_error(bent.camera, camera) / _whole_image_error(flat.camera, camera),
+            "bent_rms_px": bent.rms_px, "bent_as_flat_rms_px": bent_flat.rms_px, "flat_rms_px": flat.rms_px,
+            "ok": bool(flat.ok and bent.ok)}
 
 
 def _whole_image_error(camera, truth, step=8):

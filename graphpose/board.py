@@ -103,6 +103,56 @@ class Board:
         y0, y1 = -s - m, self.rows * s + m
         return np.array([[x0[0], x1[1], x1[2], x0[3]], [y0[0], y0[1], y1[2], y1[3]], np.zeros(4)])
 
+    def warp_basis(self, points) -> np.ndarray:
+        """The board warp's two shapes at target points: mrcal's parabolic board deflection.
+
+        A board bends out of its plane by ``z = w_x b_x + w_y b_y`` (metres, along the target
+        frame's z), with ``b_x = 1 - d_x^2`` and ``b_y = 1 - d_y^2``, where ``d_x, d_y`` run
+        from -1 at the first junction of a row (column) to +1 at the last: one parabola along
+        each axis, zero at the outer junctions' rows and columns' ends, 1 at the middle
+        (mrcal's ``calobject_warp``, whose ``4 x_r (1 - x_r)`` with ``x_r`` from 0 to 1 is
+        the same). At the board's centre the deflection is ``w_x + w_y`` from its corners:
+        the sag.
+
+        Parameters
+        ----------
+        points : (2, m) or (3, m) array_like
+            Target points, metres (x, y used); beyond the outer junctions the parabolas
+            go on (negative).
+
+        Returns
+        -------
+        basis : (2, m) ndarray
+            ``(b_x, b_y)`` per point, unitless.
+        """
+        P = np.asarray(points, dtype=float)
+        dx = 2.0 * P[0] / ((self.cols - 1) * self.square_m) - 1.0
+        dy = 2.0 * P[1] / ((self.rows - 1) * self.square_m) - 1.0
+        return np.stack([1.0 - dx * dx, 1.0 - dy * dy])
+
+    def warped(self, points, warp) -> np.ndarray:
+        """Target points (3, m) on the bent board: ``z += w . warp_basis`` (:meth:`warp_basis`).
+
+        Parameters
+        ----------
+        points : (3, m) array_like
+            Metres.
+        warp : (2,) array_like or None
+            ``(w_x, w_y)``, metres; None or zeros: the flat board.
+
+        Returns
+        -------
+        (3, m) ndarray
+        """
+        P = np.array(points, dtype=float)
+        if warp is None:
+            return P
+        w = as_float_array(warp, "warp")
+        if w.shape != (2,) or not np.all(np.isfinite(w)):
+            raise InputError(f"warp must be two finite numbers (w_x, w_y) in metres, got {warp!r}")
+        P[2] = P[2] + w @ self.warp_basis(P)
+        return P
+
     def grid_indices(self) -> np.ndarray:
         """Column and row index of every junction, shape (2, n) int, row-major."""
         r, c = np.divmod(np.arange(self.n), self.cols)

@@ -106,3 +106,23 @@ def test_allow_large_takes_a_wall_sized_board_and_is_not_part_of_its_identity():
     assert repr(big) == "Board(cols=9, rows=6, square_m=1.5)"
     with pytest.raises(InputError, match="board must look like COLSxROWSxSQUARE_M"):
         Board.parse("9x6x25inch")
+
+
+def test_warp_basis_is_mrcals_parabolas():
+    b = Board(9, 6, 0.025)
+    W = b.world_points()
+    basis = b.warp_basis(W)
+    assert basis.shape == (2, b.n)
+    c, r = b.grid_indices()
+    # mrcal's 4 x_r (1 - x_r), x_r from 0 at the first junction to 1 at the last.
+    xr, yr = c / (b.cols - 1), r / (b.rows - 1)
+    np.testing.assert_allclose(basis, np.stack([4 * xr * (1 - xr), 4 * yr * (1 - yr)]), atol=1e-12)
+    assert np.all(basis[:, [0, b.cols - 1, b.n - b.cols, b.n - 1]] == 0)  # the corners do not move
+    centre = 2 * b.cols + 4  # column 4 of 0..8, row 2 of 0..5: x at the middle
+    assert basis[0, centre] == pytest.approx(1.0)
+    bent = b.warped(W, (0.002, 0.001))
+    np.testing.assert_allclose(bent[:2], W[:2])
+    np.testing.assert_allclose(bent[2], 0.002 * basis[0] + 0.001 * basis[1])
+    np.testing.assert_array_equal(b.warped(W, None), W)
+    with pytest.raises(InputError, match="warp"):
+        b.warped(W, (0.001,))

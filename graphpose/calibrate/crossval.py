@@ -165,7 +165,7 @@ def predicted_diff(camera, cov, step: float = 16.0, focus_radius_px=None) -> np.
     return out
 
 
-def cross_validate(calibration, *, board, step: float = 16.0, progress=None) -> CrossValidation:
+def cross_validate(calibration, *, board, step: float = 16.0, progress=None, warp="auto") -> CrossValidation:
     """Calibrate the even and odd used views apart and difference the two (module docstring).
 
     Parameters
@@ -179,6 +179,8 @@ def cross_validate(calibration, *, board, step: float = 16.0, progress=None) -> 
         Grid spacing of the difference, pixels.
     progress : callable, optional
         Passed to each half's calibration.
+    warp : bool or "auto"
+        Each half's board warp (:func:`graphpose.calibrate.calibrate`'s ``warp``).
 
     Returns
     -------
@@ -200,7 +202,7 @@ def cross_validate(calibration, *, board, step: float = 16.0, progress=None) -> 
         c = calibrate_corners([calibration.detections[k] for k in half], calibration.camera.model, board=board,
                               size=calibration.camera.size,
                               names=[calibration.images[k] for k in half],
-                              progress=progress)
+                              progress=progress, warp=warp)
         if not c.ok:
             raise InputError(f"cross-validation: a half's calibration failed: {c.summary}")
         halves.append(c)

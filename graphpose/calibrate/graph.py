@@ -21,6 +21,12 @@ Variables: the calibration ``K(0)``; the camera pose ``X(i)`` (``T_WC``) of view
   per junction inside it, exactly (:func:`_radtan_factor`): the cost is the same as with
   one robust factor per junction.
 
+A bent board (``bases``, the board warp ``(w_x, w_y)`` of
+:meth:`graphpose.board.Board.warp_basis`): the warp is a 2-vector variable; the radial-tangential
+factors take it as a third key, and the pinhole and fisheye ones become one custom factor per
+view through GTSAM's own camera (:func:`_camera_factor`; the landmark variables tied to the
+warp by factors as tight as their priors made the elimination indeterminate).
+
 Each junction's noise is isotropic, ``sigma`` px, under a Huber kernel of ``huber_k`` sigmas
 (on the junction's 2-D error), when given. After Levenberg-Marquardt undamped Gauss-Newton
 steps polish the solution (as in :mod:`graphpose.pose.graph`: LM stops when the cost stops
@@ -37,6 +43,9 @@ import gtsam
 import numpy as np
 from gtsam.symbol_shorthand import K as KEY
 from gtsam.symbol_shorthand import L, X
+
+#: The board warp's variable (a 2-vector, metres).
+WARP = gtsam.symbol("w", 0)
 
 from ..camera_models import FisheyeCamera, PinholeCamera
 from ..errors import InputError
@@ -77,6 +86,10 @@ class GraphCalibration:
         Levenberg-Marquardt iterations.
     message : str
         Empty, or what GTSAM reported.
+    warp : (2,) ndarray or None
+        The board warp ``(w_x, w_y)``, metres, where it was estimated.
+    warp_cov : (2, 2) ndarray or None
+        Its marginal covariance at the factors' ``sigma``, metres squared.
     """
 
     camera: object
@@ -85,9 +98,11 @@ class GraphCalibration:
     converged: bool
     iterations: int
     message: str = ""
+    warp: np.ndarray | None = None
+    warp_cov: np.ndarray | None = None
 
 
-def _radtan_factor(uv, W, cal_key, pose_key, sigma, huber_k, held=None):
+def _radtan_factor(uv, W, cal_key, pose_key, sigma, huber_k, held=None, basis=None, warp_key=None):
     """One view's factor on the 9-vector calibration and the pose, vectorised over its m
     junctions; error (2m,) predicted - measured, whitened by ``sigma`` and, with ``huber_k``,
     scaled per junction so that half its squared norm is the Huber loss.
@@ -97,13 +112,21 @@ def _radtan_factor(uv, W, cal_key, pose_key, sigma, huber_k, held=None):
     = k a - k^2 / 2``: ``|e|^2 / 2 = rho(a)``, GTSAM's robust loss; the Jacobian is the exact
     derivative of ``e`` (``s`` is continuous with its derivative at ``k``), so the
     stationary point is the Huber cost's. ``held`` (a (9,) bool mask) zeroes the Jacobian's
-    columns of parameters held at their value (``radtan4``'s k3).
+    columns of parameters held at their value (``radtan4``'s k3). With ``basis`` (the board
+    warp's shapes (2, m) at the junctions, :meth:`graphpose.board.Board.warp_basis`) the
+    factor's third key ``warp_key`` is the board warp ``(w_x, w_y)``: each target point
+    moves by ``w . b`` along the target's z.
     """
     measured = np.array(uv, dtype=float)
-    W = np.array(W, dtype=float)
+    W0 = np.array(W, dtype=float)
     m = measured.shape[1]
+    keys = [cal_key, pose_key] + ([] if basis is None else [warp_key])
 
     def error(factor, values, jacobians):
+        W = W0
+        if basis is not None:
+            W = W0.copy()
+            W[2] += np.asarray(values.atVector(warp_key)) @ basis
         c = values.atVector(factor.keys()[0])
         rational = c.size == 12
         fx, fy, cx, cy, k1, k2, p1, p2, k3 = c[:9]
@@ -116,6 +139,8 @@ def _radtan_factor(uv, W, cal_key, pose_key, sigma, huber_k, held=None):
         if np.any(Z <= 0):
             if jacobians is not None:
                 jacobians[0], jacobians[1] = np.zeros((2 * m, n)), np.zeros((2 * m, 6))
+                if basis is not None:
+                    jacobians[2] = np.zeros((2 * m, 2))
             return np.full(2 * m, 2.0 * fx / sigma)
         x, y = P[0] / Z, P[1] / Z
         r2 = x * x + y * y
@@ -154,26 +179,86 @@ def _radtan_factor(uv, W, cal_key, pose_key, sigma, huber_k, held=None):
             # Right perturbation T Exp(omega, v): dP = P x omega - v, so a row g gives
             # (g x P) for omega and -g for v.
             Jp = np.concatenate([np.cross(G, P.T[:, None, :]), -G], axis=2) / sigma  # (m, 2, 6)
-        e = r
-        if huber_k is not None:
-            a = np.hypot(r[0], r[1])
-            far = a > huber_k
-            rho = huber_k * a - 0.5 * huber_k * huber_k
-            root = np.sqrt(np.where(far, 2.0 * rho, 1.0))
-            s = np.where(far, root / np.where(far, a, 1.0), 1.0)
-            e = r * s
-            if jacobians is not None:
-                # d e / d theta = s J + r (ds/da) (r^T J) / a, ds/da = (k^2 - k a) / (a^2 sqrt(2 rho)).
-                ds = np.where(far, (huber_k * huber_k - huber_k * a) / (np.where(far, a, 1.0) ** 3 * root), 0.0)
-                outer = (r.T[:, :, None] * r.T[:, None, :]) * ds[:, None, None]  # (m, 2, 2)
-                Jc = s[:, None, None] * Jc + outer @ Jc
-                Jp = s[:, None, None] * Jp + outer @ Jp
+            if basis is not None:
+                # dP / dW_z = R^T e_z (P = R^T (W - t)), times the shapes.
+                Jw = (G @ R[2])[:, :, None] * basis.T[:, None, :] / sigma  # (m, 2, 2)
+        Js = [] if jacobians is None else [Jc, Jp] + ([] if basis is None else [Jw])
+        e, Js = _robust(r, Js, huber_k, jacobians is not None)
         if jacobians is not None:
-            jacobians[0], jacobians[1] = Jc.reshape(2 * m, n), Jp.reshape(2 * m, 6)
+            for k, J in enumerate(Js):
+                jacobians[k] = J.reshape(2 * m, J.shape[2])
         return e.T.ravel()
 
     noise = gtsam.noiseModel.Unit.Create(2 * m)
-    return gtsam.CustomFactor(noise, [cal_key, pose_key], error)
+    return gtsam.CustomFactor(noise, keys, error)
+
+
+def _robust(r, jacobians, huber_k, with_jacobians=True):
+    """The Huber kernel per junction on whitened residuals ``r`` (2, m) and their Jacobians
+    (each (m, 2, k)): ``e = s(a) r`` with ``|e|^2 / 2 = rho(a)`` (:func:`_radtan_factor`) and
+    the exact derivatives of ``e``. Without ``huber_k``: unchanged."""
+    if huber_k is None:
+        return r, jacobians
+    a = np.hypot(r[0], r[1])
+    far = a > huber_k
+    rho = huber_k * a - 0.5 * huber_k * huber_k
+    root = np.sqrt(np.where(far, 2.0 * rho, 1.0))
+    s = np.where(far, root / np.where(far, a, 1.0), 1.0)
+    if not with_jacobians:
+        return r * s, jacobians
+    # d e / d theta = s J + r (ds/da) (r^T J) / a, ds/da = (k^2 - k a) / (a^2 sqrt(2 rho)).
+    ds = np.where(far, (huber_k * huber_k - huber_k * a) / (np.where(far, a, 1.0) ** 3 * root), 0.0)
+    outer = (r.T[:, :, None] * r.T[:, None, :]) * ds[:, None, None]  # (m, 2, 2)
+    return r * s, [s[:, None, None] * J + outer @ J for J in jacobians]
+
+
+def _camera_factor(uv, W, basis, cal_key, pose_key, warp_key, sigma, huber_k, fisheye):
+    """One view's factor on GTSAM's own calibration (``Cal3Fisheye`` or ``Cal3_S2``), the pose
+    and the board warp, vectorised over its m junctions as :func:`_radtan_factor` (the Huber
+    kernel per junction inside): each junction projected by GTSAM's camera
+    (``PinholeCameraCal3Fisheye`` / ``PinholeCameraCal3_S2.project`` with its Jacobians) at
+    the bent board's point ``W + e_z (w . b)``; the warp's Jacobian is the point's z column
+    times ``b``.
+
+    Used with a warp only: the flat board's target points are landmark variables pinned by
+    tight priors (:data:`LANDMARK_SIGMA_M`), and tying them to the warp with factors as
+    tight made GTSAM's elimination indeterminate (the warp's information is the small
+    difference of terms of ``1 / LANDMARK_SIGMA_M^2``).
+    """
+    measured = np.array(uv, dtype=float)
+    W0 = np.array(W, dtype=float)
+    b = np.array(basis, dtype=float)
+    m = measured.shape[1]
+    make = gtsam.PinholeCameraCal3Fisheye if fisheye else gtsam.PinholeCameraCal3_S2
+
+    def error(factor, values, jacobians):
+        cal = values.atCal3Fisheye(cal_key) if fisheye else values.atCal3_S2(cal_key)
+        n = cal.dim()
+        cam = make(values.atPose3(pose_key), cal)
+        warp = np.asarray(values.atVector(warp_key))
+        P = W0.copy()
+        P[2] += warp @ b
+        pred = np.empty((2, m))
+        Jc, Jp, Jz = np.empty((m, 2, n)), np.empty((m, 2, 6)), np.empty((m, 2))
+        Dpose, Dpoint, Dcal = (np.zeros((2, 6), order="F"), np.zeros((2, 3), order="F"),
+                               np.zeros((2, n), order="F"))
+        try:
+            for j in range(m):
+                pred[:, j] = cam.project(P[:, j], Dpose, Dpoint, Dcal)
+                Jc[j], Jp[j], Jz[j] = Dcal, Dpose, Dpoint[:, 2]
+        except RuntimeError:  # a point behind the camera: a large error, no gradient
+            if jacobians is not None:
+                jacobians[0], jacobians[1], jacobians[2] = np.zeros((2 * m, n)), np.zeros((2 * m, 6)), np.zeros((2 * m, 2))
+            return np.full(2 * m, 2.0 * cal.fx() / sigma)
+        r = (pred - measured) / sigma
+        Jw = Jz[:, :, None] * b.T[:, None, :]
+        e, Js = _robust(r, [Jc / sigma, Jp / sigma, Jw / sigma], huber_k, jacobians is not None)
+        if jacobians is not None:
+            for k, J in enumerate(Js):
+                jacobians[k] = J.reshape(2 * m, J.shape[2])
+        return e.T.ravel()
+
+    return gtsam.CustomFactor(gtsam.noiseModel.Unit.Create(2 * m), [cal_key, pose_key, warp_key], error)
 
 
 def _gtsam_calibration(camera, p):
@@ -196,7 +281,7 @@ def _from_gtsam(values, camera):
 
 
 def solve_graph(camera, poses, observations, sigma: float, huber_k=None, prior_px=None, *,
-                held=None) -> GraphCalibration:
+                held=None, bases=None, warp=None) -> GraphCalibration:
     """Calibrate with a GTSAM graph from a start.
 
     Parameters
@@ -218,6 +303,13 @@ def solve_graph(camera, poses, observations, sigma: float, huber_k=None, prior_p
         Radial-tangential parameters held at the start's value (``radtan4``'s k3 at 0): no
         factor's Jacobian moves them, a unit prior keeps the graph's system regular, and
         their rows and columns of the covariance are zero.
+    bases : list of (2, m) ndarray, optional
+        Per view the board warp's shapes at its junctions
+        (:meth:`graphpose.board.Board.warp_basis`): the board warp is a variable of the
+        graph (a 2-vector, metres), in the radial-tangential factors, or in the factors that
+        project through GTSAM's own camera (:func:`_camera_factor`); None: flat.
+    warp : (2,) array_like, optional
+        The warp's start (zeros by default).
 
     Returns
     -------
@@ -227,6 +319,8 @@ def solve_graph(camera, poses, observations, sigma: float, huber_k=None, prior_p
     held = None if held is None or not np.any(held) else np.asarray(held, dtype=bool)
     graph = gtsam.NonlinearFactorGraph()
     initial = gtsam.Values()
+    if bases is not None:
+        initial.insert(WARP, np.zeros(2) if warp is None else np.asarray(warp, dtype=float))
     noise = gtsam.noiseModel.Isotropic.Sigma(2, sigma)
     if huber_k is not None:
         noise = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(huber_k), noise)
@@ -265,13 +359,18 @@ def solve_graph(camera, poses, observations, sigma: float, huber_k=None, prior_p
         for _, W, index in observations:
             for j, w in zip(index, W.T):
                 landmarks[int(j)] = w
-        for j, w in landmarks.items():
+        for j, w in (landmarks.items() if bases is None else ()):
             initial.insert(L(j), w)
             graph.add(gtsam.PriorFactorPoint3(L(j), w, landmark_noise))
     for i, ((uv, W, index), T) in enumerate(zip(observations, poses)):
         initial.insert(X(i), gtsam.Pose3(T))
         if cal is None:
-            graph.add(_radtan_factor(uv, W, KEY(0), X(i), sigma, huber_k, held))
+            graph.add(_radtan_factor(uv, W, KEY(0), X(i), sigma, huber_k, held,
+                                     None if bases is None else bases[i], WARP))
+            continue
+        if bases is not None:
+            graph.add(_camera_factor(uv, W, bases[i], KEY(0), X(i), WARP, sigma, huber_k,
+                                     isinstance(camera, FisheyeCamera)))
             continue
         for k in range(uv.shape[1]):
             graph.add(factor(uv[:, k], noise, X(i), L(int(index[k])), KEY(0)))
@@ -291,10 +390,15 @@ def solve_graph(camera, poses, observations, sigma: float, huber_k=None, prior_p
             step = np.asarray(delta.at(KEY(0)))
             if cal is not None:
                 step = np.delete(step, 2)
+            if bases is not None:  # the warp's step too, on the scale of a millimetre at least
+                p = np.r_[p, result.atVector(WARP)]
+                step = np.r_[step, delta.at(WARP)]
             if np.max(np.abs(step) / np.maximum(np.abs(p), 1e-3)) < _POLISH_STEP:
                 polished = True
                 break
-        cov = np.asarray(gtsam.Marginals(graph, result).marginalCovariance(KEY(0)))
+        marginals = gtsam.Marginals(graph, result)
+        cov = np.asarray(marginals.marginalCovariance(KEY(0)))
+        warp_cov = None if bases is None else np.asarray(marginals.marginalCovariance(WARP))
         if cal is not None:
             cov = np.delete(np.delete(cov, 2, axis=0), 2, axis=1)
         if held is not None:
@@ -310,5 +414,7 @@ def solve_graph(camera, poses, observations, sigma: float, huber_k=None, prior_p
         solved = camera.with_parameters(p)
     except InputError as exc:  # an invalid camera (a focal length <= 0): a failed solve
         return GraphCalibration(camera, out, nan, False, int(optimizer.iterations()), str(exc))
+    w = None if bases is None else np.asarray(result.atVector(WARP), dtype=float)
     return GraphCalibration(solved, out, 0.5 * (cov + cov.T), converged, int(optimizer.iterations()),
-                            "" if converged else "GTSAM did not converge")
+                            "" if converged else "GTSAM did not converge", w,
+                            None if warp_cov is None else 0.5 * (warp_cov + warp_cov.T))

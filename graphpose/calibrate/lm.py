@@ -72,6 +72,8 @@ class LMCalibration:
     converged : bool
     iterations : int
     message : str
+    warp : (2,) ndarray or None
+        The board warp ``(w_x, w_y)``, metres, where it was estimated.
     """
 
     camera: object
@@ -82,21 +84,35 @@ class LMCalibration:
     converged: bool
     iterations: int
     message: str
+    warp: np.ndarray | None = None
 
 
-def _evaluate(camera, x, observations, P):
+def _evaluate(camera, x, observations, P, bases=None):
     """Per view: residuals (2m,), the Jacobians in the intrinsics (2m, P) and the pose
     (2m, 6); and the smallest depth.
 
     The chain of :func:`graphpose.pose.gauss_newton._project` (its compiled kernels), with every view's points
     projected in one call of the camera and of the intrinsics' Jacobian (per view, the
-    calls' overhead was most of a calibration's solve time with 40 views)."""
+    calls' overhead was most of a calibration's solve time with 40 views).
+
+    With ``bases`` (per view the board warp's shapes (2, m) at its junctions,
+    :meth:`graphpose.board.Board.warp_basis`) the two entries after the camera's ``P`` in
+    ``x`` are the board warp ``(w_x, w_y)`` (metres): each junction's target point moves by
+    ``w . b`` along the target's z, and the "intrinsics" Jacobian (2m, P + 2) gains the
+    warp's columns, ``d uv / d p_C  C^T e_z  b`` (``p_C = C^T (W - t)``).
+    """
+    nw = 0 if bases is None else 2
+    warp = x[P: P + nw]
+    G0 = P + nw
     rotations, chains = [], []
     for i, (_, W, _) in enumerate(observations):
+        W = np.array(W, dtype=float)
+        if nw:
+            W[2] += warp @ bases[i]
         # R (4, 3, 3): C and its partials by the angles; rows 0-2 of A (12, m): p_C, rows
         # 3k+3 .. 3k+5: its derivative by angle k (the pose's compiled kernel).
         R, Ai = np.empty((4, 3, 3)), np.empty((12, W.shape[1]))
-        camera_points(np.ascontiguousarray(x[P + 6 * i: P + 6 * i + 6]), np.ascontiguousarray(W, dtype=float), R, Ai)
+        camera_points(np.ascontiguousarray(x[G0 + 6 * i: G0 + 6 * i + 6]), np.ascontiguousarray(W), R, Ai)
         rotations.append(R)
         chains.append(Ai)
     A = np.hstack(chains)
@@ -105,11 +121,15 @@ def _evaluate(camera, x, observations, P):
         Jp = camera.parameter_jacobian(A[:3])
     G = np.ascontiguousarray(G, dtype=float)
     out, at = [], 0
-    for (uv, _, _), R, Ai in zip(observations, rotations, chains):
+    for i, ((uv, _, _), R, Ai) in enumerate(zip(observations, rotations, chains)):
         m = Ai.shape[1]
         Je = np.empty((2 * m, 6))
         chain_jacobians(G[at: at + m], R, Ai, Je)
-        out.append(((uv - pred[:, at: at + m]).T.ravel(), Jp[at: at + m].reshape(2 * m, P), Je))
+        Ji = Jp[at: at + m]
+        if nw:
+            dz = G[at: at + m] @ R[0][2]  # (m, 2): d uv / d W_z, W_z moving p_C by C^T e_z
+            Ji = np.concatenate([Ji, dz[:, :, None] * bases[i].T[:, None, :]], axis=2)
+        out.append(((uv - pred[:, at: at + m]).T.ravel(), Ji.reshape(2 * m, G0), Je))
         at += m
     return out, float(np.min(A[2]))
 
@@ -197,7 +217,7 @@ def prior_terms(camera, p, prior_px):
 
 
 def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = MAX_ITERATIONS,
-             prior_px=None, *, held=None) -> LMCalibration:
+             prior_px=None, *, held=None, bases=None, warp=None) -> LMCalibration:
     """Calibrate by the hand-written Levenberg-Marquardt from a start.
 
     Parameters
@@ -218,38 +238,58 @@ def solve_lm(camera, poses, observations, huber_px=None, max_iterations: int = M
     held : (P,) array_like of bool, optional
         Parameters held at the start's value, not estimated (``radtan4``'s k3 at 0,
         :func:`graphpose.camera_models.calibration_model`); their information rows are zero.
+    bases : list of (2, m) ndarray, optional
+        Per view the board warp's shapes at its junctions
+        (:meth:`graphpose.board.Board.warp_basis` of ``W``): the board warp ``(w_x, w_y)``
+        is estimated with the intrinsics (:func:`_evaluate`); None: a flat board.
+    warp : (2,) array_like, optional
+        The warp's start, metres (zeros by default); only with ``bases``.
 
     Returns
     -------
     LMCalibration
+        With ``bases``, ``information`` is over the intrinsics and the warp (P + 2).
     """
-    held = None if held is None else np.asarray(held, dtype=bool)
     P = camera.parameters.size
-    x = np.concatenate([camera.parameters] + [params_from_T(T) for T in poses])
-    views, _ = _evaluate(camera, x, observations, P)
-    cost = _cost(views, huber_px) + prior_terms(camera, x[:P], prior_px)[0]
+    nw = 0 if bases is None else 2
+    G0 = P + nw
+    held = None if held is None else np.r_[np.asarray(held, dtype=bool), np.zeros(nw, bool)]
+    w0 = np.zeros(nw) if warp is None or not nw else np.asarray(warp, float)
+    x = np.concatenate([camera.parameters, w0] + [params_from_T(T) for T in poses])
+    views, _ = _evaluate(camera, x, observations, P, bases)
+
+    def prior(camera, x):
+        c, info, grad = prior_terms(camera, x[:P], prior_px)
+        if not nw:
+            return c, info, grad
+        info2, grad2 = np.zeros((G0, G0)), np.zeros(G0)
+        info2[:P, :P], grad2[:P] = info, grad
+        return c, info2, grad2
+
+    cost = _cost(views, huber_px) + prior(camera, x)[0]
 
     def normal(views, camera, x):
-        blocks = _normal(views, huber_px, P)
-        _, info, grad = prior_terms(camera, x[:P], prior_px)
+        blocks = _normal(views, huber_px, G0)
+        _, info, grad = prior(camera, x)
         return _hold((blocks[0] + info, blocks[1], blocks[2], blocks[3] + grad, blocks[4]), held)
 
     def trial(camera, x_new):
         moved = camera.with_parameters(x_new[:P])  # InputError: a focal length <= 0
-        views_new, z_new = _evaluate(moved, x_new, observations, P)
-        cost_new = (_cost(views_new, huber_px) + prior_terms(moved, x_new[:P], prior_px)[0]
+        views_new, z_new = _evaluate(moved, x_new, observations, P, bases)
+        cost_new = (_cost(views_new, huber_px) + prior(moved, x_new)[0]
                     if z_new > 0 else np.inf)
         return moved, views_new, cost_new
 
     x, camera, views, S, converged, it, message = levenberg_marquardt(
         x, camera, views, cost, normal, trial, observed_scale(uv for uv, _, _ in observations), huber_px,
-        max_iterations, np.full((P, P), np.nan), "the views do not constrain the calibration")
+        max_iterations, np.full((G0, G0), np.nan), "the views do not constrain the calibration")
     residuals, weights = residuals_and_weights(views, huber_px)
-    poses = [T_from_params(x[P + 6 * i: P + 6 * i + 6]) for i in range(len(observations))]
+    poses = [T_from_params(x[G0 + 6 * i: G0 + 6 * i + 6]) for i in range(len(observations))]
     if held is not None and np.any(held):
         S = S.copy()
         S[held, :], S[:, held] = 0.0, 0.0  # no information: a held parameter is not estimated
-    return LMCalibration(camera, poses, S, residuals, weights, converged, it, message)
+    return LMCalibration(camera, poses, S, residuals, weights, converged, it, message,
+                         x[P:G0].copy() if nw else None)
 
 
 def observed_scale(uvs) -> np.ndarray:

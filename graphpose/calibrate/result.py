@@ -31,6 +31,14 @@ from .._checks import check_number
 STATUSES = ("used", "rejected", "no board", "unreadable")
 
 
+def sag_mm(warp_m, warp_cov) -> tuple:
+    """The sag at the board's centre, ``w_x + w_y``, and its 1-sigma, millimetres, from the
+    board warp (2,) and its covariance (2, 2) (metres)."""
+    w = np.asarray(warp_m, dtype=float)
+    C = np.asarray(warp_cov, dtype=float)
+    return 1000.0 * float(w[0] + w[1]), 1000.0 * float(np.sqrt(max(np.sum(C), 0.0)))
+
+
 @dataclass(frozen=True)
 class SolverCrossCheck:
     """GTSAM's calibration against the hand-written Levenberg-Marquardt's, over the same cost.
@@ -126,6 +134,14 @@ class Calibration:
     board_distance_m : float
         The median distance from the camera to the board's centre over the used views,
         metres (the default distance of :meth:`projection_uncertainty_map`).
+    warp_m : (2,) ndarray or None
+        The board warp ``(w_x, w_y)`` estimated with the camera, metres: mrcal's
+        two-parameter board deflection (:meth:`graphpose.board.Board.warp_basis`; the
+        board's points move by ``w_x (1 - d_x^2) + w_y (1 - d_y^2)`` along its z). None
+        where the board was taken as flat (``warp=False``, or ``"auto"`` where the views
+        did not constrain it).
+    warp_cov : (2, 2) ndarray or None
+        Its covariance (the Huber estimate's, as ``cov``), metres squared.
     """
 
     camera: object
@@ -147,6 +163,20 @@ class Calibration:
     outliers: tuple = ()
     detections: tuple = ()
     board_distance_m: float = float("nan")
+    warp_m: np.ndarray | None = None
+    warp_cov: np.ndarray | None = None
+
+    @property
+    def sag_mm(self):
+        """The board's sag at its centre against its corners, ``w_x + w_y``, millimetres
+        (None for a flat board): positive along the board's z (away from a camera that sees
+        its front)."""
+        return None if self.warp_m is None else sag_mm(self.warp_m, self.warp_cov)[0]
+
+    @property
+    def sag_sigma_mm(self):
+        """The sag's 1-sigma, millimetres (None for a flat board)."""
+        return None if self.warp_m is None else sag_mm(self.warp_m, self.warp_cov)[1]
 
     @property
     def parameters(self) -> np.ndarray:

@@ -49,7 +49,7 @@ from ..camera_models import calibration_model
 from .._deprecated import ignored_rng
 from ..robust import HUBER_K, mad_sigma  # noqa: F401  (HUBER_K: calibrate's default, named here too)
 from ..pose.gauss_newton import reprojection_rms
-from .result import Calibration, SolverCrossCheck
+from .result import Calibration, SolverCrossCheck, sag_mm
 
 #: An image whose RMS exceeds this many times the median image's is rejected.
 REJECT_RATIO = 3.0
@@ -76,6 +76,11 @@ SIGMA_FLOOR_PX = 1e-6
 MAX_CAMERA_PASSES = 3
 #: Largest relative 1-sigma of fx or fy a calibration may have.
 MAX_FOCAL_SIGMA = 0.05
+#: ``warp="auto"`` keeps the board warp where its sag's 1-sigma is at most this fraction of
+#: the board's span (the diagonal between its outer junctions: 1.2 mm on a 9 x 6 board of
+#: 25 mm squares): a sag known no better than that says nothing of a board's bending (a
+#: printed board on card sags 0.5-3 mm), and only widens the intrinsics' sigmas.
+WARP_MAX_SIGMA = 0.005
 
 
 def _load(images, names):
@@ -164,11 +169,14 @@ def _rms(r):
     return reprojection_rms(r, by_junction=True)
 
 
-def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
+def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None, warp_board=None, warp_start=None,
+           warp_auto=False):
     """Step 3 on the images ``obs`` (a dict image -> observation): the plain solve, the
     robust screening and the rejections, the robust solve twice (``final``; else only the
     screening's fit, which a pass before the last needs for its camera). Returns what the
-    result needs (``graph`` None when not ``final``). ``held``: the parameters held at 0."""
+    result needs (``graph`` None when not ``final``). ``held``: the parameters held at 0;
+    ``warp_board``: the board whose warp is estimated (None: flat), from ``warp_start``;
+    ``warp_auto``: dropped where the views do not constrain it (:func:`_warp_constrained`)."""
     from .graph import solve_graph
     from .lm import solve_lm
 
@@ -176,18 +184,24 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
     obs = dict(obs)
     rejected, outliers = {}, {}
     fit = None
+
+    def bases(view):
+        return None if warp_board is None else [warp_board.warp_basis(W) for _, W, _ in view]
+
     while True:
         view = [obs[k] for k in keys]
         # From Zhang's start a plain fit first; from an earlier pass's camera the residuals
         # at the start (no iterations) set the first Huber threshold.
         fit = solve_lm(camera, [poses[k] for k in keys], view, max_iterations=100 if plain else 0,
-                       prior_px=mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX) if fit is not None else 1.0, held=held)
+                       prior_px=mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX) if fit is not None else 1.0, held=held,
+                       bases=bases(view), warp=warp_start if fit is None else fit.warp)
         # Robust screening: two Huber solves (the noise from the residuals' median each time)
         # give the majority's fit, against which an image that does not fit stands out (a
         # plain fit spreads one bad image's misfit over all of them).
         for _ in range(2):
             s = mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
-            fit = solve_lm(fit.camera, fit.poses, view, huber_k * s, prior_px=s, held=held)
+            fit = solve_lm(fit.camera, fit.poses, view, huber_k * s, prior_px=s, held=held, bases=bases(view),
+                           warp=fit.warp)
         camera, poses = fit.camera, dict(zip(keys, fit.poses))
         plain = False
         # Single junctions that do not fit the majority's solution: left out, and solved again.
@@ -224,17 +238,47 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None):
                                  "a blurred image?)")
         keys.pop(worst)
     sigma0 = mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
+    if warp_board is not None and warp_auto and not _warp_constrained(fit, sigma0, warp_board):
+        # The views do not tell the board's bending: a flat board from here on.
+        warp_board = None
+        fit = solve_lm(fit.camera, fit.poses, view, huber_k * sigma0, prior_px=sigma0, held=held)
+        sigma0 = mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
     plain = fit
     start_poses = fit.poses
     if not final:
         return keys, rejected, None, fit, sigma0, obs, outliers
-    graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k, prior_px=sigma0, held=held)
-    lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0, prior_px=sigma0, held=held)
+    graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k, prior_px=sigma0, held=held,
+                        bases=bases(view), warp=plain.warp)
+    lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0, prior_px=sigma0, held=held, bases=bases(view),
+                  warp=plain.warp)
     return keys, rejected, graph, lm, sigma0, obs, outliers
 
 
+def _warp_constrained(fit, sigma_px, board) -> bool:
+    """Whether the views constrain the board warp of ``fit`` (a :func:`.lm.solve_lm` result
+    with the warp): the sag's 1-sigma at most :data:`WARP_MAX_SIGMA` of the board's span."""
+    S = fit.information
+    free = np.diag(S) > 0
+    try:
+        C = np.linalg.inv(S[np.ix_(free, free)])
+    except np.linalg.LinAlgError:
+        return False
+    sag_sd = sigma_px * float(np.sqrt(max(np.sum(C[-2:, -2:]), 0.0)))
+    span = np.hypot(board.cols - 1, board.rows - 1) * board.square_m
+    return bool(np.isfinite(sag_sd) and sag_sd <= WARP_MAX_SIGMA * span)
+
+
+def check_warp(warp):
+    """``warp`` as :func:`calibrate` takes it: True, False or ``"auto"``."""
+    if warp is True or warp is False or (isinstance(warp, str) and warp == "auto"):
+        return warp
+    if isinstance(warp, (bool, np.bool_)):
+        return bool(warp)
+    raise InputError(f"warp must be True, False or 'auto', got {warp!r}")
+
+
 def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=None, camera=None,
-              huber_k: float = HUBER_K, rng=None, progress=None) -> Calibration:
+              huber_k: float = HUBER_K, rng=None, progress=None, warp="auto") -> Calibration:
     """Calibrate a camera from images of the board.
 
     Parameters
@@ -264,6 +308,12 @@ def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=No
         Called as ``progress(stage, done, total)`` after each image of each pass
         (``stage`` ``"first pass"``, ``"pass 2"``, ...) and after each solve (``"solve"``),
         for a progress bar.
+    warp : bool or "auto"
+        Estimate the board's bending with the camera (mrcal's two-parameter board warp,
+        :meth:`graphpose.board.Board.warp_basis`; the result's ``warp_m``, ``warp_cov`` and
+        ``sag_mm``). ``"auto"`` (default): estimated, and kept where the views constrain it
+        (the sag's 1-sigma at most :data:`WARP_MAX_SIGMA` of the board's span), else the
+        board is taken as flat; True: always; False: a flat board.
 
     Returns
     -------
@@ -280,6 +330,8 @@ def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=No
     cls, held = calibration_model(model)
     check_board(board)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
+    warp = check_warp(warp)
+    warp_board = None if warp is False else board
     ignored_rng("calibrate", rng=rng)
     images, labels, size, unreadable = _load(images, names)
     report = progress or (lambda stage, done, total: None)
@@ -323,7 +375,8 @@ def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=No
     camera0, poses0 = start(cls.model, size, [obs[k][:2] for k in keys])
     keys, rejected, graph, lm, sigma0, inliers, outliers = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k,
                                                                   final=False,
-                                                                  held=held)
+                                                                  held=held, warp_board=warp_board,
+                                                                  warp_auto=warp == "auto")
     report("solve", 1, 2)
 
     # 4. Passes with the camera: every image again, until no new board is found.
@@ -359,7 +412,8 @@ def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=No
         # Only the last pass's solve is the calibration: GTSAM and the cross-check run there.
         keys, rejected, graph, lm, sigma0, inliers, outliers = _solve(camera1, poses1, obs, huber_k, final=last,
                                                                       plain=False,
-                                                                      held=held)
+                                                                      held=held, warp_board=warp_board,
+                                                                      warp_start=lm.warp, warp_auto=warp == "auto")
         report("solve", pass_number, pass_number)
         if last:
             break
@@ -369,7 +423,7 @@ def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=No
 
 
 def calibrate_corners(corners, model: str = "radtan", *, board: Board = Board(), size=None, names=None,
-                      huber_k: float = HUBER_K, progress=None) -> Calibration:
+                      huber_k: float = HUBER_K, progress=None, warp="auto") -> Calibration:
     """Calibrate a camera from junctions found by any detector (no images).
 
     Steps 2 and 3 of :func:`calibrate` (Zhang's start, the solves, the single outliers and
@@ -392,6 +446,8 @@ def calibrate_corners(corners, model: str = "radtan", *, board: Board = Board(),
     huber_k : float
     progress : callable, optional
         As :func:`calibrate`'s (stage ``"solve"``).
+    warp : bool or "auto"
+        As :func:`calibrate`'s.
 
     Returns
     -------
@@ -410,6 +466,8 @@ def calibrate_corners(corners, model: str = "radtan", *, board: Board = Board(),
     cls, held = calibration_model(model)
     check_board(board)
     huber_k = check_number("huber_k", huber_k, 0.0, strict=True)
+    warp = check_warp(warp)
+    warp_board = None if warp is False else board
     if isinstance(corners, Corners):
         labels = list(corners.images)
         size = corners.size if size is None else size
@@ -450,7 +508,8 @@ def calibrate_corners(corners, model: str = "radtan", *, board: Board = Board(),
     keys = sorted(obs)
     camera0, poses0 = start(cls.model, size, [obs[k][:2] for k in keys])
     keys, rejected, graph, lm, sigma0, inliers, outliers = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k,
-                                                                  held=held)
+                                                                  held=held, warp_board=warp_board,
+                                                                  warp_auto=warp == "auto")
     report("solve", 1, 1)
     return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
                    "the corners", board, huber_k, inliers, outliers, held)
@@ -461,7 +520,9 @@ def _joint(lm, observations, huber_px, sigma0, board, held):
     and the median distance from the camera to the board's centre."""
     from .uncertainty import huber_covariance
 
-    joint = huber_covariance(lm.camera, lm.poses, observations, huber_px, prior_px=sigma0, held=held)
+    bases = None if lm.warp is None else [board.warp_basis(W) for _, W, _ in observations]
+    joint = huber_covariance(lm.camera, lm.poses, observations, huber_px, prior_px=sigma0, held=held, bases=bases,
+                             warp=lm.warp)
     centre = np.mean(board.world_points(), axis=1)
     distance = float(np.median([np.linalg.norm(T[:3, 3] - centre) for T in lm.poses]))
     return joint, distance
@@ -481,21 +542,31 @@ def _check_spec(board, labels, searched, refusals) -> None:
 def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
             first_camera, board, huber_k, inliers, outliers, held, unreadable=None) -> Calibration:
     P_all = len(cls.parameter_names)
-    P = P_all - int(np.sum(held))  # the parameters estimated
+    nw = 0 if lm.warp is None else 2
+    P = P_all - int(np.sum(held)) + nw  # the parameters estimated
     p_lm, p_g = lm.camera.parameters, graph.camera.parameters
     r_all = np.hstack(lm.residuals)
     M = r_all.shape[1]
     dof = 2 * M - P - 6 * len(keys)
     sigma = float(np.sqrt(np.sum(r_all * r_all) / max(dof, 1)))
     # The Huber estimate's covariance by the sandwich rule (:func:`.uncertainty.huber_covariance`):
-    # the intrinsics' block is ``cov``, the whole is the projection uncertainty's.
+    # the intrinsics' block is ``cov``, the whole is the projection uncertainty's. The board
+    # warp's block is its own; out of ``joint`` (the projection does not depend on it) it is
+    # marginalised, which for a Gaussian is dropping its rows and columns.
     joint, distance = _joint(lm, [inliers[k] for k in keys], huber_k * sigma0, sigma0, board, held)
+    warp_cov = joint[P_all:P_all + nw, P_all:P_all + nw].copy() if nw else None
+    if nw:
+        keep = np.r_[np.arange(P_all), np.arange(P_all + nw, joint.shape[0])]
+        joint = joint[np.ix_(keep, keep)]
     cov = joint[:P_all, :P_all].copy()
     sd = np.sqrt(np.abs(np.diag(cov)))
     if not np.all(np.isfinite(cov)):
-        sd = np.sqrt(np.abs(np.diag(np.linalg.pinv(lm.information)))) * sigma
+        sd = np.sqrt(np.abs(np.diag(np.linalg.pinv(lm.information))))[:P_all] * sigma
     scale = np.where(held, 1.0, np.maximum(np.abs(p_lm), sd))  # a held parameter: 0 in both, sigma 0
     difference = float(np.max(np.abs(p_g - p_lm) / scale))
+    if nw:  # the warp's agreement on the same scale (max(|w|, sigma_w))
+        w_sd = np.sqrt(np.abs(np.diag(warp_cov)))
+        difference = max(difference, float(np.max(np.abs(graph.warp - lm.warp) / np.maximum(np.abs(lm.warp), w_sd))))
     converged = bool(graph.converged and lm.converged)
     ok = converged and difference <= CROSS_CHECK_TOL and np.all(np.isfinite(cov))
     focal = sd[:2] / p_lm[:2]
@@ -542,9 +613,13 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
             message.append(why.get(i, "no board")), poses.append(None)
             points.append(np.zeros((2, 0))), residuals.append(np.zeros((2, 0)))
     used_r = np.hstack([r for r, s in zip(residuals, status) if s == "used"])
+    warp_m = None if not nw else (graph.warp if ok else lm.warp).copy()
     if ok:
         summary = (f"calibrated from {len(keys)} of {n} images, {M} junctions: RMS {_rms(used_r):.3f} px, "
                    f"the solvers agree to {difference:.1e}")
+        if nw:
+            sag, sag_sd = sag_mm(warp_m, warp_cov)
+            summary += f"; the board sags {sag:.2f} +- {sag_sd:.2f} mm at its centre"
     elif not converged:
         summary = (f"calibration failed: GTSAM {'converged' if graph.converged else 'did not converge'} "
                    f"({graph.message or graph.iterations}), the hand-written LM "
@@ -575,4 +650,6 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
         outliers=tuple(np.asarray(outliers.get(i, np.zeros(0, int)), dtype=int) if i in solved
                        else np.zeros(0, int) for i in range(n)),
         board_distance_m=distance,
+        warp_m=warp_m,
+        warp_cov=warp_cov,
     )

@@ -62,7 +62,7 @@ class ProjectionUncertainty:
     sigma_px: np.ndarray
 
 
-def joint_information(camera, poses, observations, huber_px=None) -> np.ndarray:
+def joint_information(camera, poses, observations, huber_px=None, bases=None, warp=None) -> np.ndarray:
     """``J^T W J`` of the calibration's whole solve at unit pixel noise.
 
     Parameters
@@ -75,19 +75,26 @@ def joint_information(camera, poses, observations, huber_px=None) -> np.ndarray:
         Each view's used junctions.
     huber_px : float, optional
         The Huber threshold of the solve (the weights ``W``), pixels.
+    bases : list of (2, m) ndarray, optional
+        Per view the board warp's shapes (:func:`graphpose.calibrate.lm.solve_lm`): the
+        board warp is among the unknowns, after the intrinsics.
+    warp : (2,) array_like, optional
+        The board warp, metres (with ``bases``).
 
     Returns
     -------
     H : (P + 6 n, P + 6 n) ndarray
-        Unknowns in order: the intrinsics (the camera's ``parameter_names``),
-        then each view's ``(x, y, z, roll, pitch, yaw)``.
+        Unknowns in order: the intrinsics (the camera's ``parameter_names``; with ``bases``
+        then the warp's two, P counting them), then each view's ``(x, y, z, roll, pitch, yaw)``.
     """
     from .lm import _evaluate, _normal
 
     p = camera.parameters
-    P, n = p.size, len(poses)
-    x = np.concatenate([p] + [params_from_T(T) for T in poses])
-    views, _ = _evaluate(camera, x, observations, P)
+    nw = 0 if bases is None else 2
+    P, n = p.size + nw, len(poses)
+    x = np.concatenate([p, np.zeros(nw) if warp is None else np.asarray(warp, float)[:nw]]
+                       + [params_from_T(T) for T in poses])
+    views, _ = _evaluate(camera, x, observations, p.size, bases)
     U, V, Wb, _, _ = _normal(views, huber_px, P)
     H = np.zeros((P + 6 * n, P + 6 * n))
     H[:P, :P] = U
@@ -99,7 +106,8 @@ def joint_information(camera, poses, observations, huber_px=None) -> np.ndarray:
     return H
 
 
-def huber_covariance(camera, poses, observations, huber_px=None, prior_px=None, held=None) -> np.ndarray:
+def huber_covariance(camera, poses, observations, huber_px=None, prior_px=None, held=None, bases=None,
+                     warp=None) -> np.ndarray:
     """The joint covariance of the calibration's Huber estimate (Huber's asymptotic form).
 
     The solve minimises ``sum_j rho(|r_j|)`` (Huber on each junction's 2-D error, threshold
@@ -132,24 +140,29 @@ def huber_covariance(camera, poses, observations, huber_px=None, prior_px=None, 
     held : (P,) array_like of bool, optional
         Intrinsics held at their value, not estimated (``radtan4``'s k3): not among the K
         unknowns, their rows and columns of the covariance zero.
+    bases, warp
+        As :func:`joint_information`: the board warp among the unknowns.
 
     Returns
     -------
     cov : (P + 6 n, P + 6 n) ndarray
-        Pixels and the poses' units; NaN if ``J^T J`` is singular.
+        Pixels and the poses' units (with ``bases``, P counts the warp's two, in metres);
+        NaN if ``J^T J`` is singular.
     """
     from .lm import _evaluate, prior_terms
 
-    H = joint_information(camera, poses, observations, None)
+    H = joint_information(camera, poses, observations, None, bases, warp)
     p = camera.parameters
     H[:p.size, :p.size] += prior_terms(camera, p, prior_px)[1]
-    P, n = p.size, len(poses)
+    nw = 0 if bases is None else 2
+    P, n = p.size + nw, len(poses)
     free = np.ones(P + 6 * n, dtype=bool)
     if held is not None:
-        free[:P] = ~np.asarray(held, dtype=bool)
+        free[:p.size] = ~np.asarray(held, dtype=bool)
     K = int(np.sum(free))
-    x = np.concatenate([p] + [params_from_T(T) for T in poses])
-    views, _ = _evaluate(camera, x, observations, P)
+    x = np.concatenate([p, np.zeros(nw) if warp is None else np.asarray(warp, float)[:nw]]
+                       + [params_from_T(T) for T in poses])
+    views, _ = _evaluate(camera, x, observations, p.size, bases)
     r = np.concatenate([v[0] for v in views]).reshape(-1, 2)
     N = 2 * r.shape[0]
     a = np.hypot(r[:, 0], r[:, 1])

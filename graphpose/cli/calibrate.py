@@ -124,7 +124,7 @@ def run(args) -> int:
             views = recording_views(args, show)
             files, names = (image_files(args.images), None) if views is None else views[:2]
             calibration = calibrate(files, args.model, board=args.board, names=names or [str(f) for f in files],
-                                    progress=show)
+                                    progress=show, warp=calibrate_extras.warp_option(args))
     finally:
         progress.clear()
     for name, status, message in zip(calibration.images, calibration.status, calibration.message):

@@ -49,6 +49,10 @@ def add_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--corners-out", type=Path, metavar="FILE",
                    help="write every image's junctions as mrcal's corners.vnl (FILE.vnl) or graphpose's JSON "
                    "(FILE.json)")
+    p.add_argument("--warp", choices=("auto", "on", "off"), default="auto",
+                   help="estimate the board's bending with the camera (mrcal's two-parameter board warp; the "
+                   "report gives the sag in mm): auto (default) keeps it where the views constrain it, on always, "
+                   "off takes the board as flat")
     p.add_argument("--cross-validate", nargs="?", const=True, default=None, metavar="PNG",
                    help="calibrate the odd and even used views apart and report their projection difference "
                    "after the best-fitting rotation (mrcal's projection_diff) beside what their covariances "
@@ -92,7 +96,13 @@ def calibrate_from_args(args, show):
     size = args.image_size or corners.size
     if size is None:
         size = _size_from_images(args.corners, corners.images)
-    return calibrate_corners(corners, args.model, board=args.board, size=size, progress=show)
+    return calibrate_corners(corners, args.model, board=args.board, size=size, progress=show,
+                             warp=warp_option(args))
+
+
+def warp_option(args):
+    """``--warp`` as :func:`graphpose.calibrate.calibrate`'s ``warp``: "auto", True or False."""
+    return {"auto": "auto", "on": True, "off": False}[getattr(args, "warp", "auto")]
 
 
 def _size_from_images(path, names) -> tuple:
@@ -117,11 +127,14 @@ def after(args, calibration) -> list:
         write_corners(args.corners_out, calibration.images, calibration.detections, args.board,
                       calibration.camera.size)
         lines.append(f"  {'corners':16}{args.corners_out}")
+    if calibration.warp_m is not None:
+        lines.append(f"  {'board warp':16}sag {calibration.sag_mm:+.3f} +- {calibration.sag_sigma_mm:.3f} mm at the "
+                     f"centre (w_x {1000 * calibration.warp_m[0]:+.3f}, w_y {1000 * calibration.warp_m[1]:+.3f} mm)")
     lines += uncertainty_lines(calibration)
     if args.cross_validate is not None:
         from ..calibrate.crossval import cross_validate
 
-        cv = cross_validate(calibration, board=args.board)
+        cv = cross_validate(calibration, board=args.board, warp=warp_option(args))
         lines.append(f"  {'cross-validate':16}odd and even views ({cv.halves[0].status.count('used')} + "
                      f"{cv.halves[1].status.count('used')}): projection difference {cv.median_px:.3f} px median "
                      f"after the fitted rotation; their covariances predict {cv.predicted_median_px:.3f} px")

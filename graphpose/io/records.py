@@ -229,4 +229,8 @@ def calibration_record(calibration) -> dict:
         "rms_px": float(calibration.rms_px),
         "images": images,
     }
+    warp = getattr(calibration, "warp_m", None)
+    if warp is not None:  # the board warp (mrcal's two parameters), where it was estimated
+        record["board_warp"] = {"warp_m": np.asarray(warp, float), "covariance_m2": np.asarray(calibration.warp_cov),
+                                "sag_mm": calibration.sag_mm, "sag_sigma_mm": calibration.sag_sigma_mm}
     return to_jsonable(record)

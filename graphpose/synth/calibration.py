@@ -77,7 +77,7 @@ class CalibrationSet:
 def calibration_set(camera, n_views: int = 30, *, rng=None, board: Board = Board(), distance=None,
                     min_tilt_deg: float = 15.0, max_tilt_deg: float = 50.0, max_roll_deg: float = 30.0,
                     max_angle_deg: float = 88.0, centre_views=None, noise_sigma: float = 2.0,
-                    blur_sigma: float = 1.0) -> CalibrationSet:
+                    blur_sigma: float = 1.0, warp=None) -> CalibrationSet:
     """Render a calibration set: ``n_views`` raw images of the board through ``camera``.
 
     Parameters
@@ -108,6 +108,9 @@ def calibration_set(camera, n_views: int = 30, *, rng=None, board: Board = Board
         pass).
     noise_sigma, blur_sigma : float
         As :func:`graphpose.synth.render.render` (grey levels of 255; pixels).
+    warp : (2,) array_like, optional
+        A bent board, the same in every view: mrcal's board warp ``(w_x, w_y)``, metres
+        (:meth:`graphpose.board.Board.warp_basis`); None: flat.
 
     Returns
     -------
@@ -164,7 +167,8 @@ def calibration_set(camera, n_views: int = 30, *, rng=None, board: Board = Board
         if T is None:
             raise InputError(f"no pose puts the board near cell {cell} of the image with every "
                              f"junction within {max_angle_deg} degrees of the axis")
-        renderings.append(render(camera, T, board, noise_sigma=noise_sigma, blur_sigma=blur_sigma, rng=rng))
+        renderings.append(render(camera, T, board, noise_sigma=noise_sigma, blur_sigma=blur_sigma, rng=rng,
+                                 warp=warp))
     return CalibrationSet(camera, renderings, board)
 
 

@@ -78,3 +78,31 @@ def test_only_radtan_parameters_can_be_held():
     start, starts, observations, _ = problem(FISHEYE, 4, n_views=3)
     with pytest.raises(InputError, match="only the radtan model's parameters can be held, not the fisheye's"):
         solve_graph(start, starts, observations, 0.1, held=np.eye(8, dtype=bool)[6])
+
+
+@pytest.mark.parametrize("make", [radtan_camera, lambda: FISHEYE], ids=["radtan", "fisheye"])
+def test_the_board_warp_agrees_with_the_hand_written_solver(make):
+    # A bent board (mrcal's warp): GTSAM's warp variable (in the radtan factors, or in the
+    # factors through GTSAM's own fisheye camera) and the hand-written solver's agree.
+    from graphpose.calibrate.lm import solve_lm
+
+    camera = make()
+    rng = np.random.default_rng(7)
+    warp = np.array([0.002, -0.001])
+    observations, poses, bases = [], [], []
+    for _ in range(5):
+        T = random_pose(camera, BOARD, rng=rng, distance=(0.4, 0.8), max_tilt_deg=50)
+        uv = camera.project(to_camera(T, BOARD.warped(W, warp))) + rng.normal(0.0, 0.05, (2, W.shape[1]))
+        observations.append((uv, W, np.arange(W.shape[1])))
+        poses.append(T)
+        bases.append(BOARD.warp_basis(W))
+    lm = solve_lm(camera, poses, observations, 0.07, bases=bases)
+    g = solve_graph(camera, poses, observations, 0.05, 1.4, bases=bases)
+    assert g.converged and lm.converged, g.message
+    sd = np.sqrt(np.diag(g.cov))
+    np.testing.assert_array_less(np.abs(g.camera.parameters - lm.camera.parameters), 1e-6 * sd)
+    w_sd = np.sqrt(np.diag(g.warp_cov))
+    np.testing.assert_array_less(np.abs(g.warp - lm.warp), 1e-6 * w_sd)
+    np.testing.assert_array_less(np.abs(g.warp - warp), 4 * w_sd)
+    flat = solve_graph(camera, poses, observations, 0.05, 1.4)
+    assert flat.warp is None and flat.warp_cov is None

@@ -6,7 +6,7 @@ import pytest
 
 from graphpose import Board
 from graphpose.calibrate import lm
-from graphpose.geometry import to_camera
+from graphpose.geometry import params_from_T, to_camera
 from graphpose.synth.calibration import radtan_camera
 from graphpose.synth.poses import random_pose
 
@@ -62,7 +62,7 @@ def test_the_intrinsics_jacobian_is_at_the_kernels_points():
     # intrinsics Jacobian matches central differences of the residuals.
     camera, poses, observations = _problem(2)
     p = camera.parameters
-    x = np.concatenate([p] + [lm.params_from_T(T) for T in poses])
+    x = np.concatenate([p] + [params_from_T(T) for T in poses])
     views, _ = lm._evaluate(camera, x, observations, p.size)
     Jp = np.vstack([J for _, J, _ in views])
     for k in range(p.size):
@@ -134,3 +134,49 @@ def test_residuals_and_weights_unstack_each_view():
     plain = lm.residuals_and_weights([(r,)], None)[1][0]
     np.testing.assert_array_equal(plain, [1.0, 1.0])
     np.testing.assert_array_equal(lm.observed_scale([np.array([[-1.0, 2.0], [3.0, -4.0]])]), [1, 3, 2, 4])
+
+
+def _bent_problem(seed, warp=(0.0015, 0.001), n=8):
+    """Views of a bent board (mrcal's warp): exact projections plus 0.01 px of noise; per view
+    the warp's shapes."""
+    camera, board = radtan_camera(), Board()
+    W = board.world_points()
+    rng = np.random.default_rng(seed)
+    observations, poses, bases = [], [], []
+    for _ in range(n):
+        T = random_pose(camera, board, rng=rng, distance=(0.4, 0.8), max_tilt_deg=50)
+        uv = camera.project(to_camera(T, board.warped(W, warp))) + rng.normal(0.0, NOISE_PX, (2, W.shape[1]))
+        observations.append((uv, W, np.arange(W.shape[1])))
+        poses.append(T)
+        bases.append(board.warp_basis(W))
+    return camera, poses, observations, bases
+
+
+def test_the_warps_jacobian_is_the_derivative_of_the_projection():
+    camera, poses, observations, bases = _bent_problem(4, n=3)
+    P = camera.parameters.size
+    x = np.concatenate([camera.parameters, [0.001, -0.002]] + [params_from_T(T) for T in poses])
+    views, _ = lm._evaluate(camera, x, observations, P, bases)
+    for k in range(2):
+        h = np.zeros_like(x)
+        h[P + k] = 1e-7
+        up, _ = lm._evaluate(camera, x + h, observations, P, bases)
+        down, _ = lm._evaluate(camera, x - h, observations, P, bases)
+        for v, a, b in zip(views, up, down):
+            numeric = -(a[0] - b[0]) / 2e-7  # the residual is measured - predicted
+            np.testing.assert_allclose(v[1][:, P + k], numeric, rtol=1e-5, atol=1e-4)
+
+
+def test_the_warp_is_estimated_with_the_camera():
+    camera, poses, observations, bases = _bent_problem(5)
+    start = camera.with_parameters(camera.parameters * np.r_[1.01, 1.01, 1.0, 1.0, np.ones(5)])
+    fit = lm.solve_lm(start, poses, observations, bases=bases)
+    assert fit.converged, fit.message
+    sd = np.sqrt(np.diag(np.linalg.inv(fit.information))) * NOISE_PX
+    assert fit.information.shape == (11, 11)
+    np.testing.assert_array_less(np.abs(fit.warp - [0.0015, 0.001]), 4 * sd[9:])
+    np.testing.assert_array_less(np.abs(fit.camera.parameters - camera.parameters), 4 * sd[:9])
+    flat = lm.solve_lm(start, poses, observations)
+    assert flat.warp is None
+    # A flat board cannot fit a bent one's junctions: its residuals are far above the noise.
+    assert np.sqrt(np.mean(np.hstack(flat.residuals) ** 2)) > 5 * NOISE_PX

@@ -219,3 +219,70 @@ def test_each_pass_refines_the_board_found_once_as_extract_junctions_does(radtan
     blank = np.full((480, 640), 128, dtype=np.uint8)
     found, reason = calibrate_run._search(blank, board)
     assert found is None and calibrate_run._detect((found, reason), board, radtan_camera()) == (None, reason)
+
+
+def _bent_corners(warp, n=8, seed=11, noise=0.02):
+    """Junctions of a bent board (mrcal's warp) seen by the radtan camera: exact projections
+    plus noise, as calibrate_corners takes them."""
+    from graphpose.geometry import to_camera
+    from graphpose.synth.poses import random_pose
+
+    camera, board = radtan_camera(), Board()
+    rng = np.random.default_rng(seed)
+    W = board.world_points()
+    out = []
+    for _ in range(n):
+        T = random_pose(camera, board, rng=rng, distance=(0.5, 0.9), max_tilt_deg=50)
+        uv = camera.project(to_camera(T, board.warped(W, warp))) + rng.normal(0.0, noise, (2, board.n))
+        out.append((uv, np.arange(board.n)))
+    return camera, board, out
+
+
+@pytest.mark.slow  # three calibrations from junctions (GTSAM, the covariance): 3 s or so under load
+def test_the_board_warp_is_found_with_its_sigma_and_reported():
+    from graphpose.io.records import calibration_record
+
+    camera, board, corners = _bent_corners((0.002, 0.001))
+    c = calibrate_run.calibrate_corners(corners, "radtan", board=board, size=camera.size, warp=True)
+    assert c.ok, c.summary
+    assert c.warp_m.shape == (2,) and c.warp_cov.shape == (2, 2)
+    assert abs(c.sag_mm - 3.0) < 4 * c.sag_sigma_mm and 0 < c.sag_sigma_mm < 0.1
+    assert "sags" in c.summary
+    # The projection's joint covariance is the intrinsics' and the poses' (the warp marginalised).
+    assert c.joint_cov.shape == (9 + 6 * 8,) * 2
+    record = calibration_record(c)
+    assert record["board_warp"]["sag_mm"] == pytest.approx(c.sag_mm)
+    assert np.shape(record["board_warp"]["warp_m"]) == (2,)
+    auto = calibrate_run.calibrate_corners(corners, "radtan", board=board, size=camera.size)
+    assert auto.sag_mm == pytest.approx(c.sag_mm, rel=1e-6)  # constrained here: kept by "auto"
+    flat = calibrate_run.calibrate_corners(corners, "radtan", board=board, size=camera.size, warp=False)
+    assert flat.warp_m is None and flat.sag_mm is None and "board_warp" not in calibration_record(flat)
+    assert flat.rms_px > 3 * c.rms_px
+
+
+def test_warp_must_be_true_false_or_auto():
+    with pytest.raises(InputError, match="warp must be True, False or 'auto'"):
+        calibrate_run.calibrate_corners([], "radtan", size=(640, 480), warp="yes")
+    assert calibrate_run.check_warp(np.bool_(True)) is True
+
+
+def test_auto_keeps_the_warp_only_where_the_views_constrain_it():
+    from types import SimpleNamespace
+
+    board = Board(9, 6, 0.025)  # span 0.24 m: at most 1.2 mm of the sag's sigma
+    weak = SimpleNamespace(information=np.diag([1.0] * 4 + [0.0] + [1.0] * 4 + [1e4, 1e4]))
+    strong = SimpleNamespace(information=np.diag([1.0] * 4 + [0.0] + [1.0] * 4 + [1e8, 1e8]))
+    assert not calibrate_run._warp_constrained(weak, 0.1, board)  # sag sigma 1.4 mm
+    assert calibrate_run._warp_constrained(strong, 0.1, board)  # 0.014 mm
+
+
+@pytest.mark.slow  # two calibrations from junctions: 2 s or so under load
+def test_auto_takes_the_board_as_flat_where_the_warp_is_not_constrained(monkeypatch):
+    camera, board, corners = _bent_corners((0.0, 0.0), n=6, seed=12)
+    flat = calibrate_run.calibrate_corners(corners, "radtan", board=board, size=camera.size, warp=False)
+    monkeypatch.setattr(calibrate_run, "WARP_MAX_SIGMA", 0.0)  # no sag's sigma is small enough
+    auto = calibrate_run.calibrate_corners(corners, "radtan", board=board, size=camera.size)
+    assert auto.ok and auto.warp_m is None and "sags" not in auto.summary
+    sd = flat.sigmas
+    # The same flat solve, but for its Huber threshold (from a median reached by another path).
+    np.testing.assert_array_less(np.abs(auto.parameters - flat.parameters), 1e-2 * sd)

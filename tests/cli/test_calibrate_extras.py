@@ -45,6 +45,17 @@ def test_corners_out_in_and_cross_validation(shots, capsys, tmp_path):
     capsys.readouterr()
     # Without --image-size the first image the vnl names is read for its size.
     assert main(["calibrate", "--corners", str(vnl), "--board", "8x6x0.0635", "--out", str(tmp_path / "3.json"), "-q"]) == 0
+    # --warp on: the board warp's line and its report; --warp off: a flat board, no such key.
+    for warp, shown in (("on", True), ("off", False)):
+        capsys.readouterr()
+        assert main(["calibrate", "--corners", str(vnl), "--image-size", "640x480", "--board", "8x6x0.0635",
+                     "--out", str(tmp_path / f"w{warp}.json"), "--warp", warp,
+                     "--report", str(tmp_path / f"r{warp}.json")]) == 0
+        assert ("board warp      sag" in capsys.readouterr().out) is shown
+        report = json.loads((tmp_path / f"r{warp}.json").read_text())
+        assert ("board_warp" in report) is shown
+        if shown:
+            assert abs(report["board_warp"]["sag_mm"]) < 4 * report["board_warp"]["sag_sigma_mm"] + 0.05
 
 
 @pytest.mark.slow  # 1.6 s or so on two idle cores: a render, a calibration or a subprocess
@@ -54,7 +65,8 @@ def test_usage_errors(shots, capsys, tmp_path):
             ([], "give the IMAGES"),
             ([str(shots), "--image-size", "640x480"], "--image-size goes with --corners"),
             ([str(shots), "--corners-out", str(tmp_path / "c.txt")], ".vnl"),
-            ([str(shots), "--cross-validate", str(tmp_path / "c.jpg")], ".png")):
+            ([str(shots), "--cross-validate", str(tmp_path / "c.jpg")], ".png"),
+            ([str(shots), "--warp", "maybe"], "--warp")):
         code = main(["calibrate", *argv, "--board", "8x6x0.0635", "--out", str(tmp_path / "c.json")])
         assert code == 2, argv
         assert message in capsys.readouterr().err, argv

@@ -548,3 +548,22 @@ def test_principal_point_shift_translates_the_distorted_image():
 def test_lens_input_errors(call, match):
     with pytest.raises(InputError, match=match):
         call()
+
+
+def test_a_bent_board_is_drawn_between_its_moved_corners():
+    # mrcal's board warp: every corner of the squares and the sheet moves out of the plane;
+    # the pinhole image's dark area is that of the moved squares' projections, and the truth
+    # is the moved junctions' projection.
+    board = Board()
+    warp = (0.01, -0.004)
+    T = random_pose(K_REAL, board, rng=np.random.default_rng(3))
+    levels = dict(background=200.0, white=200.0, black=50.0, gradient=0.0)
+    I = render_ideal(K_REAL, T, board, blur_sigma=0.0, warp=warp, **levels)
+    dark = np.sum(200.0 - I) / 150.0
+    exact = sum(abs(shoelace(project(K_REAL, T, board.warped(Q, warp)))) for Q in _black_squares_world(board))
+    assert dark == pytest.approx(exact, rel=1e-6)
+    flat = sum(abs(shoelace(project(K_REAL, T, Q))) for Q in _black_squares_world(board))
+    assert abs(dark - flat) > 100 * 1e-6 * flat  # the bend shows, far beyond the tolerance above
+    r = render(K_REAL, T, board, noise_sigma=0.0, warp=warp)
+    np.testing.assert_allclose(r.junctions, image_points(K_REAL, T, board.warped(board.world_points(), warp)))
+    assert np.abs(r.junctions - image_points(K_REAL, T, board.world_points())).max() > 0.5
