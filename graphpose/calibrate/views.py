@@ -310,12 +310,15 @@ def _greedy(seen, blur, size, board, cap, duplicate_px, status, detail) -> None:
     covered = np.zeros((cols, rows), dtype=int)
     chosen = []
     left = set(seen)
+    # Each candidate's descriptor distance to its nearest chosen view (1 before any is chosen),
+    # kept up to date as views are chosen: the minimum over the chosen ones, without a pass
+    # over them for every candidate at every pick.
+    spread = dict.fromkeys(seen, 1.0)
     while left and len(chosen) < cap:
         best, best_score = None, -np.inf
         for k in left:
             new = sum(1 for c in cells[k] if covered[c] < 2)
-            spread = min((np.linalg.norm(desc[k] - desc[j]) for j in chosen), default=1.0)
-            score = COVER_WEIGHT * new + SPREAD_WEIGHT * spread - 0.1 * blur[k]
+            score = COVER_WEIGHT * new + SPREAD_WEIGHT * spread[k] - 0.1 * blur[k]
             if score > best_score:
                 best, best_score = k, score
         left.discard(best)
@@ -323,10 +326,14 @@ def _greedy(seen, blur, size, board, cap, duplicate_px, status, detail) -> None:
         if copy is not None:
             status[best], detail[best] = DUPLICATE, f"of frame {copy}"
             continue
+        first = not chosen
         chosen.append(best)
         status[best] = USED
         for c in cells[best]:
             covered[c] += 1
+        for k in left:
+            d = float(np.linalg.norm(desc[k] - desc[best]))
+            spread[k] = d if first else min(spread[k], d)
     for k in left:
         status[k], detail[k] = BEYOND_CAP, f"{cap} views chosen before it"
 
