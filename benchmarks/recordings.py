@@ -54,6 +54,9 @@ BAG_FRAMES = (30, 100)
 LONG_FRAMES = (1000, 10000)
 LONG_DISTINCT = (60, 300)
 CLIP_SECONDS = (20.0, 60.0)
+#: The calibration clip's seed: one the view choice was not tuned on (it was built on seed 3
+#: and checked on seeds 5 and 23; none of them is measured here).
+CLIP_SEED = 7
 
 
 def _cli(*args) -> int:
@@ -298,7 +301,7 @@ def calibration(cv2, tmp, quick):
     seconds = CLIP_SECONDS[quick is False]
     truth, board = radtan_camera(), Board()
     start = time.perf_counter()
-    clip = calibration_clip(truth, seconds, 30.0, rng=3)
+    clip = calibration_clip(truth, seconds, 30.0, rng=CLIP_SEED)
     path = tmp / "waved.mp4"
     _write_video(path, clip.frames(), 30.0)
     render_s = time.perf_counter() - start
@@ -334,14 +337,14 @@ def calibration(cv2, tmp, quick):
     cv_err = _projection_error(RadTanCamera(K, dist.ravel()[:5], size=truth.size), truth)
     sharp = [k for k in used if clip.subframes[k] == 1]
     block = {"title": "Calibration from a video: a board waved before a radtan camera",
-             "text": "A {seconds:.0f} s clip at 30 fps ({n} frames, 640 x 480, H.264 CRF 23; rendered and encoded in "
+             "text": "A {seconds:.0f} s clip at 30 fps (seed {seed}, {n} frames, 640 x 480, H.264 CRF 23; rendered and encoded in "
                      "{render_s:.0f} s): {blurred} frames motion-blurred, {partial} with the board partly out of view. "
                      "graphpose calibrate chose {used} views ({sharp} of them not blurred in the truth); the other "
                      "frames: {others}. 40 sharp whole-board frames picked from the truth, evenly over the clip. "
                      "OpenCV: findChessboardCornersSB on every 15th frame ({cv_frames} frames, {cv_found} with a "
                      "board) + calibrateCamera (five coefficients). Whole runs: graphpose {ours_wall:.1f} s wall "
                      "({ours_cpu:.1f} s process CPU), OpenCV {cv_wall:.1f} s wall ({cv_cpu:.1f} s CPU).",
-             "values": {"seconds": seconds, "n": len(clip), "render_s": render_s,
+             "values": {"seconds": seconds, "seed": CLIP_SEED, "n": len(clip), "render_s": render_s,
                         "blurred": int((clip.subframes > 1).sum()),
                         "partial": int(((clip.visible > 0) & (clip.visible < 1)).sum()), "used": len(used),
                         "sharp": len(sharp), "others": ", ".join(f"{v} {k}" for k, v in counts.items() if k != "used"),

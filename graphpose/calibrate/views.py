@@ -56,6 +56,10 @@ COVER_WEIGHT, SPREAD_WEIGHT = 1.0, 12.0
 #: The coverage grid, cells across and down.
 GRID = (8, 6)
 
+#: Most bytes of candidate frames :func:`choose_views` keeps in memory with ``keep_images``
+#: (beyond it, the chosen frames are not kept and the caller reads them again).
+KEEP_BYTES = 256 * 2**20
+
 #: Reasons a frame is not used.
 USED = "used"
 NOT_SCANNED = "not scanned"
@@ -95,6 +99,9 @@ class ViewChoice:
         Every how many frames one was searched.
     sharp_blur_px : float
         The blur of the recording's sharp frames (the 20th percentile), pixels.
+    images : tuple of (H, W) ndarray, or None
+        The chosen frames' images, in ``frames`` order, when asked for (``keep_images``) and
+        they fitted in :data:`KEEP_BYTES`; else None.
     """
 
     frames: np.ndarray
@@ -106,6 +113,7 @@ class ViewChoice:
     timestamps: np.ndarray | None
     scan_every: int
     sharp_blur_px: float
+    images: tuple | None = None
 
     def counts(self) -> dict:
         """How many frames have each status, most first."""
@@ -115,7 +123,7 @@ class ViewChoice:
 
 
 def choose_views(recording, board: Board = Board(), *, max_views: int = 40, scan_every: int | None = None,
-                 duplicate_px: float | None = None, progress=None) -> ViewChoice:
+                 duplicate_px: float | None = None, keep_images: bool = False, progress=None) -> ViewChoice:
     """Choose a calibration's views from a recording (see the module docstring).
 
     Parameters
@@ -132,6 +140,10 @@ def choose_views(recording, board: Board = Board(), *, max_views: int = 40, scan
     duplicate_px : float, optional
         RMS junction distance under which a view is a copy of a chosen one; default 0.5 % of
         the image's diagonal (3.2 px at 640 x 480: a hand held still).
+    keep_images : bool
+        Keep the candidate frames' images while scanning (up to :data:`KEEP_BYTES`), and give
+        the chosen ones in ``ViewChoice.images``: the caller need not decode the recording a
+        second time to calibrate from them.
     progress : callable, optional
         Called as ``progress(done, total)`` after each frame decoded.
 
@@ -155,6 +167,7 @@ def choose_views(recording, board: Board = Board(), *, max_views: int = 40, scan
     status, detail = [NOT_SCANNED] * n, [""] * n
     blur, count = np.full(n, np.nan), np.zeros(n, dtype=int)
     seen, size = {}, None  # frame -> (points (2, J) NaN unseen)
+    kept, kept_bytes = ({} if keep_images else None), 0  # frame -> image of the candidates
     for k in range(n):
         frame = recording.read(k)  # every frame is decoded (a video decodes in order anyway)
         if k % step == 0:
@@ -163,6 +176,11 @@ def choose_views(recording, board: Board = Board(), *, max_views: int = 40, scan
             if points is not None:
                 count[k] = int(np.sum(np.isfinite(points[0])))
                 seen[k] = points
+                if kept is not None:
+                    kept[k] = frame.image
+                    kept_bytes += frame.image.nbytes
+                    if kept_bytes > KEEP_BYTES:
+                        kept = None  # too many to hold: the caller reads the chosen ones again
         if progress is not None:
             progress(k + 1, n)
     speed = _speed(seen, step, n)
@@ -183,7 +201,9 @@ def choose_views(recording, board: Board = Board(), *, max_views: int = 40, scan
         _greedy(seen, blur, size, board, max_views, 0.005 * diagonal if duplicate_px is None else duplicate_px,
                 status, detail)
     frames = np.array(sorted(k for k in range(n) if status[k] == USED), dtype=int)
-    return ViewChoice(frames, tuple(status), tuple(detail), blur, speed, count, recording.timestamps, step, sharp)
+    images = None if kept is None else tuple(kept[int(k)] for k in frames)
+    return ViewChoice(frames, tuple(status), tuple(detail), blur, speed, count, recording.timestamps, step, sharp,
+                      images)
 
 
 def _scan(image, board):
@@ -214,18 +234,23 @@ def _blur(grey, points, step) -> float:
     noise = estimate_noise(I)
     r = int(np.clip(0.35 * step, 3, 25))
     H, W = I.shape
-    sigmas = []
-    for u, v in np.round(points).astype(int).T:
-        if r <= u < W - r - 1 and r <= v < H - r - 1:
-            patch = I[v - r: v + r + 1, u - r: u + r + 1]
-            gy, gx = np.gradient(patch)
-            energy = float(np.sum(gx * gx + gy * gy)) - patch.size * noise * noise
-            lo, hi = np.percentile(patch, (5, 95))
-            contrast = hi - lo
-            if energy > 0 and contrast > 4 * noise:
-                # Two edges cross the patch, each of length 2r + 1.
-                sigmas.append(contrast * contrast * 2 * (2 * r + 1) / (2 * np.sqrt(np.pi) * energy))
-    return float(np.median(sigmas)) if sigmas else np.nan
+    u, v = np.round(points).astype(int)
+    inside = (r <= u) & (u < W - r - 1) & (r <= v) & (v < H - r - 1)
+    if not inside.any():
+        return np.nan
+    # Every junction's patch at once, (m, 2r + 1, 2r + 1): the same sums as patch by patch.
+    offsets = np.arange(-r, r + 1)
+    patches = I[(v[inside][:, None] + offsets)[:, :, None], (u[inside][:, None] + offsets)[:, None, :]]
+    gy, gx = np.gradient(patches, axis=(1, 2))
+    energy = np.sum(gx * gx + gy * gy, axis=(1, 2)) - patches[0].size * noise * noise
+    lo, hi = np.percentile(patches, (5, 95), axis=(1, 2))
+    contrast = hi - lo
+    good = (energy > 0) & (contrast > 4 * noise)
+    if not good.any():
+        return np.nan
+    # Two edges cross the patch, each of length 2r + 1.
+    sigmas = contrast[good] ** 2 * 2 * (2 * r + 1) / (2 * np.sqrt(np.pi) * energy[good])
+    return float(np.median(sigmas))
 
 
 def _speed(seen, step, n) -> np.ndarray:
@@ -285,12 +310,15 @@ def _greedy(seen, blur, size, board, cap, duplicate_px, status, detail) -> None:
     covered = np.zeros((cols, rows), dtype=int)
     chosen = []
     left = set(seen)
+    # Each candidate's descriptor distance to its nearest chosen view (1 before any is chosen),
+    # kept up to date as views are chosen: the minimum over the chosen ones, without a pass
+    # over them for every candidate at every pick.
+    spread = dict.fromkeys(seen, 1.0)
     while left and len(chosen) < cap:
         best, best_score = None, -np.inf
         for k in left:
             new = sum(1 for c in cells[k] if covered[c] < 2)
-            spread = min((np.linalg.norm(desc[k] - desc[j]) for j in chosen), default=1.0)
-            score = COVER_WEIGHT * new + SPREAD_WEIGHT * spread - 0.1 * blur[k]
+            score = COVER_WEIGHT * new + SPREAD_WEIGHT * spread[k] - 0.1 * blur[k]
             if score > best_score:
                 best, best_score = k, score
         left.discard(best)
@@ -298,10 +326,14 @@ def _greedy(seen, blur, size, board, cap, duplicate_px, status, detail) -> None:
         if copy is not None:
             status[best], detail[best] = DUPLICATE, f"of frame {copy}"
             continue
+        first = not chosen
         chosen.append(best)
         status[best] = USED
         for c in cells[best]:
             covered[c] += 1
+        for k in left:
+            d = float(np.linalg.norm(desc[k] - desc[best]))
+            spread[k] = d if first else min(spread[k], d)
     for k in left:
         status[k], detail[k] = BEYOND_CAP, f"{cap} views chosen before it"
 

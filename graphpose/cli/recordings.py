@@ -149,9 +149,10 @@ def recording_views(args, progress):
             raise UsageError("--topic goes with one ROS bag")
         return None
     recording = open_source(args.images, args)
-    choice = choose_views(recording, args.board, max_views=args.max_views,
+    choice = choose_views(recording, args.board, max_views=args.max_views, keep_images=True,
                           progress=lambda done, total: progress("choosing views", done, total))
-    images = [recording.read(int(k)).image for k in choice.frames]
+    images = list(choice.images) if choice.images is not None else [recording.read(int(k)).image
+                                                                    for k in choice.frames]
     recording.close()
     return images, [recording.label(int(k)) for k in choice.frames], choice
 

@@ -23,12 +23,12 @@ MOTION_MODELS = ("constant_velocity", "random_walk", "wnoa")
 #: How the fixed target enters the back end's graph (:mod:`graphpose.track.backend`).
 TARGET_FORMS = ("resection", "landmarks", "frame_landmarks")
 
-#: Default lag of the fixed-lag back end, seconds (30 frames at 30 fps): long past the
-#: frames whose factors move a new frame's estimate (a 0.3 s lag already gives the same
-#: online poses within 0.5 um), short enough to keep each update cheap: the part of the
-#: smoother's Bayes tree re-eliminated at each frame grows with the lag (about 13 variables
-#: at 1 s, 23 at 2 s) and settles within a few lags.
-DEFAULT_LAG_S = 1.0
+#: Default lag of the fixed-lag back end, seconds (9 frames at 30 fps): past the frames
+#: whose factors move a new frame's estimate (a 0.3 s lag gives the online poses of a 1 s lag
+#: within 0.5 um), and short, to keep each update cheap: the part of the smoother's Bayes
+#: tree re-eliminated at each frame grows with the lag (about 13 variables at 1 s, 23 at 2 s)
+#: and settles within a few lags.
+DEFAULT_LAG_S = 0.3
 #: Frames one motion factor ties together, per model (:class:`MotionPrior`): a fixed lag must
 #: hold them, or every frame starts a segment of its own (:func:`shortest_lag_s`).
 MOTION_SPAN_FRAMES = {"constant_velocity": 3, "random_walk": 2, "wnoa": 2}

@@ -96,3 +96,16 @@ def test_scanning_every_other_frame_leaves_the_rest_unscanned(recording):
 def test_bad_options_are_refused(kwargs, match):
     with pytest.raises(InputError, match=match):
         choose_views(Frames([]), Board(), **kwargs)
+
+
+def test_kept_images_are_the_chosen_frames_and_only_when_asked(recording, monkeypatch):
+    import graphpose.calibrate.views as views
+
+    choice = choose_views(recording, Board(), max_views=10, scan_every=3, keep_images=True)
+    assert choice.images is not None and len(choice.images) == len(choice.frames) > 0
+    for k, image in zip(choice.frames, choice.images):
+        np.testing.assert_array_equal(image, recording.images[k])
+    assert choose_views(recording, Board(), max_views=10, scan_every=3).images is None
+    # Beyond the memory budget nothing is kept: the caller reads the chosen frames again.
+    monkeypatch.setattr(views, "KEEP_BYTES", recording.images[0].nbytes)
+    assert choose_views(recording, Board(), max_views=10, scan_every=3, keep_images=True).images is None

@@ -51,6 +51,8 @@ class _Steps:
     ([0.0], 0),                      # the first update left the pose at its start: done
     ([0.1, 0.1 + 1e-6], 1),          # one more update, then it moves by less than the threshold
     ([0.1, 0.2, 0.2 + 5e-5], 2),
+    ([3e-4], 0),                     # a move below REFINE_THRESHOLD (iSAM2's own threshold is lower): done
+    ([7e-4, 7e-4 + 1e-6], 1),        # above it: one more update
     ([0.1, 0.2, 0.3, 0.4, 0.5], RELINEARIZE_STEPS),  # never settles: at most RELINEARIZE_STEPS
 ])
 def test_refine_pose_updates_while_the_pose_moves_by_more_than_the_threshold(moves, updates):
