@@ -122,27 +122,31 @@ def _bounded_case(board, bounds, polygon, roll, **scene):
     return replace(_scene_case("junctions", board, **scene), bounds=np.array(bounds), polygon=polygon, roll=roll)
 
 
+#: Seed 0's cases 729 and 953 of the benchmark's fuzz: the board, the polygon the fuzz drew (its
+#: kind and roll) and ``random_scene``'s arguments.
+BESIDE_A_HIGHLIGHT = {
+    729: (Board(5, 4, 0.05), [[459.843456156621, 564.0813906099794, 579.3846829321997, 464.2364674789331],
+                              [143.77701066615205, 112.19361782695803, 219.5909675788847, 237.1205578909672]],
+          "inset", 0, dict(distance=(0.4576736111111111, 2.3537500000000002), max_tilt_deg=47.093264001586796,
+                           noise_sigma=5.7288690886803595, blur_sigma=1.4116146898485624,
+                           contrast=0.8485797078456532, vignetting=0.5483860020326429, margin=0.5, rng=110059778)),
+    953: (Board(6, 6, 0.04), [[377.8776469856744, 420.6463525421076, 575.0174518877541, 534.7620462497747],
+                              [268.6662558731084, 113.51517186607374, 158.57376704045174, 315.4428269911403]],
+          "rolled", 1, dict(distance=(0.41844444444444445, 1.883), max_tilt_deg=22.892095723367134,
+                            noise_sigma=6.296206009527402, blur_sigma=1.7496994308015181,
+                            contrast=0.5642051413704261, vignetting=0.23878682244043886, margin=0.15, rng=1867856688)),
+}
+
+
 @pytest.mark.slow  # about 2 s a case: two renders through the detector
-@pytest.mark.parametrize("case", [729, 953])
+@pytest.mark.parametrize("case", sorted(BESIDE_A_HIGHLIGHT))
 def test_a_part_of_a_board_beside_a_highlight_is_refused_or_right(case):
     """Seed 0's cases 729 and 953 of the benchmark's fuzz. 729 (before: a corner junction of an
     11-junction part trusted 1.14 px off, its residual 0.53 px under the gate): judged against
     the grid the other junctions draw. 953 (before: a 3 x 3 part labelled as the board's corner,
     three lines off, the highlight beside it taken for the margin): the rolled bounds put the
     board three squares away, and the part's labels are refused."""
-    common = dict(occluders=("reflection", "bar"), clutter=("text",))
-    if case == 729:
-        verdict = run_case(_bounded_case(
-            Board(5, 4, 0.05), [[459.843456156621, 564.0813906099794, 579.3846829321997, 464.2364674789331],
-                                [143.77701066615205, 112.19361782695803, 219.5909675788847, 237.1205578909672]],
-            "inset", 0, distance=(0.4576736111111111, 2.3537500000000002), max_tilt_deg=47.093264001586796,
-            noise_sigma=5.7288690886803595, blur_sigma=1.4116146898485624, contrast=0.8485797078456532,
-            vignetting=0.5483860020326429, margin=0.5, rng=110059778, **common))
-    else:
-        verdict = run_case(_bounded_case(
-            Board(6, 6, 0.04), [[377.8776469856744, 420.6463525421076, 575.0174518877541, 534.7620462497747],
-                                [268.6662558731084, 113.51517186607374, 158.57376704045174, 315.4428269911403]],
-            "rolled", 1, distance=(0.41844444444444445, 1.883), max_tilt_deg=22.892095723367134,
-            noise_sigma=6.296206009527402, blur_sigma=1.7496994308015181, contrast=0.5642051413704261,
-            vignetting=0.23878682244043886, margin=0.15, rng=1867856688, **common))
+    board, bounds, polygon, roll, scene = BESIDE_A_HIGHLIGHT[case]
+    verdict = run_case(_bounded_case(board, bounds, polygon, roll, occluders=("reflection", "bar"),
+                                     clutter=("text",), **scene))
     assert verdict["verdict"] in ("refused", "right"), verdict
