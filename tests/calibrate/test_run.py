@@ -87,13 +87,16 @@ def test_projection_uncertainty_ties_the_frame_to_the_boards(radtan_calibration)
 @pytest.mark.slow  # two whole fisheye calibrations of rendered views
 def test_fisheye_calibration_needs_the_camera_pass():
     camera = fisheye_camera()
-    views = calibration_set(camera, 10, rng=1)  # four boards are found without a camera
+    views = calibration_set(camera, 10, rng=1)  # three or four boards are found without a camera
     c = graphpose.calibrate(views.images, model="fisheye")
     assert c.ok, c.summary
     z = (c.parameters - camera.parameters) / c.sigmas
     assert np.all(np.abs(z) < 3.0), z
     first = [m for m in c.message if m.startswith("board found in pass 1")]
-    assert len(first) == 4
+    # Without the lens, junctions are judged against the grid the others draw (their deleted
+    # residuals): the rim of a raw fisheye view does not fit one, and of this seed's four boards
+    # near the centre, three keep enough junctions to be found in pass 1 (four before 5e75077).
+    assert 3 <= len(first) <= 4
     assert any(m.startswith("board found in pass 2 (with pass 1's camera)") for m in c.message)
     assert c.status.count("used") >= 9
     # Regression guard, from an earlier run of this test: the junctions the calibration used,
