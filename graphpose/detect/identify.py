@@ -607,14 +607,10 @@ def _check_bounds_enclose(fit, H, board, bounds, extent) -> None:
     round the whole board, are a check independent of that evidence: under the right labels
     every corner junction lies inside them (within :data:`_ENCLOSE_INSIDE`).
     """
-    M, t = fit
-    q = np.linalg.solve(H, np.vstack([np.asarray(bounds, dtype=float), np.ones(4)]))
-    if np.any(q[2] * np.sign(q[2, 0]) <= 0):
+    excess = _bounds_excess(fit, H, board, bounds)
+    if excess is None:
         return  # a vertex beyond the part's horizon: the homography says nothing there
-    c, r = M @ (q[:2] / q[2]) + t[:, None]
-    right, low = board.cols - 1, board.rows - 1
-    out_c = np.array([-c[0], c[1] - right, c[2] - right, -c[3]])
-    out_r = np.array([-r[0], -r[1], r[2] - low, r[3] - low])
+    out_c, out_r = excess
     worst = min(out_c.min(), out_r.min())
     if worst < _ENCLOSE_INSIDE:
         raise BoardNotFoundError(
@@ -633,18 +629,29 @@ _OUTLINE_INSIDE = -0.5
 _OUTLINE_SKEW = 0.75
 
 
+def _bounds_excess(fit, H, board, bounds):
+    """How far each vertex of ``bounds`` lies beyond its corner junction under labelling ``fit``,
+    in squares through the lattice's homography ``H``: ``(out_c, out_r)``, each (4,), along the
+    board's c and r axes (negative: inside the board); None when a vertex lies beyond the
+    homography's horizon."""
+    M, t = fit
+    q = np.linalg.solve(H, np.vstack([np.asarray(bounds, dtype=float), np.ones(4)]))
+    if np.any(q[2] * np.sign(q[2, 0]) <= 0):
+        return None
+    c, r = M @ (q[:2] / q[2]) + t[:, None]
+    right, low = board.cols - 1, board.rows - 1
+    return (np.array([-c[0], c[1] - right, c[2] - right, -c[3]]),
+            np.array([-r[0], -r[1], r[2] - low, r[3] - low]))
+
+
 def _outlines(fit, H, board, bounds) -> bool:
     """Do ``bounds`` outline the board under labelling ``fit``: in board coordinates (squares,
     through the lattice's homography ``H``), each vertex beyond its corner junction on both
     axes, by margins that agree on opposite sides (a margin of the sheet is about even)?"""
-    M, t = fit
-    q = np.linalg.solve(H, np.vstack([np.asarray(bounds, dtype=float), np.ones(4)]))
-    if np.any(q[2] * np.sign(q[2, 0]) <= 0):  # a vertex beyond the board's horizon
+    excess = _bounds_excess(fit, H, board, bounds)
+    if excess is None:  # a vertex beyond the board's horizon
         return False
-    c, r = M @ (q[:2] / q[2]) + t[:, None]
-    right, low = board.cols - 1, board.rows - 1
-    out_c = np.array([-c[0], c[1] - right, c[2] - right, -c[3]])  # excess beyond the corner junctions
-    out_r = np.array([-r[0], -r[1], r[2] - low, r[3] - low])
+    out_c, out_r = excess
     if min(out_c.min(), out_r.min()) <= _OUTLINE_INSIDE:
         return False
     skew_c = abs((out_c[0] + out_c[3]) - (out_c[1] + out_c[2])) / 2
