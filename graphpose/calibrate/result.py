@@ -139,7 +139,7 @@ class Calibration:
         two-parameter board deflection (:meth:`graphpose.board.Board.warp_basis`; the
         board's points move by ``w_x (1 - d_x^2) + w_y (1 - d_y^2)`` along its z). None
         where the board was taken as flat (``warp=False``, or ``"auto"`` where the views
-        did not constrain it).
+        did not constrain it or disagreed on it).
     warp_cov : (2, 2) ndarray or None
         Its covariance (the Huber estimate's, as ``cov``), metres squared.
     """

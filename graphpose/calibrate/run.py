@@ -81,6 +81,15 @@ MAX_FOCAL_SIGMA = 0.05
 #: 25 mm squares): a sag known no better than that says nothing of a board's bending (a
 #: printed board on card sags 0.5-3 mm), and only widens the intrinsics' sigmas.
 WARP_MAX_SIGMA = 0.005
+#: ``warp="auto"`` keeps the board warp only where the views agree on it (:func:`_warp_agrees`):
+#: a board's bending is one shape, the same in every view. Each view's own warp (its pose and
+#: the warp fitted with the intrinsics held) must scatter about their weighted mean no more
+#: than its covariance allows: the chi-square of that scatter (2 (n - 1) dof) is refused
+#: beyond this upper-tail probability. On rendered sets, bent or flat, the scatter is what the
+#: noise gives (p 0.4-0.98); on OpenCV's samples it is 4-6 times its dof (p below 1e-11): the
+#: warp there follows each view's own misfit, not the board, and its two halves' cameras
+#: repeat worse with it (``docs/calibration.md``, Bent boards).
+WARP_AGREEMENT_P = 1e-3
 
 
 def _load(images, names):
@@ -176,7 +185,8 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None, warp_
     screening's fit, which a pass before the last needs for its camera). Returns what the
     result needs (``graph`` None when not ``final``). ``held``: the parameters held at 0;
     ``warp_board``: the board whose warp is estimated (None: flat), from ``warp_start``;
-    ``warp_auto``: dropped where the views do not constrain it (:func:`_warp_constrained`)."""
+    ``warp_auto``: dropped where the views do not constrain it (:func:`_warp_constrained`) or
+    disagree on it (:func:`_warp_agrees`)."""
     from .graph import solve_graph
     from .lm import solve_lm
 
@@ -238,8 +248,10 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None, warp_
                                  "a blurred image?)")
         keys.pop(worst)
     sigma0 = mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
-    if warp_board is not None and warp_auto and not _warp_constrained(fit, sigma0, warp_board):
-        # The views do not tell the board's bending: a flat board from here on.
+    if warp_board is not None and warp_auto and not (_warp_constrained(fit, sigma0, warp_board)
+                                                      and _warp_agrees(fit, view, warp_board)):
+        # The views do not tell the board's bending, or tell each a different one: a flat
+        # board from here on.
         warp_board = None
         fit = solve_lm(fit.camera, fit.poses, view, huber_k * sigma0, prior_px=sigma0, held=held)
         sigma0 = mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
@@ -266,6 +278,50 @@ def _warp_constrained(fit, sigma_px, board) -> bool:
     sag_sd = sigma_px * float(np.sqrt(max(np.sum(C[-2:, -2:]), 0.0)))
     span = np.hypot(board.cols - 1, board.rows - 1) * board.square_m
     return bool(np.isfinite(sag_sd) and sag_sd <= WARP_MAX_SIGMA * span)
+
+
+def warp_agreement(fit, view, board):
+    """The views' agreement on the board warp of ``fit`` (a :func:`.lm.solve_lm` result with
+    the warp, on the views' observations ``view``): per view, its pose and its own warp fitted
+    with the intrinsics held at ``fit``'s, and that warp's covariance from the view's own
+    residuals (``sum r^2 / (2m - 8)``: a noisier view weighs less); their chi-square about the
+    information-weighted mean of the views' warps.
+
+    Returns
+    -------
+    chi2 : float
+        ``sum_k (w_k - w)^T C_k^-1 (w_k - w)``; NaN where fewer than two views fix their own
+        warp.
+    dof : int
+        ``2 (n - 1)`` over the n views that fix their own warp.
+    """
+    from .lm import solve_lm
+
+    P = fit.camera.parameters.size
+    hold = np.ones(P, dtype=bool)
+    warps, infos = [], []
+    for T, obs in zip(fit.poses, view):
+        one = solve_lm(fit.camera, [T], [obs], held=hold, bases=[board.warp_basis(obs[1])], warp=fit.warp)
+        r = one.residuals[0]
+        S = one.information[P:, P:]
+        if r.size <= 8 or not np.all(np.isfinite(S)) or np.linalg.matrix_rank(S) < 2:
+            continue
+        warps.append(one.warp)
+        infos.append(S / max(float(np.sum(r * r)) / (r.size - 8), SIGMA_FLOOR_PX ** 2))
+    if len(warps) < 2:
+        return float("nan"), 0
+    mean = np.linalg.solve(sum(infos), sum(I @ w for I, w in zip(infos, warps)))
+    chi2 = float(sum((w - mean) @ I @ (w - mean) for I, w in zip(infos, warps)))
+    return chi2, 2 * (len(warps) - 1)
+
+
+def _warp_agrees(fit, view, board) -> bool:
+    """Whether the views agree on the board warp (:func:`warp_agreement`): its chi-square
+    within the upper-tail probability :data:`WARP_AGREEMENT_P`."""
+    from scipy.stats import chi2 as chi2_distribution
+
+    chi2, dof = warp_agreement(fit, view, board)
+    return bool(dof > 0 and chi2_distribution.sf(chi2, dof) >= WARP_AGREEMENT_P)
 
 
 def check_warp(warp):
@@ -312,8 +368,9 @@ def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=No
         Estimate the board's bending with the camera (mrcal's two-parameter board warp,
         :meth:`graphpose.board.Board.warp_basis`; the result's ``warp_m``, ``warp_cov`` and
         ``sag_mm``). ``"auto"`` (default): estimated, and kept where the views constrain it
-        (the sag's 1-sigma at most :data:`WARP_MAX_SIGMA` of the board's span), else the
-        board is taken as flat; True: always; False: a flat board.
+        (the sag's 1-sigma at most :data:`WARP_MAX_SIGMA` of the board's span) and agree on
+        it (each view's own warp within its noise of the others', :data:`WARP_AGREEMENT_P`),
+        else the board is taken as flat; True: always; False: a flat board.
 
     Returns
     -------

@@ -51,7 +51,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
                    "(FILE.json)")
     p.add_argument("--warp", choices=("auto", "on", "off"), default="auto",
                    help="estimate the board's bending with the camera (mrcal's two-parameter board warp; the "
-                   "report gives the sag in mm): auto (default) keeps it where the views constrain it, on always, "
+                   "report gives the sag in mm): auto (default) keeps it where the views constrain it and agree on it, on always, "
                    "off takes the board as flat")
     p.add_argument("--cross-validate", nargs="?", const=True, default=None, metavar="PNG",
                    help="calibrate the odd and even used views apart and report their projection difference "
