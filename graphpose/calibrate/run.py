@@ -81,7 +81,7 @@ MAX_FOCAL_SIGMA = 0.05
 #: 25 mm squares): a sag known no better than that says nothing of a board's bending (a
 #: printed board on card sags 0.5-3 mm), and only widens the intrinsics' sigmas.
 WARP_MAX_SIGMA = 0.005
-#: ``warp="auto"`` keeps the board warp only where the views agree on it (:func:`_warp_agrees`):
+#: ``warp="auto"`` keeps the board warp only where the views agree on it (:func:`warp_agreement`):
 #: a board's bending is one shape, the same in every view. Each view's own warp (its pose and
 #: the warp fitted with the intrinsics held) must scatter about their weighted mean no more
 #: than its covariance allows: the chi-square of that scatter (2 (n - 1) dof) is refused
@@ -186,7 +186,7 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None, warp_
     result needs (``graph`` None when not ``final``). ``held``: the parameters held at 0;
     ``warp_board``: the board whose warp is estimated (None: flat), from ``warp_start``;
     ``warp_auto``: dropped where the views do not constrain it (:func:`_warp_constrained`) or
-    disagree on it (:func:`_warp_agrees`)."""
+    disagree on it (:func:`_why_flat`), the reason returned last."""
     from .graph import solve_graph
     from .lm import solve_lm
 
@@ -248,8 +248,10 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None, warp_
                                  "a blurred image?)")
         keys.pop(worst)
     sigma0 = mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
-    if warp_board is not None and warp_auto and not (_warp_constrained(fit, sigma0, warp_board)
-                                                      and _warp_agrees(fit, view, warp_board)):
+    flat_why = None
+    if warp_board is not None and warp_auto:
+        flat_why = _why_flat(fit, sigma0, view, warp_board)
+    if flat_why is not None:
         # The views do not tell the board's bending, or tell each a different one: a flat
         # board from here on.
         warp_board = None
@@ -258,12 +260,24 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None, warp_
     plain = fit
     start_poses = fit.poses
     if not final:
-        return keys, rejected, None, fit, sigma0, obs, outliers
+        return keys, rejected, None, fit, sigma0, obs, outliers, flat_why
     graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k, prior_px=sigma0, held=held,
                         bases=bases(view), warp=plain.warp)
     lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0, prior_px=sigma0, held=held, bases=bases(view),
                   warp=plain.warp)
-    return keys, rejected, graph, lm, sigma0, obs, outliers
+    return keys, rejected, graph, lm, sigma0, obs, outliers, flat_why
+
+
+def _why_flat(fit, sigma_px, view, board):
+    """Why ``warp="auto"`` takes the board as flat, or None where it keeps the warp of ``fit``
+    (:func:`_warp_constrained`, :func:`warp_agreement`)."""
+    if not _warp_constrained(fit, sigma_px, board):
+        return f"the views do not constrain its bending: the sag's 1-sigma is above {WARP_MAX_SIGMA:.1%} of its span"
+    chi2, dof = warp_agreement(fit, view, board)
+    if not _agrees(chi2, dof):
+        return (f"the views disagree on its bending: each view's own warp against the others' gives chi-square "
+                f"{chi2:.0f} for {dof} dof")
+    return None
 
 
 def _warp_constrained(fit, sigma_px, board) -> bool:
@@ -315,12 +329,11 @@ def warp_agreement(fit, view, board):
     return chi2, 2 * (len(warps) - 1)
 
 
-def _warp_agrees(fit, view, board) -> bool:
-    """Whether the views agree on the board warp (:func:`warp_agreement`): its chi-square
-    within the upper-tail probability :data:`WARP_AGREEMENT_P`."""
+def _agrees(chi2, dof) -> bool:
+    """Whether the views agree on the board warp (:func:`warp_agreement`'s ``chi2``, ``dof``):
+    the chi-square within the upper-tail probability :data:`WARP_AGREEMENT_P`."""
     from scipy.stats import chi2 as chi2_distribution
 
-    chi2, dof = warp_agreement(fit, view, board)
     return bool(dof > 0 and chi2_distribution.sf(chi2, dof) >= WARP_AGREEMENT_P)
 
 
@@ -430,10 +443,9 @@ def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=No
 
     keys = sorted(obs)
     camera0, poses0 = start(cls.model, size, [obs[k][:2] for k in keys])
-    keys, rejected, graph, lm, sigma0, inliers, outliers = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k,
-                                                                  final=False,
-                                                                  held=held, warp_board=warp_board,
-                                                                  warp_auto=warp == "auto")
+    keys, rejected, graph, lm, sigma0, inliers, outliers, flat_why = _solve(
+        camera0, dict(zip(keys, poses0)), obs, huber_k, final=False, held=held, warp_board=warp_board,
+        warp_auto=warp == "auto")
     report("solve", 1, 2)
 
     # 4. Passes with the camera: every image again, until no new board is found.
@@ -467,16 +479,15 @@ def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=No
         obs = obs2
         last = not grew or pass_number == 1 + MAX_CAMERA_PASSES
         # Only the last pass's solve is the calibration: GTSAM and the cross-check run there.
-        keys, rejected, graph, lm, sigma0, inliers, outliers = _solve(camera1, poses1, obs, huber_k, final=last,
-                                                                      plain=False,
-                                                                      held=held, warp_board=warp_board,
-                                                                      warp_start=lm.warp, warp_auto=warp == "auto")
+        keys, rejected, graph, lm, sigma0, inliers, outliers, flat_why = _solve(
+            camera1, poses1, obs, huber_k, final=last, plain=False, held=held, warp_board=warp_board,
+            warp_start=lm.warp, warp_auto=warp == "auto")
         report("solve", pass_number, pass_number)
         if last:
             break
     return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
                    "no camera" if camera is None else "with the given camera", board, huber_k, inliers, outliers,
-                   held, unreadable)
+                   held, unreadable, flat_why=flat_why)
 
 
 def calibrate_corners(corners, model: str = "radtan", *, board: Board = Board(), size=None, names=None,
@@ -564,12 +575,11 @@ def calibrate_corners(corners, model: str = "radtan", *, board: Board = Board(),
 
     keys = sorted(obs)
     camera0, poses0 = start(cls.model, size, [obs[k][:2] for k in keys])
-    keys, rejected, graph, lm, sigma0, inliers, outliers = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k,
-                                                                  held=held, warp_board=warp_board,
-                                                                  warp_auto=warp == "auto")
+    keys, rejected, graph, lm, sigma0, inliers, outliers, flat_why = _solve(
+        camera0, dict(zip(keys, poses0)), obs, huber_k, held=held, warp_board=warp_board, warp_auto=warp == "auto")
     report("solve", 1, 1)
     return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
-                   "the corners", board, huber_k, inliers, outliers, held)
+                   "the corners", board, huber_k, inliers, outliers, held, flat_why=flat_why)
 
 
 def _joint(lm, observations, huber_px, sigma0, board, held):
@@ -597,7 +607,7 @@ def _check_spec(board, labels, searched, refusals) -> None:
 
 
 def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
-            first_camera, board, huber_k, inliers, outliers, held, unreadable=None) -> Calibration:
+            first_camera, board, huber_k, inliers, outliers, held, unreadable=None, flat_why=None) -> Calibration:
     P_all = len(cls.parameter_names)
     nw = 0 if lm.warp is None else 2
     P = P_all - int(np.sum(held)) + nw  # the parameters estimated
@@ -677,6 +687,8 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
         if nw:
             sag, sag_sd = sag_mm(warp_m, warp_cov)
             summary += f"; the board sags {sag:.2f} +- {sag_sd:.2f} mm at its centre"
+        elif flat_why is not None:
+            summary += f"; the board taken as flat by warp auto: {flat_why}"
     elif not converged:
         summary = (f"calibration failed: GTSAM {'converged' if graph.converged else 'did not converge'} "
                    f"({graph.message or graph.iterations}), the hand-written LM "
@@ -709,4 +721,5 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
         board_distance_m=distance,
         warp_m=warp_m,
         warp_cov=warp_cov,
+        warp_note=None if nw else flat_why,
     )

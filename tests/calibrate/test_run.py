@@ -310,6 +310,8 @@ def test_auto_takes_the_board_as_flat_where_the_views_disagree_on_its_bending():
     assert dof >= 10 and chi2 > 1000  # one view or two may be rejected whole: 4500 for 12 here
     auto = calibrate_run.calibrate_corners(apart, "radtan", board=board, size=camera.size)
     assert warped.warp_m is not None and auto.warp_m is None and "sags" not in auto.summary
+    assert auto.warp_note.startswith("the views disagree on its bending") and auto.warp_note in auto.summary
+    assert warped.warp_note is None
 
 
 @pytest.mark.slow  # two calibrations from junctions: 2 s or so under load
@@ -319,6 +321,7 @@ def test_auto_takes_the_board_as_flat_where_the_warp_is_not_constrained(monkeypa
     monkeypatch.setattr(calibrate_run, "WARP_MAX_SIGMA", 0.0)  # no sag's sigma is small enough
     auto = calibrate_run.calibrate_corners(corners, "radtan", board=board, size=camera.size)
     assert auto.ok and auto.warp_m is None and "sags" not in auto.summary
+    assert auto.warp_note.startswith("the views do not constrain its bending") and flat.warp_note is None
     sd = flat.sigmas
     # The same flat solve, but for its Huber threshold (from a median reached by another path).
     np.testing.assert_array_less(np.abs(auto.parameters - flat.parameters), 1e-2 * sd)
