@@ -93,11 +93,19 @@ def _intrinsics_only(cal, q):
     return worst_direction_sigma(J @ cal.cov @ J.transpose(0, 2, 1))[0]
 
 
+#: Rendered sets per model. A right covariance gives each set's parameter NEES as chi-square
+#: with P dof, so the mean of N sets has a relative 1-sigma of sqrt(2 / (P N)); for it to land
+#: within the goal's 0.7-1.3 x P with 99 % probability (2.6 sigmas within 30 %), N >= 150 / P:
+#: 19 for the fisheye's 8 parameters, 17 for radtan's 9. (With 5 fisheye sets that 1-sigma is
+#: 22 %: the mean of seeds 40000-40004 was 5.4, of 40005-40011 9.6, of all twelve 7.9.)
+SETS = 20
+
+
 def rendered_nees(quick, progress=print):
-    """Sets of 20 radtan and 30 fisheye views (3 and 2 in ``--quick``)."""
+    """:data:`SETS` sets of 20 radtan and of 30 fisheye views (3 and 2 in ``--quick``)."""
     out = {}
-    for name, camera, n_views, sets, base in (("radtan", radtan_camera(), 20, 3 if quick else 10, 30_000),
-                                               ("fisheye", fisheye_camera(), 30, 2 if quick else 5, 40_000)):
+    for name, camera, n_views, sets, base in (("radtan", radtan_camera(), 20, 3 if quick else SETS, 30_000),
+                                               ("fisheye", fisheye_camera(), 30, 2 if quick else SETS, 40_000)):
         rows = []
         for k in range(sets):
             rows.append(one_set(camera, n_views, base + k))
@@ -127,7 +135,12 @@ def samples_uncertainty(files, board):
     J = cal.camera.parameter_jacobian(cal.camera.unproject(q))
     plain = worst_direction_sigma(J @ cal.cov @ J.transpose(0, 2, 1))
     cv = cross_validate(cal, board=board)
-    rational = graphpose.calibrate(files, "rational", board=board)
+    # The board warp always estimated (warp=True; "auto" drops it where the views disagree on
+    # it): the RMS with it, and the views' agreement on it (warp_agreement's chi-square).
+    warped = graphpose.calibrate(files, "radtan", board=board, warp=True)
+    rational = graphpose.calibrate(files, "rational", board=board, warp=True)
+    agreement = _warp_agreement(warped, board)
+    cv_warp = cross_validate(warped, board=board, warp=True)
     # The flat board beside it (warp=False): the RMS and the cross-validation without the warp.
     flat = graphpose.calibrate(files, "radtan", board=board, warp=False)
     rational_flat = graphpose.calibrate(files, "rational", board=board, warp=False)
@@ -135,17 +148,40 @@ def samples_uncertainty(files, board):
     d = cv.halves[0].parameters - cv.halves[1].parameters
     C = cv.halves[0].cov + cv.halves[1].cov
     return {"halves_mahalanobis": float(d @ np.linalg.solve(C, d)), "halves_z": (d / np.sqrt(np.diag(C))).tolist(),"distance_m": cal.board_distance_m, "at_boards_px": at.tolist(), "at_infinity_px": far.tolist(),
-            "intrinsics_only_px": plain.tolist(), "rms_px": cal.rms_px,
+            "intrinsics_only_px": plain.tolist(), "rms_px": warped.rms_px, "auto_rms_px": cal.rms_px,
+            "auto_warp_used": cal.warp_m is not None, "warp_agreement_chi2": agreement[0],
+            "warp_agreement_dof": agreement[1],
+            "cross_validation_warp_median_px": cv_warp.median_px,
+            "cross_validation_warp_predicted_median_px": cv_warp.predicted_median_px,
             "rational_rms_px": rational.rms_px if rational.ok else float("nan"), "rational_ok": rational.ok,
             "outliers": int(sum(o.size for o in cal.outliers)),
             "cross_validation_median_px": cv.median_px, "cross_validation_predicted_median_px": cv.predicted_median_px,
             "halves_used": [h.status.count("used") for h in cv.halves],
-            "warp_used": cal.warp_m is not None, "sag_mm": cal.sag_mm, "sag_sigma_mm": cal.sag_sigma_mm,
-            "halves_sag_mm": [h.sag_mm for h in cv.halves],
+            "warp_used": warped.warp_m is not None, "sag_mm": warped.sag_mm, "sag_sigma_mm": warped.sag_sigma_mm,
+            "halves_sag_mm": [h.sag_mm for h in cv_warp.halves],
             "flat_rms_px": flat.rms_px, "rational_flat_rms_px": rational_flat.rms_px if rational_flat.ok else float("nan"),
             "rational_warp_used": rational.warp_m is not None,
             "cross_validation_flat_median_px": cv_flat.median_px,
             "cross_validation_flat_predicted_median_px": cv_flat.predicted_median_px}
+
+
+def _warp_agreement(cal, board):
+    """The views' agreement on ``cal``'s board warp (:func:`graphpose.calibrate.run.warp_agreement`):
+    (chi-square, dof), from a warp-on solve of its used views' inlying junctions."""
+    from graphpose.calibrate.lm import solve_lm
+    from graphpose.calibrate.run import warp_agreement
+
+    W = board.world_points()
+    view, poses = [], []
+    for k, status in enumerate(cal.status):
+        if status != "used":
+            continue
+        uv, index = cal.detections[k]
+        keep = ~np.isin(index, cal.outliers[k])
+        view.append((uv[:, keep], W[:, index[keep]], index[keep]))
+        poses.append(cal.poses[k])
+    fit = solve_lm(cal.camera, poses, view, bases=[board.warp_basis(o[1]) for o in view], warp=cal.warp_m)
+    return warp_agreement(fit, view, board)
 
 
 def bent_board(quick, seed=70_000, sag_m=0.003):

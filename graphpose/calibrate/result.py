@@ -139,9 +139,12 @@ class Calibration:
         two-parameter board deflection (:meth:`graphpose.board.Board.warp_basis`; the
         board's points move by ``w_x (1 - d_x^2) + w_y (1 - d_y^2)`` along its z). None
         where the board was taken as flat (``warp=False``, or ``"auto"`` where the views
-        did not constrain it).
+        did not constrain it or disagreed on it).
     warp_cov : (2, 2) ndarray or None
         Its covariance (the Huber estimate's, as ``cov``), metres squared.
+    warp_note : str or None
+        Why ``warp="auto"`` took the board as flat: the views do not constrain its bending, or
+        disagree on it (with the chi-square); None where the warp was kept or not asked for.
     """
 
     camera: object
@@ -165,6 +168,7 @@ class Calibration:
     board_distance_m: float = float("nan")
     warp_m: np.ndarray | None = None
     warp_cov: np.ndarray | None = None
+    warp_note: str | None = None
 
     @property
     def sag_mm(self):

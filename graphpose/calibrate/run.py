@@ -81,6 +81,15 @@ MAX_FOCAL_SIGMA = 0.05
 #: 25 mm squares): a sag known no better than that says nothing of a board's bending (a
 #: printed board on card sags 0.5-3 mm), and only widens the intrinsics' sigmas.
 WARP_MAX_SIGMA = 0.005
+#: ``warp="auto"`` keeps the board warp only where the views agree on it (:func:`warp_agreement`):
+#: a board's bending is one shape, the same in every view. Each view's own warp (its pose and
+#: the warp fitted with the intrinsics held) must scatter about their weighted mean no more
+#: than its covariance allows: the chi-square of that scatter (2 (n - 1) dof) is refused
+#: beyond this upper-tail probability. On rendered sets, bent or flat, the scatter is what the
+#: noise gives (p 0.4-0.98); on OpenCV's samples it is 4-6 times its dof (p below 1e-11): the
+#: warp there follows each view's own misfit, not the board, and its two halves' cameras
+#: repeat worse with it (``docs/calibration.md``, Bent boards).
+WARP_AGREEMENT_P = 1e-3
 
 
 def _load(images, names):
@@ -176,7 +185,8 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None, warp_
     screening's fit, which a pass before the last needs for its camera). Returns what the
     result needs (``graph`` None when not ``final``). ``held``: the parameters held at 0;
     ``warp_board``: the board whose warp is estimated (None: flat), from ``warp_start``;
-    ``warp_auto``: dropped where the views do not constrain it (:func:`_warp_constrained`)."""
+    ``warp_auto``: dropped where the views do not constrain it (:func:`_warp_constrained`) or
+    disagree on it (:func:`_why_flat`), the reason returned last."""
     from .graph import solve_graph
     from .lm import solve_lm
 
@@ -238,20 +248,36 @@ def _solve(camera, poses, obs, huber_k, final=True, plain=True, held=None, warp_
                                  "a blurred image?)")
         keys.pop(worst)
     sigma0 = mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
-    if warp_board is not None and warp_auto and not _warp_constrained(fit, sigma0, warp_board):
-        # The views do not tell the board's bending: a flat board from here on.
+    flat_why = None
+    if warp_board is not None and warp_auto:
+        flat_why = _why_flat(fit, sigma0, view, warp_board)
+    if flat_why is not None:
+        # The views do not tell the board's bending, or tell each a different one: a flat
+        # board from here on.
         warp_board = None
         fit = solve_lm(fit.camera, fit.poses, view, huber_k * sigma0, prior_px=sigma0, held=held)
         sigma0 = mad_sigma(fit.residuals, floor=SIGMA_FLOOR_PX)
     plain = fit
     start_poses = fit.poses
     if not final:
-        return keys, rejected, None, fit, sigma0, obs, outliers
+        return keys, rejected, None, fit, sigma0, obs, outliers, flat_why
     graph = solve_graph(plain.camera, start_poses, view, sigma0, huber_k, prior_px=sigma0, held=held,
                         bases=bases(view), warp=plain.warp)
     lm = solve_lm(plain.camera, start_poses, view, huber_k * sigma0, prior_px=sigma0, held=held, bases=bases(view),
                   warp=plain.warp)
-    return keys, rejected, graph, lm, sigma0, obs, outliers
+    return keys, rejected, graph, lm, sigma0, obs, outliers, flat_why
+
+
+def _why_flat(fit, sigma_px, view, board):
+    """Why ``warp="auto"`` takes the board as flat, or None where it keeps the warp of ``fit``
+    (:func:`_warp_constrained`, :func:`warp_agreement`)."""
+    if not _warp_constrained(fit, sigma_px, board):
+        return f"the views do not constrain its bending: the sag's 1-sigma is above {WARP_MAX_SIGMA:.1%} of its span"
+    chi2, dof = warp_agreement(fit, view, board)
+    if not _agrees(chi2, dof):
+        return (f"the views disagree on its bending: each view's own warp against the others' gives chi-square "
+                f"{chi2:.0f} for {dof} dof")
+    return None
 
 
 def _warp_constrained(fit, sigma_px, board) -> bool:
@@ -266,6 +292,49 @@ def _warp_constrained(fit, sigma_px, board) -> bool:
     sag_sd = sigma_px * float(np.sqrt(max(np.sum(C[-2:, -2:]), 0.0)))
     span = np.hypot(board.cols - 1, board.rows - 1) * board.square_m
     return bool(np.isfinite(sag_sd) and sag_sd <= WARP_MAX_SIGMA * span)
+
+
+def warp_agreement(fit, view, board):
+    """The views' agreement on the board warp of ``fit`` (a :func:`.lm.solve_lm` result with
+    the warp, on the views' observations ``view``): per view, its pose and its own warp fitted
+    with the intrinsics held at ``fit``'s, and that warp's covariance from the view's own
+    residuals (``sum r^2 / (2m - 8)``: a noisier view weighs less); their chi-square about the
+    information-weighted mean of the views' warps.
+
+    Returns
+    -------
+    chi2 : float
+        ``sum_k (w_k - w)^T C_k^-1 (w_k - w)``; NaN where fewer than two views fix their own
+        warp.
+    dof : int
+        ``2 (n - 1)`` over the n views that fix their own warp.
+    """
+    from .lm import solve_lm
+
+    P = fit.camera.parameters.size
+    hold = np.ones(P, dtype=bool)
+    warps, infos = [], []
+    for T, obs in zip(fit.poses, view):
+        one = solve_lm(fit.camera, [T], [obs], held=hold, bases=[board.warp_basis(obs[1])], warp=fit.warp)
+        r = one.residuals[0]
+        S = one.information[P:, P:]
+        if r.size <= 8 or not np.all(np.isfinite(S)) or np.linalg.matrix_rank(S) < 2:
+            continue
+        warps.append(one.warp)
+        infos.append(S / max(float(np.sum(r * r)) / (r.size - 8), SIGMA_FLOOR_PX ** 2))
+    if len(warps) < 2:
+        return float("nan"), 0
+    mean = np.linalg.solve(sum(infos), sum(I @ w for I, w in zip(infos, warps)))
+    chi2 = float(sum((w - mean) @ I @ (w - mean) for I, w in zip(infos, warps)))
+    return chi2, 2 * (len(warps) - 1)
+
+
+def _agrees(chi2, dof) -> bool:
+    """Whether the views agree on the board warp (:func:`warp_agreement`'s ``chi2``, ``dof``):
+    the chi-square within the upper-tail probability :data:`WARP_AGREEMENT_P`."""
+    from scipy.stats import chi2 as chi2_distribution
+
+    return bool(dof > 0 and chi2_distribution.sf(chi2, dof) >= WARP_AGREEMENT_P)
 
 
 def check_warp(warp):
@@ -312,8 +381,9 @@ def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=No
         Estimate the board's bending with the camera (mrcal's two-parameter board warp,
         :meth:`graphpose.board.Board.warp_basis`; the result's ``warp_m``, ``warp_cov`` and
         ``sag_mm``). ``"auto"`` (default): estimated, and kept where the views constrain it
-        (the sag's 1-sigma at most :data:`WARP_MAX_SIGMA` of the board's span), else the
-        board is taken as flat; True: always; False: a flat board.
+        (the sag's 1-sigma at most :data:`WARP_MAX_SIGMA` of the board's span) and agree on
+        it (each view's own warp within its noise of the others', :data:`WARP_AGREEMENT_P`),
+        else the board is taken as flat; True: always; False: a flat board.
 
     Returns
     -------
@@ -373,10 +443,9 @@ def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=No
 
     keys = sorted(obs)
     camera0, poses0 = start(cls.model, size, [obs[k][:2] for k in keys])
-    keys, rejected, graph, lm, sigma0, inliers, outliers = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k,
-                                                                  final=False,
-                                                                  held=held, warp_board=warp_board,
-                                                                  warp_auto=warp == "auto")
+    keys, rejected, graph, lm, sigma0, inliers, outliers, flat_why = _solve(
+        camera0, dict(zip(keys, poses0)), obs, huber_k, final=False, held=held, warp_board=warp_board,
+        warp_auto=warp == "auto")
     report("solve", 1, 2)
 
     # 4. Passes with the camera: every image again, until no new board is found.
@@ -410,16 +479,15 @@ def calibrate(images, model: str = "radtan", *, board: Board = Board(), names=No
         obs = obs2
         last = not grew or pass_number == 1 + MAX_CAMERA_PASSES
         # Only the last pass's solve is the calibration: GTSAM and the cross-check run there.
-        keys, rejected, graph, lm, sigma0, inliers, outliers = _solve(camera1, poses1, obs, huber_k, final=last,
-                                                                      plain=False,
-                                                                      held=held, warp_board=warp_board,
-                                                                      warp_start=lm.warp, warp_auto=warp == "auto")
+        keys, rejected, graph, lm, sigma0, inliers, outliers, flat_why = _solve(
+            camera1, poses1, obs, huber_k, final=last, plain=False, held=held, warp_board=warp_board,
+            warp_start=lm.warp, warp_auto=warp == "auto")
         report("solve", pass_number, pass_number)
         if last:
             break
     return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
                    "no camera" if camera is None else "with the given camera", board, huber_k, inliers, outliers,
-                   held, unreadable)
+                   held, unreadable, flat_why=flat_why)
 
 
 def calibrate_corners(corners, model: str = "radtan", *, board: Board = Board(), size=None, names=None,
@@ -507,12 +575,11 @@ def calibrate_corners(corners, model: str = "radtan", *, board: Board = Board(),
 
     keys = sorted(obs)
     camera0, poses0 = start(cls.model, size, [obs[k][:2] for k in keys])
-    keys, rejected, graph, lm, sigma0, inliers, outliers = _solve(camera0, dict(zip(keys, poses0)), obs, huber_k,
-                                                                  held=held, warp_board=warp_board,
-                                                                  warp_auto=warp == "auto")
+    keys, rejected, graph, lm, sigma0, inliers, outliers, flat_why = _solve(
+        camera0, dict(zip(keys, poses0)), obs, huber_k, held=held, warp_board=warp_board, warp_auto=warp == "auto")
     report("solve", 1, 1)
     return _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
-                   "the corners", board, huber_k, inliers, outliers, held)
+                   "the corners", board, huber_k, inliers, outliers, held, flat_why=flat_why)
 
 
 def _joint(lm, observations, huber_px, sigma0, board, held):
@@ -540,7 +607,7 @@ def _check_spec(board, labels, searched, refusals) -> None:
 
 
 def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in, why,
-            first_camera, board, huber_k, inliers, outliers, held, unreadable=None) -> Calibration:
+            first_camera, board, huber_k, inliers, outliers, held, unreadable=None, flat_why=None) -> Calibration:
     P_all = len(cls.parameter_names)
     nw = 0 if lm.warp is None else 2
     P = P_all - int(np.sum(held)) + nw  # the parameters estimated
@@ -620,6 +687,8 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
         if nw:
             sag, sag_sd = sag_mm(warp_m, warp_cov)
             summary += f"; the board sags {sag:.2f} +- {sag_sd:.2f} mm at its centre"
+        elif flat_why is not None:
+            summary += f"; the board taken as flat by warp auto: {flat_why}"
     elif not converged:
         summary = (f"calibration failed: GTSAM {'converged' if graph.converged else 'did not converge'} "
                    f"({graph.message or graph.iterations}), the hand-written LM "
@@ -652,4 +721,5 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
         board_distance_m=distance,
         warp_m=warp_m,
         warp_cov=warp_cov,
+        warp_note=None if nw else flat_why,
     )

@@ -51,8 +51,8 @@ def add_options(p: argparse.ArgumentParser) -> None:
                    "(FILE.json)")
     p.add_argument("--warp", choices=("auto", "on", "off"), default="auto",
                    help="estimate the board's bending with the camera (mrcal's two-parameter board warp; the "
-                   "report gives the sag in mm): auto (default) keeps it where the views constrain it, on always, "
-                   "off takes the board as flat")
+                   "report gives the sag in mm): auto (default) keeps it where the views constrain it and agree "
+                   "on it, on always, off takes the board as flat")
     p.add_argument("--cross-validate", nargs="?", const=True, default=None, metavar="PNG",
                    help="calibrate the odd and even used views apart and report their projection difference "
                    "after the best-fitting rotation (mrcal's projection_diff) beside what their covariances "
@@ -130,6 +130,8 @@ def after(args, calibration) -> list:
     if calibration.warp_m is not None:
         lines.append(f"  {'board warp':16}sag {calibration.sag_mm:+.3f} +- {calibration.sag_sigma_mm:.3f} mm at the "
                      f"centre (w_x {1000 * calibration.warp_m[0]:+.3f}, w_y {1000 * calibration.warp_m[1]:+.3f} mm)")
+    elif calibration.warp_note is not None:
+        lines.append(f"  {'board warp':16}flat (warp auto): {calibration.warp_note}")
     lines += uncertainty_lines(calibration)
     if args.cross_validate is not None:
         from ..calibrate.crossval import cross_validate

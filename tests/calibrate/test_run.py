@@ -226,7 +226,7 @@ def test_each_pass_refines_the_board_found_once_as_extract_junctions_does(radtan
 
 def _bent_corners(warp, n=8, seed=11, noise=0.02):
     """Junctions of a bent board (mrcal's warp) seen by the radtan camera: exact projections
-    plus noise, as calibrate_corners takes them."""
+    plus noise, as calibrate_corners takes them. ``warp`` (2,), or (n, 2): a warp per view."""
     from graphpose.geometry import to_camera
     from graphpose.synth.poses import random_pose
 
@@ -234,9 +234,10 @@ def _bent_corners(warp, n=8, seed=11, noise=0.02):
     rng = np.random.default_rng(seed)
     W = board.world_points()
     out = []
-    for _ in range(n):
+    warps = np.broadcast_to(np.asarray(warp, float), (n, 2))
+    for k in range(n):
         T = random_pose(camera, board, rng=rng, distance=(0.5, 0.9), max_tilt_deg=50)
-        uv = camera.project(to_camera(T, board.warped(W, warp))) + rng.normal(0.0, noise, (2, board.n))
+        uv = camera.project(to_camera(T, board.warped(W, warps[k]))) + rng.normal(0.0, noise, (2, board.n))
         out.append((uv, np.arange(board.n)))
     return camera, board, out
 
@@ -279,6 +280,40 @@ def test_auto_keeps_the_warp_only_where_the_views_constrain_it():
     assert calibrate_run._warp_constrained(strong, 0.1, board)  # 0.014 mm
 
 
+def _warp_fit(corners, board):
+    """A warp-on solve of ``corners`` (all junctions) from their warp-on calibration."""
+    from graphpose.calibrate.lm import solve_lm
+
+    c = calibrate_run.calibrate_corners(corners, "radtan", board=board, size=(640, 480), warp=True)
+    W = board.world_points()
+    used = [k for k, status in enumerate(c.status) if status == "used"]
+    view = [(corners[k][0], W[:, corners[k][1]], corners[k][1]) for k in used]
+    fit = solve_lm(c.camera, [c.poses[k] for k in used], view, bases=[board.warp_basis(o[1]) for o in view],
+                   warp=c.warp_m)
+    return c, fit, view
+
+
+@pytest.mark.slow  # four calibrations from junctions: 4 s or so under load
+def test_auto_takes_the_board_as_flat_where_the_views_disagree_on_its_bending():
+    # One bend in every view: the views' own warps scatter as their noise allows (chi-square
+    # about its 14 dof), and "auto" keeps it. A board bent differently in each view (a
+    # hand-held sheet): one warp cannot describe it, the chi-square is far beyond its dof, and
+    # "auto" takes the board as flat.
+    camera, board, same = _bent_corners((0.002, 0.001))
+    _, fit, view = _warp_fit(same, board)
+    chi2, dof = calibrate_run.warp_agreement(fit, view, board)
+    assert dof == 14 and chi2 < 40  # P(chi2_14 > 40) = 2e-4
+    rng = np.random.default_rng(5)
+    _, _, apart = _bent_corners(rng.normal(0.0, 0.001, (8, 2)))
+    warped, fit, view = _warp_fit(apart, board)
+    chi2, dof = calibrate_run.warp_agreement(fit, view, board)
+    assert dof >= 10 and chi2 > 1000  # one view or two may be rejected whole: 4500 for 12 here
+    auto = calibrate_run.calibrate_corners(apart, "radtan", board=board, size=camera.size)
+    assert warped.warp_m is not None and auto.warp_m is None and "sags" not in auto.summary
+    assert auto.warp_note.startswith("the views disagree on its bending") and auto.warp_note in auto.summary
+    assert warped.warp_note is None
+
+
 @pytest.mark.slow  # two calibrations from junctions: 2 s or so under load
 def test_auto_takes_the_board_as_flat_where_the_warp_is_not_constrained(monkeypatch):
     camera, board, corners = _bent_corners((0.0, 0.0), n=6, seed=12)
@@ -286,6 +321,7 @@ def test_auto_takes_the_board_as_flat_where_the_warp_is_not_constrained(monkeypa
     monkeypatch.setattr(calibrate_run, "WARP_MAX_SIGMA", 0.0)  # no sag's sigma is small enough
     auto = calibrate_run.calibrate_corners(corners, "radtan", board=board, size=camera.size)
     assert auto.ok and auto.warp_m is None and "sags" not in auto.summary
+    assert auto.warp_note.startswith("the views do not constrain its bending") and flat.warp_note is None
     sd = flat.sigmas
     # The same flat solve, but for its Huber threshold (from a median reached by another path).
     np.testing.assert_array_less(np.abs(auto.parameters - flat.parameters), 1e-2 * sd)

@@ -73,3 +73,15 @@ def test_usage_errors(shots, capsys, tmp_path):
     assert main(["calibrate", "--corners", str(tmp_path / "none.vnl"), "--image-size", "64x48", "--board",
                  "8x6x0.0635", "--out", str(tmp_path / "c.json")]) == 2
     assert "not found" in capsys.readouterr().err
+
+
+def test_a_board_taken_as_flat_by_warp_auto_says_why():
+    from types import SimpleNamespace
+
+    from graphpose.cli.calibrate_extras import after
+
+    note = "the views disagree on its bending: each view's own warp against the others' gives chi-square 153 for 24 dof"
+    calibration = SimpleNamespace(warp_m=None, warp_note=note, joint_cov=None)
+    args = SimpleNamespace(corners_out=None, cross_validate=None)
+    assert after(args, calibration) == [f"  board warp      flat (warp auto): {note}"]
+    assert after(args, SimpleNamespace(warp_m=None, warp_note=None, joint_cov=None)) == []
