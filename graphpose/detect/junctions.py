@@ -25,6 +25,7 @@ from ..geometry import apply_homography
 from ..observations import MIN_JUNCTIONS
 from .find import FoundBoard
 from .find import find_board as _search
+from .blur_shift import blur_shift, edge_blur
 from .noise import bounding_window, estimate_noise, grey_range
 from .grid import fit_homography, square_sides
 from .search import median
@@ -335,8 +336,32 @@ def _refine(image, scale, found, lens, window, smooth_sigma) -> Junctions:
     flat = None if lens is None else np.full((2, int(seen.sum())), np.nan)
     points[:, seen], ok[seen], residual[seen] = refine_points(image, found.points[:, seen], radius, smooth_sigma,
                                                               lens=lens, undistorted=flat)
+    if lens is not None:
+        _unblur(image, points, flat, seen, grid, square, lens, smooth_sigma)
     J = _judge(points, ok, residual * scale, square, grid, seen, found.orientation_ambiguous, lens, flat)
     return replace(J, junction0_square=found.junction0_square)
+
+
+def _unblur(image, points, flat, seen, grid, square, lens, smooth_sigma) -> None:
+    """Take from the junctions fitted through a distorting ``lens`` the shift the blur gave
+    them (:mod:`.blur_shift`: the raw image's blur, measured on the board's edges, and the
+    refinement's smoothing, acting on edges the lens curves), in place: ``points`` (2, n)
+    and their distortion-free pixels ``flat`` (2, seen). Left as fitted where the image's blur
+    cannot be read (too few edges)."""
+    variance = edge_blur(image, points, grid, square)
+    if not np.isfinite(variance):
+        return
+    rays = np.full((3, points.shape[1]), np.nan)  # the fits' own rays, NaN where none
+    fitted = np.all(np.isfinite(flat), axis=0)
+    if fitted.any():
+        rays[:, np.flatnonzero(seen)[fitted]] = lens.pinhole().unproject(flat[:, fitted])
+    shift = blur_shift(lens, points, grid, variance + smooth_sigma**2, rays=rays)
+    moved = np.flatnonzero(np.any(shift != 0.0, axis=0) & np.all(np.isfinite(points), axis=0))
+    if moved.size:
+        points[:, moved] -= shift[:, moved]
+        where = np.flatnonzero(seen)  # flat's columns are the seen junctions'
+        column = np.searchsorted(where, moved)
+        flat[:, column] = lens.undistort_pixels(points[:, moved])
 
 
 def board_smoothing(image: np.ndarray, points: np.ndarray, square: np.ndarray, noise: float | None = None) -> float:
