@@ -163,13 +163,17 @@ def edge_blur(image, points, grid, square):
     variance : float
         Pixels^2; NaN where fewer than :data:`MIN_EDGES` edges could be read.
     """
-    pairs = [(i, j) for axis in (0, 1) for i, j in enumerate(_neighbours(points, grid, axis))
-             if j >= 0 and (grid[axis, j] > grid[axis, i])]
-    if len(pairs) < MIN_EDGES:
+    i, j = [], []
+    for axis in (0, 1):  # each edge once: from a junction to its next seen neighbour
+        after = _neighbours(points, grid, axis)
+        forward = np.flatnonzero((after >= 0) & (grid[axis, np.maximum(after, 0)] > grid[axis]))
+        i.append(forward)
+        j.append(after[forward])
+    i, j = np.concatenate(i), np.concatenate(j)
+    if i.size < MIN_EDGES:
         return float("nan")
     # The edges nearest the board's middle (all those tied with the last): the same edges
     # however the board is labelled (a half turn), so the same answer.
-    i, j = np.array(pairs).T
     middle = np.hypot(*(0.5 * (grid[:, i] + grid[:, j]) - 0.5 * grid.max(axis=1, keepdims=True)))
     near = middle <= np.sort(middle)[min(MAX_EDGES, middle.size) - 1] + 1e-9
     i, j = i[near], j[near]
@@ -197,7 +201,7 @@ def edge_blur(image, points, grid, square):
     return float(np.median(variance[keep])) if keep.sum() >= MIN_EDGES else float("nan")
 
 
-def _fit_edges(edge, d, grey, count, iterations=2):
+def _fit_edges(edge, d, grey, count, iterations=1):
     """Gauss-Newton fits of ``a + b Phi((d - d0) / s)`` to the grey values ``grey`` (k,) at
     signed distances ``d`` (k,) from their edges ``edge`` (k,) (indices below ``count``); each
     edge's ``s^2`` (count,), NaN where its fit fails or the blur fills most of its strip."""
