@@ -17,8 +17,8 @@ lens makes them, but not this shift, which the blur made before the lens could b
 
 On a fisheye (about 190 degrees) with a blur of one pixel the shift is a few thousandths of a
 pixel, inwards on average: small against one junction's noise, but the same on every junction,
-so a pose takes it whole as a distance (the pose's NEES on rendered fisheye views, 8.5 against
-6, was a third this bias). :func:`blur_shift` gives it from the lens and the board's grid, and
+so a pose takes it whole as a distance (the lens benchmark's fisheye views: pose NEES 8.5
+against 6 with it, 5.8 without). :func:`blur_shift` gives it from the lens and the board's grid, and
 :func:`edge_blur` measures the image's blur on the board's own edges.
 
 Coordinates follow :mod:`graphpose.geometry`.

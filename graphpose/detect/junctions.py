@@ -239,7 +239,9 @@ def refine(image, found: FoundBoard, *, camera=None, window: float = WINDOW_FRAC
     camera : Camera or (3, 3) array_like, optional
         The camera (:mod:`graphpose.camera_models`) when the image is raw, with lens
         distortion: each junction is then fitted where the lens straightens the board's
-        edges, the planar-grid check is made on undistorted positions, and
+        edges and has the shift the blur gives it on edges the lens curves taken off
+        (:mod:`graphpose.detect.blur_shift`, the blur measured on the board's edges), the
+        planar-grid check is made on undistorted positions, and
         :attr:`Junctions.homography` maps the grid to undistorted pixels. A camera without
         distortion (or none) refines on the image as it is. Its size, if known, must be the
         image's.
