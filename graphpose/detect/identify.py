@@ -485,9 +485,10 @@ def _junction0_square(M, t, dark_parity) -> str:
 def _symmetric_pair(a, b, board) -> bool:
     """Do labellings a and b differ by a symmetry of the board (a rotation onto itself)?"""
     (Ma, ta), (Mb, tb) = a, b
-    c, r = np.meshgrid(np.arange(board.cols), np.arange(board.rows))
-    cr = np.vstack([c.ravel(), r.ravel()])
-    mapped = Mb @ (Ma.T @ (cr - ta[:, None])) + tb[:, None]  # board -> lattice (a) -> board (b)
+    # The map is affine (board -> lattice (a) -> board (b)): every junction lands on the board
+    # when its four corner junctions do (the board's box holds the image of its corners' hull).
+    cr = np.array([[0, board.cols - 1, board.cols - 1, 0], [0, 0, board.rows - 1, board.rows - 1]])
+    mapped = Mb @ (Ma.T @ (cr - ta[:, None])) + tb[:, None]
     return bool(np.all((mapped[0] >= 0) & (mapped[0] < board.cols) & (mapped[1] >= 0) & (mapped[1] < board.rows)))
 
 
