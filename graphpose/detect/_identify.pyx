@@ -1,5 +1,6 @@
 """Compiled evidence of the identification (:mod:`graphpose.detect.identify`): the verdict
-on one lattice side from its grey samples, in one call.
+on one lattice side from its grey samples, and whether the board's junctions come back on the
+lines beyond a side (their ring tests through the lattice's homography), each in one call.
 
 Means are taken left to right (NumPy's pairwise sums of these few values may associate
 differently, in the last bit: the verdict compares them with thresholds far from those bits).
@@ -24,7 +25,8 @@ def side_verdict(const double[:, :, ::1] P, const double[:, ::1] value, const do
     ``value`` (m, D) their grey levels, ``expect`` (m,) +1 where a row's outer square is
     dark, -1 where light, ``rows`` (m,) the rows' lattice coordinates (ascending),
     ``square`` (D,) the square each depth lies in (0 the outer one); ``width``, ``height``
-    the image's; ``mid`` and ``contrast`` the board's mid grey and dark-light contrast.
+    the image's; ``mid`` and ``contrast`` the board's mid grey and dark-light contrast. An
+    edge is plain over the square beyond it on average and at each of that square's depths.
     """
     cdef Py_ssize_t m = P.shape[0], D = P.shape[2], p, d, n_pairs = 0, finite = 0, alternating = 0
     cdef Py_ssize_t k, seen, valid, high

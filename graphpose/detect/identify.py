@@ -330,13 +330,13 @@ def _side(view, grid, keys, side, dark_parity, light) -> str:
     # of square k where two of its depths there lie in the image. An edge is plain across
     # the square beyond it (one pair in four may catch clutter), and the squares do not come
     # back farther out (a bar or a fold lying across the board would show them again, along
-    # much of the side). One compiled call (``_identify.side_verdict``).
-    # An edge is plain at each depth of the square beyond too, not only on average over it:
-    # a bar narrower than a square lying along the line of junctions beyond the lattice hides
-    # that line, and the board's next squares show on one side of it within the square beyond
-    # (before the bar, or past it). At each depth, the pairs of neighbouring rows whose
-    # darkness differs as the pattern says stay under :data:`PLAIN` on average (a bar lies
-    # along the whole side; a real edge's clutter catches a pair or two).
+    # much of the side). It is plain at each depth of the square beyond too, not only on
+    # average over it: a bar narrower than a square lying along the line of junctions beyond
+    # the lattice hides that line, and the board's next squares show on one side of it within
+    # the square beyond (before the bar, or past it). At each depth, the pairs of neighbouring
+    # rows whose darkness differs as the pattern says stay under :data:`PLAIN` on average (a
+    # bar lies along the whole side; a real edge's clutter catches a pair or two). One
+    # compiled call (``_identify.side_verdict``).
     verdict = _identify.side_verdict(P, value, expect, rows, _DEPTH_SQUARES, float(width), float(height),
                                      float(light.mid), float(light.contrast), ALTERNATES, PLAIN)
     return _VERDICTS[verdict]
@@ -390,9 +390,9 @@ def _check_border(lattice, view, grid, keys, H, M, t, sides, board, step) -> Non
         out = _line_returns(lattice, view, H, keys, axis, line, direction)
         if out:
             raise BoardNotFoundError(
-                    f"the junctions seen ({hi[0] - lo[0] + 1} x {hi[1] - lo[1] + 1}) end at a line that the "
-                    f"board's junctions come back beyond, {out} squares out: something lies across the board "
-                    "there, and its labels cannot be fixed; show the board unobstructed, or more of it")
+                f"the junctions seen ({hi[0] - lo[0] + 1} x {hi[1] - lo[1] + 1}) end at a line that the "
+                f"board's junctions come back beyond, {out} squares out: something lies across the board "
+                "there, and its labels cannot be fixed; show the board unobstructed, or more of it")
 
 
 #: Lines of junctions beyond a border side looked at for the board coming back past something
