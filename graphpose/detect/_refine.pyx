@@ -46,10 +46,15 @@ cdef void _patch(const pixel[:, :] image, Py_ssize_t bu, Py_ssize_t bv, Py_ssize
     cdef float gx, gy, k
     cdef float *out
     cdef const float *src
+    cdef Py_ssize_t c0 = bu - half - margin
     for r in range(Q):
         row = _clip(bv - half - margin + r, H)
-        for c in range(Q):
-            raw[r, c] = <float>image[row, _clip(bu - half - margin + c, W)]
+        if c0 >= 0 and c0 + Q <= W:  # the patch's columns inside the image: no clamping
+            for c in range(Q):
+                raw[r, c] = <float>image[row, c0 + c]
+        else:
+            for c in range(Q):
+                raw[r, c] = <float>image[row, _clip(c0 + c, W)]
     # Each output is ``kernel[0] x`` plus ``kernel[j]`` times its j-th neighbour, added in
     # increasing j (in float32): accumulated a whole row at a time, tap by tap, so that the
     # independent outputs of a row are summed side by side (the compiler vectorises the
