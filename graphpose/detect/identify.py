@@ -51,7 +51,7 @@ from ..board import Board
 from ..errors import BoardMismatchError, BoardNotFoundError
 from . import _identify, _lattice
 from .grid import fit_homography
-from .lattice import MIN_SCORE, PARITY_COS, RING_FRACTION, KeyGrid, Lattice
+from .lattice import MIN_SCORE, PARITY_COS, RING_FRACTION, KeyGrid, Lattice, _step_lengths
 from .search import SearchImage, median
 
 #: Proper rotations M of lattice keys to board (c, r) = M (i, j) + t.
@@ -150,7 +150,7 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
     """
     keys = np.ascontiguousarray(lattice.keys, dtype=np.int64)  # as the kernels read them
     grid = KeyGrid.of(keys, lattice.points)
-    step = float(median(lattice.step_lengths()))
+    step = float(median(_step_lengths(grid, keys)))  # lattice.step_lengths(), on the grid made here
     if len(lattice.keys) < board.n and step < MIN_PARTIAL_STEP_PX:
         raise BoardNotFoundError(
             f"only part of the board is seen ({len(lattice.keys)} of {board.n} junctions) and its squares "
