@@ -21,7 +21,6 @@ import numpy as np
 from ..camera_models import check_image_size
 from ..errors import BoardNotFoundError, GraphposeError, InputError
 from ..image import read_image
-from ..io.cases import bundled_cases_path, load_cases, load_pose
 from ..io.files import write_png
 from ..estimate import estimate_pose, pose_difference
 from ..pose.covariance import SIGMA_PIXEL
@@ -41,8 +40,15 @@ from .options import (
 )
 from ..io.records import result_record, target_keys, target_words
 
-#: The bundled example, package data made by scripts/make_data.py with graphpose.synth.render.
-DEFAULT_CASES = bundled_cases_path()
+
+def __getattr__(name):
+    """``DEFAULT_CASES``: the bundled example, package data made by scripts/make_data.py with
+    graphpose.synth.render; looked up on first use, so that the case files' reader (and the
+    camera files' behind it) is not imported by a command that reads neither."""
+    if name == "DEFAULT_CASES":
+        from ..io.cases import bundled_cases_path
+        return bundled_cases_path()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 _EXAMPLES = """\
 examples:
@@ -260,7 +266,11 @@ def _jobs(args):
     if args.images:
         if args.no_guess and args.guess is not None:
             raise UsageError("--guess and --no-guess contradict each other")
-        guess = load_pose(args.guess) if args.guess is not None else None
+        guess = None
+        if args.guess is not None:
+            from ..io.cases import load_pose
+
+            guess = load_pose(args.guess)
         recording = open_source(args.images, args) if len(args.images) == 1 and is_recording(args.images[0]) else None
         if recording is not None:
             return [Job(recording.label(k), Path(recording.name), args.bounds, guess, recording=recording, frame=k)
@@ -272,7 +282,9 @@ def _jobs(args):
         raise UsageError("--bounds goes with IMAGE (images or folders); a case file gives each image its bounds")
     if args.guess is not None:
         raise UsageError("--guess goes with IMAGE (images or folders); a case file gives each image its guess_T_WC")
-    path = args.cases if args.cases is not None else DEFAULT_CASES
+    from ..io.cases import bundled_cases_path, load_cases
+
+    path = args.cases if args.cases is not None else bundled_cases_path()
     if args.cases is None and not path.is_file():
         raise InputError(f"the bundled example {path} is missing; give IMAGE --bounds ... or --cases CASES.json")
     cases = load_cases(path, require_camera=False)

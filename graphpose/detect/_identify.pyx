@@ -1,12 +1,15 @@
 """Compiled evidence of the identification (:mod:`graphpose.detect.identify`): the verdict
-on one lattice side from its grey samples, in one call.
+on one lattice side from its grey samples, and whether the board's junctions come back on the
+lines beyond a side (their ring tests through the lattice's homography), each in one call.
 
 Means are taken left to right (NumPy's pairwise sums of these few values may associate
 differently, in the last bit: the verdict compares them with thresholds far from those bits).
 """
 
-from libc.math cimport NAN, hypot, isfinite
+from libc.math cimport NAN, cos, hypot, isfinite
 from libc.stdint cimport int64_t
+
+from graphpose.detect._sampling cimport _ring_at
 
 #: Verdicts, as identify's ``_side`` names them.
 UNKNOWN, CONTINUES, EDGE = 0, 1, 2
@@ -22,7 +25,8 @@ def side_verdict(const double[:, :, ::1] P, const double[:, ::1] value, const do
     ``value`` (m, D) their grey levels, ``expect`` (m,) +1 where a row's outer square is
     dark, -1 where light, ``rows`` (m,) the rows' lattice coordinates (ascending),
     ``square`` (D,) the square each depth lies in (0 the outer one); ``width``, ``height``
-    the image's; ``mid`` and ``contrast`` the board's mid grey and dark-light contrast.
+    the image's; ``mid`` and ``contrast`` the board's mid grey and dark-light contrast. An
+    edge is plain over the square beyond it on average and at each of that square's depths.
     """
     cdef Py_ssize_t m = P.shape[0], D = P.shape[2], p, d, n_pairs = 0, finite = 0, alternating = 0
     cdef Py_ssize_t k, seen, valid, high
@@ -85,6 +89,23 @@ def side_verdict(const double[:, :, ::1] P, const double[:, ::1] value, const do
                 valid += 1
                 high += per_square[k, p] > alternates
         if valid and (total / valid > plain or high > (1 if valid // 3 < 1 else valid // 3)):
+            return UNKNOWN
+    # Plain at each depth of the square beyond, not only on average over it: a bar narrower
+    # than a square lying along the line of junctions beyond the lattice hides that line, and
+    # the board's next squares show on one side of it within the square beyond. At each of its
+    # depths the pairs' mean stays under ``plain`` (a real edge's clutter catches a pair or two).
+    for d in range(D):
+        if square[d] != 1:
+            continue
+        total, seen = 0.0, 0
+        for p in range(m - 1):
+            if rows[p + 1] - rows[p] != 1:
+                continue
+            o = -0.5 * (dark[p, d] - dark[p + 1, d]) * expect[p]
+            if isfinite(o):
+                total += o
+                seen += 1
+        if seen >= 2 and total / seen > plain:
             return UNKNOWN
     return EDGE
 
@@ -207,3 +228,108 @@ def whole_squares(const double[:, :, ::1] grid, int64_t oi, int64_t oj, const in
         parity[m] = ((keys[k, 0] + keys[k, 1]) % 2 + 2) % 2
         m += 1
     return m
+
+
+cdef bint _project(const double[:, ::1] H, double k0, double k1, double *u, double *v, double *w) noexcept nogil:
+    """``H (k0, k1, 1)``: (u, v) the image point, ``w`` its third coordinate; False where ``w``
+    is 0 or not finite."""
+    w[0] = H[2, 0] * k0 + H[2, 1] * k1 + H[2, 2]
+    if not (isfinite(w[0]) and w[0] != 0):
+        return False
+    u[0] = (H[0, 0] * k0 + H[0, 1] * k1 + H[0, 2]) / w[0]
+    v[0] = (H[1, 0] * k0 + H[1, 1] * k1 + H[1, 2]) / w[0]
+    return True
+
+
+def line_returns(const float[:, :] smooth, int level, double width, double height, const double[:, ::1] H,
+                 const int64_t[:, ::1] keys, int axis, int64_t line, int direction, int64_t first, int64_t last,
+                 double theta0, double ring_fraction, double min_score, double parity_cos):
+    """The first ``out`` in ``first .. last`` at which the board's junctions come back beyond a
+    lattice side (see ``identify._check_border``), or 0.
+
+    The side is the lattice line ``keys[:, axis] == line`` (``keys`` (M, 2) the lattice's
+    nodes); ``direction`` (-1 or +1) points outwards. For each ``out``, the keys of the line
+    ``line + out direction`` over the same span are projected through the lattice's
+    homography ``H`` (3, 3); the line comes back when two neighbouring keys pass the ring test
+    on ``smooth`` (the search's smoothed image at ``level``, ``_sampling._ring_at``) at radius
+    ``ring_fraction`` of the local step (the distance to the prediction one line inwards),
+    with a score above ``min_score`` and the parity their keys demand (``cos 2 (theta -
+    theta0)`` above ``parity_cos`` for an even key sum, below ``-parity_cos`` for an odd one).
+    A line is not looked at where a prediction lies beyond the homography's horizon (its
+    third coordinate not of one sign over the line), and a key is left out where its ring
+    does not fit in the ``width`` x ``height`` image or its step is under 4 pixels.
+    """
+    cdef Py_ssize_t M = keys.shape[0], n = 0, k, p
+    cdef int64_t out, b, t
+    cdef double s = <double>(1 << level), at, back, u, v, w, u2, v2, w2, step, margin, score, theta, contrast
+    cdef double pos = 0.0, neg = 0.0, turn
+    cdef bint ok, back_ok, passed, before
+    cdef int64_t[::1] span
+    cdef double[::1] pu, pv, ps
+    cdef unsigned char[::1] inside
+    import numpy as np
+    span = np.empty(max(M, 1), dtype=np.int64)
+    # The line's span: its keys' other coordinates, ascending, each once.
+    for k in range(M):
+        if keys[k, axis] != line:
+            continue
+        b = keys[k, 1 - axis]
+        p = n
+        while p > 0 and span[p - 1] > b:
+            span[p] = span[p - 1]
+            p -= 1
+        span[p] = b
+        n += 1
+    p = 0
+    for k in range(n):
+        if k == 0 or span[k] != span[p - 1]:
+            span[p] = span[k]
+            p += 1
+    n = p
+    if n == 0:
+        return 0
+    pu, pv, ps = np.empty(n), np.empty(n), np.empty(n)
+    inside = np.empty(n, dtype=np.uint8)
+    for out in range(first, last + 1):
+        at = <double>(line + out * direction)
+        back = at - (1.0 if out * direction > 0 else -1.0)  # one line inwards
+        ok = True
+        pos = neg = 0
+        for k in range(n):
+            if axis == 0:
+                ok = _project(H, at, <double>span[k], &u, &v, &w)
+                back_ok = _project(H, back, <double>span[k], &u2, &v2, &w2)
+            else:
+                ok = _project(H, <double>span[k], at, &u, &v, &w)
+                back_ok = _project(H, <double>span[k], back, &u2, &v2, &w2)
+            if not ok:
+                break
+            if w > 0:
+                pos += 1
+            else:
+                neg += 1
+            step = hypot(u - u2, v - v2) if back_ok else NAN  # NAN: the key is left out
+            margin = ring_fraction * step + 1.0
+            pu[k], pv[k], ps[k] = u, v, step
+            inside[k] = (u >= margin and v >= margin and u <= width - 1 - margin and v <= height - 1 - margin
+                         and step >= 4.0)
+        if not ok or (pos > 0 and neg > 0):
+            continue  # beyond the board's horizon
+        t = 0
+        for k in range(n):
+            t += inside[k]
+        if t < 2:
+            continue
+        before = False
+        for k in range(n):
+            passed = False
+            if inside[k]:
+                _ring_at(smooth, (pu[k] - 0.5 * (s - 1)) / s, (pv[k] - 0.5 * (s - 1)) / s,
+                         ring_fraction * ps[k] / s, &score, &theta, &contrast)
+                turn = cos(2 * (theta - theta0))
+                t = ((<int64_t>at + span[k]) % 2 + 2) % 2
+                passed = score > min_score and (turn > parity_cos if t == 0 else turn < -parity_cos)
+            if passed and before and span[k] - span[k - 1] == 1:
+                return out
+            before = passed
+    return 0

@@ -43,23 +43,43 @@ cdef void _patch(const pixel[:, :] image, Py_ssize_t bu, Py_ssize_t bv, Py_ssize
     cdef Py_ssize_t Q = 2 * (half + margin) + 1, n1 = Q - K + 1, P = 2 * half + 1
     cdef Py_ssize_t H = image.shape[0], W = image.shape[1]
     cdef Py_ssize_t r, c, j, row
-    cdef float acc, gx, gy
+    cdef float gx, gy, k
+    cdef float *out
+    cdef const float *src
+    cdef Py_ssize_t c0 = bu - half - margin
     for r in range(Q):
         row = _clip(bv - half - margin + r, H)
-        for c in range(Q):
-            raw[r, c] = <float>image[row, _clip(bu - half - margin + c, W)]
+        if c0 >= 0 and c0 + Q <= W:  # the patch's columns inside the image: no clamping
+            for c in range(Q):
+                raw[r, c] = <float>image[row, c0 + c]
+        else:
+            for c in range(Q):
+                raw[r, c] = <float>image[row, _clip(c0 + c, W)]
+    # Each output is ``kernel[0] x`` plus ``kernel[j]`` times its j-th neighbour, added in
+    # increasing j (in float32): accumulated a whole row at a time, tap by tap, so that the
+    # independent outputs of a row are summed side by side (the compiler vectorises the
+    # contiguous loops) in the same order of operations as one output after the other.
     for r in range(n1):
+        out = &tmp[r, 0]
+        src = &raw[r, 0]
+        k = kernel[0]
         for c in range(Q):
-            acc = kernel[0] * raw[r, c]
-            for j in range(1, K):
-                acc = acc + kernel[j] * raw[r + j, c]
-            tmp[r, c] = acc
+            out[c] = k * src[c]
+        for j in range(1, K):
+            src = &raw[r + j, 0]
+            k = kernel[j]
+            for c in range(Q):
+                out[c] = out[c] + k * src[c]
     for r in range(n1):
+        out = &smooth[r, 0]
+        src = &tmp[r, 0]
+        k = kernel[0]
         for c in range(n1):
-            acc = kernel[0] * tmp[r, c]
-            for j in range(1, K):
-                acc = acc + kernel[j] * tmp[r, c + j]
-            smooth[r, c] = acc
+            out[c] = k * src[c]
+        for j in range(1, K):
+            k = kernel[j]
+            for c in range(n1):
+                out[c] = out[c] + k * src[c + j]
     for r in range(P):
         for c in range(P):
             patch[r, c] = smooth[r + 1, c + 1]

@@ -42,15 +42,27 @@ def ring_image(const float[:, :] a, const double[::1] x, const double[::1] y, co
             _ring_at(a, x[k], y[k], radius[k], &score[k], &theta[k], &contrast[k])
 
 
+cdef inline void _peak_row(const float *ri, const float *m0, const float *mi, const float *m2, unsigned char *pi,
+                           Py_ssize_t w) noexcept nogil:
+    """One row of the peaks: 1 where ``ri`` is above 0 and no 1 x 3 maximum of the rows above
+    (``m0``), its own (``mi``) and below (``m2``) exceeds it."""
+    cdef Py_ssize_t j
+    cdef float c
+    for j in range(w):
+        c = ri[j]
+        pi[j] = (c > 0) & (mi[j] <= c) & (m0[j] <= c) & (m2[j] <= c)
+
+
 def saddle_peaks(const float[:, ::1] S, float[:, ::1] r, float[:, ::1] rowmax, unsigned char[:, ::1] peak):
     """The saddle response of :func:`graphpose.detect.search.find_candidates` and its peaks.
 
     ``r`` (h - 2, w - 2) gets ``Ixy^2 - Ixx Iyy`` of the smoothed image ``S`` (h, w) at its
     interior pixels, in float32 with NumPy's order of operations (``Ixx = (S[x+1] - 2 S) +
-    S[x-1]``, ``Ixy = 0.25 (((S[+,+] - S[+,-]) - S[-,+]) + S[-,-])``); ``rowmax`` (as ``r``)
-    is scratch for its 1 x 3 maxima; ``peak`` (as ``r``) gets 1 at the pixels of ``r`` above
-    0 that no pixel of their 3 x 3 neighbourhood (edges repeated) exceeds, else 0. Each row
-    is a plain loop over contiguous floats, which the compiler vectorises.
+    S[x-1]``, ``Ixy = 0.25 (((S[+,+] - S[+,-]) - S[-,+]) + S[-,-])``); ``rowmax`` (3, w - 2)
+    is scratch for the 1 x 3 maxima of three rows of it at a time; ``peak`` (as ``r``) gets 1
+    at the pixels of ``r`` above 0 that no pixel of their 3 x 3 neighbourhood (edges
+    repeated) exceeds, else 0. Row by row, each a plain loop over contiguous floats, which the
+    compiler vectorises: a row's peaks are written once the row below it has its maxima.
     """
     cdef Py_ssize_t h = r.shape[0], w = r.shape[1], i, j
     cdef const float *s0
@@ -58,15 +70,12 @@ def saddle_peaks(const float[:, ::1] S, float[:, ::1] r, float[:, ::1] rowmax, u
     cdef const float *s2
     cdef float *ri
     cdef float *mi
-    cdef const float *m0
-    cdef const float *m2
-    cdef unsigned char *pi
-    cdef float ixx, iyy, ixy, c, m, two = 2.0, quarter = 0.25
+    cdef float ixx, iyy, ixy, m, two = 2.0, quarter = 0.25
     if h < 1 or w < 1:
         return
     with nogil:
         for i in range(h):
-            s0, s1, s2, ri, mi = &S[i, 0], &S[i + 1, 0], &S[i + 2, 0], &r[i, 0], &rowmax[i, 0]
+            s0, s1, s2, ri, mi = &S[i, 0], &S[i + 1, 0], &S[i + 2, 0], &r[i, 0], &rowmax[i % 3, 0]
             for j in range(w):
                 ixx = (s1[j + 2] - two * s1[j + 1]) + s1[j]
                 iyy = (s2[j + 1] - two * s1[j + 1]) + s0[j + 1]
@@ -78,14 +87,12 @@ def saddle_peaks(const float[:, ::1] S, float[:, ::1] r, float[:, ::1] rowmax, u
                 mi[j] = m if m >= ri[j + 1] else ri[j + 1]
             if w > 1:
                 mi[w - 1] = ri[w - 1] if ri[w - 1] >= ri[w - 2] else ri[w - 2]
-        for i in range(h):
-            ri, pi = &r[i, 0], &peak[i, 0]
-            m0 = &rowmax[i - 1 if i > 0 else 0, 0]
-            mi = &rowmax[i, 0]
-            m2 = &rowmax[i + 1 if i + 1 < h else h - 1, 0]
-            for j in range(w):
-                c = ri[j]
-                pi[j] = (c > 0) & (mi[j] <= c) & (m0[j] <= c) & (m2[j] <= c)
+            if i >= 1:  # row i - 1 has the maxima of the rows on either side now
+                _peak_row(&r[i - 1, 0], &rowmax[(i - 2 if i >= 2 else 0) % 3, 0], &rowmax[(i - 1) % 3, 0], mi,
+                          &peak[i - 1, 0], w)
+        # The last row: the row below it is itself (edges repeated).
+        _peak_row(&r[h - 1, 0], &rowmax[(h - 2 if h >= 2 else 0) % 3, 0], &rowmax[(h - 1) % 3, 0],
+                  &rowmax[(h - 1) % 3, 0], &peak[h - 1, 0], w)
 
 
 cdef inline Py_ssize_t _reflect(Py_ssize_t k, Py_ssize_t n) noexcept nogil:
@@ -99,16 +106,17 @@ cdef inline Py_ssize_t _reflect(Py_ssize_t k, Py_ssize_t n) noexcept nogil:
     return k
 
 
-def gaussian_smooth(const float[:, ::1] a, const double[::1] taps, float[:, ::1] rows, float[:, ::1] out,
-                    double[::1] line):
+def gaussian_smooth(const float[:, ::1] a, const double[::1] taps, float[:, ::1] out, double[::1] line):
     """Separable smoothing of ``a`` (h, w) by the symmetric kernel whose centre and one side
     are ``taps`` (``taps[0]`` the centre, ``taps[k]`` the weight k pixels away), edges
-    reflected about their outer half-pixel; down the columns into ``rows`` (float32), then
-    along the rows into ``out`` (float32), each sum in double precision. ``line`` is scratch
-    of length ``2 w + 2 (taps.shape[0] - 1)``.
+    reflected about their outer half-pixel; down the columns (rounded to float32), then along
+    the rows into ``out`` (float32), each sum in double precision. ``line`` is scratch of
+    length ``2 w + 2 (taps.shape[0] - 1)``.
 
     Each pass sums the centre first, then the pairs ``k`` pixels either side in increasing
-    ``k``, over a whole line at a time (contiguous, which the compiler vectorises).
+    ``k``, over a whole line at a time (contiguous, which the compiler vectorises). One output
+    row at a time: its column sums, rounded to float32, padded by reflection, then summed
+    along the row (no image-sized intermediate).
     """
     cdef Py_ssize_t h = a.shape[0], w = a.shape[1], r = taps.shape[0] - 1, i, j, k
     cdef double t
@@ -120,9 +128,10 @@ def gaussian_smooth(const float[:, ::1] a, const double[::1] taps, float[:, ::1]
     if h == 0 or w == 0:
         return  # nothing to smooth (and no line to reflect about)
     acc = &line[0]
+    pad = &line[w]
     with nogil:
-        # Down the columns: every output row is a weighted sum of whole input rows.
         for i in range(h):
+            # Down the columns: the output row is a weighted sum of whole input rows.
             up = &a[i, 0]
             for j in range(w):
                 acc[j] = taps[0] * up[j]
@@ -132,16 +141,14 @@ def gaussian_smooth(const float[:, ::1] a, const double[::1] taps, float[:, ::1]
                 t = taps[k]
                 for j in range(w):
                     acc[j] = acc[j] + t * (<double>up[j] + <double>down[j])
-            o = &rows[i, 0]
+            # Rounded to float32 (as a float32 intermediate image holds it), padded by
+            # reflection after the accumulator in ``line``, then summed along the row.
             for j in range(w):
-                o[j] = <float>acc[j]
-        # Along the rows: each row padded by reflection (after the accumulator in ``line``),
-        # then summed as the columns were.
-        pad = &line[w]
-        for i in range(h):
-            o = &rows[i, 0]
-            for j in range(-r, w + r):
-                pad[j + r] = o[_reflect(j, w)]
+                pad[j + r] = <float>acc[j]
+            for j in range(-r, 0):
+                pad[j + r] = pad[_reflect(j, w) + r]
+            for j in range(w, w + r):
+                pad[j + r] = pad[_reflect(j, w) + r]
             for j in range(w):
                 acc[j] = taps[0] * pad[j + r]
             for k in range(1, r + 1):

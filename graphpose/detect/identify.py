@@ -51,7 +51,7 @@ from ..board import Board
 from ..errors import BoardMismatchError, BoardNotFoundError
 from . import _identify, _lattice
 from .grid import fit_homography
-from .lattice import MIN_SCORE, PARITY_COS, RING_FRACTION, KeyGrid, Lattice
+from .lattice import MIN_SCORE, PARITY_COS, RING_FRACTION, KeyGrid, Lattice, _step_lengths
 from .search import SearchImage, median
 
 #: Proper rotations M of lattice keys to board (c, r) = M (i, j) + t.
@@ -150,7 +150,7 @@ def identify(lattice: Lattice, view: SearchImage, board: Board, bounds=None) -> 
     """
     keys = np.ascontiguousarray(lattice.keys, dtype=np.int64)  # as the kernels read them
     grid = KeyGrid.of(keys, lattice.points)
-    step = float(median(lattice.step_lengths()))
+    step = float(median(_step_lengths(grid, keys)))  # lattice.step_lengths(), on the grid made here
     if len(lattice.keys) < board.n and step < MIN_PARTIAL_STEP_PX:
         raise BoardNotFoundError(
             f"only part of the board is seen ({len(lattice.keys)} of {board.n} junctions) and its squares "
@@ -330,31 +330,16 @@ def _side(view, grid, keys, side, dark_parity, light) -> str:
     # of square k where two of its depths there lie in the image. An edge is plain across
     # the square beyond it (one pair in four may catch clutter), and the squares do not come
     # back farther out (a bar or a fold lying across the board would show them again, along
-    # much of the side). One compiled call (``_identify.side_verdict``).
+    # much of the side). It is plain at each depth of the square beyond too, not only on
+    # average over it: a bar narrower than a square lying along the line of junctions beyond
+    # the lattice hides that line, and the board's next squares show on one side of it within
+    # the square beyond (before the bar, or past it). At each depth, the pairs of neighbouring
+    # rows whose darkness differs as the pattern says stay under :data:`PLAIN` on average (a
+    # bar lies along the whole side; a real edge's clutter catches a pair or two). One
+    # compiled call (``_identify.side_verdict``).
     verdict = _identify.side_verdict(P, value, expect, rows, _DEPTH_SQUARES, float(width), float(height),
                                      float(light.mid), float(light.contrast), ALTERNATES, PLAIN)
-    if verdict == _identify.EDGE and not _plain_at_every_depth(P, value, expect, rows, width, height, light):
-        return "unknown"
     return _VERDICTS[verdict]
-
-
-def _plain_at_every_depth(P, value, expect, rows, width, height, light) -> bool:
-    """Is the square beyond an edge plain at each of its depths (:data:`BEYOND_DEPTHS`), as it
-    must be on average (``_identify.side_verdict``)? A bar narrower than a square lying along the
-    line of junctions beyond the lattice's hides that line, and the board's next squares show
-    on one side of it within the square beyond (before the bar, or past it): plain on average
-    over the square, not at each of its depths. At each depth, the pairs of neighbouring rows
-    whose darkness differs as the pattern says must stay under :data:`PLAIN` on average (a bar
-    lies along the whole side; a real edge's clutter catches a pair or two)."""
-    inside = (P[:, 0] >= 0) & (P[:, 1] >= 0) & (P[:, 0] <= width - 1) & (P[:, 1] <= height - 1)
-    dark = np.where(inside, np.clip((light.mid - value) / (0.5 * light.contrast), -1.0, 1.0), np.nan)
-    pair = np.flatnonzero(np.diff(rows) == 1)
-    for d in np.flatnonzero(_DEPTH_SQUARES == 1):
-        o = -0.5 * (dark[pair, d] - dark[pair + 1, d]) * expect[pair]  # square 1: the outer one's colour turned
-        o = o[np.isfinite(o)]
-        if o.size >= 2 and o.mean() > PLAIN:
-            return False
-    return True
 
 
 def _grey(view, points, step) -> np.ndarray:
@@ -402,12 +387,12 @@ def _check_border(lattice, view, grid, keys, H, M, t, sides, board, step) -> Non
                 f"found a grid of at least {grown[0]} x {grown[1]} junctions: it goes on beyond the edge of "
                 f"the {board.cols} x {board.rows} board spec (a bigger board, or the spec is wrong)",
                 found=grown, size_px=step * np.sqrt(len(keys)), junctions_seen=len(keys))
-        for out in range(2, BEYOND_LINES + 1):
-            if _line_passes(lattice, view, H, keys, axis, line, line + out * direction):
-                raise BoardNotFoundError(
-                    f"the junctions seen ({hi[0] - lo[0] + 1} x {hi[1] - lo[1] + 1}) end at a line that the "
-                    f"board's junctions come back beyond, {out} squares out: something lies across the board "
-                    "there, and its labels cannot be fixed; show the board unobstructed, or more of it")
+        out = _line_returns(lattice, view, H, keys, axis, line, direction)
+        if out:
+            raise BoardNotFoundError(
+                f"the junctions seen ({hi[0] - lo[0] + 1} x {hi[1] - lo[1] + 1}) end at a line that the "
+                f"board's junctions come back beyond, {out} squares out: something lies across the board "
+                "there, and its labels cannot be fixed; show the board unobstructed, or more of it")
 
 
 #: Lines of junctions beyond a border side looked at for the board coming back past something
@@ -415,35 +400,15 @@ def _check_border(lattice, view, grid, keys, H, M, t, sides, board, step) -> Non
 BEYOND_LINES = 4
 
 
-def _line_passes(lattice, view, H, keys, axis, line, at) -> bool:
-    """Do two neighbouring keys of line ``at`` (parallel to the lattice's ``line`` along
-    ``axis``, over the same span) pass the ring test at their positions through ``H``, with
-    the parity their keys demand?"""
-    span = np.sort(keys[keys[:, axis] == line][:, 1 - axis])
-    span = span[np.r_[True, span[1:] != span[:-1]]] if span.size else span  # np.unique's, without numpy.ma
-    K = np.empty((2, span.size))
-    K[axis], K[1 - axis] = at, span
-    q = H @ np.vstack([K, np.ones(span.size)])
-    if np.any(q[2] * np.sign(median(q[2])) <= 0):
-        return False  # beyond the board's horizon
-    P = q[:2] / q[2]
-    # The local step there: the distance to the next line's predictions.
-    K2 = K.copy()
-    K2[axis] -= np.sign(at - line)
-    q2 = H @ np.vstack([K2, np.ones(span.size)])
-    step = np.hypot(*(P - q2[:2] / q2[2]))
+def _line_returns(lattice, view, H, keys, axis, line, direction) -> int:
+    """The first ``out`` in 2 .. :data:`BEYOND_LINES` at which two neighbouring keys of line
+    ``line + out direction`` (parallel to the lattice's ``line`` along ``axis``, over the same
+    span) pass the ring test at their positions through ``H``, with the parity their keys
+    demand; 0 where none does. One compiled call (``_identify.line_returns``)."""
     height, width = view.shape
-    margin = RING_FRACTION * step + 1.0
-    inside = (P[0] >= margin) & (P[1] >= margin) & (P[0] <= width - 1 - margin) & (P[1] <= height - 1 - margin)
-    inside &= step >= 4.0
-    if inside.sum() < 2:
-        return False
-    score, theta, _ = view.ring_test(np.ascontiguousarray(P[:, inside]), RING_FRACTION * step[inside])
-    turn = np.cos(2 * (theta - lattice.theta0))
-    parity = (K[0, inside] + K[1, inside]).astype(int) % 2
-    passed = np.zeros(span.size, dtype=bool)
-    passed[inside] = (score > MIN_SCORE) & np.where(parity == 0, turn > PARITY_COS, turn < -PARITY_COS)
-    return bool(np.any(passed[1:] & passed[:-1] & (np.diff(span) == 1)))
+    return _identify.line_returns(view.smooth, int(view.level), float(width), float(height),
+                                  np.ascontiguousarray(H, dtype=float), keys, int(axis), int(line), int(direction),
+                                  2, BEYOND_LINES, float(lattice.theta0), RING_FRACTION, MIN_SCORE, PARITY_COS)
 
 
 def _line_continues(lattice, view, grid, keys, axis, direction, line, step) -> bool:
@@ -520,9 +485,10 @@ def _junction0_square(M, t, dark_parity) -> str:
 def _symmetric_pair(a, b, board) -> bool:
     """Do labellings a and b differ by a symmetry of the board (a rotation onto itself)?"""
     (Ma, ta), (Mb, tb) = a, b
-    c, r = np.meshgrid(np.arange(board.cols), np.arange(board.rows))
-    cr = np.vstack([c.ravel(), r.ravel()])
-    mapped = Mb @ (Ma.T @ (cr - ta[:, None])) + tb[:, None]  # board -> lattice (a) -> board (b)
+    # The map is affine (board -> lattice (a) -> board (b)): every junction lands on the board
+    # when its four corner junctions do (the board's box holds the image of its corners' hull).
+    cr = np.array([[0, board.cols - 1, board.cols - 1, 0], [0, 0, board.rows - 1, board.rows - 1]])
+    mapped = Mb @ (Ma.T @ (cr - ta[:, None])) + tb[:, None]
     return bool(np.all((mapped[0] >= 0) & (mapped[0] < board.cols) & (mapped[1] >= 0) & (mapped[1] < board.rows)))
 
 

@@ -291,8 +291,8 @@ def smooth(a: np.ndarray) -> np.ndarray:
     one compiled pass (``_search.gaussian_smooth``) at a third of its time."""
     a = np.ascontiguousarray(a, dtype=np.float32)
     taps = _gaussian_taps()
-    out, rows = np.empty_like(a), np.empty_like(a)
-    _search.gaussian_smooth(a, taps, rows, out, np.empty(2 * a.shape[1] + 2 * (taps.size - 1)))
+    out = np.empty_like(a)
+    _search.gaussian_smooth(a, taps, out, np.empty(2 * a.shape[1] + 2 * (taps.size - 1)))
     return out
 
 
@@ -346,7 +346,7 @@ def _response_peaks(S: np.ndarray):
     h, w = S.shape[0] - 2, S.shape[1] - 2
     if h < 1 or w < 1:
         return np.zeros((max(h, 0), max(w, 0)), np.float32), np.zeros(0, np.int64), np.zeros(0, np.int64)
-    r, scratch, peak = np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w), np.uint8)
+    r, scratch, peak = np.empty((h, w), np.float32), np.empty((3, w), np.float32), np.empty((h, w), np.uint8)
     _search.saddle_peaks(np.ascontiguousarray(S, dtype=np.float32), r, scratch, peak)
     # Flat indices of the 0/1 bytes read as bool, then rows and columns: the same row-major
     # peaks as np.nonzero(peak), which on a 2-D uint8 array costs ten times as long.

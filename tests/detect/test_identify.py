@@ -12,8 +12,10 @@ from graphpose.synth.scenes import random_scene
 from tests.conftest import PROJECT_K as K
 
 
-def side_reference(P, value, expect, rows, depths, width, height, mid, contrast, alternates=0.5, plain=0.35):
-    """identify's verdict on one side from its samples, in NumPy."""
+def side_reference(P, value, expect, rows, depths, width, height, mid, contrast, alternates=0.5, plain=0.35,
+                   every_depth=True):
+    """identify's verdict on one side from its samples, in NumPy (``every_depth`` False: without
+    the rule that the square beyond an edge is plain at each of its depths)."""
     inside = (P[:, 0] >= 0) & (P[:, 1] >= 0) & (P[:, 0] <= width - 1) & (P[:, 1] <= height - 1)
     dark = np.where(inside, np.clip((mid - value) / (0.5 * contrast), -1.0, 1.0), np.nan)
     outer = dark[:, 0] * expect
@@ -38,6 +40,12 @@ def side_reference(P, value, expect, rows, depths, width, height, mid, contrast,
         later = per[k][np.isfinite(per[k])]
         if later.size and (later.mean() > plain or np.sum(later > alternates) > max(1, later.size // 3)):
             return 0
+    # Plain at each depth of the square beyond too (a bar along the line beyond the lattice).
+    for d in np.flatnonzero(square == 1) if every_depth else ():
+        o = -0.5 * (dark[pairs, d] - dark[pairs + 1, d]) * expect[pairs]
+        o = o[np.isfinite(o)]
+        if o.size >= 2 and o.mean() > plain:
+            return 0
     return 2
 
 
@@ -47,15 +55,17 @@ def test_the_side_verdict_is_the_plain_one_on_random_sides():
 
     rng = np.random.default_rng(6)
     depths = np.array((OUTER_DEPTH,) + BEYOND_DEPTHS + RESUME_DEPTHS)
-    verdicts = []
+    verdicts, by_depth = [], 0
     for trial in range(400):
         m = int(rng.integers(2, 10))
         rows = np.sort(rng.choice(12, m, replace=False)).astype(np.int64) if rng.random() < 0.3 else np.arange(m)
         expect = np.where(np.arange(m) % 2 == 0, 1.0, -1.0)
         # Dark where the pattern says, to a degree: a board going on, an edge, or clutter.
         colour = expect[:, None] * np.where(np.floor(depths) % 2 == 1, -1.0, 1.0)
-        kind = rng.integers(3)
-        pattern = np.where(np.floor(depths) == 0, 1.0, [1.0, 0.0, rng.uniform(-1, 1)][kind])
+        kind = rng.integers(4)
+        pattern = np.where(np.floor(depths) == 0, 1.0, [1.0, 0.0, rng.uniform(-1, 1), 0.0][kind])
+        if kind == 3:  # a bar along the line beyond: the squares show at one or two depths of square 1
+            pattern[rng.choice(np.flatnonzero(np.floor(depths) == 1), int(rng.integers(1, 3)), replace=False)] = 1.0
         value = 120.0 - 80.0 * colour * pattern + rng.normal(0, rng.choice([5.0, 40.0]), (m, depths.size))
         edge = rng.uniform(-40, 140, (m, 2))
         step = rng.uniform(10, 40, (m, 2)) * rng.choice([-1, 1], 2)
@@ -64,7 +74,74 @@ def test_the_side_verdict_is_the_plain_one_on_random_sides():
                                      160.0, 0.5, 0.35)
         assert got == side_reference(P, value, expect, rows, depths, 160.0, 120.0, 120.0, 160.0), trial
         verdicts.append(got)
+        by_depth += got == 0 and side_reference(P, value, expect, rows, depths, 160.0, 120.0, 120.0, 160.0,
+                                                  every_depth=False) == 2
     assert set(verdicts) == {0, 1, 2}
+    assert by_depth > 5  # the rule at each depth decided some sides
+
+
+def line_passes_reference(view, H, keys, axis, line, at, theta0):
+    """Do two neighbouring keys of line ``at`` (over the span of lattice line ``line`` along
+    ``axis``) pass the ring test through ``H`` with their parity: identify's check, in NumPy."""
+    from graphpose.detect.lattice import MIN_SCORE, PARITY_COS, RING_FRACTION
+    span = np.unique(keys[keys[:, axis] == line][:, 1 - axis])
+    if not span.size:
+        return False
+    K_ = np.empty((2, span.size))
+    K_[axis], K_[1 - axis] = at, span
+    q = H @ np.vstack([K_, np.ones(span.size)])
+    if np.any(q[2] * np.sign(np.median(q[2])) <= 0):
+        return False
+    P = q[:2] / q[2]
+    K2 = K_.copy()
+    K2[axis] -= np.sign(at - line)
+    q2 = H @ np.vstack([K2, np.ones(span.size)])
+    step = np.hypot(*(P - q2[:2] / q2[2]))
+    height, width = view.shape
+    margin = RING_FRACTION * step + 1.0
+    inside = (P[0] >= margin) & (P[1] >= margin) & (P[0] <= width - 1 - margin) & (P[1] <= height - 1 - margin)
+    inside &= step >= 4.0
+    if inside.sum() < 2:
+        return False
+    score, theta, _ = view.ring_test(np.ascontiguousarray(P[:, inside]), RING_FRACTION * step[inside])
+    turn = np.cos(2 * (theta - theta0))
+    parity = (K_[0, inside] + K_[1, inside]).astype(int) % 2
+    passed = np.zeros(span.size, dtype=bool)
+    passed[inside] = (score > MIN_SCORE) & np.where(parity == 0, turn > PARITY_COS, turn < -PARITY_COS)
+    return bool(np.any(passed[1:] & passed[:-1] & (np.diff(span) == 1)))
+
+
+def test_the_line_beyond_a_side_is_the_plain_one_on_rendered_boards():
+    from graphpose.detect import _identify
+    from graphpose.detect.grid import fit_homography
+    from graphpose.detect.lattice import MIN_SCORE, PARITY_COS, RING_FRACTION
+
+    rng = np.random.default_rng(5)
+    outcomes = []
+    for seed in range(3):
+        scene = random_scene(K, Board(9, 6, 0.03), distance=(0.45, 1.0), max_roll_deg=180.0, rng=seed)
+        lattice, view = _lattice_of(scene)
+        H = fit_homography(lattice.keys.T.astype(float), lattice.points)
+        for trial in range(40):
+            keys = lattice.keys[rng.random(len(lattice.keys)) > rng.choice([0.0, 0.3])]
+            keys = np.ascontiguousarray(keys, dtype=np.int64)
+            if not len(keys):
+                continue
+            axis = int(rng.integers(2))
+            lo, hi = keys[:, axis].min(), keys[:, axis].max()
+            line = int(rng.integers(lo - 1, hi + 2))
+            inwards = -1 if line > (lo + hi) / 2 else 1  # mostly inwards: lines that come back
+            direction = inwards if rng.random() < 0.7 else -inwards
+            Ht = H @ np.array([[1.0, 0.0, rng.normal(0, 0.05)], [0.0, 1.0, rng.normal(0, 0.05)], [0.0, 0.0, 1.0]])
+            first = int(rng.integers(2, 5))
+            want = next((out for out in range(first, 5) if line_passes_reference(
+                view, Ht, keys, axis, line, line + out * direction, lattice.theta0)), 0)
+            height, width = view.shape
+            got = _identify.line_returns(view.smooth, view.level, float(width), float(height), Ht, keys, axis, line,
+                                         direction, first, 4, lattice.theta0, RING_FRACTION, MIN_SCORE, PARITY_COS)
+            assert got == want, (seed, trial)
+            outcomes.append(got)
+    assert set(outcomes) == {0, 2, 3, 4}  # lines that come back, at several distances, and lines that do not
 
 
 def side_geometry_reference(grid, keys, side, depths, flat_side, dark_parity):
