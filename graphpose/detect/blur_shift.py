@@ -27,7 +27,6 @@ Coordinates follow :mod:`graphpose.geometry`.
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import ndtr, ndtri
 
 #: Angle (radians) along each edge's great circle of the central differences that give its
 #: curvature in the raw image: a few pixels at the focal lengths of wide lenses.
@@ -205,6 +204,10 @@ def _fit_edges(edge, d, grey, count, iterations=1):
     """Gauss-Newton fits of ``a + b Phi((d - d0) / s)`` to the grey values ``grey`` (k,) at
     signed distances ``d`` (k,) from their edges ``edge`` (k,) (indices below ``count``); each
     edge's ``s^2`` (count,), NaN where its fit fails or the blur fills most of its strip."""
+    # Imported here: only a raw image through a lens reads its blur, and SciPy's import costs
+    # ``graphpose estimate`` on a pinhole image most of its start (tests/test_startup.py).
+    from scipy.special import ndtr, ndtri
+
     def total(x):
         return np.bincount(edge, weights=x, minlength=count)
 
