@@ -6,8 +6,8 @@ import pytest
 from graphpose import Board, T_from_params
 from graphpose.camera_models import as_camera
 from graphpose.synth.render import render
-from graphpose.track.pattern import (MAX_PATTERN_SPREAD, MIN_LABEL_GAP, BoardCells, cell_values, labelling_gap,
-                                     pattern_contrast, pattern_shift)
+from graphpose.track.pattern import (MAX_PATTERN_SPREAD, MIN_LABEL_GAP, BoardCells, board_contrast, cell_values,
+                                     labelling_gap, pattern_contrast, pattern_shift)
 from tests.conftest import PROJECT_K as K
 
 BOARD = Board()
@@ -89,3 +89,16 @@ def test_pattern_shift_without_the_board_in_view(cells):
     T, _ = _view(0.3, 0.2, -0.6)
     blank = np.full((480, 640), 60, dtype=np.uint8)
     assert pattern_shift(blank, cells, CAMERA, T, 1.0, 57.0, min_score=20.0) is None
+
+
+def test_board_contrast_is_inverted_by_a_labelling_one_square_off(cells):
+    # The tracked frame's cheap check: the board's own squares only, the same contrast as
+    # the whole cell grid's; a labelling one square over (along a row or a column) inverts it,
+    # one diagonally does not (the test of the full placement comparison is needed there).
+    T, image = _view(0.25, 0.19, -0.6)
+    c = board_contrast(image, cells, CAMERA, T)
+    assert c == pytest.approx(pattern_contrast(cells, cell_values(image, cells.pixels(CAMERA, T))), rel=1e-12)
+    assert c > 50
+    assert board_contrast(image, cells, CAMERA, _moved(T, 1, 0)) < -0.5 * c
+    assert board_contrast(image, cells, CAMERA, _moved(T, 0, -1)) < -0.5 * c
+    assert board_contrast(image, cells, CAMERA, _moved(T, 1, 1)) > 0.5 * c
