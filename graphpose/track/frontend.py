@@ -11,16 +11,24 @@ projection through the sequence's camera, :mod:`graphpose.camera_models`, on the
    last detection (:func:`graphpose.detect.board_smoothing`: as on single images,
    more smoothing on noisy frames, so that the fits converge and pass the ring test there);
    drop the untrusted fits and the fits that wandered more than ``gate_px`` from their
-   prediction.
+   prediction. A prediction about a square off refines onto the neighbouring junctions:
+   the fitted pose's squares must show the colours the last detection measured
+   (:func:`graphpose.track.pattern.board_contrast`), or the frame is realigned (step 4).
 3. **Fit** the frame's own pose with the single-image pipeline's fit,
    :func:`graphpose.estimate.fit_pose`: from the prediction, Gauss-Newton and, with
    ``robust``, its Huber gate on outlying junctions. Its input checks are not repeated: the
    junctions are the refinement's (finite), the start the prediction (rigid), and the frame
    itself was checked once, at the tracker's edge.
-4. **Fall back** to full extraction (:func:`graphpose.detect.extract_junctions`, with
+4. **Realign** a prediction the refinement could not follow (a whip pan):
+   :func:`graphpose.track.pattern.pattern_shift` moves it onto the board's squares, the
+   junctions are refined there (wider windows and more smoothing on a smeared frame) and fitted,
+   and the result is kept only when the board's visible edges leave no other labelling nearly
+   as good (:func:`graphpose.track.pattern.labelling_gap`): a wrong label is worse than a
+   lost frame.
+5. **Fall back** to full extraction (:func:`graphpose.detect.extract_junctions`, with
    its noise-aware search on noisy frames, then
    ``fit_pose`` from the homography) when too few junctions survive, when the motion is too
-   fast to predict, or after a loss. Polygons are tried in turn: the caller's polygon for the
+   fast to predict and realigning fails, or after a loss. Polygons are tried in turn: the caller's polygon for the
    frame, the predicted outline, the outline of the last frame whose junctions were all in
    the image and two enlargements of it, then no polygon (the whole image is searched). A
    detection must trust most of the junctions (a mostly untrusted grid can be labelled one
@@ -29,8 +37,10 @@ projection through the sequence's camera, :mod:`graphpose.camera_models`, on the
    comes back labelled by the image's upper-left rule, and the front end keeps the
    orientation continuous instead: of the labellings the symmetry allows
    (:func:`board_symmetries`), it takes the one nearest the prediction (or, after a loss,
-   the last pose).
-5. **Refuse** a frame whose fit does not converge or leaves much more residual than the
+   the last pose). When extraction finds nothing, the board is **re-acquired** by realigning
+   each of the last distinct views in turn (a pan that took the board away often brings it
+   back), with the same test of the labels.
+6. **Refuse** a frame whose fit does not converge or leaves much more residual than the
    sequence's usual (heavy motion blur, a grid labelled one square off): such a frame, and
    one where nothing is found, is lost. No pose is guessed.
 
@@ -58,6 +68,8 @@ from ..errors import BoardNotFoundError, DegenerateGeometryError, InputError
 # finite and rigid here (the public fit's checks were a tenth of a tracked frame's front end).
 from ..estimate import fit_pose
 from .config import TrackerConfig
+from .pattern import (MAX_PATTERN_SPREAD, MIN_LABEL_GAP, BoardCells, board_contrast, cell_values, labelling_gap,
+                      pattern_contrast, pattern_shift)
 from .results import DETECTED, LOST, TRACKED
 
 
@@ -113,6 +125,7 @@ class FrontEnd:
         self._symmetries = board_symmetries(board)
         self._recent = []  # (k, timestamp, T_WC) of the last two frames with a pose, consecutive
         self._last = None  # the newest pose, kept through losses: it orients re-detections
+        self._views = []  # (T_WC, junction pixels) of the last distinct views: re-acquisition's starts
         self._seen = None  # the junctions' pixels at the newest pose (its accept's projection)
         self._reference = None  # the pose a fresh detection is oriented by (this frame's)
         self._outline = None  # sheet outline of the last frame whose junctions were all in view
@@ -121,6 +134,8 @@ class FrontEnd:
         # measured at the last detection (noise changes slowly; measuring it costs a
         # detection's time, not a tracked frame's).
         self._smooth = SMOOTH_SIGMA
+        self._cells = BoardCells(board)
+        self._contrast = 0.0  # the board's signed contrast in the cells' pattern, at the last detection
 
     def project(self, T_WC, P_W) -> np.ndarray:
         """Pixels (2, N) of target points ``P_W`` (3, N) seen from ``T_WC``, through the camera."""
@@ -152,6 +167,9 @@ class FrontEnd:
         found, status, message = None, LOST, ""
         if prediction is not None:
             found, message = _attempt(self._track, image, prediction)
+            if found is None and self._contrast:
+                found, why = _attempt(self._realign, image, prediction)
+                message = "; ".join(m for m in (message, why) if m)
             status = TRACKED if found is not None else LOST
         if found is None:
             whys = []
@@ -162,6 +180,10 @@ class FrontEnd:
                     break
                 whys.append(why)
             message = "; ".join(m for m in (message, _detection_message(whys)) if m)
+        if found is None and self._contrast:
+            found = self._reacquire(image, prediction)
+            if found is not None:
+                status, message = DETECTED, f"{message}; re-acquired from a recent view"
         if found is None:
             return Measurement(LOST, message=message or "no polygon to search")
         points, ids, fit = found
@@ -177,6 +199,8 @@ class FrontEnd:
         n = self.board.n
         uv = self.project(T_WC, self._W_sheet)
         self._seen = uv[:, :n]
+        if not self._views or _moved_squares(self._views[-1][1], self._seen, self.board.cols) > VIEW_STEP:
+            self._views = (self._views + [(T_WC, self._seen)])[-RECENT_VIEWS:]
         # The anchor of re-detection after a loss: the newest frame with the whole grid of
         # junctions in the image, whether or not the sheet's margin was cut by the border
         # (the detection polygons are clipped to the image).
@@ -217,36 +241,112 @@ class FrontEnd:
     # ----------------------------------------------------------------- junctions
     def _track(self, image, T_pred):
         """Refine predicted junctions; ((points, ids, fit), "") or (None, why)."""
-        cfg, n = self.config, self.board.n
+        uv, side, why = self._predicted(T_pred)
+        if uv is None:
+            return None, why
+        speed = float(np.median(np.hypot(*(uv - self._seen)) / side))
+        if speed > self.config.max_speed:
+            return None, f"predicted motion {speed:.2f} squares a frame is too fast to track"
+        found, why = self._refine(image, uv, side, T_pred)
+        if found is not None and self._contrast:
+            # A prediction about a square off refines onto the neighbouring junctions, and
+            # nothing in the fit shows it: the board's squares then show inverted colours.
+            c = board_contrast(image, self._cells, self.camera, found[2].T_WC)
+            if c * self._contrast <= 0:
+                return None, "the tracked junctions put the board's squares on squares of the other colour"
+        return found, why
+
+    def _realign(self, image, T_pred):
+        """The prediction missed by more than the refinement reaches (a whip pan): move it by
+        the translation that puts the predicted squares on squares of their colour
+        (:func:`graphpose.track.pattern.pattern_shift`), refine there, and keep the result
+        only when the board's visible edges leave no other labelling nearly as good
+        (:func:`graphpose.track.pattern.labelling_gap`); ((points, ids, fit), "") or (None, why)."""
+        uv, side, why = self._predicted(T_pred)
+        if uv is None:
+            return None, why
+        cells = self._cells
+        sign = np.sign(self._contrast)
+        shift = pattern_shift(image, cells, self.camera, T_pred, sign, float(np.median(side)),
+                              min_score=MIN_PATTERN_SHARE * abs(self._contrast))
+        if shift is None:
+            return None, "realign: the board's squares are not near the prediction"
+        # Frames of a whip pan are smeared along the motion: when the usual windows trust too
+        # few junctions, wider windows on a smoother image, whose saddles the smear leaves.
+        smeared = (REALIGN_WINDOW * side, max(self._smooth, REALIGN_SMOOTH * float(np.median(side))))
+        for radius, smooth in ((None, None), smeared):
+            found, why = self._refine(image, uv + shift[:, None], side, T_pred, gate=REALIGN_GATE * side,
+                                      relative=False, radius=radius, smooth=smooth,
+                                      need=int(np.ceil(REALIGN_MIN_SHARE * self.board.n)), kept=REALIGN_MIN_KEPT)
+            if found is not None:
+                break
+        if found is None:
+            return None, f"realign by ({shift[0]:.0f}, {shift[1]:.0f}) px: {why}"
+        fit = found[2]
+        gap, spread = labelling_gap(cells, cell_values(image, cells.pixels(self.camera, fit.T_WC)), sign)
+        if gap < MIN_LABEL_GAP or spread > MAX_PATTERN_SPREAD:
+            return None, (f"realign by ({shift[0]:.0f}, {shift[1]:.0f}) px: the visible board's edges do not fix "
+                          f"its labels (another placement within {gap:.1f} squares' evidence)")
+        return found, ""
+
+    def _reacquire(self, image, prediction):
+        """After a loss (or a prediction neither tracked nor realigned): the board often
+        comes back where it was before a pan took it away. Realign from each of the last
+        distinct views in turn, newest first; (points, ids, fit) or None."""
+        for T_WC, _ in reversed(self._views):
+            if prediction is not None and T_WC is self._recent[-1][2]:
+                continue
+            found, _ = _attempt(self._realign, image, T_WC)
+            if found is not None:
+                return found
+        return None
+
+    def _predicted(self, T_pred):
+        """Predicted junction pixels (2, n) and local square sides (n,) at ``T_pred``, or
+        (None, None, why)."""
+        n = self.board.n
         P = to_camera(T_pred, self._W_steps)
         if (P[2, :n] <= 0).any():
-            return None, "prediction puts the board behind the camera"
+            return None, None, "prediction puts the board behind the camera"
         steps = self.camera.project(P)
         uv = steps[:, :n]
         side = _square_px(uv, steps[:, n:2 * n], steps[:, 2 * n:])
         if not np.isfinite(side).all():
-            return None, "prediction puts the board where the lens model has no image"
-        speed = float(np.median(np.hypot(*(uv - self._seen)) / side))
-        if speed > cfg.max_speed:
-            return None, f"predicted motion {speed:.2f} squares a frame is too fast to track"
-        radius = np.clip(cfg.window_fraction * side, *cfg.window_px)
-        if self._smooth > SMOOTH_SIGMA:
-            # A noisy frame: the single image's window, whose longer edges average the noise.
-            radius = np.maximum(radius, np.clip(WINDOW_FRACTION * side, cfg.window_px[0], MAX_RADIUS))
+            return None, None, "prediction puts the board where the lens model has no image"
+        return uv, side, ""
+
+    def _refine(self, image, uv, side, T_pred, gate=None, relative=True, radius=None, smooth=None, need=None,
+                kept=0.0):
+        """Refine the junctions near ``uv`` (2, n) (square sides ``side``) and fit from
+        ``T_pred``, keeping the fits within ``gate`` (pixels, scalar or (n,); the config's
+        ``gate_px`` by default) of their start, with windows of ``radius`` pixels (n,) and
+        smoothing ``smooth`` pixels (the tracked frame's by default); ((points, ids, fit), "")
+        or (None, why). At least ``need`` junctions (the config's ``min_junctions`` by default),
+        and the share ``kept`` of those in the image, must be kept."""
+        cfg = self.config
+        need = cfg.min_junctions if need is None else max(need, cfg.min_junctions)
+        gate = np.broadcast_to(cfg.gate_px if gate is None else gate, side.shape)
+        smooth = self._smooth if smooth is None else smooth
+        if radius is None:
+            radius = np.clip(cfg.window_fraction * side, *cfg.window_px)
+            if self._smooth > SMOOTH_SIGMA:
+                # A noisy frame: the single image's window, whose longer edges average the noise.
+                radius = np.maximum(radius, np.clip(WINDOW_FRACTION * side, cfg.window_px[0], MAX_RADIUS))
         h, w = image.shape
         inside = (uv[0] - radius >= 0) & (uv[0] + radius <= w - 1) & (uv[1] - radius >= 0) & (uv[1] + radius <= h - 1)
         ids = np.flatnonzero(inside)
-        if ids.size < cfg.min_junctions:
-            return None, f"only {ids.size} predicted junctions in the image"
+        if ids.size < need:
+            return None, f"only {ids.size} predicted junctions in the image (need {need})"
         # Unchecked: the frame was checked once, at the tracker's edge (a float frame's
         # finiteness check alone is a pass over every pixel), the windows are >= 2 px.
-        points, trusted, _ = refine_junctions(image, uv[:, ids], radius[ids], smooth_sigma=self._smooth,
+        points, trusted, _ = refine_junctions(image, uv[:, ids], radius[ids], smooth_sigma=smooth,
                                               camera=self.camera, check=False)
-        keep = trusted & (np.hypot(*(points - uv[:, ids])) < cfg.gate_px)
-        if np.count_nonzero(keep) < cfg.min_junctions:
+        keep = trusted & (np.hypot(*(points - uv[:, ids])) < gate[ids])
+        need = max(need, int(np.ceil(kept * ids.size)))
+        if np.count_nonzero(keep) < need:
             return None, (f"only {np.count_nonzero(keep)} of {ids.size} junctions refined within "
-                          f"{cfg.gate_px:g} px of their prediction (need {cfg.min_junctions})")
-        return self._fit(points[:, keep], ids[keep], T_pred)
+                          f"{np.median(gate):.3g} px of their prediction (need {need})")
+        return self._fit(points[:, keep], ids[keep], T_pred, relative=relative)
 
     def _detect(self, image, polygon):
         """Full extraction inside a polygon (the whole image for None); ((points, ids, fit), "")
@@ -265,6 +365,8 @@ class FrontEnd:
         found, why = self._fit(points[:, ids], ids, None)
         if found is not None:
             self._smooth = board_smoothing(image, J.points[:, J.seen], J.square_px[J.seen])
+            cells = self._cells
+            self._contrast = pattern_contrast(cells, cell_values(image, cells.pixels(self.camera, found[2].T_WC)))
         return found, why
 
     def _orient(self, points, trusted, T_ref):
@@ -286,9 +388,11 @@ class FrontEnd:
                 best, best_d = (p, t), d
         return best
 
-    def _fit(self, points, ids, guess):
+    def _fit(self, points, ids, guess, relative=True):
         """The single-image fit (from ``guess``, or the homography when None) and the frame's
-        checks; ((points, ids, fit), "") or (None, why)."""
+        checks; ((points, ids, fit), "") or (None, why). Without ``relative``, the residual is
+        held to ``max_rms_px`` only, not to the sequence's usual (whose other task,
+        catching a grid labelled one square off, the caller does otherwise)."""
         cfg = self.config
         try:
             fit, _ = fit_pose(points, self._W[:, ids], self.camera, guess=guess, mask=np.ones(ids.size, dtype=bool),
@@ -298,7 +402,7 @@ class FrontEnd:
         if not fit.converged:
             return None, f"pose fit did not converge: {fit.message}"
         limit = cfg.max_rms_px
-        if len(self._rms) >= 5:
+        if relative and len(self._rms) >= 5:
             limit = min(limit, max(cfg.rms_factor * self._rms.median(), cfg.rms_floor_px))
         if fit.rms_px > limit:
             return None, f"fit residual {fit.rms_px:.3f} px RMS exceeds {limit:.3f} px"
@@ -356,6 +460,32 @@ def _detection_message(whys) -> str:
     return head + "; ".join(parts)
 
 
+#: The realigned refinement's gate, squares: a fit that wandered further from its start has
+#: left the square around its junction.
+REALIGN_GATE = 0.3
+#: Least share of the board's junctions a realigned frame must keep: a smeared frame's pose
+#: from a few junctions at the image's edge is biased by the smear far more than a tracked
+#: frame's (15 mm from 14 junctions in a whip pan, against 0.1 mm).
+REALIGN_MIN_SHARE = 0.5
+#: Least share of the junctions in the image a realigned frame's refinement must keep: a frame
+#: where more fail is smeared beyond what the saddle fit follows, and the junctions that
+#: pass are biased by the smear too (15 mm of pose error with 35 of 48 kept in a whip pan,
+#: 1-3 mm with 26 of 28 to 45 of 45).
+REALIGN_MIN_KEPT = 0.85
+#: The realigned refinement's second try on a smeared frame: window radius and Gaussian
+#: smoothing, squares.
+REALIGN_WINDOW = 0.45
+REALIGN_SMOOTH = 0.08
+
+#: Least share of the last detection's contrast the realigned squares must show (motion blur
+#: lowers it; a board elsewhere or absent leaves about 0).
+MIN_PATTERN_SHARE = 0.3
+
+#: Re-acquisition's starts: the last RECENT_VIEWS views, each more than VIEW_STEP squares
+#: from the one before.
+RECENT_VIEWS = 8
+VIEW_STEP = 0.5
+
 #: Where a detection looked, in its reason; and a number in a reason.
 _AREA = re.compile(r" (?:inside the bounds|in the image)")
 _NUMBER = re.compile(r"\d+(?:\.\d+)?")
@@ -394,6 +524,13 @@ def board_symmetries(board: Board) -> list:
         m = board.cols - 1
         perms += [c * board.cols + (m - r), (m - c) * board.cols + r]  # (c, r) -> (m - r, c), (r, m - c)
     return perms
+
+
+def _moved_squares(uv_a, uv_b, cols: int) -> float:
+    """Median displacement between two views' junction pixels (2, n), in the median
+    square side along the rows of ``uv_b``."""
+    steps = np.hypot(*(uv_b[:, 1:] - uv_b[:, :-1]))[np.arange(1, uv_b.shape[1]) % cols != 0]
+    return float(np.median(np.hypot(*(uv_b - uv_a))) / np.median(steps))
 
 
 def _square_px(uv, uv_x, uv_y) -> np.ndarray:

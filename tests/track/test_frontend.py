@@ -108,7 +108,11 @@ def test_the_board_is_found_again_after_a_pan_when_the_sheet_was_cut_by_the_bord
     assert not np.any(status[back] == LOST), dict(zip(back.tolist(), status[back]))
     found = track.found
     err = np.linalg.norm(track.poses("online")[found, :3, 3] - seq.T_WC[found, :3, 3], axis=1)
-    assert np.max(err) < 1e-3
+    # The sharp frames to a millimetre; the frames of the pan itself (16 renders averaged, the
+    # board smeared over a square), realigned since the front end follows them, to a few.
+    sharp = seq.subframes[found] == 1
+    assert np.max(err[sharp]) < 1e-3
+    assert np.max(err[~sharp]) < 5e-3
 
 
 def test_a_noisy_board_is_redetected_after_a_loss_and_tracked_with_more_smoothing():
@@ -146,3 +150,72 @@ def test_the_running_median_of_the_fit_rms_is_numpys_to_the_bit():
         running.add(v)
         assert len(running) == k
         assert running.median() == np.median(values[:k]), k
+
+
+def _whip(x, seed):
+    """A view of the board from camera position x (metres, the rest fixed) and its image."""
+    from graphpose.synth.render import render
+
+    T = T_from_params([x, 0.17, -0.75, 0.08, -0.1, 0.05])
+    return T, render(K, T, Board(), noise_sigma=4.0, rng=seed, blur_sigma=1.5).image
+
+
+def _labels_right(m, T):
+    from graphpose.geometry import to_camera
+
+    truth = (K @ to_camera(T, W))
+    truth = truth[:2] / truth[2]
+    return bool(np.all(np.hypot(*(m.points - truth[:, m.ids])) < 1.0))
+
+
+def test_a_prediction_half_a_square_off_is_realigned_by_the_boards_edges():
+    # Two still frames, then the camera jumps 40 mm (0.63 squares, 30 px) sideways with the
+    # board's left columns out of view: the constant-velocity prediction (no motion) is beyond
+    # the refinement's reach; realigned onto the squares, the frame is tracked, every junction
+    # labelled as the truth.
+    front = FrontEnd(K, Board(), TrackerConfig())
+    T0, image0 = _whip(0.46, 1)
+    first = front.measure(0, 0.0, image0, _outline(T0))
+    assert first.status == DETECTED
+    for k in (0, 1):
+        front.accept(k, k / 30, first.fit.T_WC, image0.shape)
+    T2, image2 = _whip(0.50, 2)
+    m = front.measure(2, 2 / 30, image2)
+    assert m.status == TRACKED and m.ids.size >= 30 and _labels_right(m, T2)
+    assert front._track(image2, front._predict(2, 2 / 30))[0] is None  # the plain refinement could not
+
+
+def test_after_a_loss_the_board_is_reacquired_from_a_recent_view():
+    front = FrontEnd(K, Board(), TrackerConfig())
+    T0, image0 = _whip(0.46, 1)
+    first = front.measure(0, 0.0, image0, _outline(T0))
+    front.accept(0, 0.0, first.fit.T_WC, image0.shape)
+    assert front.measure(1, 1 / 30, np.full_like(image0, 60)).status == LOST
+    front.lose()
+    T2, image2 = _whip(0.50, 2)
+    found = front._reacquire(image2, None)
+    assert found is not None
+    m = frontend.Measurement(DETECTED, *found)
+    assert _labels_right(m, T2)
+
+
+def test_a_realigned_labelling_that_no_edge_fixes_is_refused():
+    # Close up at the board's middle, no edge in view: however well the squares line up, every
+    # placement of the board fits them as well, and the frame is not realigned.
+    from graphpose.synth.render import render
+
+    front = FrontEnd(K, Board(), TrackerConfig())
+    T0, image0 = _whip(0.46, 1)
+    first = front.measure(0, 0.0, image0, _outline(T0))
+    front.accept(0, 0.0, first.fit.T_WC, image0.shape)
+    T = T_from_params([0.25, 0.19, -0.38, 0.08, -0.1, 0.05])
+    image = render(K, T, Board(), noise_sigma=4.0, rng=3, blur_sigma=1.5).image
+    found, why = front._realign(image, T_from_params([0.272, 0.19, -0.38, 0.08, -0.1, 0.05]))
+    assert found is None and "do not fix its labels" in why
+
+
+def _outline(T):
+    from graphpose.geometry import to_camera
+
+    P = K @ to_camera(T, Board().sheet_corners())
+    return P[:2] / P[2]
