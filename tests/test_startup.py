@@ -2,7 +2,7 @@
 
 The start-up's time is the benchmark's (``python -m benchmarks speed``); here, what it must
 not import, in a fresh process: SciPy, scikit-image, PyYAML, Pillow (for a grey PNG),
-matplotlib, Dask, importlib.metadata and numpy.ma (which any ``np.median`` imports).
+matplotlib, Dask, importlib.metadata, numpy.ma (which any ``np.median`` imports) and shutil.
 """
 
 import json
@@ -17,7 +17,8 @@ from tests.helpers import PROJECT_K_OPTION
 
 REPO = Path(__file__).resolve().parents[1]
 HEAVY = ("scipy", "skimage", "yaml", "PIL", "matplotlib", "dask", "imageio", "importlib.metadata", "numpy.ma",
-         "graphpose.track.tracker", "graphpose.batch", "graphpose.calibrate")
+         "graphpose.track.tracker", "graphpose.batch", "graphpose.calibrate",
+         "shutil")  # argparse's width lookup imports it, with lzma and bz2 (graphpose.cli.HelpFormatter does not)
 
 _PROBE = """\
 import io, json, sys, contextlib

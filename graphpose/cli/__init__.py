@@ -65,6 +65,33 @@ class ArgumentParser(argparse.ArgumentParser):
         raise UsageError(f"{message} (see '{self.prog} --help')")
 
 
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """argparse's formatter (descriptions kept as written) sized to the terminal without
+    :mod:`shutil`: argparse's own looks the width up through :func:`shutil.get_terminal_size`,
+    whose import (lzma, bz2 behind it) falls on every command's start, help or not. The same
+    rule: ``$COLUMNS`` when set, else the terminal's width, else 80; less 2, as argparse's."""
+
+    def __init__(self, prog, indent_increment=2, max_help_position=24, width=None):
+        if width is None:
+            width = _terminal_columns() - 2
+        super().__init__(prog, indent_increment=indent_increment, max_help_position=max_help_position, width=width)
+
+
+def _terminal_columns() -> int:
+    """The terminal's width in columns: ``$COLUMNS``, else the width of the terminal on
+    standard output, else 80."""
+    try:
+        columns = int(os.environ.get("COLUMNS", "0"))
+    except ValueError:
+        columns = 0
+    if columns <= 0:
+        try:
+            columns = os.get_terminal_size(sys.__stdout__.fileno()).columns
+        except (AttributeError, ValueError, OSError):
+            columns = 0
+    return columns if columns > 0 else 80
+
+
 class _VersionAction(argparse.Action):
     """``--version``: the installed version, looked up only when asked (``importlib.metadata``
     takes 50 ms to import, a twentieth of a one-image ``graphpose estimate``)."""
@@ -88,7 +115,7 @@ def build_parser(commands=SUBCOMMANDS) -> argparse.ArgumentParser:
         description=package_doc.splitlines()[0]
         + " With no argument, runs 'graphpose estimate' on the bundled example.",
         epilog=exit_codes_help("an estimate failed") + "\nRun 'graphpose COMMAND --help' for a command's options.",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        formatter_class=HelpFormatter,
     )
     parser.add_argument("--version", action=_VersionAction)
     subparsers = parser.add_subparsers(title="commands", dest="command", metavar="COMMAND", required=True)

@@ -23,7 +23,7 @@ import time
 from collections import Counter
 
 from ..errors import InputError
-from . import EXIT_FAILED, EXIT_OK, exit_codes_help, prefix
+from . import HelpFormatter, EXIT_FAILED, EXIT_OK, exit_codes_help, prefix
 from .recordings import add_topic_option, camera_note, frame_keys, open_recording_input, recording_camera
 from .options import (
     Progress,
@@ -66,7 +66,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
             "does for one, on a local Dask cluster of worker processes or an existing one; write one "
             "row per image to RESULTS as results arrive, skipping the images RESULTS already has.", 88),
         epilog=_EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        formatter_class=HelpFormatter,
     )
     p.add_argument("inputs", nargs="+", metavar="INPUTS",
                    help="folders, glob patterns or list files of images, or one video or ROS bag (one row a frame, "

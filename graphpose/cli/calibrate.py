@@ -27,7 +27,7 @@ from ..camera_models import HELD_MODELS
 from ..camera_models import MODELS as CALIBRATION_MODELS
 from ..errors import GraphposeError, InputError
 from ..io.cameras import FORMATS
-from . import EXIT_OK, PROG, UsageError, calibrate_extras, exit_codes_help
+from . import HelpFormatter, EXIT_OK, PROG, UsageError, calibrate_extras, exit_codes_help
 from ..io.sources import expand_paths
 from .options import BOARD_UNITS, Progress, check_output_folder, parse_board, write_json_option
 from .recordings import add_view_options, recording_views, views_record, views_text
@@ -65,7 +65,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
             "distortion and their covariance, each image's pose and residual. Images without a "
             "board, and images whose residuals do not fit the others, are named and left out.", 88),
         epilog=_EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        formatter_class=HelpFormatter,
     )
     p.add_argument("images", nargs="*", type=Path, metavar="IMAGES",
                    help="image files, folders of them (name order), quoted globs, list files, or one video or "

@@ -25,7 +25,7 @@ from ..io.files import write_png
 from ..estimate import estimate_pose, pose_difference
 from ..pose.covariance import SIGMA_PIXEL
 from ..io.sources import BrokenRecordingError, expand_paths, is_recording
-from . import EXIT_OK, UsageError, error_line, exit_code, exit_codes_help, prefix, print_error
+from . import HelpFormatter, EXIT_OK, UsageError, error_line, exit_code, exit_codes_help, prefix, print_error
 from .recordings import RateProgress, add_every_option, add_topic_option, camera_note, open_source, recording_camera
 from .options import (
     add_camera_option,
@@ -82,7 +82,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
             "CASES.json; with neither, runs the bundled example data/cases.json. With --camera, images are "
             "raw (lens distortion modelled).", 88),
         epilog=_EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        formatter_class=HelpFormatter,
     )
     p.add_argument("images", nargs="*", type=Path, metavar="IMAGE_OR_FOLDER",
                    help="images of the board (any format scikit-image reads; colour is made grey), folders "

@@ -107,11 +107,12 @@ def camera_from_args(args, camera=None, board=None, source: str = ""):
         If the ``--camera`` file cannot be read (:func:`graphpose.io.cameras.read_camera`),
         or holds no camera of the ``--camera-name`` (the message names those it holds).
     """
-    from ..io.cameras import read_camera
     from . import UsageError
 
     check_camera_options(args)
     if args.camera is not None:
+        from ..io.cameras import read_camera  # the camera files' readers: not for --K
+
         try:
             camera = read_camera(args.camera, name=getattr(args, "camera_name", None))
         except InputError as exc:

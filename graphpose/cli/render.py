@@ -13,7 +13,7 @@ import sys
 import textwrap
 from pathlib import Path
 
-from . import EXIT_OK, exit_codes_help
+from . import HelpFormatter, EXIT_OK, exit_codes_help
 from .options import (
     Progress,
     add_target_options,
@@ -44,7 +44,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
             "blur on fast frames, whip pans that take the board out of view. Writes PNG frames, "
             "truth.tum and bounds.json (the first frame's polygon) into OUT_DIR.", 88),
         epilog=_EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        formatter_class=HelpFormatter,
     )
     p.set_defaults(command="render")  # the module that runs it (graphpose/cli/render.py)
     p.add_argument("out_dir", type=Path, metavar="OUT_DIR", help="folder to write (created if absent)")

@@ -28,7 +28,7 @@ from ..track.config import DEFAULT_LAG_S, MOTION_MODELS, TARGET_FORMS
 from ..io.sources.bags import is_bag
 from ..io.sources.base import BrokenRecordingError
 from ..io.sources.paths import is_pattern
-from . import EXIT_FAILED, EXIT_OK, exit_code, exit_codes_help, prefix, print_error
+from . import HelpFormatter, EXIT_FAILED, EXIT_OK, exit_code, exit_codes_help, prefix, print_error
 from .recordings import (
     OverlayVideo,
     RateProgress,
@@ -91,7 +91,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
             "junctions predicted and refined frame to frame, one GTSAM graph solved incrementally "
             "with iSAM2, frames without a usable board reported lost.", 88),
         epilog=_EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        formatter_class=HelpFormatter,
     )
     p.add_argument("frames", nargs="*", type=Path, metavar="FRAMES",
                    help="a folder of frames, frame files in order, a quoted glob, a list file (one path a line), "

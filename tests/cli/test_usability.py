@@ -189,3 +189,27 @@ def test_every_help_gives_the_exit_codes_with_130(capsys):
     for text in helps:
         text = " ".join(text.split())
         assert re.search(r"exit codes: 0 success,.* 2 bad usage or input.*130 interrupted", text), text
+
+
+
+@pytest.mark.parametrize("columns", [None, "50", "120", "junk"])
+def test_help_is_wrapped_as_argparse_wraps_it(columns, monkeypatch):
+    """graphpose's formatter sizes help without shutil, by argparse's own rule ($COLUMNS, else
+    the terminal, else 80; less 2): the same help, word for word, as argparse's formatter."""
+    import argparse
+
+    from graphpose.cli import HelpFormatter
+
+    if columns is None:
+        monkeypatch.delenv("COLUMNS", raising=False)
+    else:
+        monkeypatch.setenv("COLUMNS", columns)
+
+    def help_with(formatter):
+        parser = argparse.ArgumentParser(prog="graphpose x", formatter_class=formatter, description="A\n  raw line")
+        parser.add_argument("--long", metavar="VALUE", help=" ".join(["a word of help"] * 30))
+        return parser.format_help()
+
+    ours = help_with(HelpFormatter)
+    assert ours == help_with(argparse.RawDescriptionHelpFormatter)
+    assert "A\n  raw line" in ours
