@@ -458,8 +458,10 @@ def _start_through_lens(junctions, board, camera):
     """For a camera with lens distortion, the homography start (:func:`pose_from_homography`)
     from the junctions' own grid homography, which maps the board's grid to the lens's
     distortion-free pixels (:attr:`graphpose.detect.Junctions.homography`, fitted to the
-    trusted junctions' undistorted positions as their fits gave them): the same start, without
-    inverting the lens at every junction again. None for a pinhole (its start is cheap) or where
+    trusted junctions' undistorted positions as their fits gave them, before the blur's shift
+    of a few thousandths of a pixel is taken off, :mod:`graphpose.detect.blur_shift`): the
+    start, without inverting the lens at every junction again; the fit from it ends at the same
+    minimum. None for a pinhole (its start is cheap) or where
     that homography gives no start (then the usual one is tried, and reports why)."""
     if not np.any(camera.distortion):
         return None

@@ -464,8 +464,10 @@ def test_a_pose_needs_six_junctions_not_on_one_line(monkeypatch, keep, match):
 @pytest.mark.slow  # a render through the lens and an estimate: about half a second
 def test_a_lens_images_start_comes_from_the_junctions_homography():
     # Through a lens the homography start is taken from the junctions' own grid homography
-    # (to the distortion-free pixels), not from inverting the lens at every junction again:
-    # the same start, and the same estimate.
+    # (to the distortion-free pixels), not from inverting the lens at every junction again.
+    # The blur's shift (graphpose.detect.blur_shift, a few thousandths of a pixel) is taken off
+    # the junctions, not off the distortion-free positions that homography is fitted to: the
+    # start differs by that much, and the estimate, the minimum of the same cost, not at all.
     from graphpose.pose.homography import pose_from_homography
     from graphpose.synth.render import render
 
@@ -477,5 +479,7 @@ def test_a_lens_images_start_comes_from_the_junctions_homography():
     W = Board().world_points()[:, est.mask]
     inverted = pose_from_homography(est.junctions.points[:, est.mask], W, camera)
     assert est.ok
-    assert max(pose_difference(est.start_T_WC, inverted)) < 1e-9
+    assert max(pose_difference(est.start_T_WC, inverted)) < 1e-4
+    from_inverted = estimate_pose(image, camera, guess=inverted)
+    assert max(pose_difference(est.T_WC, from_inverted.T_WC)) < 1e-9
     assert max(pose_difference(est.T_WC, T)) < 1e-2
