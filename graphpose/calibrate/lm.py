@@ -38,7 +38,8 @@ MAX_ITERATIONS = 200
 #: sigma (unitless), mean 0. The rational model's numerator and denominator nearly cancel
 #: along one direction (k1..k3 against k4..k6 with the same sign): without it the normal
 #: equations are near-singular on 13 real views and on 20 rendered ones (sigma of k1 about
-#: 50). A sigma of 1 leaves the well-determined coefficients (sigmas of 0.005-0.1) alone.
+#: 50). The sigma is 0.1: on OpenCV's 13 left samples with the board warp, a sigma of 1 lowers
+#: the RMS only from 0.1512 to 0.1511 px while k1..k6 swing to +-0.5 along that direction.
 PRIORS = {"rational": (np.array([4, 5, 8, 9, 10, 11]), 0.1)}
 #: Convergence: the step below this many of each parameter's standard deviations.
 STEP_SIGMAS = 1e-10
