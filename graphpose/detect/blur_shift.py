@@ -40,6 +40,12 @@ _ALONG_PX, _ALONG_FRACTION = 4.0, 0.25
 #: Fewest edges that give :func:`edge_blur` an answer, and the most it reads (spread over the
 #: board: the blur is the lens's and the focus's, which change slowly across it).
 MIN_EDGES, MAX_EDGES = 4, 12
+#: The largest ``|kappa| sigma`` (an edge's curvature times the blur's sigma) at which the
+#: first-order shift holds: beyond it (near where a strong radial term folds the image back,
+#: where the curvature grows without bound) a junction is left as fitted, not moved by a
+#: formula that no longer describes it. On a lens that keeps its image one-to-one this is far
+#: from reached (``|kappa| sigma`` about 1e-3).
+MAX_CURVATURE_BLUR = 0.05
 
 
 def blur_shift(lens, points, grid, variance, rays=None):
@@ -65,7 +71,9 @@ def blur_shift(lens, points, grid, variance, rays=None):
     shift : (2, n) ndarray
         Where the blur moves each junction's saddle, pixels: subtract it from a fitted
         junction. Zero where a junction or its ray is unknown, where it has no seen neighbour
-        along its row or its column, or where its two edges are nearly parallel.
+        along its row or its column, where its two edges are nearly parallel, or where an
+        edge bends too sharply for the first-order shift (``|kappa| sigma`` above
+        :data:`MAX_CURVATURE_BLUR`).
     """
     n = points.shape[1]
     shift = np.zeros((2, n))
@@ -81,7 +89,9 @@ def blur_shift(lens, points, grid, variance, rays=None):
         return shift
     normals, kappa = _edge_curvature(lens, rays[:, idx], [rays[:, row[idx]], rays[:, col[idx]]])
     s = _saddle_shift(normals[0], normals[1], kappa[0], kappa[1], variance)
-    good = np.all(np.isfinite(s), axis=0)
+    with np.errstate(invalid="ignore"):
+        gentle = np.all(np.abs(kappa) * np.sqrt(variance) <= MAX_CURVATURE_BLUR, axis=0)
+    good = np.all(np.isfinite(s), axis=0) & gentle
     shift[:, idx[good]] = s[:, good]
     return shift
 

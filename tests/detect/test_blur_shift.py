@@ -103,3 +103,26 @@ def test_neighbours_along_rows_and_columns():
     points[:, 1] = np.nan
     assert _neighbours(points, grid, 0).tolist() == [-1, 2, -1, 4, 5, 4]  # along each row (junction 1 not seen)
     assert _neighbours(points, grid, 1).tolist() == [3, 4, 5, 0, -1, 2]  # along each column
+
+
+def test_no_shift_where_the_lens_bends_an_edge_too_sharply_for_the_first_order_shift():
+    # A strong radial term folds the image back at r = 0.86 (k1 = -0.45): near the fold the
+    # edges' curvature grows without bound, and kappa sigma^2 would move junctions by pixels
+    # (4 px here without the limit). There a junction is left as fitted; elsewhere the
+    # shift is the first-order one, at most MAX_CURVATURE_BLUR sigma.
+    from graphpose.detect.blur_shift import MAX_CURVATURE_BLUR
+    from graphpose.geometry import T_from_params
+
+    camera = RadTanCamera([[300.0, 0.0, 320.0], [0.0, 300.0, 240.0], [0.0, 0.0, 1.0]], [-0.45, 0.0, 0.0, 0.0, 0.0],
+                          size=(640, 480))
+    board = Board()
+    T = T_from_params([0.22, 0.16, -0.3, 0.0, 0.0, 0.0])  # the board's middle on the axis, 0.3 m away
+    P = to_camera(T, board.world_points())
+    r = np.hypot(P[0] / P[2], P[1] / P[2])
+    assert r.max() > 0.84  # the board's corners reach the fold
+    rays = P / np.linalg.norm(P, axis=0)
+    variance = 2.0
+    shift = blur_shift(camera, camera.project(P), board.grid_indices(), variance, rays=rays)
+    size = np.hypot(*shift)
+    assert size.max() <= MAX_CURVATURE_BLUR * np.sqrt(variance) * 1.5
+    assert np.any(size[r > 0.8] == 0.0) and np.all(size[r < 0.5] > 0.0)
