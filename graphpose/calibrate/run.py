@@ -631,7 +631,9 @@ def _result(cls, labels, size, obs, keys, rejected, graph, lm, sigma0, found_in,
         sd = np.sqrt(np.abs(np.diag(np.linalg.pinv(lm.information))))[:P_all] * sigma
     scale = np.where(held, 1.0, np.maximum(np.abs(p_lm), sd))  # a held parameter: 0 in both, sigma 0
     difference = float(np.max(np.abs(p_g - p_lm) / scale))
-    if nw:  # the warp's agreement on the same scale (max(|w|, sigma_w))
+    if nw and graph.warp is None:  # GTSAM failed before it had a warp: no cross-check, no result
+        difference = float("inf")
+    elif nw:  # the warp's agreement on the same scale (max(|w|, sigma_w))
         w_sd = np.sqrt(np.abs(np.diag(warp_cov)))
         difference = max(difference, float(np.max(np.abs(graph.warp - lm.warp) / np.maximum(np.abs(lm.warp), w_sd))))
     converged = bool(graph.converged and lm.converged)

@@ -242,6 +242,23 @@ def _bent_corners(warp, n=8, seed=11, noise=0.02):
     return camera, board, out
 
 
+@pytest.mark.slow  # a calibration from junctions: 1 s or so
+def test_gtsam_failing_with_the_warp_is_a_failed_calibration_not_a_crash(monkeypatch):
+    # GTSAM's solve can fail (a RuntimeError, an invalid camera) before it has a warp: the
+    # cross-check then has nothing to compare the hand-written solver's warp with, and the
+    # calibration is reported failed (it raised a TypeError, None - warp).
+    from graphpose.calibrate import graph as calibrate_graph
+
+    def failing(camera, poses, observations, *args, **kwargs):
+        return calibrate_graph.GraphCalibration(camera, list(poses), np.full((9, 9), np.nan), False, 0,
+                                                "GTSAM: indeterminant system")
+
+    monkeypatch.setattr(calibrate_graph, "solve_graph", failing)
+    camera, board, corners = _bent_corners((0.002, 0.001))
+    c = calibrate_run.calibrate_corners(corners, "radtan", board=board, size=camera.size, warp=True)
+    assert not c.ok
+
+
 @pytest.mark.slow  # three calibrations from junctions (GTSAM, the covariance): 3 s or so under load
 def test_the_board_warp_is_found_with_its_sigma_and_reported():
     from graphpose.io.records import calibration_record
