@@ -364,9 +364,15 @@ class FrontEnd:
             return None, f"extraction trusted only {ids.size} of {self.board.n} junctions (need {need})"
         found, why = self._fit(points[:, ids], ids, None)
         if found is not None:
-            self._smooth = board_smoothing(image, J.points[:, J.seen], J.square_px[J.seen])
             cells = self._cells
-            self._contrast = pattern_contrast(cells, cell_values(image, cells.pixels(self.camera, found[2].T_WC)))
+            contrast = pattern_contrast(cells, cell_values(image, cells.pixels(self.camera, found[2].T_WC)))
+            if contrast * self._contrast < 0:
+                # The board's squares keep their colours through a sequence: a detection that
+                # puts them the other way round from the last one is labelled one square off
+                # (and taking its sign would let the colour check pass what follows it).
+                return None, "the detected board's squares show the other colours than the sequence's"
+            self._smooth = board_smoothing(image, J.points[:, J.seen], J.square_px[J.seen])
+            self._contrast = contrast
         return found, why
 
     def _orient(self, points, trusted, T_ref):

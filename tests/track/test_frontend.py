@@ -60,6 +60,18 @@ def test_robust_setting_is_the_pipelines_robust_fit(track_clip):
     assert first.fit.sigma_px != plain.sigma_px
 
 
+def test_a_detection_whose_squares_show_the_other_colours_is_refused(track_clip):
+    # The board's light-minus-dark sense is measured at each detection and the colour check of
+    # the frames tracked after it reads it: a re-detection one square off shows the squares the
+    # other way round, and is refused rather than taken as the sequence's new sense.
+    front = FrontEnd(K, Board(), TrackerConfig())
+    first = front.measure(0, track_clip.timestamps[0], track_clip.images[0], track_clip.bounds)
+    assert first.status == DETECTED and front._contrast != 0.0
+    front._contrast = -front._contrast  # as if the sequence's board had shown the other colours
+    again = front.measure(1, track_clip.timestamps[1], track_clip.images[1], track_clip.bounds)
+    assert again.status == LOST and "other colours" in again.message
+
+
 def test_no_board_is_lost_with_the_reasons():
     front = FrontEnd(K, Board(), TrackerConfig())
     found = front.measure(0, 0.0, np.full((480, 640), 128, np.uint8))
