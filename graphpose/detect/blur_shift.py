@@ -186,9 +186,16 @@ def edge_blur(image, points, grid, square):
     middle = np.hypot(*(0.5 * (grid[:, i] + grid[:, j]) - 0.5 * grid.max(axis=1, keepdims=True)))
     near = middle <= np.sort(middle)[min(MAX_EDGES, middle.size) - 1] + 1e-9
     i, j = i[near], j[near]
+    # An edge whose two junctions have no local square side (a partial board's rim) has no
+    # strip to read: left out.
+    sides = np.vstack([square[i], square[j]])
+    known = np.any(np.isfinite(sides), axis=0)
+    if np.count_nonzero(known) < MIN_EDGES:
+        return float("nan")
+    i, j = i[known], j[known]
     p, q = points[:, i], points[:, j]
     side = np.hypot(*(q - p))
-    half = np.minimum(_STRIP_PX, _STRIP_FRACTION * np.nanmin(np.vstack([square[i], square[j]]), axis=0))
+    half = np.minimum(_STRIP_PX, _STRIP_FRACTION * np.nanmin(sides[:, known], axis=0))
     # Every edge's strip: the pixels within `half` of the chord across it, `span` along it.
     t = (q - p) / side
     n_ = np.vstack([-t[1], t[0]])

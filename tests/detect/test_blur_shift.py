@@ -68,6 +68,12 @@ def test_edge_blur_reads_the_rendered_blur():
     # Too few edges: no answer.
     few = np.where(np.arange(board.n) < 3, J.points, np.nan)
     assert np.isnan(edge_blur(r.image, few, grid, J.square_px))
+    # Junctions without a local square side (a partial board's rim): their edges are left out
+    # (it raised on a NaN strip width); with none left, no answer.
+    rim = J.square_px.copy()
+    rim[(grid[0] >= 3) & (grid[0] <= 4)] = np.nan  # the middle columns
+    assert edge_blur(r.image, J.points, grid, rim) == pytest.approx(blur**2 + 1 / 12, rel=0.08)
+    assert np.isnan(edge_blur(r.image, J.points, grid, np.full(board.n, np.nan)))
 
 
 def test_the_shift_is_the_curvature_times_the_variance_along_each_normal():
