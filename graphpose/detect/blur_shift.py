@@ -173,9 +173,10 @@ def edge_blur(image, points, grid, square):
         Pixels^2; NaN where fewer than :data:`MIN_EDGES` edges could be read.
     """
     i, j = [], []
-    for axis in (0, 1):  # each edge once: from a junction to its next seen neighbour
+    seen = np.all(np.isfinite(points), axis=0)
+    for axis in (0, 1):  # each edge once: from a seen junction to its next seen neighbour
         after = _neighbours(points, grid, axis)
-        forward = np.flatnonzero((after >= 0) & (grid[axis, np.maximum(after, 0)] > grid[axis]))
+        forward = np.flatnonzero(seen & (after >= 0) & (grid[axis, np.maximum(after, 0)] > grid[axis]))
         i.append(forward)
         j.append(after[forward])
     i, j = np.concatenate(i), np.concatenate(j)
